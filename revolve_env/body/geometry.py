@@ -1,0 +1,242 @@
+"""Assembly of a robot tree into posed boxes and rigid bodies (pure data, no physics engine).
+
+:func:`assemble` places every part of a robot in the robot frame (core at the origin, joints at
+angle 0) and groups the boxes into rigid bodies separated by hinge joints. The physics world builds
+its multibody from an :class:`Assembly`; constructibility checks use :func:`overlapping_boxes`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from revolve_env.body.parts import PART_SPECS, rotation_about
+from revolve_env.body.robot import Node, Path, Robot
+
+__all__ = [
+    "Assembly",
+    "PlacedBox",
+    "PlacedPart",
+    "RigidBody",
+    "assemble",
+    "child_frame",
+    "overlapping_boxes",
+]
+
+Vec3 = NDArray[np.float64]
+Mat3 = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class PlacedPart:
+    """A part placed in the robot frame.
+
+    Attributes:
+        path: The node's path.
+        node: The node itself (its subtree included).
+        position: Origin of the part frame. Metres.
+        rotation: Part frame to robot frame.
+        bodies: Rigid-body index of the part's body 0 and (hinges only) body 1.
+    """
+
+    path: Path
+    node: Node
+    position: Vec3
+    rotation: Mat3
+    bodies: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class PlacedBox:
+    """A box in the robot frame.
+
+    Attributes:
+        part: Index into ``Assembly.parts``.
+        name: The box's name within its part.
+        center: Metres.
+        rotation: Box axes to robot frame.
+        size: Full edge lengths. Metres.
+        mass: Kilograms.
+        body: Index into ``Assembly.bodies``.
+    """
+
+    part: int
+    name: str
+    center: Vec3
+    rotation: Mat3
+    size: Vec3
+    mass: float
+    body: int
+
+
+@dataclass(frozen=True)
+class RigidBody:
+    """A set of rigidly joined boxes; all but the first body hang from a parent by a hinge.
+
+    Attributes:
+        parent: Index of the parent body, -1 for the body holding the core.
+        joint_part: Index into ``Assembly.parts`` of the hinge that joins it to its parent (-1 for
+            the root).
+        joint_anchor: A point on the joint axis in the robot frame at assembly. Metres.
+        joint_axis: Unit joint axis in the robot frame at assembly.
+        active: Whether the joint is driven by a servo.
+        boxes: Indices into ``Assembly.boxes``.
+    """
+
+    parent: int
+    joint_part: int
+    joint_anchor: Vec3
+    joint_axis: Vec3
+    active: bool
+    boxes: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class Assembly:
+    """A robot assembled at joint angles 0, core centred on the origin."""
+
+    parts: tuple[PlacedPart, ...]
+    boxes: tuple[PlacedBox, ...]
+    bodies: tuple[RigidBody, ...]
+
+    @property
+    def mass(self) -> float:
+        """Total mass. Kilograms."""
+        return float(sum(b.mass for b in self.boxes))
+
+    def body_mass(self, body: int) -> float:
+        """Mass of one rigid body. Kilograms."""
+        return float(sum(self.boxes[i].mass for i in self.bodies[body].boxes))
+
+    def active_joints(self) -> list[int]:
+        """Indices of bodies hanging on an active hinge, in traversal order of the hinges.
+
+        This is the order of the controller's outputs.
+        """
+        return [i for i, b in enumerate(self.bodies) if b.parent >= 0 and b.active]
+
+    def bounds(self) -> tuple[Vec3, Vec3]:
+        """Axis-aligned bounds ``(lower, upper)`` of all boxes in the robot frame. Metres."""
+        lows, highs = [], []
+        for b in self.boxes:
+            ext = np.abs(b.rotation) @ (b.size / 2)
+            lows.append(b.center - ext)
+            highs.append(b.center + ext)
+        return np.min(lows, axis=0), np.max(highs, axis=0)
+
+
+def child_frame(
+    parent_pos: Vec3, parent_rot: Mat3, slot_pos: Vec3, slot_normal: Vec3, slot_tangent: Vec3,
+    orientation: float,
+) -> tuple[Vec3, Mat3]:
+    """Frame of a child attached at a slot (slot given in the parent's frame).
+
+    The child's ``+x`` is the slot's outward normal and its ``+z`` the slot's tangent turned about
+    the normal by ``orientation`` degrees.
+    """
+    x = slot_normal / np.linalg.norm(slot_normal)
+    z = rotation_about(x, orientation) @ slot_tangent
+    z = z - x * float(np.dot(z, x))
+    z = z / np.linalg.norm(z)
+    y = np.cross(z, x)
+    local = np.column_stack([x, y, z])
+    return parent_pos + parent_rot @ slot_pos, parent_rot @ local
+
+
+def assemble(robot: Robot) -> Assembly:
+    """Place every part of ``robot`` and group its boxes into rigid bodies.
+
+    The robot is assumed structurally valid (known part types, legal slots, parameter counts);
+    :func:`revolve_env.body.validate.validate` checks that first.
+    """
+    parts: list[PlacedPart] = []
+    boxes: list[PlacedBox] = []
+    bodies: list[dict] = [
+        dict(parent=-1, joint_part=-1, joint_anchor=np.zeros(3), joint_axis=np.array([0, 0, 1.0]),
+             active=False, boxes=[])
+    ]
+
+    def place(node: Node, path: Path, pos: Vec3, rot: Mat3, body: int) -> None:
+        spec = PART_SPECS[node.type]
+        geom = spec.geometry(node.params if node.params else spec.default_params())
+        part_index = len(parts)
+        part_bodies = [body]
+        if geom.joint is not None:
+            bodies.append(dict(
+                parent=body, joint_part=part_index,
+                joint_anchor=pos + rot @ geom.joint.anchor,
+                joint_axis=rot @ geom.joint.axis,
+                active=geom.joint.active, boxes=[],
+            ))
+            part_bodies.append(len(bodies) - 1)
+        parts.append(PlacedPart(path, node, pos, rot, tuple(part_bodies)))
+        for b in geom.boxes:
+            body_index = part_bodies[b.body]
+            boxes.append(PlacedBox(
+                part_index, b.name, pos + rot @ b.center, rot @ b.rotation, b.size, b.mass,
+                body_index,
+            ))
+            bodies[body_index]["boxes"].append(len(boxes) - 1)
+        for slot, child in node.children:
+            s = geom.slots[slot]
+            cpos, crot = child_frame(pos, rot, s.position, s.normal, s.tangent, child.orientation)
+            place(child, (*path, slot), cpos, crot, part_bodies[s.body])
+
+    core = robot.body
+    # The core's own orientation turns it about the vertical axis.
+    place(core, (), np.zeros(3), rotation_about("z", core.orientation), 0)
+    return Assembly(
+        tuple(parts), tuple(boxes),
+        tuple(RigidBody(
+            b["parent"], b["joint_part"], b["joint_anchor"], b["joint_axis"], b["active"],
+            tuple(b["boxes"]),
+        ) for b in bodies),
+    )
+
+
+def overlapping_boxes(assembly: Assembly, tolerance: float = 0.5e-3) -> list[tuple[int, int]]:
+    """Pairs of boxes of different parts that intersect, by an exact oriented-box (SAT) test.
+
+    Each box is first shrunk by ``tolerance`` (metres) on every face, so parts that merely touch,
+    as attached parts do, are not reported. Boxes of the same part never count: RoboGen's own
+    primitives of a hinge interpenetrate by design.
+
+    Returns:
+        ``(i, j)`` index pairs into ``assembly.boxes`` with ``i < j``.
+    """
+    n = len(assembly.boxes)
+    if n < 2:
+        return []
+    centers = np.array([b.center for b in assembly.boxes])
+    rots = np.array([b.rotation for b in assembly.boxes])
+    half = np.maximum(np.array([b.size for b in assembly.boxes]) / 2 - tolerance, 0.0)
+    part = np.array([b.part for b in assembly.boxes])
+    radius = np.linalg.norm(half, axis=1)
+
+    i_idx, j_idx = np.triu_indices(n, k=1)
+    keep = part[i_idx] != part[j_idx]
+    d = centers[j_idx] - centers[i_idx]
+    keep &= np.linalg.norm(d, axis=1) < radius[i_idx] + radius[j_idx]
+    i_idx, j_idx, d = i_idx[keep], j_idx[keep], d[keep]
+    if len(i_idx) == 0:
+        return []
+
+    a_rot, b_rot = rots[i_idx], rots[j_idx]  # (m, 3, 3), columns are box axes
+    a_half, b_half = half[i_idx], half[j_idx]
+    # Candidate separating axes: 3 face normals of each box and the 9 edge cross products.
+    axes = [a_rot[:, :, k] for k in range(3)] + [b_rot[:, :, k] for k in range(3)]
+    for ka in range(3):
+        for kb in range(3):
+            axes.append(np.cross(a_rot[:, :, ka], b_rot[:, :, kb]))
+    separated = np.zeros(len(i_idx), dtype=bool)
+    for axis in axes:
+        norm = np.linalg.norm(axis, axis=1)
+        valid = norm > 1e-9  # parallel edges give no axis; the face axes cover that case
+        unit = np.where(valid[:, None], axis / np.where(valid, norm, 1.0)[:, None], 0.0)
+        ra = np.sum(a_half * np.abs(np.einsum("mij,mi->mj", a_rot, unit)), axis=1)
+        rb = np.sum(b_half * np.abs(np.einsum("mij,mi->mj", b_rot, unit)), axis=1)
+        dist = np.abs(np.sum(d * unit, axis=1))
+        separated |= valid & (dist > ra + rb)
+    return [(int(i), int(j)) for i, j in zip(i_idx[~separated], j_idx[~separated])]
