@@ -30,6 +30,9 @@ __all__ = [
     "Path",
     "PartType",
     "Robot",
+    "ACTIVATION_PARAMS",
+    "NEURON_PARAM_BOUNDS",
+    "WEIGHT_BOUNDS",
 ]
 
 Path = tuple[int, ...]
@@ -46,6 +49,27 @@ class PartType(str, Enum):
     PASSIVE_HINGE = "passive_hinge"
     TOUCH_SENSOR = "touch_sensor"
     LIGHT_SENSOR = "light_sensor"
+
+
+WEIGHT_BOUNDS: tuple[float, float] = (-2.0, 2.0)
+"""Allowed range of connection weights."""
+
+NEURON_PARAM_BOUNDS: dict[str, tuple[float, float]] = {
+    "bias": (-2.0, 2.0),
+    "gain": (0.0, 4.0),
+    "period": (0.25, 4.0),  # seconds
+    "phase_offset": (0.0, 1.0),  # fraction of the period
+    "amplitude": (0.0, 1.0),
+}
+"""Allowed range of each neuron parameter (used by validation, mutation and learners)."""
+
+ACTIVATION_PARAMS: dict[str, tuple[str, ...]] = {
+    "input": (),
+    "linear": ("bias", "gain"),
+    "sigmoid": ("bias", "gain"),
+    "oscillator": ("period", "phase_offset", "amplitude"),
+}
+"""The parameters that matter for each activation (by ``Activation`` value)."""
 
 
 class Layer(str, Enum):
