@@ -228,6 +228,12 @@ class Robot:
         """Map each neuron id to the path of the part that carries it."""
         return {nr.id: p for p, n in self.walk() for nr in n.neurons}
 
+    def validate(self, limits: object | None = None) -> None:
+        """Check the robot; raise ``RobotError`` naming the node and rule (see ``body.validate``)."""
+        from revolve_env.body.validate import validate
+
+        validate(self, limits)  # type: ignore[arg-type]
+
     # -- functional updates ------------------------------------------------------------------
     def replace_node(self, path: Path, new: Node | None) -> Robot:
         """A copy with the subtree at ``path`` replaced by ``new`` (removed if None).
