@@ -1,0 +1,145 @@
+"""One frozen configuration for random robots and the reproduction operators (paper, Table 1)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+from revolve_env.body.validate import Limits
+
+__all__ = ["EvolutionConfig"]
+
+_PROBABILITIES = (
+    "p_remove_subtree",
+    "p_duplicate_subtree",
+    "p_swap_subtree",
+    "p_remove_hidden_neuron",
+    "p_remove_connection",
+    "initial_connection_density",
+)
+_POSITIVE_INTS = (
+    "max_parts",
+    "min_parts",
+    "max_random_robot_retries",
+    "max_placement_attempts",
+    "operator_attempts",
+)
+_NON_NEGATIVE_INTS = ("max_inputs", "max_outputs", "max_hidden")
+
+
+@dataclass(frozen=True, slots=True)
+class EvolutionConfig:
+    """Parameters of random robot generation and reproduction.
+
+    Defaults are the paper's Table 1 where it gives a value, otherwise the values of the issue.
+
+    Attributes:
+        max_parts: Most parts in a robot, core included.
+        min_parts: Fewest parts; subtree removal never goes below it.
+        max_inputs: Most sensor values (the core's 6 IMU values included).
+        max_outputs: Most actuators (active hinges).
+        max_hidden: Most hidden neurons.
+        initial_parts_mean: Mean of the number of parts of a random robot, N(mean, sd) clipped
+            to ``[min_parts, max_parts]``.
+        initial_parts_sd: Standard deviation of that number.
+        initial_hidden_mean: Mean number of hidden neurons of a random robot (Poisson, clipped to
+            ``max_hidden``). Parts added by mutation get hidden neurons at the same rate per part.
+        initial_connection_density: Probability that each allowed ``src -> dst`` pair is
+            connected in a random robot (and between a newly added part and the rest).
+        p_remove_subtree: Probability of removing a random subtree.
+        p_duplicate_subtree: Probability of duplicating a random subtree onto a free slot.
+        p_swap_subtree: Probability of swapping two unrelated subtrees.
+        p_remove_hidden_neuron: Probability that each hidden neuron is removed; on average as many
+            new ones are then added (Binomial with the same parameters), so brain size does not
+            drift.
+        p_remove_connection: Same for each connection.
+        mutation_sigma: Standard deviation of the Gaussian perturbation of every continuous
+            parameter (part parameters, neuron parameters, weights), as a fraction of the
+            parameter's allowed range. Results are clipped to the range.
+        balance_by_removal: The paper adds a random part with an expected count equal to the
+            expected parts removed by subtree removal minus those added by duplication. With the
+            Table 1 values that difference is negative (duplication is twice as likely), so the
+            body would grow to ``max_parts``. When True, a negative difference removes that many
+            random leaves instead, which keeps the expected body size constant; when False the
+            paper's rule is applied literally (nothing happens when it is negative).
+        max_random_robot_retries: Whole-robot attempts before :func:`random_robot` gives up.
+        max_placement_attempts: Failed part placements (overlaps, full slots) tolerated per
+            random robot attempt.
+        operator_attempts: Random choices an operator tries before it skips (a choice is
+            rejected when the result would not be constructible).
+    """
+
+    max_parts: int = 30
+    min_parts: int = 3
+    max_inputs: int = 10
+    max_outputs: int = 10
+    max_hidden: int = 10
+    initial_parts_mean: float = 12.0
+    initial_parts_sd: float = 5.0
+    initial_hidden_mean: float = 3.0
+    initial_connection_density: float = 0.25
+    p_remove_subtree: float = 0.05
+    p_duplicate_subtree: float = 0.1
+    p_swap_subtree: float = 0.05
+    p_remove_hidden_neuron: float = 0.05
+    p_remove_connection: float = 0.05
+    mutation_sigma: float = 0.1
+    balance_by_removal: bool = True
+    max_random_robot_retries: int = 20
+    max_placement_attempts: int = 200
+    operator_attempts: int = 10
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.name in _POSITIVE_INTS or f.name in _NON_NEGATIVE_INTS:
+                if not isinstance(value, int) or isinstance(value, bool):
+                    raise ValueError(f"EvolutionConfig.{f.name} must be an int, got {value!r}")
+                low = 1 if f.name in _POSITIVE_INTS else 0
+                if value < low:
+                    raise ValueError(f"EvolutionConfig.{f.name} must be >= {low}, got {value!r}")
+            elif f.type in ("float", float):
+                if (
+                    not isinstance(value, (int, float))
+                    or isinstance(value, bool)
+                    or not math.isfinite(value)
+                ):
+                    raise ValueError(f"EvolutionConfig.{f.name} must be a finite number, got {value!r}")
+                if f.name in _PROBABILITIES and not 0.0 <= value <= 1.0:
+                    raise ValueError(
+                        f"EvolutionConfig.{f.name} is a probability and must be in [0, 1], "
+                        f"got {value!r}"
+                    )
+                if value < 0:
+                    raise ValueError(f"EvolutionConfig.{f.name} must be >= 0, got {value!r}")
+            elif f.name == "balance_by_removal" and not isinstance(value, bool):
+                raise ValueError(f"EvolutionConfig.balance_by_removal must be a bool, got {value!r}")
+        if self.min_parts > self.max_parts:
+            raise ValueError(
+                f"EvolutionConfig.min_parts ({self.min_parts}) is greater than max_parts "
+                f"({self.max_parts})"
+            )
+        if self.max_inputs < 6:
+            raise ValueError(
+                f"EvolutionConfig.max_inputs must be >= 6 (the core's IMU values), got "
+                f"{self.max_inputs}"
+            )
+        if self.initial_parts_sd == 0 and not (
+            self.min_parts <= self.initial_parts_mean <= self.max_parts
+        ):
+            raise ValueError("EvolutionConfig.initial_parts_mean is outside [min_parts, max_parts]")
+        if self.mutation_sigma > 1.0:
+            raise ValueError(
+                f"EvolutionConfig.mutation_sigma is a fraction of each range and must be <= 1, "
+                f"got {self.mutation_sigma!r}"
+            )
+
+    @property
+    def limits(self) -> Limits:
+        """The robot limits of this configuration, for :func:`revolve_env.body.validate.validate`."""
+        return Limits(
+            max_parts=self.max_parts,
+            max_inputs=self.max_inputs,
+            max_outputs=self.max_outputs,
+            max_hidden=self.max_hidden,
+        )
