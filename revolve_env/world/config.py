@@ -1,0 +1,82 @@
+"""Engine-neutral settings of a physics world (pure data)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from revolve_env.body.parts import SERVO
+
+__all__ = ["WorldConfig"]
+
+
+@dataclass(frozen=True, slots=True)
+class WorldConfig:
+    """Settings of a :class:`~revolve_env.world.World`.
+
+    Timing: physics advances in fixed steps of ``timestep`` (1/240 s, pybullet's default, small
+    enough for the 10-60 g RoboGen parts with their 0.18 N m servos to stay stable) and the
+    controllers act once per ``control_period`` (1/60 s, four physics steps). Servo commands,
+    sensor readings and the blow-up check are refreshed once per control period.
+
+    Attributes:
+        timestep: Physics step. Seconds.
+        control_period: Control step; a whole multiple of ``timestep``. Seconds.
+        gravity: Magnitude of gravity, pointing down (-z). Metres per second squared.
+        friction: Coulomb friction coefficient between robots and the ground (and between robots).
+        light_position: Position of the point light that light sensors see. Metres.
+        light_range: Distance at which the light's intensity has fallen to one half. Metres.
+        servo_gain: RoboGen's servo gain (``ServoMotor::DEFAULT_GAIN``): each control period the
+            servo is commanded ``velocity = servo_gain * error / control_period``, clipped to
+            ``SERVO.max_velocity``. Dimensionless.
+        max_torque: Torque limit of an active hinge. Newton metres.
+        max_velocity: Speed limit of an active hinge. Radians per second.
+        range_deg: A normalized target of +-1 maps to +-``range_deg``. Degrees.
+        drop_height: Gap between the robot's lowest point and the ground when it is inserted.
+            Metres.
+        max_linear_speed: A core faster than this means the simulation blew up. Metres per second.
+        max_angular_speed: A core or joint spinning faster than this means the simulation blew up.
+            Radians per second.
+        solver_iterations: Constraint solver iterations per physics step.
+    """
+
+    timestep: float = 1.0 / 240.0
+    control_period: float = 1.0 / 60.0
+    gravity: float = 9.81
+    friction: float = 1.0
+    light_position: tuple[float, float, float] = (1.0, 0.0, 0.1)
+    light_range: float = 1.0
+    servo_gain: float = 0.5
+    max_torque: float = SERVO.max_torque
+    max_velocity: float = SERVO.max_velocity
+    range_deg: float = SERVO.range_deg
+    drop_height: float = 0.02
+    max_linear_speed: float = 10.0
+    max_angular_speed: float = 200.0
+    solver_iterations: int = 50
+
+    def __post_init__(self) -> None:
+        if not (self.timestep > 0 and math.isfinite(self.timestep)):
+            raise ValueError(f"timestep must be a positive number of seconds, got {self.timestep}")
+        ratio = self.control_period / self.timestep
+        if self.control_period <= 0 or abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
+            raise ValueError(
+                f"control_period ({self.control_period} s) must be a positive whole multiple of "
+                f"timestep ({self.timestep} s)"
+            )
+        for name in ("gravity", "friction", "light_range", "servo_gain", "max_torque",
+                     "max_velocity", "range_deg", "max_linear_speed", "max_angular_speed"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite non-negative number, got {value}")
+        if self.light_range <= 0:
+            raise ValueError(f"light_range must be positive, got {self.light_range}")
+        if self.drop_height < 0:
+            raise ValueError(f"drop_height must be >= 0 m, got {self.drop_height}")
+        if self.solver_iterations < 1:
+            raise ValueError(f"solver_iterations must be >= 1, got {self.solver_iterations}")
+
+    @property
+    def substeps(self) -> int:
+        """Physics steps per control period."""
+        return int(round(self.control_period / self.timestep))

@@ -1,0 +1,203 @@
+"""Engine-neutral physical model of a robot: links, mass properties, joints and sensors.
+
+Pure NumPy over :func:`revolve_env.body.geometry.assemble`. Every physics backend builds its
+bodies from a :class:`RobotModel`, so all backends agree on masses, inertias, joint frames and the
+sensor layout.
+
+Frames: each rigid body of the assembly becomes one link. A link's frame has the orientation of
+the robot frame at assembly; its origin is the core centre for the root link and the hinge anchor
+for every other link, so a joint sits at its child link's origin.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from revolve_env.body.geometry import Assembly, assemble
+from revolve_env.body.parts import PART_SPECS, SLOT_THICKNESS
+from revolve_env.body.robot import PartType, Robot
+
+__all__ = ["LinkModel", "LightSensorModel", "RobotModel", "TouchSensorModel", "build_model"]
+
+Vec3 = NDArray[np.float64]
+Mat3 = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class LinkModel:
+    """One rigid body.
+
+    Attributes:
+        parent: Index of the parent link, -1 for the root (which holds the core).
+        origin: Link frame origin in the robot frame at assembly. Metres.
+        mass: Kilograms.
+        com: Centre of mass in the link frame. Metres.
+        inertia_axes: 3x3 rotation whose columns are the principal axes (link frame), det +1.
+        inertia_diagonal: Principal moments of inertia about the centre of mass. kg m^2.
+        box_centers: (k, 3) box centres in the link frame. Metres.
+        box_rotations: (k, 3, 3) box axes in the link frame.
+        box_half_extents: (k, 3) half edge lengths. Metres.
+        box_colors: (k, 3) RGB of the part each box belongs to.
+        joint_axis: Unit hinge axis in the link frame (unused for the root).
+        active: Whether the hinge is driven by a servo.
+    """
+
+    parent: int
+    origin: Vec3
+    mass: float
+    com: Vec3
+    inertia_axes: Mat3
+    inertia_diagonal: Vec3
+    box_centers: NDArray[np.float64]
+    box_rotations: NDArray[np.float64]
+    box_half_extents: NDArray[np.float64]
+    box_colors: NDArray[np.float64]
+    joint_axis: Vec3
+    active: bool
+
+
+@dataclass(frozen=True)
+class TouchSensorModel:
+    """A touch sensor's two halves as boxes in the frame of the link that carries them.
+
+    Attributes:
+        link: Link index.
+        centers: (2, 3) centres of the left and right halves. Metres.
+        rotations: (2, 3, 3) box axes.
+        half_extents: (2, 3). Metres.
+    """
+
+    link: int
+    centers: NDArray[np.float64]
+    rotations: NDArray[np.float64]
+    half_extents: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class LightSensorModel:
+    """A light sensor's sensing point and viewing direction in its link's frame.
+
+    Attributes:
+        link: Link index.
+        position: Centre of the sensing face. Metres.
+        direction: Unit outward normal of the sensing face.
+    """
+
+    link: int
+    position: Vec3
+    direction: Vec3
+
+
+@dataclass(frozen=True)
+class RobotModel:
+    """Everything a physics backend needs to build and sense one robot.
+
+    Attributes:
+        links: Links in assembly order; parents come before children.
+        active_links: Link indices of the active hinges, in controller output order.
+        passive_links: Link indices of the passive hinges.
+        sensors: One entry per sensor part in controller input order: ``("imu", None)``,
+            ``("touch", TouchSensorModel)`` or ``("light", LightSensorModel)``.
+        n_inputs: Number of sensor values (6 per core IMU, 2 per touch sensor, 1 per light).
+        lowest_z: Lowest point of the assembled robot below the core centre. Metres (<= 0).
+        mass: Total mass. Kilograms.
+    """
+
+    links: tuple[LinkModel, ...]
+    active_links: tuple[int, ...]
+    passive_links: tuple[int, ...]
+    sensors: tuple[tuple[str, TouchSensorModel | LightSensorModel | None], ...]
+    n_inputs: int
+    lowest_z: float
+    mass: float
+
+    @property
+    def n_outputs(self) -> int:
+        """Number of active hinges (controller outputs)."""
+        return len(self.active_links)
+
+
+def _box_inertia(size: Vec3, mass: float) -> Vec3:
+    a, b, c = size**2
+    return mass / 12.0 * np.array([b + c, a + c, a + b])
+
+
+def build_model(robot: Robot, assembly: Assembly | None = None) -> RobotModel:
+    """The physical model of ``robot`` (assumed valid; see ``revolve_env.body.validate``)."""
+    asm = assembly if assembly is not None else assemble(robot)
+    links: list[LinkModel] = []
+    for i, body in enumerate(asm.bodies):
+        origin = np.zeros(3) if body.parent < 0 else np.asarray(body.joint_anchor, float)
+        boxes = [asm.boxes[k] for k in body.boxes]
+        masses = np.array([b.mass for b in boxes])
+        centers = np.array([b.center for b in boxes]) - origin
+        mass = float(masses.sum())
+        if mass <= 0:
+            raise ValueError(f"rigid body {i} has no mass")
+        com = (masses[:, None] * centers).sum(axis=0) / mass
+        inertia = np.zeros((3, 3))
+        for b, c in zip(boxes, centers):
+            local = b.rotation @ np.diag(_box_inertia(b.size, b.mass)) @ b.rotation.T
+            d = c - com
+            inertia += local + b.mass * (float(d @ d) * np.eye(3) - np.outer(d, d))
+        moments, axes = np.linalg.eigh(inertia)
+        if np.linalg.det(axes) < 0:
+            axes[:, 2] = -axes[:, 2]
+        links.append(LinkModel(
+            parent=body.parent,
+            origin=origin,
+            mass=mass,
+            com=com,
+            inertia_axes=axes,
+            inertia_diagonal=np.maximum(moments, 1e-12),
+            box_centers=centers,
+            box_rotations=np.array([b.rotation for b in boxes]),
+            box_half_extents=np.array([b.size for b in boxes]) / 2.0,
+            box_colors=np.array([asm.parts[b.part].node.color for b in boxes], dtype=float),
+            joint_axis=np.asarray(body.joint_axis, float) / np.linalg.norm(body.joint_axis),
+            active=bool(body.active),
+        ))
+
+    sensors: list[tuple[str, TouchSensorModel | LightSensorModel | None]] = []
+    n_inputs = 0
+    for part_index, part in enumerate(asm.parts):
+        kind = part.node.type
+        n_inputs += PART_SPECS[kind].n_inputs
+        if kind == PartType.CORE:
+            sensors.append(("imu", None))
+        elif kind == PartType.TOUCH_SENSOR:
+            link = part.bodies[0]
+            halves = {b.name: b for b in asm.boxes if b.part == part_index}
+            pair = [halves["left"], halves["right"]]
+            sensors.append(("touch", TouchSensorModel(
+                link=link,
+                centers=np.array([b.center for b in pair]) - links[link].origin,
+                rotations=np.array([b.rotation for b in pair]),
+                half_extents=np.array([b.size for b in pair]) / 2.0,
+            )))
+        elif kind == PartType.LIGHT_SENSOR:
+            link = part.bodies[0]
+            direction = part.rotation[:, 0]
+            sensors.append(("light", LightSensorModel(
+                link=link,
+                position=part.position + SLOT_THICKNESS * direction - links[link].origin,
+                direction=direction.copy(),
+            )))
+        elif PART_SPECS[kind].n_inputs:
+            raise ValueError(f"no sensor model for part type {kind.value!r}")
+
+    lower, _ = asm.bounds()
+    active = tuple(i for i in asm.active_joints())
+    passive = tuple(i for i, b in enumerate(asm.bodies) if b.parent >= 0 and not b.active)
+    return RobotModel(
+        links=tuple(links),
+        active_links=active,
+        passive_links=passive,
+        sensors=tuple(sensors),
+        n_inputs=n_inputs,
+        lowest_z=float(lower[2]),
+        mass=asm.mass,
+    )
