@@ -1,0 +1,94 @@
+"""Fitness f = v + 5 s on hand-computed trajectories, and the online window equals the offline one."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from revolve_env.fitness import SlidingWindowFitness, fitness_terms, window_fitness
+
+
+def test_square_path_returns_home() -> None:
+    # 1 m square walked once: path 4 m, back where it started.
+    square = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 0)]
+    f = fitness_terms(square)
+    assert f.v == pytest.approx(4.0)
+    assert f.s == pytest.approx(0.0)
+    assert f.fitness == pytest.approx(4.0)
+
+
+def test_three_sides_of_square() -> None:
+    f = fitness_terms([(0, 0), (1, 0), (1, 1), (0, 1)])
+    assert (f.v, f.s, f.fitness) == pytest.approx((3.0, 1.0, 8.0))
+
+
+def test_straight_line() -> None:
+    # 0.1 m/s along a diagonal for 12 s sampled at 60 Hz: v = s = 1.2 m, f = 6 * 1.2.
+    t = np.arange(0, 12 * 60 + 1) / 60.0
+    pos = np.stack([0.1 / math.sqrt(2) * t, 0.1 / math.sqrt(2) * t, 0.05 + 0 * t], axis=1)
+    f = window_fitness(t, pos)
+    assert f.v == pytest.approx(1.2)
+    assert f.s == pytest.approx(1.2)
+    assert f.fitness == pytest.approx(7.2)
+
+
+def test_standing_still_and_vertical_motion_count_nothing() -> None:
+    pos = np.array([(0.3, -0.2, z) for z in np.linspace(0.02, 0.5, 50)])
+    f = fitness_terms(pos)
+    assert (f.fitness, f.v, f.s) == (0.0, 0.0, 0.0)
+    assert fitness_terms(np.zeros((0, 3))).fitness == 0.0
+    assert fitness_terms([(1.0, 2.0, 3.0)]).fitness == 0.0
+
+
+def test_window_keeps_only_last_seconds() -> None:
+    # 10 s going +x at 1 m/s, then 12 s standing still: the last 12 s hold no motion.
+    t = np.arange(0, 22 * 10 + 1) / 10.0
+    x = np.minimum(t, 10.0)
+    pos = np.stack([x, 0 * t], axis=1)
+    assert window_fitness(t, pos, window=12.0).fitness == pytest.approx(0.0)
+    # window of 13 s includes the last second of motion
+    assert window_fitness(t, pos, window=13.0).v == pytest.approx(1.0)
+
+
+def test_bad_input_is_named() -> None:
+    with pytest.raises(ValueError, match="shape"):
+        fitness_terms(np.zeros((5, 4)))
+    with pytest.raises(ValueError, match="NaN"):
+        fitness_terms([(0, 0), (math.nan, 0)])
+    with pytest.raises(ValueError, match="non-decreasing"):
+        window_fitness([1.0, 0.0], [(0, 0), (1, 1)])
+    w = SlidingWindowFitness()
+    w.add(1.0, (0, 0, 0))
+    with pytest.raises(ValueError, match="before"):
+        w.add(0.5, (0, 0, 0))
+    with pytest.raises(ValueError, match="window"):
+        SlidingWindowFitness(window=0.0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    steps=st.lists(
+        st.tuples(st.floats(0.0, 0.5), st.floats(-1, 1), st.floats(-1, 1)), min_size=1, max_size=200
+    ),
+    window=st.floats(0.1, 5.0),
+)
+def test_online_window_equals_offline(steps: list[tuple[float, float, float]], window: float) -> None:
+    online = SlidingWindowFitness(window=window, capacity=4)
+    t, pos = [], []
+    now = 0.0
+    for dt, x, y in steps:
+        now += dt
+        t.append(now)
+        pos.append((x, y, 0.1))
+        online.add(now, (x, y, 0.1))
+        offline = window_fitness(t, pos, window=window)
+        got = online.terms()
+        assert got.fitness == pytest.approx(offline.fitness, abs=1e-12)
+        assert got.v == pytest.approx(offline.v, abs=1e-12)
+        assert got.s == pytest.approx(offline.s, abs=1e-12)
+    kept, _ = online.samples()
+    assert kept[0] >= now - window - 1e-9  # old samples are dropped
