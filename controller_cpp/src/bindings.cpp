@@ -1,9 +1,124 @@
-// Python bindings of the compiled controller (filled in by the controller work).
+// Python bindings of the compiled controller (module revolve_env._controller).
+//
+// Everything coming from Python is checked here or in BatchController::add/set_params before any
+// pointer is used, so bad input raises a Python exception and never crashes the interpreter.
+// Use it through revolve_env.brain.BatchController, which adds NetworkSpec handling.
 #include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/optional.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/vector.h>
+
+#include <optional>
+
+#include "revolve/batch_controller.hpp"
 
 namespace nb = nanobind;
+using revolve::BatchController;
+
+namespace {
+
+template <typename T>
+using Vec = nb::ndarray<const T, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+using Mat = nb::ndarray<const double, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
+
+// Above this many (neurons + connections) the step releases the GIL; below it the release and
+// re-acquisition would cost more than the work.
+constexpr std::int64_t kReleaseGilAbove = 2000;
+
+template <typename Array>
+void check_vector(const Array& a, const char* name, std::int64_t n) {
+    if (a.device_type() != nb::device::cpu::value || a.dtype() != nb::dtype<double>() || a.ndim() != 1) {
+        throw nb::value_error((std::string(name) + " must be a 1-D float64 NumPy array").c_str());
+    }
+    if (static_cast<std::int64_t>(a.shape(0)) != n) {
+        throw nb::value_error((std::string(name) + " has length " + std::to_string(a.shape(0)) +
+                               ", expected " + std::to_string(n)).c_str());
+    }
+    if (n > 1 && a.stride(0) != 1) throw nb::value_error((std::string(name) + " must be contiguous").c_str());
+}
+
+void step(BatchController& c, nb::ndarray<nb::ro> inputs, nb::ndarray<> outputs) {
+    // inputs may be read-only; outputs may not (nanobind rejects read-only arrays without nb::ro).
+    check_vector(inputs, "inputs", c.n_inputs());
+    check_vector(outputs, "outputs", c.n_outputs());
+    const double* in = static_cast<const double*>(inputs.data());
+    double* out = static_cast<double*>(outputs.data());
+    if (c.n_connections() > kReleaseGilAbove) {
+        nb::gil_scoped_release release;
+        c.step(in, out);
+    } else {
+        c.step(in, out);
+    }
+}
+
+std::int64_t add(BatchController& c, Vec<std::int8_t> kinds, Mat neuron_params, Vec<std::int32_t> src,
+                 Vec<std::int32_t> dst, Vec<double> weight, std::int64_t n_inputs, std::int64_t n_outputs) {
+    const std::int64_t n = static_cast<std::int64_t>(kinds.shape(0));
+    if (static_cast<std::int64_t>(neuron_params.shape(0)) != n || neuron_params.shape(1) != revolve::kParamColumns) {
+        throw nb::value_error(("neuron_params must have shape (" + std::to_string(n) + ", 5)").c_str());
+    }
+    if (src.shape(0) != dst.shape(0) || src.shape(0) != weight.shape(0)) {
+        throw nb::value_error("src, dst and weight must have the same length");
+    }
+    revolve::NetworkView v;
+    v.n_neurons = n;
+    v.n_inputs = n_inputs;
+    v.n_outputs = n_outputs;
+    v.kinds = kinds.data();
+    v.neuron_params = neuron_params.data();
+    v.n_connections = static_cast<std::int64_t>(src.shape(0));
+    v.src = src.data();
+    v.dst = dst.data();
+    v.weight = weight.data();
+    return c.add(v);
+}
+
+void set_params(BatchController& c, std::int64_t handle, Mat neuron_params, Vec<double> weight) {
+    c.set_params(handle, neuron_params.data(), static_cast<std::int64_t>(neuron_params.size()), weight.data(),
+                 static_cast<std::int64_t>(weight.shape(0)));
+}
+
+}  // namespace
 
 NB_MODULE(_controller, m) {
-    m.doc() = "revolve-env compiled neural controller";
-    m.attr("ABI_VERSION") = 1;
+    m.doc() = "revolve-env compiled neural controller (use revolve_env.brain.BatchController)";
+    m.attr("ABI_VERSION") = 2;
+    m.attr("KIND_INPUT") = static_cast<int>(revolve::kInput);
+    m.attr("KIND_LINEAR") = static_cast<int>(revolve::kLinear);
+    m.attr("KIND_SIGMOID") = static_cast<int>(revolve::kSigmoid);
+    m.attr("KIND_OSCILLATOR") = static_cast<int>(revolve::kOscillator);
+
+    nb::register_exception_translator([](const std::exception_ptr& p, void*) {
+        try {
+            std::rethrow_exception(p);
+        } catch (const revolve::UnknownHandle& e) {
+            PyErr_SetString(PyExc_KeyError, e.what());
+        }
+    });
+
+    nb::class_<BatchController>(m, "BatchController", "Networks of many robots stepped in one call.")
+        .def(nb::init<double>(), nb::arg("dt"), "dt: control period, seconds (> 0).")
+        .def("add", &add, nb::arg("kinds"), nb::arg("neuron_params"), nb::arg("src"), nb::arg("dst"),
+             nb::arg("weight"), nb::arg("n_inputs"), nb::arg("n_outputs"),
+             "Add a network (spec order: inputs, outputs, hidden); returns its handle.")
+        .def("remove", &BatchController::remove, nb::arg("handle"))
+        .def(
+            "reset",
+            [](BatchController& c, std::optional<std::int64_t> h) {
+                if (h) c.reset(*h); else c.reset_all();
+            },
+            nb::arg("handle") = nb::none(), "State 0 and time 0 for one network, or all.")
+        .def("set_params", &set_params, nb::arg("handle"), nb::arg("neuron_params"), nb::arg("weight"))
+        .def("step", &step, nb::arg("inputs"), nb::arg("outputs"),
+             "Advance every network one tick, writing hinge targets in [-1, 1] into outputs in place.")
+        .def_prop_ro("dt", &BatchController::dt)
+        .def_prop_ro("n_inputs", &BatchController::n_inputs)
+        .def_prop_ro("n_outputs", &BatchController::n_outputs)
+        .def("__len__", &BatchController::size)
+        .def("handles", &BatchController::handles)
+        .def("input_offset", &BatchController::input_offset, nb::arg("handle"))
+        .def("output_offset", &BatchController::output_offset, nb::arg("handle"))
+        .def("state", &BatchController::state, nb::arg("handle"))
+        .def("time", &BatchController::time, nb::arg("handle"));
 }
