@@ -6,7 +6,8 @@ sensor layout.
 
 Frames: each rigid body of the assembly becomes one link. A link's frame has the orientation of
 the robot frame at assembly; its origin is the core centre for the root link and the hinge anchor
-for every other link, so a joint sits at its child link's origin.
+for every other link, so a joint sits at its child link's origin. Touch sensor halves are extra
+welded links whose origin is the half's centre.
 """
 
 from __future__ import annotations
@@ -41,8 +42,9 @@ class LinkModel:
         box_rotations: (k, 3, 3) box axes in the link frame.
         box_half_extents: (k, 3) half edge lengths. Metres.
         box_colors: (k, 3) RGB of the part each box belongs to.
-        joint_axis: Unit hinge axis in the link frame (unused for the root).
+        joint_axis: Unit hinge axis in the link frame (unused for the root and fixed links).
         active: Whether the hinge is driven by a servo.
+        fixed: Welded to its parent (a touch sensor half) rather than hinged.
     """
 
     parent: int
@@ -57,23 +59,18 @@ class LinkModel:
     box_colors: NDArray[np.float64]
     joint_axis: Vec3
     active: bool
+    fixed: bool = False
 
 
 @dataclass(frozen=True)
 class TouchSensorModel:
-    """A touch sensor's two halves as boxes in the frame of the link that carries them.
+    """A touch sensor: its left and right halves are links of their own, welded to the carrier.
 
     Attributes:
-        link: Link index.
-        centers: (2, 3) centres of the left and right halves. Metres.
-        rotations: (2, 3, 3) box axes.
-        half_extents: (2, 3). Metres.
+        links: Link indices of the left and right halves.
     """
 
-    link: int
-    centers: NDArray[np.float64]
-    rotations: NDArray[np.float64]
-    half_extents: NDArray[np.float64]
+    links: tuple[int, int]
 
 
 @dataclass(frozen=True)
@@ -96,7 +93,8 @@ class RobotModel:
     """Everything a physics backend needs to build and sense one robot.
 
     Attributes:
-        links: Links in assembly order; parents come before children.
+        links: Links: the assembly's rigid bodies in order, then the touch sensor halves;
+            parents come before children.
         active_links: Link indices of the active hinges, in controller output order.
         passive_links: Link indices of the passive hinges.
         sensors: One entry per sensor part in controller input order: ``("imu", None)``,
@@ -125,40 +123,61 @@ def _box_inertia(size: Vec3, mass: float) -> Vec3:
     return mass / 12.0 * np.array([b + c, a + c, a + b])
 
 
+def _link(
+    parent: int, origin: Vec3, boxes: list, colors: list, joint_axis: Vec3, active: bool,
+    fixed: bool,
+) -> LinkModel:
+    masses = np.array([b.mass for b in boxes])
+    centers = np.array([b.center for b in boxes]) - origin
+    mass = float(masses.sum())
+    if mass <= 0:
+        raise ValueError("a rigid body of the robot has no mass")
+    com = (masses[:, None] * centers).sum(axis=0) / mass
+    inertia = np.zeros((3, 3))
+    for b, c in zip(boxes, centers):
+        local = b.rotation @ np.diag(_box_inertia(b.size, b.mass)) @ b.rotation.T
+        d = c - com
+        inertia += local + b.mass * (float(d @ d) * np.eye(3) - np.outer(d, d))
+    moments, axes = np.linalg.eigh(inertia)
+    if np.linalg.det(axes) < 0:
+        axes[:, 2] = -axes[:, 2]
+    return LinkModel(
+        parent=parent,
+        origin=np.asarray(origin, float),
+        mass=mass,
+        com=com,
+        inertia_axes=axes,
+        inertia_diagonal=np.maximum(moments, 1e-12),
+        box_centers=centers,
+        box_rotations=np.array([b.rotation for b in boxes]),
+        box_half_extents=np.array([b.size for b in boxes]) / 2.0,
+        box_colors=np.array(colors, dtype=float),
+        joint_axis=np.asarray(joint_axis, float) / np.linalg.norm(joint_axis),
+        active=active,
+        fixed=fixed,
+    )
+
+
 def build_model(robot: Robot, assembly: Assembly | None = None) -> RobotModel:
-    """The physical model of ``robot`` (assumed valid; see ``revolve_env.body.validate``)."""
+    """The physical model of ``robot`` (assumed valid; see ``revolve_env.body.validate``).
+
+    Each rigid body of the assembly becomes a link (same index), except that every touch
+    sensor's two halves become two extra links welded to their carrier (appended after the
+    bodies), so that the engine reports their contacts separately.
+    """
     asm = assembly if assembly is not None else assemble(robot)
+    touch_halves = {
+        k for k, b in enumerate(asm.boxes)
+        if asm.parts[b.part].node.type == PartType.TOUCH_SENSOR and b.name in ("left", "right")
+    }
     links: list[LinkModel] = []
-    for i, body in enumerate(asm.bodies):
+    for body in asm.bodies:
         origin = np.zeros(3) if body.parent < 0 else np.asarray(body.joint_anchor, float)
-        boxes = [asm.boxes[k] for k in body.boxes]
-        masses = np.array([b.mass for b in boxes])
-        centers = np.array([b.center for b in boxes]) - origin
-        mass = float(masses.sum())
-        if mass <= 0:
-            raise ValueError(f"rigid body {i} has no mass")
-        com = (masses[:, None] * centers).sum(axis=0) / mass
-        inertia = np.zeros((3, 3))
-        for b, c in zip(boxes, centers):
-            local = b.rotation @ np.diag(_box_inertia(b.size, b.mass)) @ b.rotation.T
-            d = c - com
-            inertia += local + b.mass * (float(d @ d) * np.eye(3) - np.outer(d, d))
-        moments, axes = np.linalg.eigh(inertia)
-        if np.linalg.det(axes) < 0:
-            axes[:, 2] = -axes[:, 2]
-        links.append(LinkModel(
-            parent=body.parent,
-            origin=origin,
-            mass=mass,
-            com=com,
-            inertia_axes=axes,
-            inertia_diagonal=np.maximum(moments, 1e-12),
-            box_centers=centers,
-            box_rotations=np.array([b.rotation for b in boxes]),
-            box_half_extents=np.array([b.size for b in boxes]) / 2.0,
-            box_colors=np.array([asm.parts[b.part].node.color for b in boxes], dtype=float),
-            joint_axis=np.asarray(body.joint_axis, float) / np.linalg.norm(body.joint_axis),
-            active=bool(body.active),
+        keep = [k for k in body.boxes if k not in touch_halves]
+        links.append(_link(
+            body.parent, origin, [asm.boxes[k] for k in keep],
+            [asm.parts[asm.boxes[k].part].node.color for k in keep],
+            body.joint_axis, bool(body.active), fixed=False,
         ))
 
     sensors: list[tuple[str, TouchSensorModel | LightSensorModel | None]] = []
@@ -169,15 +188,17 @@ def build_model(robot: Robot, assembly: Assembly | None = None) -> RobotModel:
         if kind == PartType.CORE:
             sensors.append(("imu", None))
         elif kind == PartType.TOUCH_SENSOR:
-            link = part.bodies[0]
+            carrier = part.bodies[0]
             halves = {b.name: b for b in asm.boxes if b.part == part_index}
-            pair = [halves["left"], halves["right"]]
-            sensors.append(("touch", TouchSensorModel(
-                link=link,
-                centers=np.array([b.center for b in pair]) - links[link].origin,
-                rotations=np.array([b.rotation for b in pair]),
-                half_extents=np.array([b.size for b in pair]) / 2.0,
-            )))
+            indices = []
+            for name in ("left", "right"):
+                box = halves[name]
+                links.append(_link(
+                    carrier, box.center, [box], [part.node.color], np.array([0.0, 0.0, 1.0]),
+                    active=False, fixed=True,
+                ))
+                indices.append(len(links) - 1)
+            sensors.append(("touch", TouchSensorModel(links=(indices[0], indices[1]))))
         elif kind == PartType.LIGHT_SENSOR:
             link = part.bodies[0]
             direction = part.rotation[:, 0]

@@ -24,7 +24,6 @@ from revolve_env.world.model import LightSensorModel, RobotModel, TouchSensorMod
 
 __all__ = ["World"]
 
-_TOUCH_MARGIN = 2e-3  # metres: a contact point this close to a touch half's box counts for it
 _ROBOT_FRICTION = 1.0  # pybullet multiplies the two bodies' coefficients; the ground sets the value
 
 
@@ -46,7 +45,7 @@ class _RobotState:
     core_vel: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
     core_angvel: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
     prev_core_vel: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
-    joint_pos: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    joint_pos: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))  # by joint index
     joint_vel: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     blow_up: str | None = None
 
@@ -155,6 +154,19 @@ class World:
         """Number of active hinges of a robot."""
         return self._state(handle).model.n_outputs
 
+    def total_mass(self, handle: int) -> float:
+        """Mass of a robot as the physics engine holds it (all links). Kilograms."""
+        state = self._state(handle)
+        return float(sum(
+            pb.getDynamicsInfo(state.body, link, physicsClientId=self._cid)[0]
+            for link in range(-1, len(state.model.links) - 1)
+        ))
+
+    def body_count(self) -> int:
+        """Number of bodies in the physics engine, the ground included (for leak checks)."""
+        self._check_open()
+        return int(pb.getNumBodies(physicsClientId=self._cid))
+
     def _state(self, handle: int) -> _RobotState:
         self._check_open()
         try:
@@ -223,7 +235,7 @@ class World:
             linkInertialFramePositions=[lk.com.tolist() for lk in others],
             linkInertialFrameOrientations=[matrix_to_quat(lk.inertia_axes) for lk in others],
             linkParentIndices=[lk.parent for lk in others],  # 0 = base, k = link k-1 = body k
-            linkJointTypes=[pb.JOINT_REVOLUTE] * len(others),
+            linkJointTypes=[pb.JOINT_FIXED if lk.fixed else pb.JOINT_REVOLUTE for lk in others],
             linkJointAxis=[lk.joint_axis.tolist() for lk in others],
             physicsClientId=cid,
         )
@@ -235,7 +247,9 @@ class World:
             )
             pb.changeVisualShape(body, link, rgbaColor=(*lk.box_colors[0], 1.0),
                                  physicsClientId=cid)
-        all_joints = list(range(len(others)))
+        # The hinges: joints 0..n-1 (the welded touch halves come after them), so a joint index
+        # is also its position in joint_pos.
+        all_joints = [i for i, lk in enumerate(others) if not lk.fixed]
         if all_joints:
             # Free every joint first (pybullet motorizes joints by default); servos are re-driven
             # every control period.
@@ -244,8 +258,7 @@ class World:
                 forces=[0.0] * len(all_joints), physicsClientId=cid,
             )
         sensor_links = sorted({
-            s.link for _, s in model.sensors if isinstance(s, (TouchSensorModel, LightSensorModel))
-            and s.link > 0
+            s.link for _, s in model.sensors if isinstance(s, LightSensorModel) and s.link > 0
         })
         state = _RobotState(
             body=body, model=model, robot=robot, shapes=shapes,
@@ -418,7 +431,7 @@ class World:
                                   computeForwardKinematics=1, physicsClientId=cid)
             for i, s in zip(state.sensor_links, ls):
                 link_pose[i] = (np.asarray(s[4]), quat_to_matrix(s[5]))
-        contacts: list[tuple[int, NDArray[np.float64]]] | None = None
+        contacts: set[int] | None = None  # model link indices touching anything
         light = np.asarray(self.config.light_position)
         k = 0
         for kind, sensor in model.sensors:
@@ -432,22 +445,11 @@ class World:
             elif kind == "touch":
                 assert isinstance(sensor, TouchSensorModel)
                 if contacts is None:
-                    contacts = [
-                        (c[3] + 1, np.asarray(c[5]))
-                        for c in pb.getContactPoints(bodyA=state.body, physicsClientId=cid)
-                    ]
-                pos, rot = link_pose[sensor.link]
-                for half in range(2):
-                    hit = 0.0
-                    for link, point in contacts:
-                        if link != sensor.link:
-                            continue
-                        local = rot.T @ (point - pos) - sensor.centers[half]
-                        in_box = sensor.rotations[half].T @ local
-                        if np.all(np.abs(in_box) <= sensor.half_extents[half] + _TOUCH_MARGIN):
-                            hit = 1.0
-                            break
-                    out[k + half] = hit
+                    contacts = {
+                        c[3] + 1 for c in pb.getContactPoints(bodyA=state.body, physicsClientId=cid)
+                    }
+                out[k] = 1.0 if sensor.links[0] in contacts else 0.0
+                out[k + 1] = 1.0 if sensor.links[1] in contacts else 0.0
                 k += 2
             else:
                 assert isinstance(sensor, LightSensorModel)
