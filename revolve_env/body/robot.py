@@ -234,6 +234,21 @@ class Robot:
 
         validate(self, limits)  # type: ignore[arg-type]
 
+    # -- JSON (see ``body.serialize`` and docs/robot-json-schema.md) ----------------------------
+    def to_json(self, *, indent: int | None = 1) -> str:
+        """This robot as JSON (schema ``revolve-env/robot``); see ``body.serialize.to_json``."""
+        from revolve_env.body.serialize import to_json
+
+        return to_json(self, indent=indent)
+
+    @classmethod
+    def from_json(cls, text: str | bytes, limits: object | None = None, *, check: bool = True
+                  ) -> Robot:
+        """Parse and validate a robot from JSON; see ``body.serialize.from_json``."""
+        from revolve_env.body.serialize import from_json
+
+        return from_json(text, limits, check=check)  # type: ignore[arg-type]
+
     # -- functional updates ------------------------------------------------------------------
     def replace_node(self, path: Path, new: Node | None) -> Robot:
         """A copy with the subtree at ``path`` replaced by ``new`` (removed if None).

@@ -1,0 +1,294 @@
+"""Robot descriptions as JSON: a documented, versioned schema with exact round trips.
+
+The schema (``"schema": "revolve-env/robot"``, ``"version": 1``) is described in
+``docs/robot-json-schema.md``. In short::
+
+    {"schema": "revolve-env/robot", "version": 1, "name": "spider",
+     "body": {"type": "core", "orientation": 0, "params": [], "color": [r, g, b],
+              "neurons": [{"id": ..., "layer": ..., "activation": ..., "bias": ..., ...}],
+              "children": [{"slot": 0, "type": "active_hinge", ...}, ...]},
+     "connections": [{"src": "a", "dst": "b", "weight": 0.5}, ...]}
+
+Floats are written with Python's shortest round-trip representation, so
+``from_json(to_json(r)) == r`` holds exactly. Reading is strict: unknown keys, wrong types, unknown
+part types, NaN or infinite numbers and unknown schema versions are errors naming the JSON path of
+the problem (e.g. ``body.children[2].type``), and the result is validated (limits included) before
+it is returned. Every error raised here is a :class:`~revolve_env.body.validate.RobotError`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import fields
+from typing import Any
+
+from revolve_env.body.robot import Activation, Connection, Layer, Neuron, Node, PartType, Path, Robot
+from revolve_env.body.validate import Limits, RobotError, validate
+
+__all__ = [
+    "SCHEMA",
+    "SCHEMA_VERSION",
+    "from_dict",
+    "from_json",
+    "load",
+    "save",
+    "to_dict",
+    "to_json",
+]
+
+SCHEMA = "revolve-env/robot"
+"""Value of the top-level ``"schema"`` key."""
+
+SCHEMA_VERSION = 1
+"""Version written by this code; files with a higher version are refused."""
+
+_NEURON_FLOATS = ("bias", "gain", "period", "phase_offset", "amplitude")
+_NEURON_DEFAULTS = {f.name: f.default for f in fields(Neuron) if f.name in _NEURON_FLOATS}
+_TOP_KEYS = {"schema": True, "version": True, "name": False, "body": True, "connections": False}
+_NODE_KEYS = {"type": True, "orientation": False, "params": False, "color": False, "neurons": False,
+              "children": False}
+_CHILD_KEYS = {**_NODE_KEYS, "slot": True}
+_NEURON_KEYS = {"id": True, "layer": True, "activation": True, **{k: False for k in _NEURON_FLOATS}}
+_CONNECTION_KEYS = {"src": True, "dst": True, "weight": True}
+_DEFAULT_COLOR = Node.__dataclass_fields__["color"].default
+
+
+# --- writing -----------------------------------------------------------------------------------
+def _node_to_dict(node: Node, slot: int | None) -> dict[str, Any]:
+    d: dict[str, Any] = {} if slot is None else {"slot": slot}
+    d["type"] = PartType(node.type).value
+    d["orientation"] = node.orientation
+    d["params"] = [float(p) for p in node.params]
+    d["color"] = [float(c) for c in node.color]
+    d["neurons"] = [
+        {
+            "id": nr.id,
+            "layer": Layer(nr.layer).value,
+            "activation": Activation(nr.activation).value,
+            **{k: float(getattr(nr, k)) for k in _NEURON_FLOATS},
+        }
+        for nr in node.neurons
+    ]
+    d["children"] = [_node_to_dict(child, s) for s, child in node.children]
+    return d
+
+
+def to_dict(robot: Robot) -> dict[str, Any]:
+    """The robot as plain JSON-compatible data (the schema's top-level object)."""
+    return {
+        "schema": SCHEMA,
+        "version": SCHEMA_VERSION,
+        "name": robot.name,
+        "body": _node_to_dict(robot.body, None),
+        "connections": [
+            {"src": c.src, "dst": c.dst, "weight": float(c.weight)} for c in robot.connections
+        ],
+    }
+
+
+def to_json(robot: Robot, *, indent: int | None = 1) -> str:
+    """The robot as a JSON document (schema ``revolve-env/robot`` version 1).
+
+    Args:
+        robot: The robot. It is not validated, but every number must be finite.
+        indent: Passed to :func:`json.dumps`; None gives a single line.
+
+    Raises:
+        RobotError: if a number is NaN or infinite (JSON cannot hold it).
+    """
+    try:
+        return json.dumps(to_dict(robot), indent=indent, allow_nan=False, ensure_ascii=False)
+    except ValueError as exc:
+        raise RobotError(f"cannot be written as JSON: {exc}", rule="json-number") from exc
+
+
+def save(robot: Robot, path: str | os.PathLike[str]) -> None:
+    """Write the robot's JSON to ``path`` (UTF-8)."""
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(to_json(robot))
+        f.write("\n")
+
+
+# --- reading -----------------------------------------------------------------------------------
+class _Reader:
+    """Strict reader of the schema's data that names the JSON path of any problem."""
+
+    def fail(self, where: str, message: str, rule: str, path: Path | None = None) -> RobotError:
+        return RobotError(f"{where}: {message}", path=path, rule=rule)
+
+    def obj(self, value: object, where: str, keys: Mapping[str, bool],
+            path: Path | None = None) -> Mapping[str, Any]:
+        if not isinstance(value, dict):
+            raise self.fail(where, f"expected an object, got {_kind(value)}", "json-type", path)
+        for key in value:
+            if key not in keys:
+                allowed = ", ".join(sorted(keys))
+                raise self.fail(f"{where}.{key}", f"unknown key (allowed: {allowed})",
+                                "json-unknown-key", path)
+        for key, required in keys.items():
+            if required and key not in value:
+                raise self.fail(f"{where}.{key}", "missing", "json-missing", path)
+        return value
+
+    def list(self, value: object, where: str, path: Path | None = None) -> list[Any]:
+        if not isinstance(value, list):
+            raise self.fail(where, f"expected an array, got {_kind(value)}", "json-type", path)
+        return value
+
+    def number(self, value: object, where: str, path: Path | None = None) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise self.fail(where, f"expected a number, got {_kind(value)}", "json-type", path)
+        result = float(value)
+        if not math.isfinite(result):
+            raise self.fail(where, f"{value!r} is not a finite number", "json-number", path)
+        return result
+
+    def integer(self, value: object, where: str, path: Path | None = None) -> int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.fail(where, f"expected an integer, got {_kind(value)}", "json-type", path)
+        return value
+
+    def string(self, value: object, where: str, path: Path | None = None) -> str:
+        if not isinstance(value, str):
+            raise self.fail(where, f"expected a string, got {_kind(value)}", "json-type", path)
+        return value
+
+    def enum(self, enum: type[PartType] | type[Layer] | type[Activation], value: object, where: str,
+             path: Path | None) -> Any:
+        text = self.string(value, where, path)
+        try:
+            return enum(text)
+        except ValueError:
+            allowed = ", ".join(e.value for e in enum)
+            what = {PartType: "part type", Layer: "layer", Activation: "activation"}[enum]
+            raise self.fail(where, f"unknown {what} {text!r} (known: {allowed})",
+                            "json-unknown-value", path) from None
+
+    def node(self, value: object, where: str, path: Path) -> Node:
+        d = self.obj(value, where, _CHILD_KEYS if path else _NODE_KEYS, path)
+        part = self.enum(PartType, d["type"], f"{where}.type", path)
+        orientation = self.integer(d.get("orientation", 0), f"{where}.orientation", path)
+        params = tuple(
+            self.number(p, f"{where}.params[{i}]", path)
+            for i, p in enumerate(self.list(d.get("params", []), f"{where}.params", path))
+        )
+        color_list = self.list(d.get("color", list(_DEFAULT_COLOR)), f"{where}.color", path)
+        if len(color_list) != 3:
+            raise self.fail(f"{where}.color", f"expected 3 numbers (r, g, b), got {len(color_list)}",
+                            "json-value", path)
+        color = tuple(self.number(c, f"{where}.color[{i}]", path) for i, c in enumerate(color_list))
+        neurons = tuple(
+            self.neuron(n, f"{where}.neurons[{i}]", path)
+            for i, n in enumerate(self.list(d.get("neurons", []), f"{where}.neurons", path))
+        )
+        children: list[tuple[int, Node]] = []
+        for i, c in enumerate(self.list(d.get("children", []), f"{where}.children", path)):
+            cw = f"{where}.children[{i}]"
+            cd = self.obj(c, cw, _CHILD_KEYS, path)
+            slot = self.integer(cd["slot"], f"{cw}.slot", path)
+            children.append((slot, self.node(cd, cw, (*path, slot))))
+        return Node(part, orientation, params, color, neurons, tuple(children))  # type: ignore[arg-type]
+
+    def neuron(self, value: object, where: str, path: Path) -> Neuron:
+        d = self.obj(value, where, _NEURON_KEYS, path)
+        values = {k: self.number(d.get(k, _NEURON_DEFAULTS[k]), f"{where}.{k}", path)
+                  for k in _NEURON_FLOATS}
+        return Neuron(
+            id=self.string(d["id"], f"{where}.id", path),
+            layer=self.enum(Layer, d["layer"], f"{where}.layer", path),
+            activation=self.enum(Activation, d["activation"], f"{where}.activation", path),
+            **values,
+        )
+
+    def connection(self, value: object, where: str) -> Connection:
+        d = self.obj(value, where, _CONNECTION_KEYS)
+        return Connection(
+            self.string(d["src"], f"{where}.src"),
+            self.string(d["dst"], f"{where}.dst"),
+            self.number(d["weight"], f"{where}.weight"),
+        )
+
+    def robot(self, value: object) -> Robot:
+        d = self.obj(value, "(top level)", _TOP_KEYS)
+        if d["schema"] != SCHEMA:
+            raise self.fail("schema", f"expected {SCHEMA!r}, got {d['schema']!r}", "json-schema")
+        version = self.integer(d["version"], "version")
+        if version > SCHEMA_VERSION:
+            raise self.fail("version", f"version {version} was written by a newer revolve-env; "
+                            f"this one reads versions up to {SCHEMA_VERSION}", "json-version")
+        if version < 1:
+            raise self.fail("version", f"unknown version {version}", "json-version")
+        name = self.string(d.get("name", ""), "name")
+        body = self.node(d["body"], "body", ())
+        connections = tuple(
+            self.connection(c, f"connections[{i}]")
+            for i, c in enumerate(self.list(d.get("connections", []), "connections"))
+        )
+        return Robot(body, connections, name)
+
+
+def _kind(value: object) -> str:
+    if value is None:
+        return "null"
+    return {bool: "a boolean", int: "an integer", float: "a number", str: "a string",
+            list: "an array", dict: "an object"}.get(type(value), type(value).__name__)
+
+
+def from_dict(data: object, limits: Limits | None = None, *, check: bool = True) -> Robot:
+    """Build a robot from the schema's top-level object (already parsed JSON).
+
+    Args:
+        data: The parsed JSON document.
+        limits: Limits used by validation (default :class:`Limits`).
+        check: Validate the result (default). Set False only to inspect a robot known to be bad.
+
+    Raises:
+        RobotError: naming the JSON path (and the part, if any) of the first problem.
+    """
+    robot = _Reader().robot(data)
+    if check:
+        validate(robot, limits)
+    return robot
+
+
+class _NonFiniteError(ValueError):
+    pass
+
+
+def _reject_constant(name: str) -> float:
+    raise _NonFiniteError(f"{name} is not a finite number; robot JSON holds only finite numbers")
+
+
+def from_json(text: str | bytes, limits: Limits | None = None, *, check: bool = True) -> Robot:
+    """Parse and validate a robot written by :func:`to_json` (or by hand, following the schema).
+
+    Args:
+        text: The JSON document.
+        limits: Limits used by validation (default :class:`Limits`).
+        check: Validate the result (default).
+
+    Raises:
+        RobotError: for malformed JSON (rule ``json-syntax``), a document that does not follow the
+            schema (rules ``json-*``, naming the JSON path) or an invalid robot (validation rules).
+    """
+    try:
+        data = json.loads(text, parse_constant=_reject_constant)
+    except _NonFiniteError as exc:
+        raise RobotError(str(exc), rule="json-number") from exc
+    except (ValueError, TypeError) as exc:
+        raise RobotError(f"not valid JSON: {exc}", rule="json-syntax") from exc
+    return from_dict(data, limits, check=check)
+
+
+def load(path: str | os.PathLike[str], limits: Limits | None = None, *, check: bool = True) -> Robot:
+    """Read a robot from a JSON file (see :func:`from_json`)."""
+    with open(path, encoding="utf-8") as f:
+        text = f.read()
+    try:
+        return from_json(text, limits, check=check)
+    except RobotError as exc:
+        exc.add_note(f"while reading {os.fspath(path)}")
+        raise
