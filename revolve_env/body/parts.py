@@ -232,6 +232,12 @@ def _core_geometry(_: tuple[float, ...]) -> PartGeometry:
 
 
 # --- fixed brick (CoreComponentModel.cpp without electronics: BRICK_MASS) ----------------------
+# RoboGen builds the fixed brick as ``CoreComponentModel(..., hasSensors=false)``: the core's
+# 46.5 mm cube with BRICK_MASS = 14.9 g (so does Revolve's tol-robogen,
+# ``src/tol_robogen/model/PartFactory.cpp``, and the 2016 Revolve ``fixed_brick.py``). The paper's
+# "smaller than the core" matches later Revolve hardware (ci-group/revolve
+# ``pyrevolve/angle/robogen/body_parts/fixed_brick.py``: 41 x 41 x 35.5 mm, 10.2 g, with a
+# 90 x 90 x 45 mm, 90 g core); the issue asks for RoboGen's numbers, so we keep those.
 BRICK_WIDTH = 46.5 * MM
 BRICK_MASS = 14.9 * G
 
@@ -314,7 +320,10 @@ def _passive_hinge_geometry(_: tuple[float, ...]) -> PartGeometry:
 
 # --- parametric bar joint (ParametricBrickModel.cpp) --------------------------------------------
 BAR_MASS_SLOT = 1 * G
-BAR_MASS_PER_M = 2 * G / (10 * MM)  # 2 g per cm of connection length
+# RoboGen's MASS_CONNECTION_PER_CM = 2 g; its code multiplies it by the connection's *width*
+# divided by 10 in metres (a units slip giving 4 mg); we use the evident intent, 2 g per cm of
+# connection length.
+BAR_MASS_PER_M = 2 * G / (10 * MM)
 BAR_CONNECTION_WIDTH = 20 * MM
 BAR_CONNECTION_THICKNESS = 2 * MM
 
