@@ -172,9 +172,11 @@ class ReferenceBatchController:
         lay = self._layout if self._layout is not None else self._pack()
         s = lay.state
         s[lay.in_idx] = inputs
-        a = np.bincount(lay.dst, weights=lay.weight * s[lay.src], minlength=s.shape[0])
-        lin = lay.lin_gain * (a[lay.lin_idx] - lay.lin_bias)
-        sig = 1.0 / (1.0 + np.exp(-(lay.sig_gain * (a[lay.sig_idx] - lay.sig_bias))))
+        # Saturating sigmoids overflow exp to inf (giving 0), as in C; no warning for that.
+        with np.errstate(over="ignore", invalid="ignore"):
+            a = np.bincount(lay.dst, weights=lay.weight * s[lay.src], minlength=s.shape[0])
+            lin = lay.lin_gain * (a[lay.lin_idx] - lay.lin_bias)
+            sig = 1.0 / (1.0 + np.exp(-(lay.sig_gain * (a[lay.sig_idx] - lay.sig_bias))))
         t = lay.time[lay.osc_net]
         amp = lay.osc_amp
         osc = 0.5 - amp / 2.0 + amp * (np.sin(lay.osc_omega * (t - lay.osc_shift)) + 1.0) / 2.0

@@ -266,8 +266,17 @@ class NetworkSpec:
         )
 
     def param_names(self) -> list[str]:
-        """One name per learnable parameter: ``weight:src->dst`` or ``<param>:<neuron id>``."""
-        names = [f"weight:{self.ids[s]}->{self.ids[d]}" for s, d in zip(self.src, self.dst)]
+        """One unique name per learnable parameter.
+
+        ``weight:<src>-><dst>`` (``#2``, ``#3``... appended for repeated parallel connections) or
+        ``<param>:<neuron id>``.
+        """
+        names: list[str] = []
+        seen: dict[tuple[int, int], int] = {}
+        for s, d in zip(self.src.tolist(), self.dst.tolist()):
+            seen[s, d] = seen.get((s, d), 0) + 1
+            repeat = f"#{seen[s, d]}" if seen[s, d] > 1 else ""  # parallel connections
+            names.append(f"weight:{self.ids[s]}->{self.ids[d]}{repeat}")
         for cell in self.param_cells:
             i, col = divmod(int(cell), 5)
             names.append(f"{NEURON_PARAM_COLUMNS[col]}:{self.ids[i]}")

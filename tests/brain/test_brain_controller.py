@@ -1,0 +1,275 @@
+"""Compiled BatchController against the NumPy reference and against hand-computed values."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from brain_strategies import robots
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from test_brain_spec import small_robot
+
+from revolve_env import _controller
+from revolve_env.body.robot import Activation, Connection, Layer, Neuron, Node, PartType, Robot
+from revolve_env.brain import BatchController, NetworkSpec, ReferenceBatchController
+
+CONTROLLERS = [BatchController, ReferenceBatchController]
+DT = 0.05  # seconds
+# Both do the same floating-point operations in the same order (on the development machine the
+# results are bitwise equal); exp and sin may still differ in the last bit between the C library
+# and NumPy on other platforms, hence a tolerance rather than equality.
+TOL = dict(rtol=1e-9, atol=1e-9)
+
+
+def run(ctrl: BatchController | ReferenceBatchController, inputs: np.ndarray) -> np.ndarray:
+    """Step ``ctrl`` once per row of ``inputs``; the outputs of every tick, stacked."""
+    out = np.empty(ctrl.n_outputs)
+    rows = []
+    for x in inputs:
+        ctrl.step(np.ascontiguousarray(x), out)
+        rows.append(out.copy())
+    return np.array(rows).reshape(len(inputs), ctrl.n_outputs)
+
+
+def sensor_values(rng: np.random.Generator, ticks: int, n: int) -> np.ndarray:
+    return rng.uniform(-1.0, 1.0, size=(ticks, n))
+
+
+@pytest.mark.parametrize("cls", CONTROLLERS)
+def test_hand_computed_ticks(cls: type) -> None:
+    """small_robot(): m = sigmoid(2 (0.5 ax - m_prev - 0.1)); lin = 1.5 (1.5 osc_prev + 0.5)."""
+    ctrl = cls(0.1)
+    h = ctrl.add(small_robot())
+    out = np.zeros(1)
+    m = lin = osc = 0.0
+    for k in range(6):
+        t = 0.1 * k
+        ax = 0.3 * k
+        ctrl.step(np.array([ax]), out)
+        m, lin, osc = (
+            1.0 / (1.0 + math.exp(-2.0 * (0.5 * ax - 1.0 * m - 0.1))),
+            1.5 * (1.5 * osc + 0.5),
+            0.5 - 0.25 + 0.5 * (math.sin(2 * math.pi / 2.0 * (t - 2.0 * 0.25)) + 1) / 2,
+        )
+        assert out[0] == pytest.approx(2 * m - 1, abs=1e-12)
+        np.testing.assert_allclose(ctrl.get_state(h), [ax, m, lin, osc], atol=1e-12)
+        assert ctrl.time(h) == pytest.approx(0.1 * (k + 1))
+
+
+@pytest.mark.parametrize("cls", CONTROLLERS)
+def test_outputs_are_clipped_targets(cls: type) -> None:
+    """A linear output driven far past the range saturates at +-1; a bias of 0.5 maps to 0."""
+    core = Node(
+        PartType.CORE,
+        neurons=(
+            Neuron("in", Layer.INPUT, Activation.INPUT),
+            Neuron("big", Layer.OUTPUT, Activation.LINEAR, gain=4.0),
+            Neuron("mid", Layer.OUTPUT, Activation.LINEAR, bias=-0.5, gain=1.0),
+        ),
+    )
+    ctrl = cls(DT)
+    ctrl.add(Robot(core, (Connection("in", "big", 2.0),)))
+    out = np.zeros(2)
+    ctrl.step(np.array([5.0]), out)
+    np.testing.assert_array_equal(out, [1.0, 0.0])
+    ctrl.step(np.array([-5.0]), out)
+    np.testing.assert_array_equal(out, [-1.0, 0.0])
+
+
+@given(robots(), st.integers(0, 2**32 - 1))
+@settings(max_examples=60, deadline=None)
+def test_compiled_equals_reference(robot: Robot, seed: int) -> None:
+    ticks = 300  # 15 s of robot time: many oscillator periods, recurrence well exercised
+    fast, ref = BatchController(DT), ReferenceBatchController(DT)
+    hf, hr = fast.add(robot), ref.add(robot)
+    x = sensor_values(np.random.default_rng(seed), ticks, fast.n_inputs)
+    np.testing.assert_allclose(run(fast, x), run(ref, x), **TOL)
+    np.testing.assert_allclose(fast.get_state(hf), ref.get_state(hr), **TOL)
+    assert fast.time(hf) == ref.time(hr)
+
+
+@given(st.lists(robots(), min_size=1, max_size=5), st.integers(0, 2**32 - 1))
+@settings(max_examples=30, deadline=None)
+def test_batch_equals_each_alone(batch: list[Robot], seed: int) -> None:
+    ticks = 60
+    for cls in CONTROLLERS:
+        together = cls(DT)
+        handles = [together.add(r) for r in batch]
+        x = sensor_values(np.random.default_rng(seed), ticks, together.n_inputs)
+        y = run(together, x)
+        for h, r in zip(handles, batch):
+            alone = cls(DT)
+            alone.add(r)
+            np.testing.assert_array_equal(
+                run(alone, x[:, together.input_slice(h)]), y[:, together.output_slice(h)]
+            )
+
+
+@given(st.lists(robots(), min_size=4, max_size=4), st.integers(0, 2**32 - 1))
+@settings(max_examples=20, deadline=None)
+def test_add_and_remove_between_ticks(four: list[Robot], seed: int) -> None:
+    """Population changes keep every survivor's state, time and slot contents."""
+    rng = np.random.default_rng(seed)
+    for cls in CONTROLLERS:
+        batch = cls(DT)
+        alone: dict[int, tuple[object, Robot]] = {}
+
+        def add(r: Robot) -> None:
+            single = cls(DT)
+            single.add(r)
+            alone[batch.add(r)] = (single, r)
+
+        def tick() -> None:
+            x = rng.uniform(-1, 1, batch.n_inputs)
+            y = np.full(batch.n_outputs, np.nan)
+            batch.step(x, y)
+            for h, (single, _) in alone.items():
+                want = np.empty(single.n_outputs)
+                single.step(np.ascontiguousarray(x[batch.input_slice(h)]), want)
+                np.testing.assert_array_equal(y[batch.output_slice(h)], want)
+
+        for r in four[:3]:
+            add(r)
+        tick(), tick()
+        first, middle = batch.handles[0], batch.handles[1]
+        batch.remove(middle)
+        del alone[middle]
+        tick()
+        add(four[3])
+        tick()
+        batch.remove(first)
+        del alone[first]
+        tick(), tick()
+        assert batch.handles == list(alone)
+        assert middle not in batch.handles and max(batch.handles) == 3  # handles are never reused
+        assert batch.n_inputs == sum(s.n_inputs for s, _ in alone.values())
+
+
+@pytest.mark.parametrize("cls", CONTROLLERS)
+def test_reset_restarts_state_and_time(cls: type) -> None:
+    x = sensor_values(np.random.default_rng(1), 20, 1)
+    ctrl = cls(DT)
+    h = ctrl.add(small_robot())
+    first = run(ctrl, x)
+    ctrl.reset(h)
+    assert ctrl.time(h) == 0.0 and not ctrl.get_state(h).any()
+    np.testing.assert_array_equal(run(ctrl, x), first)
+    ctrl.reset()
+    np.testing.assert_array_equal(run(ctrl, x), first)
+
+
+@given(robots(), st.integers(0, 2**32 - 1))
+@settings(max_examples=30, deadline=None)
+def test_set_params_mid_run_matches_reference_and_keeps_state(robot: Robot, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    fast, ref = BatchController(DT), ReferenceBatchController(DT)
+    hf, hr = fast.add(robot), ref.add(robot)
+    x = sensor_values(rng, 40, fast.n_inputs)
+    run(fast, x[:20]), run(ref, x[:20])
+    before = fast.get_state(hf)
+    b = fast.param_bounds(hf)
+    p = rng.uniform(b[:, 0], b[:, 1])
+    fast.set_params(hf, p)
+    ref.set_params(hr, p)
+    np.testing.assert_array_equal(fast.get_params(hf), p)
+    np.testing.assert_array_equal(fast.get_state(hf), before)
+    assert fast.param_names(hf) == NetworkSpec.from_robot(robot).param_names()
+    np.testing.assert_allclose(run(fast, x[20:]), run(ref, x[20:]), **TOL)
+
+
+def test_step_writes_in_place_and_leaves_inputs_alone() -> None:
+    ctrl = BatchController(DT)
+    ctrl.add(small_robot())
+    ctrl.add(small_robot())
+    x = np.array([0.2, -0.4])
+    x.setflags(write=False)  # read-only inputs are fine
+    out = np.full(2, 7.0)
+    ctrl.step(x, out)
+    assert (out != 7.0).all() and np.abs(out).max() <= 1.0
+    np.testing.assert_array_equal(x, [0.2, -0.4])
+
+
+# -- bad input ---------------------------------------------------------------------------------
+@pytest.mark.parametrize("cls", CONTROLLERS)
+def test_bad_step_arrays_raise_value_error(cls: type) -> None:
+    ctrl = cls(DT)
+    ctrl.add(small_robot())
+    ctrl.add(small_robot())
+    good_in, good_out = np.zeros(2), np.zeros(2)
+    read_only = np.zeros(2)
+    read_only.setflags(write=False)
+    bad_pairs = [
+        (np.zeros(3), good_out),
+        (good_in, np.zeros(1)),
+        (np.zeros((2, 1)), good_out),
+        (np.zeros(2, np.float32), good_out),
+        (good_in, np.zeros(2, np.float32)),
+        (np.zeros(4)[::2], good_out),
+        (good_in, np.zeros(4)[::2]),
+        ([0.0, 0.0], good_out),
+        (good_in, read_only),
+    ]
+    for x, y in bad_pairs:
+        with pytest.raises(ValueError):
+            ctrl.step(x, y)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("cls", CONTROLLERS)
+def test_unknown_handles_and_bad_params(cls: type) -> None:
+    ctrl = cls(DT)
+    h = ctrl.add(small_robot())
+    ctrl.remove(h)
+    for call in (ctrl.remove, ctrl.reset, ctrl.get_params, ctrl.input_slice, ctrl.output_slice):
+        with pytest.raises(KeyError):
+            call(h)
+    h = ctrl.add(small_robot())
+    with pytest.raises(ValueError, match="expected"):
+        ctrl.set_params(h, np.zeros(3))
+    p = ctrl.get_params(h)
+    p[0] = np.inf
+    with pytest.raises(ValueError, match="inf"):
+        ctrl.set_params(h, p)
+    np.testing.assert_array_equal(ctrl.get_params(h), NetworkSpec.from_robot(small_robot()).params())
+    with pytest.raises(ValueError, match="dt"):
+        cls(0.0)
+    with pytest.raises(TypeError):
+        ctrl.add("robot")  # type: ignore[arg-type]
+
+
+def _raw_args() -> dict:
+    spec = NetworkSpec.from_robot(small_robot())
+    return dict(
+        kinds=np.array(spec.kinds), neuron_params=np.array(spec.neuron_params),
+        src=np.array(spec.src), dst=np.array(spec.dst), weight=np.array(spec.weight),
+        n_inputs=spec.n_inputs, n_outputs=spec.n_outputs,
+    )
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (dict(src=np.array([0, 1, 9], np.int32)), "missing source"),
+        (dict(dst=np.array([1, 1, -1], np.int32)), "missing destination"),
+        (dict(dst=np.array([1, 0, 2], np.int32)), "input neuron"),
+        (dict(weight=np.array([0.0, np.nan, 0.0])), "weight"),
+        (dict(weight=np.zeros(2)), "same length"),
+        (dict(kinds=np.array([0, 2, 1, 7], np.int8)), "unknown kind"),
+        (dict(kinds=np.array([0, 0, 1, 3], np.int8)), "input neurons"),
+        (dict(neuron_params=np.zeros((4, 4))), "shape"),
+        (dict(neuron_params=np.zeros((4, 5))), "period"),  # oscillator with period 0
+        (dict(n_inputs=3, n_outputs=2), "sizes"),
+    ],
+)
+def test_compiled_module_validates_raw_networks(change: dict, message: str) -> None:
+    """Calling the C++ module directly with broken arrays raises instead of crashing."""
+    ctrl = _controller.BatchController(DT)
+    with pytest.raises(ValueError, match=message):
+        ctrl.add(**{**_raw_args(), **change})
+    assert len(ctrl) == 0
+    h = ctrl.add(**_raw_args())
+    with pytest.raises(ValueError):
+        ctrl.set_params(h, np.zeros((3, 5)), np.zeros(3))
+    with pytest.raises(ValueError, match="period"):
+        ctrl.set_params(h, np.zeros((4, 5)), np.zeros(3))
