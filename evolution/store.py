@@ -1,0 +1,712 @@
+"""The results store: one SQLite database per experiment.
+
+Standard library ``sqlite3``, write-ahead log, versioned schema. Runs write their records in
+batches, one transaction per *commit point* (an offline generation, an online birth): a batch
+holds the robots, fitness samples, lifecycle transitions, population snapshot, diversity values
+and failures since the previous commit point, together with the run's *checkpoint* (births,
+simulated time, the random generator's state and the engine's state). A killed run therefore
+loses at most the work since its last commit, and a resumed run starts exactly from the
+checkpoint.
+
+Tables (``run_id`` is the repeat index within the experiment, ``robot_id`` the birth index of the
+robot within its run, so ``(run_id, robot_id)`` names a robot):
+
+========== ===================================================================================
+meta        key/value: ``schema_version``, ``package_version``, ``config`` (JSON), ``seed``
+runs        one row per run: seed, status, births, simulated time, generation
+checkpoints the latest commit point of each run: rng state and engine state (JSON)
+robots      genome (robot JSON), parents, origin, conception/birth/death time, cause, fitness
+fitness     fitness samples over simulated time (offline: one per evaluation)
+transitions every lifecycle transition with its simulated time
+population  population snapshots: the members and their fitness after each commit point
+diversity   population diversity over births
+failures    crossover failures, blow-ups, learner failures, ... with their time
+========== ===================================================================================
+
+The query functions at the bottom (``fitness_over_births``, ``final_population``, ...) are what
+reports and plots read.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sqlite3
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from evolution.lifecycle import Stage, Transition
+
+__all__ = [
+    "SCHEMA_VERSION",
+    "DB_NAME",
+    "Batch",
+    "Checkpoint",
+    "DiversityPoint",
+    "FailureRecord",
+    "FitnessSample",
+    "FitnessSeries",
+    "RobotRecord",
+    "RunRecord",
+    "Store",
+    "StoreError",
+    "package_version",
+]
+
+SCHEMA_VERSION = 1
+"""Version of the database layout; a database with a newer one is refused."""
+
+DB_NAME = "results.sqlite"
+"""File name of the database inside a results directory."""
+
+_SCHEMA = """
+CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE runs (
+    run_id INTEGER PRIMARY KEY,
+    seed INTEGER NOT NULL,
+    status TEXT NOT NULL CHECK (status IN ('pending', 'running', 'interrupted', 'finished')),
+    births INTEGER NOT NULL DEFAULT 0,
+    sim_time REAL NOT NULL DEFAULT 0,
+    generation INTEGER NOT NULL DEFAULT 0
+);
+CREATE TABLE checkpoints (
+    run_id INTEGER PRIMARY KEY REFERENCES runs(run_id),
+    births INTEGER NOT NULL,
+    sim_time REAL NOT NULL,
+    generation INTEGER NOT NULL,
+    rng_state TEXT NOT NULL,
+    engine_state TEXT NOT NULL
+);
+CREATE TABLE robots (
+    run_id INTEGER NOT NULL REFERENCES runs(run_id),
+    robot_id INTEGER NOT NULL,
+    genome TEXT NOT NULL,
+    parent_a INTEGER,
+    parent_b INTEGER,
+    origin TEXT NOT NULL,
+    generation INTEGER NOT NULL,
+    conceived_time REAL NOT NULL,
+    birth_time REAL,
+    death_time REAL,
+    death_cause TEXT,
+    fitness REAL,
+    PRIMARY KEY (run_id, robot_id)
+);
+CREATE TABLE fitness (
+    run_id INTEGER NOT NULL,
+    robot_id INTEGER NOT NULL,
+    time REAL NOT NULL,
+    fitness REAL NOT NULL,
+    v REAL,
+    s REAL
+);
+CREATE INDEX fitness_by_robot ON fitness (run_id, robot_id);
+CREATE TABLE transitions (
+    run_id INTEGER NOT NULL,
+    robot_id INTEGER NOT NULL,
+    source TEXT,
+    target TEXT NOT NULL,
+    time REAL NOT NULL,
+    note TEXT NOT NULL DEFAULT ''
+);
+CREATE INDEX transitions_by_robot ON transitions (run_id, robot_id);
+CREATE TABLE population (
+    run_id INTEGER NOT NULL,
+    births INTEGER NOT NULL,
+    sim_time REAL NOT NULL,
+    robot_id INTEGER NOT NULL,
+    fitness REAL
+);
+CREATE INDEX population_by_births ON population (run_id, births);
+CREATE TABLE diversity (
+    run_id INTEGER NOT NULL,
+    births INTEGER NOT NULL,
+    sim_time REAL NOT NULL,
+    value REAL NOT NULL,
+    PRIMARY KEY (run_id, births)
+);
+CREATE TABLE failures (
+    run_id INTEGER NOT NULL,
+    robot_id INTEGER,
+    time REAL NOT NULL,
+    kind TEXT NOT NULL,
+    detail TEXT NOT NULL DEFAULT ''
+);
+"""
+
+
+class StoreError(ValueError):
+    """A results database that cannot be used: missing, corrupt, newer schema, other experiment."""
+
+
+def package_version() -> str:
+    """The installed version of ``revolve-env`` (``"unknown"`` when not installed)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("revolve-env")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+# --------------------------------------------------------------------------------------------
+# Records
+
+
+@dataclass(frozen=True, slots=True)
+class RobotRecord:
+    """One robot of a run as stored.
+
+    Attributes:
+        run_id: Run (repeat index).
+        robot_id: Birth index within the run.
+        genome: The robot as JSON (``revolve_env.body.serialize``).
+        parent_a: First parent's id, ``None`` for a random robot.
+        parent_b: Second parent's id, ``None`` for a random robot.
+        origin: ``"random"``, ``"reproduction"`` or ``"random-fallback"`` (reproduction failed
+            too often).
+        generation: Offline generation (online: 0).
+        conceived_time: Simulated time of conception. Seconds.
+        birth_time: Simulated time of delivery; ``None`` if never delivered. Seconds.
+        death_time: Simulated time of death; ``None`` while alive. Seconds.
+        death_cause: Why it died (``"survivor selection"``, ``"blow-up: ..."``); ``None`` alive.
+        fitness: Last known fitness (offline: the evaluation; online: the last sample).
+    """
+
+    run_id: int
+    robot_id: int
+    genome: str
+    parent_a: int | None
+    parent_b: int | None
+    origin: str
+    generation: int
+    conceived_time: float
+    birth_time: float | None
+    death_time: float | None = None
+    death_cause: str | None = None
+    fitness: float | None = None
+
+    def robot(self) -> Any:
+        """The genome decoded into a :class:`~revolve_env.body.robot.Robot`."""
+        from revolve_env.body.serialize import from_json
+
+        return from_json(self.genome)
+
+
+@dataclass(frozen=True, slots=True)
+class FitnessSample:
+    """A robot's fitness at one simulated time.
+
+    Attributes:
+        robot_id: The robot.
+        time: Simulated time. Seconds.
+        fitness: ``v + 5 s`` over the preceding window. Metres.
+        v: Path length over the window. Metres. ``None`` when unknown.
+        s: Straight-line displacement over the window. Metres. ``None`` when unknown.
+    """
+
+    robot_id: int
+    time: float
+    fitness: float
+    v: float | None = None
+    s: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class FailureRecord:
+    """Something that went wrong and was handled (``kind``: e.g. ``"crossover"``, ``"blow-up"``).
+
+    Attributes:
+        robot_id: Robot concerned, if any.
+        time: Simulated time. Seconds.
+        kind: Short machine-readable kind.
+        detail: Human-readable detail.
+    """
+
+    robot_id: int | None
+    time: float
+    kind: str
+    detail: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class DiversityPoint:
+    """Population diversity after ``births`` births (mean pairwise tree edit distance)."""
+
+    births: int
+    sim_time: float
+    value: float
+
+
+@dataclass(frozen=True, slots=True)
+class Checkpoint:
+    """Where a run stands at a commit point: enough to continue it exactly.
+
+    Attributes:
+        births: Robots born so far.
+        sim_time: Simulated time. Seconds.
+        generation: Offline generation counter (online: number of conception ticks).
+        rng_state: ``numpy.random.Generator.bit_generator.state``.
+        engine_state: Whatever else the engine needs (JSON-compatible).
+    """
+
+    births: int
+    sim_time: float
+    generation: int
+    rng_state: dict[str, Any]
+    engine_state: dict[str, Any]
+
+
+@dataclass(slots=True)
+class Batch:
+    """The records of one commit point, written in one transaction."""
+
+    robots: list[RobotRecord] = field(default_factory=list)
+    deaths: list[tuple[int, float, str, float | None]] = field(default_factory=list)
+    """(robot_id, time, cause, final fitness) of robots stored earlier that died now."""
+    fitness_updates: list[tuple[int, float]] = field(default_factory=list)
+    """(robot_id, fitness): latest fitness of robots stored earlier."""
+    fitness: list[FitnessSample] = field(default_factory=list)
+    transitions: list[Transition] = field(default_factory=list)
+    population: list[tuple[int, float | None]] | None = None
+    """Snapshot (robot_id, fitness) of the population at this commit point, if any."""
+    diversity: float | None = None
+    failures: list[FailureRecord] = field(default_factory=list)
+
+    def clear(self) -> None:
+        """Forget everything (after it has been written)."""
+        self.robots.clear()
+        self.deaths.clear()
+        self.fitness_updates.clear()
+        self.fitness.clear()
+        self.transitions.clear()
+        self.population = None
+        self.diversity = None
+        self.failures.clear()
+
+
+@dataclass(frozen=True, slots=True)
+class RunRecord:
+    """One run of an experiment."""
+
+    run_id: int
+    seed: int
+    status: str
+    births: int
+    sim_time: float
+    generation: int
+
+
+@dataclass(frozen=True, slots=True)
+class FitnessSeries:
+    """Population fitness after each commit point of a run (arrays of equal length).
+
+    Attributes:
+        births: Births so far.
+        sim_time: Simulated time. Seconds.
+        mean: Mean fitness of the population (robots with a fitness).
+        best: Highest fitness.
+        worst: Lowest fitness.
+        median: Median fitness.
+        size: Population size (all members, with or without fitness).
+    """
+
+    births: np.ndarray
+    sim_time: np.ndarray
+    mean: np.ndarray
+    best: np.ndarray
+    worst: np.ndarray
+    median: np.ndarray
+    size: np.ndarray
+
+
+def _nullable(value: float | None) -> float | None:
+    """SQLite has no NaN; store a non-finite fitness as NULL... except infinities, kept."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return None
+    return float(value)
+
+
+# --------------------------------------------------------------------------------------------
+# The store
+
+
+class Store:
+    """An open results database. Use :meth:`create` for a new one, :meth:`open` otherwise."""
+
+    def __init__(self, connection: sqlite3.Connection, path: Path) -> None:
+        self._db = connection
+        self.path = path
+
+    # -- opening ---------------------------------------------------------------------------
+
+    @staticmethod
+    def _connect(path: Path) -> sqlite3.Connection:
+        db = sqlite3.connect(path, timeout=60.0, isolation_level=None, check_same_thread=False)
+        db.execute("PRAGMA busy_timeout = 60000")
+        return db
+
+    @classmethod
+    def create(cls, path: str | Path, config: dict[str, Any], seed: int) -> Store:
+        """Create a new database at ``path`` (which must not exist) for an experiment.
+
+        Raises:
+            StoreError: ``path`` already exists (existing results are never overwritten).
+        """
+        path = Path(path)
+        if path.exists():
+            raise StoreError(f"{path} already exists; refusing to overwrite existing results")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        db = cls._connect(path)
+        try:
+            db.execute("PRAGMA journal_mode = WAL")
+            # Schema and meta in one transaction: a database without meta is never left behind.
+            with _transaction(db):
+                for statement in _SCHEMA.split(";"):
+                    if statement.strip():
+                        db.execute(statement)
+                db.executemany(
+                    "INSERT INTO meta (key, value) VALUES (?, ?)",
+                    [
+                        ("schema_version", str(SCHEMA_VERSION)),
+                        ("package_version", package_version()),
+                        ("config", json.dumps(config, sort_keys=True)),
+                        ("seed", str(int(seed))),
+                    ],
+                )
+        except BaseException:
+            db.close()
+            path.unlink(missing_ok=True)
+            raise
+        return cls(db, path)
+
+    @classmethod
+    def open(cls, path: str | Path) -> Store:
+        """Open an existing database, checking that it is one of ours and not newer.
+
+        Raises:
+            StoreError: missing file, not a SQLite database, corrupt, not a results database, or
+                a schema newer than this package understands.
+        """
+        path = Path(path)
+        if not path.is_file():
+            raise StoreError(f"no results database at {path}")
+        try:
+            db = cls._connect(path)
+            check = db.execute("PRAGMA quick_check").fetchone()
+        except sqlite3.DatabaseError as error:
+            raise StoreError(f"{path} is not a readable SQLite database ({error}); corrupt?") from error
+        if check is None or check[0] != "ok":
+            db.close()
+            raise StoreError(f"{path} is corrupt: integrity check says {check!r}")
+        try:
+            rows = dict(db.execute("SELECT key, value FROM meta").fetchall())
+        except sqlite3.DatabaseError as error:
+            db.close()
+            raise StoreError(f"{path} is not a revolve-env results database ({error})") from error
+        if "schema_version" not in rows or "config" not in rows:
+            db.close()
+            raise StoreError(f"{path} is not a revolve-env results database (meta table incomplete)")
+        version = int(rows["schema_version"])
+        if version > SCHEMA_VERSION:
+            db.close()
+            raise StoreError(
+                f"{path} has schema version {version}, newer than this package's "
+                f"{SCHEMA_VERSION}; upgrade revolve-env to read it"
+            )
+        if version < SCHEMA_VERSION:
+            db.close()
+            raise StoreError(
+                f"{path} has schema version {version}, older than this package's {SCHEMA_VERSION}"
+            )
+        return cls(db, path)
+
+    def close(self) -> None:
+        """Close the connection."""
+        self._db.close()
+
+    def __enter__(self) -> Store:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- meta ------------------------------------------------------------------------------
+
+    def meta(self) -> dict[str, str]:
+        """All key/value pairs of the meta table."""
+        return dict(self._db.execute("SELECT key, value FROM meta").fetchall())
+
+    @property
+    def config(self) -> dict[str, Any]:
+        """The experiment configuration the database was created for."""
+        return json.loads(self.meta()["config"])
+
+    @property
+    def seed(self) -> int:
+        """The experiment's seed."""
+        return int(self.meta()["seed"])
+
+    # -- writing ---------------------------------------------------------------------------
+
+    def add_run(self, run_id: int, seed: int) -> None:
+        """Register a run (status ``pending``); a no-op if it exists with the same seed."""
+        with _transaction(self._db):
+            row = self._db.execute("SELECT seed FROM runs WHERE run_id = ?", (run_id,)).fetchone()
+            if row is None:
+                self._db.execute(
+                    "INSERT INTO runs (run_id, seed, status) VALUES (?, ?, 'pending')",
+                    (run_id, int(seed)),
+                )
+            elif row[0] != int(seed):
+                raise StoreError(f"run {run_id} exists with seed {row[0]}, not {seed}")
+
+    def set_status(self, run_id: int, status: str) -> None:
+        """Set a run's status (``pending``, ``running``, ``interrupted``, ``finished``)."""
+        with _transaction(self._db):
+            self._db.execute("UPDATE runs SET status = ? WHERE run_id = ?", (status, run_id))
+
+    def commit(self, run_id: int, batch: Batch, checkpoint: Checkpoint) -> None:
+        """Write one commit point atomically: the batch's records and the run's checkpoint."""
+        db = self._db
+        with _transaction(db):
+            db.executemany(
+                "INSERT INTO robots (run_id, robot_id, genome, parent_a, parent_b, origin, "
+                "generation, conceived_time, birth_time, death_time, death_cause, fitness) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                [
+                    (run_id, r.robot_id, r.genome, r.parent_a, r.parent_b, r.origin, r.generation,
+                     r.conceived_time, r.birth_time, r.death_time, r.death_cause,
+                     _nullable(r.fitness))
+                    for r in batch.robots
+                ],
+            )
+            db.executemany(
+                "UPDATE robots SET fitness = ? WHERE run_id = ? AND robot_id = ?",
+                [(_nullable(f), run_id, rid) for rid, f in batch.fitness_updates],
+            )
+            db.executemany(
+                "UPDATE robots SET death_time = ?, death_cause = ?, "
+                "fitness = COALESCE(?, fitness) WHERE run_id = ? AND robot_id = ?",
+                [(t, cause, _nullable(f), run_id, rid) for rid, t, cause, f in batch.deaths],
+            )
+            db.executemany(
+                "INSERT INTO fitness (run_id, robot_id, time, fitness, v, s) "
+                "VALUES (?, ?, ?, ?, ?, ?)",
+                [(run_id, s.robot_id, s.time, s.fitness, s.v, s.s) for s in batch.fitness],
+            )
+            db.executemany(
+                "INSERT INTO transitions (run_id, robot_id, source, target, time, note) "
+                "VALUES (?, ?, ?, ?, ?, ?)",
+                [
+                    (run_id, t.robot_id, None if t.source is None else t.source.value,
+                     t.target.value, t.time, t.note)
+                    for t in batch.transitions
+                ],
+            )
+            if batch.population is not None:
+                db.executemany(
+                    "INSERT INTO population (run_id, births, sim_time, robot_id, fitness) "
+                    "VALUES (?, ?, ?, ?, ?)",
+                    [
+                        (run_id, checkpoint.births, checkpoint.sim_time, rid, _nullable(f))
+                        for rid, f in batch.population
+                    ],
+                )
+            if batch.diversity is not None:
+                db.execute(
+                    "INSERT OR REPLACE INTO diversity (run_id, births, sim_time, value) "
+                    "VALUES (?, ?, ?, ?)",
+                    (run_id, checkpoint.births, checkpoint.sim_time, float(batch.diversity)),
+                )
+            db.executemany(
+                "INSERT INTO failures (run_id, robot_id, time, kind, detail) VALUES (?, ?, ?, ?, ?)",
+                [(run_id, f.robot_id, f.time, f.kind, f.detail) for f in batch.failures],
+            )
+            db.execute(
+                "INSERT OR REPLACE INTO checkpoints "
+                "(run_id, births, sim_time, generation, rng_state, engine_state) "
+                "VALUES (?, ?, ?, ?, ?, ?)",
+                (run_id, checkpoint.births, checkpoint.sim_time, checkpoint.generation,
+                 json.dumps(checkpoint.rng_state, sort_keys=True),
+                 json.dumps(checkpoint.engine_state, sort_keys=True)),
+            )
+            db.execute(
+                "UPDATE runs SET births = ?, sim_time = ?, generation = ? WHERE run_id = ?",
+                (checkpoint.births, checkpoint.sim_time, checkpoint.generation, run_id),
+            )
+        batch.clear()
+
+    # -- reading ---------------------------------------------------------------------------
+
+    def checkpoint(self, run_id: int) -> Checkpoint | None:
+        """The latest commit point of a run, ``None`` before the first."""
+        row = self._db.execute(
+            "SELECT births, sim_time, generation, rng_state, engine_state FROM checkpoints "
+            "WHERE run_id = ?",
+            (run_id,),
+        ).fetchone()
+        if row is None:
+            return None
+        return Checkpoint(row[0], row[1], row[2], json.loads(row[3]), json.loads(row[4]))
+
+    def runs(self) -> list[RunRecord]:
+        """All runs, by id."""
+        rows = self._db.execute(
+            "SELECT run_id, seed, status, births, sim_time, generation FROM runs ORDER BY run_id"
+        ).fetchall()
+        return [RunRecord(*row) for row in rows]
+
+    def robot(self, run_id: int, robot_id: int) -> RobotRecord:
+        """One robot.
+
+        Raises:
+            KeyError: no such robot.
+        """
+        row = self._db.execute(
+            f"SELECT {_ROBOT_COLUMNS} FROM robots WHERE run_id = ? AND robot_id = ?",
+            (run_id, robot_id),
+        ).fetchone()
+        if row is None:
+            raise KeyError(f"no robot {robot_id} in run {run_id} of {self.path}")
+        return RobotRecord(*row)
+
+    def robots(self, run_id: int, ids: Sequence[int] | None = None) -> list[RobotRecord]:
+        """The robots of a run in birth order (only ``ids`` if given)."""
+        rows = self._db.execute(
+            f"SELECT {_ROBOT_COLUMNS} FROM robots WHERE run_id = ? ORDER BY robot_id", (run_id,)
+        ).fetchall()
+        records = [RobotRecord(*row) for row in rows]
+        if ids is not None:
+            wanted = set(ids)
+            records = [r for r in records if r.robot_id in wanted]
+        return records
+
+    def fitness_samples(self, run_id: int, robot_id: int | None = None) -> list[FitnessSample]:
+        """Fitness samples of a run (of one robot if given), in time order."""
+        query = "SELECT robot_id, time, fitness, v, s FROM fitness WHERE run_id = ?"
+        args: tuple[int, ...] = (run_id,)
+        if robot_id is not None:
+            query += " AND robot_id = ?"
+            args += (robot_id,)
+        rows = self._db.execute(query + " ORDER BY time, robot_id", args).fetchall()
+        return [FitnessSample(*row) for row in rows]
+
+    def transitions(self, run_id: int, robot_id: int | None = None) -> list[Transition]:
+        """Lifecycle transitions of a run (of one robot if given), in recorded order."""
+        query = "SELECT robot_id, source, target, time, note FROM transitions WHERE run_id = ?"
+        args: tuple[int, ...] = (run_id,)
+        if robot_id is not None:
+            query += " AND robot_id = ?"
+            args += (robot_id,)
+        rows = self._db.execute(query + " ORDER BY rowid", args).fetchall()
+        return [
+            Transition(rid, None if src is None else Stage(src), Stage(dst), time, note)
+            for rid, src, dst, time, note in rows
+        ]
+
+    def failures(self, run_id: int, kind: str | None = None) -> list[FailureRecord]:
+        """Handled failures of a run (of one kind if given), in recorded order."""
+        query = "SELECT robot_id, time, kind, detail FROM failures WHERE run_id = ?"
+        args: tuple[Any, ...] = (run_id,)
+        if kind is not None:
+            query += " AND kind = ?"
+            args += (kind,)
+        return [FailureRecord(*row) for row in self._db.execute(query + " ORDER BY rowid", args)]
+
+    def population_snapshots(self, run_id: int) -> list[tuple[int, float, list[tuple[int, float | None]]]]:
+        """Every population snapshot: ``(births, sim_time, [(robot_id, fitness), ...])``."""
+        rows = self._db.execute(
+            "SELECT births, sim_time, robot_id, fitness FROM population WHERE run_id = ? "
+            "ORDER BY births, rowid",
+            (run_id,),
+        ).fetchall()
+        snapshots: list[tuple[int, float, list[tuple[int, float | None]]]] = []
+        for births, sim_time, robot_id, fitness in rows:
+            if not snapshots or snapshots[-1][0] != births:
+                snapshots.append((births, sim_time, []))
+            snapshots[-1][2].append((robot_id, fitness))
+        return snapshots
+
+    def fitness_over_births(self, run_id: int) -> FitnessSeries:
+        """Population fitness statistics after each commit point of a run (for plots)."""
+        births, times, means, bests, worsts, medians, sizes = [], [], [], [], [], [], []
+        for b, t, members in self.population_snapshots(run_id):
+            values = np.array([f for _, f in members if f is not None and math.isfinite(f)])
+            births.append(b)
+            times.append(t)
+            sizes.append(len(members))
+            if values.size:
+                means.append(values.mean())
+                bests.append(values.max())
+                worsts.append(values.min())
+                medians.append(float(np.median(values)))
+            else:
+                means.append(math.nan)
+                bests.append(math.nan)
+                worsts.append(math.nan)
+                medians.append(math.nan)
+        return FitnessSeries(
+            np.array(births, dtype=np.int64), np.array(times, dtype=float),
+            np.array(means, dtype=float), np.array(bests, dtype=float),
+            np.array(worsts, dtype=float), np.array(medians, dtype=float),
+            np.array(sizes, dtype=np.int64),
+        )
+
+    def final_population(self, run_id: int) -> list[tuple[int, float | None]]:
+        """The last population snapshot of a run: ``[(robot_id, fitness), ...]``."""
+        snapshots = self.population_snapshots(run_id)
+        return snapshots[-1][2] if snapshots else []
+
+    def diversity_over_births(self, run_id: int) -> list[DiversityPoint]:
+        """Population diversity over births, in birth order."""
+        rows = self._db.execute(
+            "SELECT births, sim_time, value FROM diversity WHERE run_id = ? ORDER BY births",
+            (run_id,),
+        ).fetchall()
+        return [DiversityPoint(*row) for row in rows]
+
+    def table_counts(self) -> dict[str, int]:
+        """Number of rows of each table (for summaries and tests)."""
+        names = [r[0] for r in self._db.execute(
+            "SELECT name FROM sqlite_master WHERE type = 'table' ORDER BY name")]
+        return {n: self._db.execute(f"SELECT COUNT(*) FROM {n}").fetchone()[0] for n in names}
+
+    def delete_after_checkpoint(self, run_id: int) -> None:
+        """Nothing to do by construction: records are only written with their checkpoint.
+
+        Kept as an explicit no-op check: raises if records exist beyond the checkpoint (which
+        would mean the database was modified by something else).
+        """
+        cp = self.checkpoint(run_id)
+        births = 0 if cp is None else cp.births
+        (beyond,) = self._db.execute(
+            "SELECT COUNT(*) FROM robots WHERE run_id = ? AND robot_id >= ?", (run_id, births)
+        ).fetchone()
+        if beyond:
+            raise StoreError(
+                f"run {run_id} of {self.path} has {beyond} robots beyond its checkpoint "
+                f"({births} births); the database was modified outside a commit"
+            )
+
+
+_ROBOT_COLUMNS = (
+    "run_id, robot_id, genome, parent_a, parent_b, origin, generation, conceived_time, "
+    "birth_time, death_time, death_cause, fitness"
+)
+
+
+@contextmanager
+def _transaction(db: sqlite3.Connection) -> Iterator[None]:
+    db.execute("BEGIN IMMEDIATE")
+    try:
+        yield
+    except BaseException:
+        db.execute("ROLLBACK")
+        raise
+    db.execute("COMMIT")

@@ -1,0 +1,140 @@
+"""The SQLite results store: schema, transactional commits, clear errors, queries."""
+
+from __future__ import annotations
+
+import math
+import sqlite3
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from evolution.lifecycle import Stage, Transition
+from evolution.store import (
+    SCHEMA_VERSION,
+    Batch,
+    Checkpoint,
+    FailureRecord,
+    FitnessSample,
+    RobotRecord,
+    Store,
+    StoreError,
+)
+
+TABLES = {"meta", "runs", "checkpoints", "robots", "fitness", "transitions", "population",
+          "diversity", "failures"}
+
+
+def _checkpoint(births: int, t: float) -> Checkpoint:
+    rng = np.random.default_rng(births)
+    return Checkpoint(births, t, births, rng.bit_generator.state, {"population": [[0, 1.5]]})
+
+
+def _robot(robot_id: int, t: float, parents: tuple[int | None, int | None] = (None, None)) -> RobotRecord:
+    return RobotRecord(0, robot_id, f'{{"id": {robot_id}}}', parents[0], parents[1],
+                       "random" if parents[0] is None else "reproduction", 0, t, t)
+
+
+@pytest.fixture()
+def store(tmp_path: Path) -> Store:
+    s = Store.create(tmp_path / "results.sqlite", {"name": "test", "births": 3}, seed=5)
+    s.add_run(0, 1234)
+    yield s
+    s.close()
+
+
+def test_schema_and_meta(store: Store) -> None:
+    assert set(store.table_counts()) == TABLES
+    meta = store.meta()
+    assert meta["schema_version"] == str(SCHEMA_VERSION)
+    assert meta["package_version"]
+    assert store.config == {"name": "test", "births": 3}
+    assert store.seed == 5
+    mode = sqlite3.connect(store.path).execute("PRAGMA journal_mode").fetchone()[0]
+    assert mode == "wal"
+
+
+def test_commit_writes_everything_and_queries_read_it(store: Store) -> None:
+    batch = Batch()
+    batch.robots += [_robot(0, 0.0), _robot(1, 15.0), _robot(2, 30.0, (0, 1))]
+    batch.fitness += [FitnessSample(0, 15.0, 1.0, 0.5, 0.1), FitnessSample(1, 30.0, 3.0)]
+    batch.fitness_updates += [(0, 1.0), (1, 3.0)]
+    batch.transitions += [Transition(0, None, Stage.CONCEPTION, 0.0, "random"),
+                          Transition(0, Stage.CONCEPTION, Stage.DELIVERY, 0.0)]
+    batch.deaths.append((2, 45.0, "blow-up: too fast", None))
+    batch.failures.append(FailureRecord(2, 45.0, "blow-up", "too fast"))
+    batch.population = [(0, 1.0), (1, 3.0)]
+    batch.diversity = 4.5
+    store.commit(0, batch, _checkpoint(3, 45.0))
+    assert not batch.robots and batch.population is None  # cleared after writing
+
+    assert store.robot(0, 2).parent_a == 0 and store.robot(0, 2).parent_b == 1
+    assert store.robot(0, 2).death_cause == "blow-up: too fast"
+    assert store.robot(0, 1).fitness == 3.0
+    assert [r.robot_id for r in store.robots(0)] == [0, 1, 2]
+    assert [s.fitness for s in store.fitness_samples(0, robot_id=0)] == [1.0]
+    assert [t.target for t in store.transitions(0, robot_id=0)] == [Stage.CONCEPTION, Stage.DELIVERY]
+    assert store.failures(0, kind="blow-up")[0].detail == "too fast"
+    series = store.fitness_over_births(0)
+    assert series.births.tolist() == [3] and series.mean.tolist() == [2.0]
+    assert series.best.tolist() == [3.0] and series.size.tolist() == [2]
+    assert store.final_population(0) == [(0, 1.0), (1, 3.0)]
+    assert [(d.births, d.value) for d in store.diversity_over_births(0)] == [(3, 4.5)]
+    cp = store.checkpoint(0)
+    assert cp is not None and cp.births == 3 and cp.engine_state == {"population": [[0, 1.5]]}
+    assert cp.rng_state == np.random.default_rng(3).bit_generator.state
+    assert store.runs()[0].births == 3 and store.runs()[0].seed == 1234
+    with pytest.raises(KeyError, match="no robot 9 in run 0"):
+        store.robot(0, 9)
+
+
+def test_failed_commit_leaves_no_trace(store: Store) -> None:
+    store.commit(0, Batch(robots=[_robot(0, 0.0)]), _checkpoint(1, 15.0))
+    before = store.table_counts()
+    bad = Batch(robots=[_robot(1, 15.0), _robot(0, 15.0)])  # robot 0 again: primary key clash
+    with pytest.raises(sqlite3.IntegrityError):
+        store.commit(0, bad, _checkpoint(2, 30.0))
+    assert store.table_counts() == before
+    assert store.checkpoint(0).births == 1
+
+
+def test_create_never_overwrites(tmp_path: Path, store: Store) -> None:
+    with pytest.raises(StoreError, match="refusing to overwrite"):
+        Store.create(store.path, {}, 0)
+
+
+def test_open_errors_name_the_problem(tmp_path: Path) -> None:
+    with pytest.raises(StoreError, match="no results database"):
+        Store.open(tmp_path / "missing.sqlite")
+    garbage = tmp_path / "garbage.sqlite"
+    garbage.write_bytes(b"this is not a database at all" * 200)
+    with pytest.raises(StoreError, match="not a readable SQLite database"):
+        Store.open(garbage)
+    other = tmp_path / "other.sqlite"
+    sqlite3.connect(other).execute("CREATE TABLE t (x)").connection.commit()
+    with pytest.raises(StoreError, match="not a revolve-env results database"):
+        Store.open(other)
+
+
+def test_newer_schema_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "results.sqlite"
+    Store.create(path, {}, 0).close()
+    db = sqlite3.connect(path)
+    db.execute("UPDATE meta SET value = ? WHERE key = 'schema_version'", (str(SCHEMA_VERSION + 1),))
+    db.commit()
+    db.close()
+    with pytest.raises(StoreError, match=f"schema version {SCHEMA_VERSION + 1}, newer"):
+        Store.open(path)
+
+
+def test_infinite_and_missing_fitness(store: Store) -> None:
+    batch = Batch(robots=[_robot(0, 0.0)], population=[(0, None)])
+    store.commit(0, batch, _checkpoint(1, 15.0))
+    series = store.fitness_over_births(0)
+    assert math.isnan(series.mean[0]) and series.size[0] == 1
+
+
+def test_run_seed_conflict(store: Store) -> None:
+    store.add_run(0, 1234)  # idempotent
+    with pytest.raises(StoreError, match="exists with seed"):
+        store.add_run(0, 99)
