@@ -49,9 +49,9 @@ class EvolutionConfig:
         p_remove_subtree: Probability of removing a random subtree.
         p_duplicate_subtree: Probability of duplicating a random subtree onto a free slot.
         p_swap_subtree: Probability of swapping two unrelated subtrees.
-        p_remove_hidden_neuron: Probability that each hidden neuron is removed; on average as many
-            new ones are then added (Binomial with the same parameters), so brain size does not
-            drift.
+        p_remove_hidden_neuron: Probability that each hidden neuron is removed. New ones are then
+            added at the rate that balances the removals at a random robot's brain size (see
+            :func:`evolution.operators.mutate_brain_structure`), so brain size does not drift.
         p_remove_connection: Same for each connection.
         mutation_sigma: Standard deviation of the Gaussian perturbation of every continuous
             parameter (part parameters, neuron parameters, weights), as a fraction of the
