@@ -1,0 +1,106 @@
+"""Fast stand-ins for the physics, for testing the engine's rules (not the physics).
+
+``fake_evaluate`` and :class:`FakeWorld` give every robot a deterministic speed derived from its
+genome, so fitness differs between robots, depends on the genome (selection has something to
+work on), and is reproducible. Module-level so worker processes can import them.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+
+import numpy as np
+
+from evolution.engine import AgentStatus
+from evolution.evaluators import EvalOutcome, EvalTask
+from evolution.experiment import ExperimentConfig
+from revolve_env.body.robot import Robot
+
+
+def speed_of(genome: str) -> float:
+    """A deterministic speed in [0, 0.1) m/s: more parts and more connections walk faster."""
+    digest = int(hashlib.sha256(genome.encode()).hexdigest()[:8], 16)
+    return 0.1 * ((genome.count('"type"') + digest % 97) % 100) / 100.0
+
+
+def fake_evaluate(task: EvalTask) -> EvalOutcome:
+    """Fitness of a straight walk at the genome's speed over the window, plus seeded noise."""
+    u = speed_of(task.genome)
+    noise = np.random.default_rng(task.seed).normal(0.0, 1e-3)
+    v = u * task.seconds + abs(noise)
+    return EvalOutcome(v + 5 * u * task.seconds, v, u * task.seconds)
+
+
+def fake_evaluate_with_losses(task: EvalTask) -> EvalOutcome:
+    """As :func:`fake_evaluate`, but one robot in five blows up."""
+    if int(hashlib.sha256(task.genome.encode()).hexdigest()[:4], 16) % 5 == 0:
+        return EvalOutcome(None, failure="blow-up: core speed 12.0 m/s > 10.0")
+    return fake_evaluate(task)
+
+
+class FakeWorld:
+    """An online world where each robot walks straight at its genome's speed.
+
+    Sliding-window fitness after insertion: ``6 u w`` where ``w`` is the part of the last
+    ``evaluation_time`` seconds the robot has walked. Robots whose speed is in the top 2 %
+    blow up ``blow_up_age`` seconds after birth when ``blow_ups`` is set.
+    """
+
+    def __init__(self, config: ExperimentConfig, seed: int, blow_ups: bool = False) -> None:
+        self.config = config
+        self._time = 0.0
+        self._next = 0
+        self.robots: dict[str, tuple[float, float, tuple[float, float], float]] = {}
+        self.max_population = 0
+        self.blow_ups = blow_ups
+        self.closed = False
+
+    @property
+    def time(self) -> float:
+        return self._time
+
+    def add(self, robot: Robot, position: tuple[float, float]) -> str:
+        agent = f"robot_{self._next}"
+        self._next += 1
+        self.robots[agent] = (speed_of(robot.to_json(indent=None)) if hasattr(robot, "to_json")
+                              else speed_of(repr(robot)), self._time, position, 0.0)
+        self.max_population = max(self.max_population, len(self.robots))
+        return agent
+
+    def remove(self, agent: str) -> None:
+        del self.robots[agent]
+
+    def advance_to(self, t: float) -> dict[str, AgentStatus]:
+        assert t >= self._time
+        self._time = t
+        out: dict[str, AgentStatus] = {}
+        for agent, (u, born, pos, _) in list(self.robots.items()):
+            walked = max(0.0, min(t - born - self.config.insertion, self.config.evaluation_time))
+            removed = None
+            if self.blow_ups and u > 0.098 and t - born >= 5.0:
+                removed = "core speed 12.0 m/s > 10.0"
+                del self.robots[agent]
+            out[agent] = AgentStatus(6 * u * walked, u * walked, u * walked,
+                                     (pos[0] + u * (t - born), pos[1]), removed)
+        return out
+
+    def positions(self) -> dict[str, tuple[float, float]]:
+        return {a: (p[0] + u * (self._time - born), p[1])
+                for a, (u, born, p, _) in self.robots.items()}
+
+    def close(self) -> None:
+        self.closed = True
+
+
+def fake_world(config: ExperimentConfig, seed: int) -> FakeWorld:
+    return FakeWorld(config, seed)
+
+
+def fake_world_with_blow_ups(config: ExperimentConfig, seed: int) -> FakeWorld:
+    return FakeWorld(config, seed, blow_ups=True)
+
+
+def finite_mean(values: list[float | None]) -> float:
+    xs = [v for v in values if v is not None and math.isfinite(v)]
+    return sum(xs) / len(xs)

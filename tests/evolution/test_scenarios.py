@@ -1,0 +1,173 @@
+"""Each scenario's rules, on fast stand-ins for the physics (tests/evolution/experiment_fakes.py).
+
+The engine's rules do not depend on the physics, so these tests give robots deterministic
+genome-derived speeds instead of simulating them; test_evaluators.py runs the real physics.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from pathlib import Path
+
+import pytest
+from experiment_fakes import (
+    fake_evaluate,
+    fake_evaluate_with_losses,
+    fake_world,
+    fake_world_with_blow_ups,
+)
+
+import evolution.experiment as experiment
+from evolution.evaluators import LocalEvaluator
+from evolution.experiment import ExperimentConfig, preset
+from evolution.lifecycle import Stage
+from evolution.store import Store
+
+SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
+
+
+def _run(config: ExperimentConfig, tmp_path: Path, **kwargs: object) -> Store:
+    events: list[object] = []
+    experiment.run(config, tmp_path / "out", events.append,
+                   evaluator=kwargs.pop("evaluator", SERIAL), **kwargs)
+    store = Store.open(tmp_path / "out" / "results.sqlite")
+    store.events = events  # type: ignore[attr-defined]
+    return store
+
+
+def _check_lifecycles(store: Store, run_id: int = 0) -> None:
+    """Every robot: conception -> delivery -> (infancy -> maturity) -> death, times ascending."""
+    by_robot: dict[int, list] = {}
+    for t in store.transitions(run_id):
+        by_robot.setdefault(t.robot_id, []).append(t)
+    robots = store.robots(run_id)
+    assert sorted(by_robot) == [r.robot_id for r in robots]
+    for r in robots:
+        stages = [t.target for t in by_robot[r.robot_id]]
+        assert stages[:2] == [Stage.CONCEPTION, Stage.DELIVERY]
+        times = [t.time for t in by_robot[r.robot_id]]
+        assert times == sorted(times)
+        assert times[1] == r.birth_time
+        if r.death_time is not None:
+            assert stages[-1] is Stage.DEATH and times[-1] == r.death_time
+
+
+@pytest.mark.parametrize("offspring, births", [(15, 60), (1, 40), (15, 52)])
+def test_offline_keeps_the_population_and_counts_births_exactly(
+        tmp_path: Path, offspring: int, births: int) -> None:
+    config = preset("scenario1", offspring_size=offspring, births=births, diversity_interval=5)
+    store = _run(config, tmp_path)
+    robots = store.robots(0)
+    assert [r.robot_id for r in robots] == list(range(births))
+    assert store.runs()[0].births == births and store.runs()[0].status == "finished"
+    snapshots = store.population_snapshots(0)
+    assert all(len(members) == 15 for _, _, members in snapshots)
+    assert [b for b, _, _ in snapshots] == list(range(15, births, offspring)) + [births]
+    # Survivors are the fittest of parents + children: nobody dropped beats the weakest kept.
+    fitness = {r.robot_id: r.fitness for r in robots}
+    for (b0, _, before), (b1, _, after) in zip(snapshots, snapshots[1:]):
+        pool = {rid for rid, _ in before} | set(range(b0, b1))
+        kept = {rid for rid, _ in after}
+        assert kept <= pool and len(pool) == 15 + (b1 - b0)
+        weakest = min(fitness[rid] for rid in kept)
+        assert all(fitness[rid] <= weakest for rid in pool - kept)
+    # Parents are members of the population (mature) when their child was conceived.
+    by_id = {r.robot_id: r for r in robots}
+    for r in robots[15:]:
+        assert r.origin == "reproduction" and r.parent_a != r.parent_b
+        for p in (r.parent_a, r.parent_b):
+            parent = by_id[p]
+            assert parent.birth_time + config.fertile_age <= r.conceived_time
+            assert parent.death_time is None or parent.death_time >= r.conceived_time
+    assert store.diversity_over_births(0)
+    _check_lifecycles(store)
+    # One fitness sample per evaluated robot, at the end of its evaluation.
+    assert len(store.fitness_samples(0)) == births
+
+
+def test_offline_time_limit_stops_early(tmp_path: Path) -> None:
+    config = preset("scenario2", births=1000, max_sim_time=20 * 15.0)
+    store = _run(config, tmp_path)
+    assert store.runs()[0].births == 20
+    assert store.runs()[0].sim_time == pytest.approx(20 * 15.0)
+
+
+def test_baseline_a_makes_only_random_robots(tmp_path: Path) -> None:
+    store = _run(preset("baseline_a", births=45), tmp_path)
+    robots = store.robots(0)
+    assert {r.origin for r in robots} == {"random"}
+    assert all(r.parent_a is None for r in robots)
+    assert all(len(m) == 15 for _, _, m in store.population_snapshots(0))
+
+
+def test_baseline_b_survivors_are_random_not_the_fittest(tmp_path: Path) -> None:
+    store = _run(preset("baseline_b", births=90), tmp_path)
+    evolved = _run(preset("scenario1", births=90), tmp_path / "b")
+    killed_better = 0
+    for b, _, members in store.population_snapshots(0)[1:]:
+        weakest = min(f for _, f in members)
+        killed_better += sum(1 for r in store.robots(0)
+                             if r.death_time is not None and r.death_cause == "survivor selection"
+                             and r.fitness > weakest and r.robot_id < b)
+    assert killed_better > 0  # random selection kills robots fitter than some survivors
+    assert all(len(m) == 15 for _, _, m in store.population_snapshots(0))
+    assert evolved.fitness_over_births(0).mean[-1] > store.fitness_over_births(0).mean[-1]
+
+
+def test_evaluation_losses_are_recorded_and_the_population_stays_full(tmp_path: Path) -> None:
+    evaluator = LocalEvaluator(workers=1, function=fake_evaluate_with_losses)
+    store = _run(preset("scenario1", births=75), tmp_path, evaluator=evaluator)
+    lost = store.failures(0, kind="evaluation")
+    assert lost and all(f.detail.startswith("blow-up") for f in lost)
+    for f in lost:
+        record = store.robot(0, f.robot_id)
+        assert record.fitness is None and record.death_cause.startswith("blow-up")
+        assert Stage.MATURITY not in [t.target for t in store.transitions(0, f.robot_id)]
+    assert all(len(m) == 15 for _, _, m in store.population_snapshots(0))
+    assert store.runs()[0].births == 75
+    _check_lifecycles(store)
+
+
+def test_online_population_bounds_births_and_mature_parents(tmp_path: Path) -> None:
+    config = preset("scenario3", births=120, diversity_interval=10)
+    store = _run(config, tmp_path, world_factory=fake_world)
+    robots = store.robots(0)
+    assert [r.robot_id for r in robots] == list(range(120))
+    sizes = [len(m) for _, _, m in store.population_snapshots(0)]
+    assert min(sizes) >= 8 and max(sizes) <= 30
+    assert max(sizes) == 30 or min(sizes) < 15  # the rules did act
+    by_id = {r.robot_id: r for r in robots}
+    for r in robots[15:]:
+        assert r.conceived_time == pytest.approx(15.0 * (r.robot_id - 14))  # one every 15 s
+        for p in (r.parent_a, r.parent_b):
+            parent = by_id[p]
+            assert r.conceived_time - parent.birth_time >= config.fertile_age
+            assert parent.death_time is None or parent.death_time >= r.conceived_time
+    deaths = Counter(r.death_cause for r in robots if r.death_cause)
+    assert deaths["survivor selection"] > 0
+    # Nobody dies before maturity through selection.
+    for r in robots:
+        if r.death_cause == "survivor selection":
+            assert r.death_time - r.birth_time >= config.fertile_age
+    _check_lifecycles(store)
+    samples = store.fitness_samples(0)
+    assert samples and all(s.time % 15.0 == 0 for s in samples)
+
+
+def test_online_blow_ups_are_recorded_and_minimum_kept(tmp_path: Path) -> None:
+    config = preset("scenario3", births=80)
+    store = _run(config, tmp_path, world_factory=fake_world_with_blow_ups)
+    blown = store.failures(0, kind="blow-up")
+    assert blown
+    sizes = [len(m) for _, _, m in store.population_snapshots(0)]
+    assert min(sizes) >= 8 and max(sizes) <= 30
+    assert store.runs()[0].births == 80
+
+
+def test_progress_reports_births_fitness_and_speed(tmp_path: Path) -> None:
+    store = _run(preset("scenario1", births=45), tmp_path)
+    events = store.events  # type: ignore[attr-defined]
+    assert [e.births for e in events] == [15, 30, 45, 45]
+    assert events[-1].finished and not events[0].finished
+    assert all(e.population_size == 15 and e.best >= e.mean for e in events)
+    assert events[-1].sim_time == pytest.approx(45 * 15.0)
