@@ -1,0 +1,94 @@
+"""revolve-env: online and offline evolution of physically constructible modular robots.
+
+Importing the package registers the single-robot Gymnasium env ``revolve_env/Locomotion-v0``
+(``gymnasium.make("revolve_env/Locomotion-v0", robot=...)``). The physics engine is imported only
+when something that needs it is used (``evaluate``, ``population_env``, the envs), so the pure
+layers (``revolve_env.body``, ``evolution``) never load it.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+import gymnasium
+
+from revolve_env.body import (
+    EXAMPLES,
+    Activation,
+    Connection,
+    Layer,
+    Limits,
+    Neuron,
+    Node,
+    PartType,
+    Robot,
+    RobotError,
+    example,
+    from_json,
+    load,
+    save,
+    to_json,
+    validate,
+)
+
+__version__ = "0.1.0"
+
+LOCOMOTION_ID = "revolve_env/Locomotion-v0"
+
+if LOCOMOTION_ID not in gymnasium.registry:
+    # A string entry point: registering does not import pybullet. The env truncates itself at
+    # insertion_time + evaluation_time (keyword arguments), so no fixed max_episode_steps.
+    gymnasium.register(id=LOCOMOTION_ID, entry_point="revolve_env.envs.locomotion:LocomotionEnv")
+
+# Names served lazily (PEP 562) because they import the physics engine.
+_LAZY = {
+    "evaluate": ("revolve_env.evaluate", "evaluate"),
+    "EvaluationResult": ("revolve_env.evaluate", "EvaluationResult"),
+    "World": ("revolve_env.world", "World"),
+    "WorldConfig": ("revolve_env.world", "WorldConfig"),
+    "LocomotionEnv": ("revolve_env.envs.locomotion", "LocomotionEnv"),
+    "PopulationEnv": ("revolve_env.envs.population", "PopulationEnv"),
+    "population_env": ("revolve_env.envs.population", "population_env"),
+    "BatchController": ("revolve_env.brain", "BatchController"),
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        module, attr = _LAZY[name]
+        return getattr(importlib.import_module(module), attr)
+    raise AttributeError(f"module 'revolve_env' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(list(globals()) + list(_LAZY))
+
+
+__all__ = [
+    "EXAMPLES",
+    "LOCOMOTION_ID",
+    "Activation",
+    "BatchController",
+    "Connection",
+    "EvaluationResult",
+    "Layer",
+    "Limits",
+    "LocomotionEnv",
+    "Neuron",
+    "Node",
+    "PartType",
+    "PopulationEnv",
+    "Robot",
+    "RobotError",
+    "World",
+    "WorldConfig",
+    "evaluate",
+    "example",
+    "from_json",
+    "load",
+    "population_env",
+    "save",
+    "to_json",
+    "validate",
+]
