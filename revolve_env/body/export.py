@@ -15,6 +15,7 @@ limit Revolve used for its passive hinge, ``pyrevolve/angle/robogen/constants.py
 from __future__ import annotations
 
 import math
+import re
 import xml.etree.ElementTree as ET
 from collections import Counter
 from dataclasses import dataclass
@@ -109,6 +110,11 @@ def _names(assembly: Assembly) -> tuple[list[str], list[str]]:
     return links, joints
 
 
+def _model_name(robot: Robot) -> str:
+    """The robot's name made safe for XML names and file systems (``robot`` if empty)."""
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", robot.name) or "robot"
+
+
 def _prepare(robot: Robot, limits: Limits | None) -> Assembly:
     validate(robot, limits)
     return assemble(robot)
@@ -142,7 +148,7 @@ def to_urdf(robot: Robot, limits: Limits | None = None) -> str:
     """
     asm = _prepare(robot, limits)
     links, joints = _names(asm)
-    root = ET.Element("robot", name=robot.name or "robot")
+    root = ET.Element("robot", name=_model_name(robot))
     for i, body in enumerate(asm.bodies):
         origin = _link_origin(asm, i)
         link = ET.SubElement(root, "link", name=links[i])
@@ -192,7 +198,7 @@ def to_sdf(robot: Robot, limits: Limits | None = None) -> str:
     asm = _prepare(robot, limits)
     links, joints = _names(asm)
     sdf = ET.Element("sdf", version="1.6")
-    model = ET.SubElement(sdf, "model", name=robot.name or "robot")
+    model = ET.SubElement(sdf, "model", name=_model_name(robot))
     for i, body in enumerate(asm.bodies):
         origin = _link_origin(asm, i)
         link = ET.SubElement(model, "link", name=links[i])
