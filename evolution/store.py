@@ -349,6 +349,9 @@ class Store:
     def _connect(path: Path) -> sqlite3.Connection:
         db = sqlite3.connect(path, timeout=60.0, isolation_level=None, check_same_thread=False)
         db.execute("PRAGMA busy_timeout = 60000")
+        # WAL + NORMAL: a commit survives a killed process (not necessarily a power cut), and
+        # commits do not wait for a disk flush.
+        db.execute("PRAGMA synchronous = NORMAL")
         return db
 
     @classmethod

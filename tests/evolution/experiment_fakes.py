@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from evolution.config import EvolutionConfig
 from evolution.engine import AgentStatus
 from evolution.evaluators import EvalOutcome, EvalTask
 from evolution.experiment import ExperimentConfig
@@ -104,3 +105,12 @@ def fake_world_with_blow_ups(config: ExperimentConfig, seed: int) -> FakeWorld:
 def finite_mean(values: list[float | None]) -> float:
     xs = [v for v in values if v is not None and math.isfinite(v)]
     return sum(xs) / len(xs)
+
+
+SMALL_ROBOTS = EvolutionConfig(initial_parts_mean=5.0, initial_parts_sd=2.0, max_parts=12)
+"""Smaller robots: the operators' geometry checks dominate the engine's own cost in tests."""
+
+
+def small(config: ExperimentConfig) -> ExperimentConfig:
+    """The same experiment with smaller robots (faster tests, same rules)."""
+    return config.replace(evolution=SMALL_ROBOTS)

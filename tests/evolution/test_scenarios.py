@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 from experiment_fakes import (
+    small,
     fake_evaluate,
     fake_evaluate_with_losses,
     fake_world,
@@ -19,7 +20,11 @@ from experiment_fakes import (
 
 import evolution.experiment as experiment
 from evolution.evaluators import LocalEvaluator
-from evolution.experiment import ExperimentConfig, preset
+from evolution.experiment import ConfigError, ExperimentConfig, preset
+
+
+def small_preset(name: str, **kw: object) -> ExperimentConfig:
+    return small(preset(name, **kw))
 from evolution.lifecycle import Stage
 from evolution.store import Store
 
@@ -55,7 +60,7 @@ def _check_lifecycles(store: Store, run_id: int = 0) -> None:
 @pytest.mark.parametrize("offspring, births", [(15, 60), (1, 40), (15, 52)])
 def test_offline_keeps_the_population_and_counts_births_exactly(
         tmp_path: Path, offspring: int, births: int) -> None:
-    config = preset("scenario1", offspring_size=offspring, births=births, diversity_interval=5)
+    config = small_preset("scenario1", offspring_size=offspring, births=births, diversity_interval=5)
     store = _run(config, tmp_path)
     robots = store.robots(0)
     assert [r.robot_id for r in robots] == list(range(births))
@@ -86,14 +91,14 @@ def test_offline_keeps_the_population_and_counts_births_exactly(
 
 
 def test_offline_time_limit_stops_early(tmp_path: Path) -> None:
-    config = preset("scenario2", births=1000, max_sim_time=20 * 15.0)
+    config = small_preset("scenario2", births=1000, max_sim_time=20 * 15.0)
     store = _run(config, tmp_path)
     assert store.runs()[0].births == 20
     assert store.runs()[0].sim_time == pytest.approx(20 * 15.0)
 
 
 def test_baseline_a_makes_only_random_robots(tmp_path: Path) -> None:
-    store = _run(preset("baseline_a", births=45), tmp_path)
+    store = _run(small_preset("baseline_a", births=45), tmp_path)
     robots = store.robots(0)
     assert {r.origin for r in robots} == {"random"}
     assert all(r.parent_a is None for r in robots)
@@ -101,8 +106,8 @@ def test_baseline_a_makes_only_random_robots(tmp_path: Path) -> None:
 
 
 def test_baseline_b_survivors_are_random_not_the_fittest(tmp_path: Path) -> None:
-    store = _run(preset("baseline_b", births=90), tmp_path)
-    evolved = _run(preset("scenario1", births=90), tmp_path / "b")
+    store = _run(small_preset("baseline_b", births=90), tmp_path)
+    evolved = _run(small_preset("scenario1", births=90), tmp_path / "b")
     killed_better = 0
     for b, _, members in store.population_snapshots(0)[1:]:
         weakest = min(f for _, f in members)
@@ -116,7 +121,7 @@ def test_baseline_b_survivors_are_random_not_the_fittest(tmp_path: Path) -> None
 
 def test_evaluation_losses_are_recorded_and_the_population_stays_full(tmp_path: Path) -> None:
     evaluator = LocalEvaluator(workers=1, function=fake_evaluate_with_losses)
-    store = _run(preset("scenario1", births=75), tmp_path, evaluator=evaluator)
+    store = _run(small_preset("scenario1", births=75), tmp_path, evaluator=evaluator)
     lost = store.failures(0, kind="evaluation")
     assert lost and all(f.detail.startswith("blow-up") for f in lost)
     for f in lost:
@@ -129,7 +134,7 @@ def test_evaluation_losses_are_recorded_and_the_population_stays_full(tmp_path: 
 
 
 def test_online_population_bounds_births_and_mature_parents(tmp_path: Path) -> None:
-    config = preset("scenario3", births=120, diversity_interval=10)
+    config = small_preset("scenario3", births=120, diversity_interval=10)
     store = _run(config, tmp_path, world_factory=fake_world)
     robots = store.robots(0)
     assert [r.robot_id for r in robots] == list(range(120))
@@ -155,7 +160,7 @@ def test_online_population_bounds_births_and_mature_parents(tmp_path: Path) -> N
 
 
 def test_online_blow_ups_are_recorded_and_minimum_kept(tmp_path: Path) -> None:
-    config = preset("scenario3", births=80)
+    config = small_preset("scenario3", births=80)
     store = _run(config, tmp_path, world_factory=fake_world_with_blow_ups)
     blown = store.failures(0, kind="blow-up")
     assert blown
@@ -165,9 +170,57 @@ def test_online_blow_ups_are_recorded_and_minimum_kept(tmp_path: Path) -> None:
 
 
 def test_progress_reports_births_fitness_and_speed(tmp_path: Path) -> None:
-    store = _run(preset("scenario1", births=45), tmp_path)
+    store = _run(small_preset("scenario1", births=45), tmp_path)
     events = store.events  # type: ignore[attr-defined]
     assert [e.births for e in events] == [15, 30, 45, 45]
     assert events[-1].finished and not events[0].finished
     assert all(e.population_size == 15 and e.best >= e.mean for e in events)
     assert events[-1].sim_time == pytest.approx(45 * 15.0)
+
+
+def test_presets_are_the_papers_experiments() -> None:
+    s1, s2, s3 = preset("scenario1"), preset("scenario2"), preset("scenario3")
+    assert (s1.engine, s1.population_size, s1.offspring_size, s1.births) == ("offline", 15, 15, 3000)
+    assert (s2.offspring_size, s3.engine, s3.min_alive, s3.max_alive) == (1, "online", 8, 30)
+    assert (s1.tournament_size, s1.insertion, s1.evaluation_time, s1.fertile_age) == (4, 3.0, 12.0, 15.0)
+    assert preset("baseline_a").new_robots == "random"
+    assert preset("baseline_b").survivor_selection == "random"
+
+
+def test_config_round_trips_through_dict_and_toml(tmp_path: Path) -> None:
+    config = preset("scenario3", births=500, max_sim_time=600.0, seed=3)
+    assert ExperimentConfig.from_dict(config.to_dict()) == config
+    path = tmp_path / "exp.toml"
+    path.write_text('preset = "scenario2"\nbirths = 100\nseed = 7\n[evolution]\nmax_parts = 20\n')
+    loaded = ExperimentConfig.from_toml(path)
+    assert (loaded.name, loaded.offspring_size, loaded.births, loaded.seed) == ("scenario2", 1, 100, 7)
+    assert loaded.evolution.max_parts == 20
+
+
+@pytest.mark.parametrize("data, message", [
+    ({"birth": 10}, "unknown experiment config key\\(s\\): birth"),
+    ({"preset": "scenario9"}, "unknown scenario 'scenario9'"),
+    ({"engine": "hybrid"}, "engine must be one of 'offline', 'online'"),
+    ({"births": 0}, "births must be >= 1"),
+    ({"births": 10}, "births \\(10\\) must be >= population_size \\(15\\)"),
+    ({"tournament_size": 2.5}, "tournament_size must be an integer"),
+    ({"death_threshold": -0.1}, "death_threshold must be >= 0"),
+    ({"engine": "online", "population_size": 40}, "must lie within \\[min_alive, max_alive\\]"),
+    ({"min_alive": 31}, "min_alive \\(31\\) must be <= max_alive \\(30\\)"),
+    ({"max_sim_time": -5.0}, "max_sim_time must be a positive"),
+    ({"evolution": {"max_part": 3}}, "unknown evolution config key\\(s\\): max_part"),
+    ({"evolution": {"p_swap_subtree": 2.0}}, "evolution: .*probability"),
+])
+def test_config_errors_name_the_problem(data: dict, message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        ExperimentConfig.from_dict(data)
+
+
+def test_bad_toml_names_the_file(tmp_path: Path) -> None:
+    path = tmp_path / "bad.toml"
+    path.write_text("births = = 3\n")
+    with pytest.raises(ConfigError, match="bad.toml is not valid TOML"):
+        ExperimentConfig.from_toml(path)
+    path.write_text("births = 3\n")
+    with pytest.raises(ConfigError, match="bad.toml: births \\(3\\)"):
+        ExperimentConfig.from_toml(path)

@@ -1,0 +1,165 @@
+"""Kill and resume gives the same results as an uninterrupted run; results are never overwritten."""
+
+from __future__ import annotations
+
+import sqlite3
+from pathlib import Path
+from typing import Any
+
+import pytest
+from experiment_fakes import fake_evaluate, fake_world, small
+
+import evolution.experiment as experiment
+from evolution.engine import ProgressEvent
+from evolution.evaluators import EvalOutcome, EvalTask, LocalEvaluator
+from evolution.experiment import ExperimentConfig, preset
+
+
+def small_preset(name: str, **kw: object) -> ExperimentConfig:
+    return small(preset(name, **kw))
+from evolution.store import Store, StoreError
+
+SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
+TABLES = ("runs", "checkpoints", "robots", "fitness", "transitions", "population", "diversity",
+          "failures")
+
+
+def dump(db: Path) -> dict[str, list[tuple[Any, ...]]]:
+    """Every row of every results table, in a canonical order."""
+    con = sqlite3.connect(db)
+    try:
+        return {t: sorted(con.execute(f"SELECT * FROM {t}").fetchall(), key=repr) for t in TABLES}
+    finally:
+        con.close()
+
+
+class Kill(Exception):
+    pass
+
+
+def killer(after_births: int) -> Any:
+    def progress(event: ProgressEvent) -> None:
+        if event.births >= after_births and not event.replaying:
+            raise Kill(f"killed at {event.births} births")
+    return progress
+
+
+def _uninterrupted(config: ExperimentConfig, out: Path, **kw: Any) -> dict[str, list]:
+    experiment.run(config, out, evaluator=SERIAL, **kw)
+    return dump(out / "results.sqlite")
+
+
+@pytest.mark.parametrize("name, births, kills", [
+    ("scenario1", 75, [30, 50]),
+    ("scenario2", 40, [20]),
+    ("baseline_b", 60, [30]),
+])
+def test_offline_kill_and_resume_equals_uninterrupted(
+        tmp_path: Path, name: str, births: int, kills: list[int]) -> None:
+    config = small_preset(name, births=births, diversity_interval=5, runs=2)
+    reference = _uninterrupted(config, tmp_path / "ref")
+    out = tmp_path / "killed"
+    with pytest.raises(Kill):
+        experiment.run(config, out, killer(kills[0]), evaluator=SERIAL)
+    assert {r.status for r in Store.open(out / "results.sqlite").runs()} == {"interrupted", "pending"}
+    for k in kills[1:]:
+        with pytest.raises(Kill):
+            experiment.resume(out, killer(k), evaluator=SERIAL)
+    experiment.resume(out, evaluator=SERIAL)
+    assert dump(out / "results.sqlite") == {**reference}
+
+
+class _Interrupting:
+    """An in-process evaluator that raises KeyboardInterrupt (Ctrl-C) at its n-th evaluation."""
+
+    def __init__(self, n: int) -> None:
+        self.left = n
+        self.workers = 1
+
+    def evaluate(self, tasks: list[EvalTask]) -> list[EvalOutcome]:
+        out = []
+        for task in tasks:
+            self.left -= 1
+            if self.left == 0:
+                raise KeyboardInterrupt
+            out.append(fake_evaluate(task))
+        return out
+
+    def run_jobs(self, fn: Any, jobs: list[Any], on_event: Any = None) -> list[Any]:
+        return [fn(job, self, on_event or (lambda e: None)) for job in jobs]
+
+    def close(self) -> None:
+        pass
+
+
+def test_ctrl_c_mid_generation_keeps_finished_generations(tmp_path: Path) -> None:
+    config = small_preset("scenario1", births=75)
+    reference = _uninterrupted(config, tmp_path / "ref")
+    out = tmp_path / "killed"
+    with pytest.raises(KeyboardInterrupt):
+        experiment.run(config, out, evaluator=_Interrupting(15 + 15 + 7))
+    with Store.open(out / "results.sqlite") as store:
+        assert store.runs()[0].status == "interrupted"
+        assert store.checkpoint(0).births == 30  # the half-done third generation is not stored
+        assert len(store.robots(0)) == 30
+    experiment.resume(out, evaluator=SERIAL)
+    assert dump(out / "results.sqlite") == reference
+
+
+def test_online_kill_and_resume_replays_to_the_same_result(tmp_path: Path) -> None:
+    config = small_preset("scenario3", births=60, checkpoint_interval=5, diversity_interval=7)
+    reference = _uninterrupted(config, tmp_path / "ref", world_factory=fake_world)
+    out = tmp_path / "killed"
+    with pytest.raises(Kill):
+        experiment.run(config, out, killer(33), evaluator=SERIAL, world_factory=fake_world)
+    with Store.open(out / "results.sqlite") as store:
+        assert store.checkpoint(0).births == 35
+    events: list[ProgressEvent] = []
+    experiment.resume(out, events.append, evaluator=SERIAL, world_factory=fake_world)
+    assert any(e.replaying for e in events) and events[-1].finished
+    assert dump(out / "results.sqlite") == reference
+
+
+def test_resume_refuses_a_tampered_online_run(tmp_path: Path) -> None:
+    config = small_preset("scenario3", births=40, checkpoint_interval=5)
+    out = tmp_path / "out"
+    with pytest.raises(Kill):
+        experiment.run(config, out, killer(25), evaluator=SERIAL, world_factory=fake_world)
+    con = sqlite3.connect(out / "results.sqlite")
+    con.execute("UPDATE robots SET genome = '{}' WHERE robot_id = 17")
+    con.commit()
+    con.close()
+    with pytest.raises(StoreError, match="replay made a different robot 17"):
+        experiment.resume(out, evaluator=SERIAL, world_factory=fake_world)
+
+
+def test_results_are_never_overwritten(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    experiment.run(small_preset("scenario1", births=15), out, evaluator=SERIAL)
+    before = dump(out / "results.sqlite")
+    with pytest.raises(StoreError, match="already holds results of this experiment; use resume"):
+        experiment.run(small_preset("scenario1", births=15), out, evaluator=SERIAL)
+    with pytest.raises(StoreError, match="results of another experiment \\('scenario1'\\)"):
+        experiment.run(small_preset("scenario1", births=30), out, evaluator=SERIAL)
+    assert dump(out / "results.sqlite") == before
+
+
+def test_resume_errors(tmp_path: Path) -> None:
+    with pytest.raises(StoreError, match="no results database"):
+        experiment.resume(tmp_path / "nothing-here")
+    bad = tmp_path / "corrupt"
+    bad.mkdir()
+    (bad / "results.sqlite").write_bytes(b"\x00garbage" * 1000)
+    with pytest.raises(StoreError, match="corrupt"):
+        experiment.resume(bad)
+    with pytest.raises(StoreError, match="cannot be used"):
+        experiment.run(small_preset("scenario1", births=15), bad, evaluator=SERIAL)
+
+
+def test_resuming_a_finished_experiment_changes_nothing(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    experiment.run(small_preset("scenario2", births=20), out, evaluator=SERIAL)
+    before = dump(out / "results.sqlite")
+    summary = experiment.resume(out, evaluator=SERIAL)
+    assert summary.runs == ()
+    assert dump(out / "results.sqlite") == before
