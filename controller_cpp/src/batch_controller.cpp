@@ -1,16 +1,33 @@
-// Batched neural controller: see revolve/batch_controller.hpp for the semantics.
+// Batched neural controller: see revolve/batch_controller.hpp for the semantics and layout.
 #include "revolve/batch_controller.hpp"
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
+#include <cstring>
+#include <limits>
+
+#include "revolve/fast_exp.hpp"
 
 namespace revolve {
+
+#if defined(__x86_64__) && defined(__linux__) && (defined(__clang__) || defined(__GNUC__)) && \
+    (!defined(__clang__) || __clang_major__ >= 14)
+__attribute__((target_clones("avx2", "default")))
+#endif
+void exp_array(const double* x, double* out, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i) out[i] = exp_one(x[i]);
+}
+
 namespace {
 
 constexpr double kTwoPi = 6.283185307179586;  // == 2.0 * numpy.pi exactly
 
 std::string at(const char* what, std::int64_t i) { return std::string(what) + " " + std::to_string(i); }
+
+template <typename T>
+std::vector<T> copy_of(const T* p, std::int64_t n) {
+    return n > 0 ? std::vector<T>(p, p + n) : std::vector<T>();
+}
 
 }  // namespace
 
@@ -38,22 +55,6 @@ void BatchController::check_params(const std::int8_t* kinds, std::int64_t n, con
     }
 }
 
-void BatchController::load_params(Network& net, const std::int8_t* kinds, const double* params,
-                                  const double* weight) {
-    for (std::int64_t i = net.n_in; i < net.n; ++i) {
-        const double* p = params + i * kParamColumns;
-        Neuron& nr = net.neurons[static_cast<std::size_t>(i - net.n_in)];
-        nr.kind = kinds[i];
-        nr.bias = p[0];
-        nr.gain = p[1];
-        // Same expressions as the NumPy reference, so the results agree bit for bit.
-        nr.omega = kTwoPi / p[2];
-        nr.shift = p[2] * p[3];
-        nr.amp = p[4];
-    }
-    for (std::size_t k = 0; k < net.csr_of.size(); ++k) net.w[static_cast<std::size_t>(net.csr_of[k])] = weight[k];
-}
-
 std::int64_t BatchController::add(const NetworkView& v) {
     const std::int64_t n = v.n_neurons, m = v.n_connections;
     if (n < 0 || m < 0 || v.n_inputs < 0 || v.n_outputs < 0 || v.n_inputs + v.n_outputs > n) {
@@ -61,7 +62,10 @@ std::int64_t BatchController::add(const NetworkView& v) {
                                     std::to_string(v.n_inputs) + " inputs, " + std::to_string(v.n_outputs) +
                                     " outputs, " + std::to_string(m) + " connections");
     }
-    if (n > INT32_MAX) throw std::invalid_argument("too many neurons");
+    constexpr std::int64_t kMax = std::numeric_limits<std::int32_t>::max();
+    if (n > kMax || m > kMax || static_cast<std::int64_t>(x_.size()) + n > kMax) {
+        throw std::invalid_argument("too many neurons or connections for one controller");
+    }
     if ((n > 0 && (!v.kinds || !v.neuron_params)) || (m > 0 && (!v.src || !v.dst || !v.weight))) {
         throw std::invalid_argument("missing network array");
     }
@@ -80,33 +84,20 @@ std::int64_t BatchController::add(const NetworkView& v) {
     }
     check_params(v.kinds, n, v.neuron_params, v.weight, m);
 
+    save_state();
     Network net;
-    net.handle = next_handle_;
+    net.handle = next_handle_++;
     net.n = n;
     net.n_in = v.n_inputs;
     net.n_out = v.n_outputs;
-    const std::int64_t rows = n - v.n_inputs;
-    net.neurons.resize(static_cast<std::size_t>(rows));
-    // CSR by destination, keeping the original order within a row (a stable counting sort).
-    net.row.assign(static_cast<std::size_t>(rows + 1), 0);
-    for (std::int64_t k = 0; k < m; ++k) ++net.row[static_cast<std::size_t>(v.dst[k] - v.n_inputs + 1)];
-    std::partial_sum(net.row.begin(), net.row.end(), net.row.begin());
-    std::vector<std::int64_t> fill(net.row.begin(), net.row.end() - 1);
-    net.col.resize(static_cast<std::size_t>(m));
-    net.w.resize(static_cast<std::size_t>(m));
-    net.csr_of.resize(static_cast<std::size_t>(m));
-    for (std::int64_t k = 0; k < m; ++k) {
-        const std::int64_t e = fill[static_cast<std::size_t>(v.dst[k] - v.n_inputs)]++;
-        net.col[static_cast<std::size_t>(e)] = v.src[k];
-        net.csr_of[static_cast<std::size_t>(k)] = e;
-    }
-    load_params(net, v.kinds, v.neuron_params, v.weight);
-    net.x.assign(static_cast<std::size_t>(n), 0.0);
-    net.next.assign(static_cast<std::size_t>(rows), 0.0);
-
+    net.kinds = copy_of(v.kinds, n);
+    net.params = copy_of(v.neuron_params, n * kParamColumns);
+    net.src = copy_of(v.src, m);
+    net.dst = copy_of(v.dst, m);
+    net.weight = copy_of(v.weight, m);
+    net.saved.assign(static_cast<std::size_t>(n), 0.0);
     nets_.push_back(std::move(net));
-    ++next_handle_;
-    relayout();
+    pack();
     return nets_.back().handle;
 }
 
@@ -117,82 +108,162 @@ std::size_t BatchController::index_of(std::int64_t handle) const {
 }
 
 void BatchController::remove(std::int64_t handle) {
-    nets_.erase(nets_.begin() + static_cast<std::ptrdiff_t>(index_of(handle)));
-    relayout();
+    const std::size_t k = index_of(handle);
+    save_state();
+    nets_.erase(nets_.begin() + static_cast<std::ptrdiff_t>(k));
+    pack();
 }
 
-void BatchController::relayout() {
-    index_.clear();
-    n_inputs_ = n_outputs_ = n_connections_ = 0;
-    for (std::size_t i = 0; i < nets_.size(); ++i) {
-        Network& net = nets_[i];
-        index_[net.handle] = i;
-        net.in_offset = n_inputs_;
-        net.out_offset = n_outputs_;
-        n_inputs_ += net.n_in;
-        n_outputs_ += net.n_out;
-        n_connections_ += static_cast<std::int64_t>(net.col.size()) + net.n;
+std::int64_t BatchController::global(const Network& net, std::int64_t i) const {
+    if (i < net.n_in) return net.in_off + i;
+    if (i < net.n_in + net.n_out) return n_in_ + net.out_off + (i - net.n_in);
+    return n_in_ + n_out_ + net.hid_off + (i - net.n_in - net.n_out);
+}
+
+void BatchController::save_state() {
+    for (std::size_t k = 0; k < nets_.size(); ++k) {
+        Network& net = nets_[k];
+        for (std::int64_t i = 0; i < net.n; ++i) net.saved[static_cast<std::size_t>(i)] = x_[static_cast<std::size_t>(global(net, i))];
+        net.saved_t = t_[k];
     }
+}
+
+void BatchController::pack() {
+    // Offsets of every network inside the three blocks.
+    std::int64_t n_in = 0, n_out = 0, n_hid = 0;
+    index_.clear();
+    for (std::size_t k = 0; k < nets_.size(); ++k) {
+        Network& net = nets_[k];
+        index_[net.handle] = k;
+        net.in_off = n_in;
+        net.out_off = n_out;
+        net.hid_off = n_hid;
+        n_in += net.n_in;
+        n_out += net.n_out;
+        n_hid += net.n - net.n_in - net.n_out;
+    }
+    n_in_ = n_in;
+    n_out_ = n_out;
+    const std::size_t rows = static_cast<std::size_t>(n_out + n_hid);
+    x_.assign(static_cast<std::size_t>(n_in) + rows, 0.0);
+    next_.assign(rows, 0.0);
+    gain_.assign(rows, 0.0);
+    bias_.assign(rows, 0.0);
+    row_.assign(rows + 1, 0);
+    sig_rows_.clear();
+    osc_rows_.clear();
+    osc_net_.clear();
+    osc_omega_.clear();
+    osc_shift_.clear();
+    osc_amp_.clear();
+    t_.assign(nets_.size(), 0.0);
+
+    // Row lengths first, then a stable counting sort of every network's connections by
+    // destination: each row keeps the connections' original order (as the NumPy reference).
+    for (const Network& net : nets_) {
+        for (std::int32_t d : net.dst) ++row_[static_cast<std::size_t>(global(net, d) - n_in_ + 1)];
+    }
+    for (std::size_t r = 0; r < rows; ++r) row_[r + 1] += row_[r];
+    col_.assign(static_cast<std::size_t>(row_[rows]), 0);
+    w_.assign(col_.size(), 0.0);
+    std::vector<std::int64_t> fill(row_.begin(), row_.end() - 1);
+    for (std::size_t k = 0; k < nets_.size(); ++k) {
+        const Network& net = nets_[k];
+        for (std::size_t c = 0; c < net.dst.size(); ++c) {
+            const std::int64_t e = fill[static_cast<std::size_t>(global(net, net.dst[c]) - n_in_)]++;
+            col_[static_cast<std::size_t>(e)] = static_cast<std::int32_t>(global(net, net.src[c]));
+            w_[static_cast<std::size_t>(e)] = net.weight[c];
+        }
+        for (std::int64_t i = 0; i < net.n; ++i) {
+            const std::int64_t g = global(net, i);
+            x_[static_cast<std::size_t>(g)] = net.saved[static_cast<std::size_t>(i)];
+            if (i < net.n_in) continue;
+            const std::size_t r = static_cast<std::size_t>(g - n_in_);
+            const double* p = net.params.data() + i * kParamColumns;
+            bias_[r] = p[0];
+            gain_[r] = p[1];
+            if (net.kinds[static_cast<std::size_t>(i)] == kSigmoid) sig_rows_.push_back(static_cast<std::int32_t>(r));
+            if (net.kinds[static_cast<std::size_t>(i)] == kOscillator) {
+                osc_rows_.push_back(static_cast<std::int32_t>(r));
+                osc_net_.push_back(static_cast<std::int32_t>(k));
+                // Same expressions as the NumPy reference, so they round the same way.
+                osc_omega_.push_back(kTwoPi / p[2]);
+                osc_shift_.push_back(p[2] * p[3]);
+                osc_amp_.push_back(p[4]);
+            }
+        }
+        t_[k] = net.saved_t;
+    }
+    sig_buf_.assign(sig_rows_.size(), 0.0);
 }
 
 void BatchController::reset_all() {
-    for (Network& net : nets_) {
-        std::fill(net.x.begin(), net.x.end(), 0.0);
-        net.t = 0.0;
-    }
+    std::fill(x_.begin(), x_.end(), 0.0);
+    std::fill(t_.begin(), t_.end(), 0.0);
 }
 
 void BatchController::reset(std::int64_t handle) {
-    Network& net = nets_[index_of(handle)];
-    std::fill(net.x.begin(), net.x.end(), 0.0);
-    net.t = 0.0;
+    const std::size_t k = index_of(handle);
+    const Network& net = nets_[k];
+    for (std::int64_t i = 0; i < net.n; ++i) x_[static_cast<std::size_t>(global(net, i))] = 0.0;
+    t_[k] = 0.0;
 }
 
 void BatchController::set_params(std::int64_t handle, const double* neuron_params, std::int64_t n_params,
                                  const double* weight, std::int64_t n_weights) {
     Network& net = nets_[index_of(handle)];
-    const std::int64_t m = static_cast<std::int64_t>(net.col.size());
+    const std::int64_t m = static_cast<std::int64_t>(net.weight.size());
     if (n_params != net.n * kParamColumns || n_weights != m) {
         throw std::invalid_argument("set_params expects " + std::to_string(net.n * kParamColumns) +
                                     " neuron parameters and " + std::to_string(m) + " weights, got " +
                                     std::to_string(n_params) + " and " + std::to_string(n_weights));
     }
-    std::vector<std::int8_t> kinds(static_cast<std::size_t>(net.n), kInput);
-    for (std::int64_t i = net.n_in; i < net.n; ++i) kinds[static_cast<std::size_t>(i)] = net.neurons[static_cast<std::size_t>(i - net.n_in)].kind;
-    check_params(kinds.data(), net.n, neuron_params, weight, m);
-    load_params(net, kinds.data(), neuron_params, weight);
+    check_params(net.kinds.data(), net.n, neuron_params, weight, m);
+    save_state();
+    net.params = copy_of(neuron_params, n_params);
+    net.weight = copy_of(weight, m);
+    pack();
 }
 
 void BatchController::step(const double* inputs, double* outputs) noexcept {
-    for (Network& net : nets_) {
-        double* x = net.x.data();
-        std::copy(inputs + net.in_offset, inputs + net.in_offset + net.n_in, x);
-        const std::int64_t rows = net.n - net.n_in;
-        const std::int64_t* row = net.row.data();
-        const std::int32_t* col = net.col.data();
-        const double* w = net.w.data();
-        const Neuron* nr = net.neurons.data();
-        double* next = net.next.data();
-        const double t = net.t;
-        for (std::int64_t r = 0; r < rows; ++r) {
-            const Neuron& q = nr[r];
-            if (q.kind == kOscillator) {
-                next[r] = 0.5 - q.amp / 2.0 + q.amp * (std::sin(q.omega * (t - q.shift)) + 1.0) / 2.0;
-                continue;
-            }
-            double a = 0.0;
-            for (std::int64_t e = row[r]; e < row[r + 1]; ++e) a += w[e] * x[col[e]];
-            const double l = q.gain * (a - q.bias);
-            next[r] = q.kind == kLinear ? l : 1.0 / (1.0 + std::exp(-l));
-        }
-        std::copy(next, next + rows, x + net.n_in);
-        double* out = outputs + net.out_offset;
-        for (std::int64_t j = 0; j < net.n_out; ++j) {
-            const double v = 2.0 * x[net.n_in + j] - 1.0;
-            out[j] = v < -1.0 ? -1.0 : (v > 1.0 ? 1.0 : v);  // NaN passes through, as np.clip
-        }
-        net.t += dt_;
+    double* x = x_.data();
+    double* next = next_.data();
+    if (n_in_ > 0) std::memcpy(x, inputs, static_cast<std::size_t>(n_in_) * sizeof(double));
+
+    // Weighted sums and gain * (a - bias) for every row (oscillator rows are overwritten below).
+    const std::size_t rows = next_.size();
+    const std::int64_t* row = row_.data();
+    const std::int32_t* col = col_.data();
+    const double* w = w_.data();
+    for (std::size_t r = 0; r < rows; ++r) {
+        double a = 0.0;
+        for (std::int64_t e = row[r]; e < row[r + 1]; ++e) a += w[e] * x[col[e]];
+        next[r] = gain_[r] * (a - bias_[r]);
     }
+
+    // Sigmoids: one vectorised exp over all of them.
+    const std::size_t ns = sig_rows_.size();
+    double* buf = sig_buf_.data();
+    const std::int32_t* sig = sig_rows_.data();
+    for (std::size_t k = 0; k < ns; ++k) buf[k] = -next[sig[k]];
+    exp_array(buf, buf, ns);
+    for (std::size_t k = 0; k < ns; ++k) next[sig[k]] = 1.0 / (1.0 + buf[k]);
+
+    // Oscillators: functions of each network's own time only.
+    const double* t = t_.data();
+    for (std::size_t k = 0; k < osc_rows_.size(); ++k) {
+        const double amp = osc_amp_[k];
+        const double s = std::sin(osc_omega_[k] * (t[osc_net_[k]] - osc_shift_[k]));
+        next[osc_rows_[k]] = 0.5 - amp / 2.0 + amp * (s + 1.0) / 2.0;
+    }
+
+    if (rows > 0) std::memcpy(x + n_in_, next, rows * sizeof(double));
+    const double* o = x + n_in_;
+    for (std::int64_t j = 0; j < n_out_; ++j) {
+        const double v = 2.0 * o[j] - 1.0;
+        outputs[j] = v < -1.0 ? -1.0 : (v > 1.0 ? 1.0 : v);  // NaN passes through, as np.clip
+    }
+    for (double& tk : t_) tk += dt_;
 }
 
 std::vector<std::int64_t> BatchController::handles() const {
@@ -202,9 +273,16 @@ std::vector<std::int64_t> BatchController::handles() const {
     return h;
 }
 
-std::int64_t BatchController::input_offset(std::int64_t handle) const { return nets_[index_of(handle)].in_offset; }
-std::int64_t BatchController::output_offset(std::int64_t handle) const { return nets_[index_of(handle)].out_offset; }
-std::vector<double> BatchController::state(std::int64_t handle) const { return nets_[index_of(handle)].x; }
-double BatchController::time(std::int64_t handle) const { return nets_[index_of(handle)].t; }
+std::int64_t BatchController::input_offset(std::int64_t handle) const { return nets_[index_of(handle)].in_off; }
+std::int64_t BatchController::output_offset(std::int64_t handle) const { return nets_[index_of(handle)].out_off; }
+
+std::vector<double> BatchController::state(std::int64_t handle) const {
+    const Network& net = nets_[index_of(handle)];
+    std::vector<double> s(static_cast<std::size_t>(net.n));
+    for (std::int64_t i = 0; i < net.n; ++i) s[static_cast<std::size_t>(i)] = x_[static_cast<std::size_t>(global(net, i))];
+    return s;
+}
+
+double BatchController::time(std::int64_t handle) const { return t_[index_of(handle)]; }
 
 }  // namespace revolve

@@ -12,6 +12,7 @@
 #include <optional>
 
 #include "revolve/batch_controller.hpp"
+#include "revolve/fast_exp.hpp"
 
 namespace nb = nanobind;
 using revolve::BatchController;
@@ -44,7 +45,7 @@ void step(BatchController& c, nb::ndarray<nb::ro> inputs, nb::ndarray<> outputs)
     check_vector(outputs, "outputs", c.n_outputs());
     const double* in = static_cast<const double*>(inputs.data());
     double* out = static_cast<double*>(outputs.data());
-    if (c.n_connections() > kReleaseGilAbove) {
+    if (c.work() > kReleaseGilAbove) {
         nb::gil_scoped_release release;
         c.step(in, out);
     } else {
@@ -88,6 +89,15 @@ NB_MODULE(_controller, m) {
     m.attr("KIND_LINEAR") = static_cast<int>(revolve::kLinear);
     m.attr("KIND_SIGMOID") = static_cast<int>(revolve::kSigmoid);
     m.attr("KIND_OSCILLATOR") = static_cast<int>(revolve::kOscillator);
+
+    m.def(
+        "exp_into",
+        [](Vec<double> x, nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu> out) {
+            if (x.shape(0) != out.shape(0)) throw nb::value_error("x and out must have the same length");
+            revolve::exp_array(x.data(), out.data(), x.shape(0));
+        },
+        nb::arg("x"), nb::arg("out").noconvert(),
+        "out[:] = exp(x) with the controller's vectorised exp (exposed for its accuracy test).");
 
     nb::register_exception_translator([](const std::exception_ptr& p, void*) {
         try {

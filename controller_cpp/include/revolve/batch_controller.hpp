@@ -9,9 +9,14 @@
 //   oscillator  0.5 - amp/2 + amp * (sin(2 pi / period * (t - period * phase)) + 1) / 2
 // Output o becomes the normalised hinge target clip(2 o - 1, -1, 1).
 //
-// Neuron order in a network: inputs, outputs, hidden. The floating-point operations are done in
-// the same order as the NumPy reference (connections summed per destination in their original
-// order, starting from 0), so both agree to rounding of exp/sin.
+// Neuron order in a network (spec order): inputs, outputs, hidden. Connections are summed per
+// destination in their original order starting from 0, as the NumPy reference does; exp is the
+// vectorised one of fast_exp.hpp (within 1-2 ulp of libm), so both agree to rounding.
+//
+// Layout: all networks are packed into one state vector [all inputs | all outputs | all hidden],
+// each block in order of addition, so a tick copies the inputs in with one memcpy, runs one loop
+// over a global CSR matrix, one vectorised exp over all sigmoid neurons, and writes the outputs
+// from one contiguous block. Adding or removing a network repacks (O(total size)).
 #pragma once
 
 #include <cstddef>
@@ -67,9 +72,10 @@ class BatchController {
     void step(const double* inputs, double* outputs) noexcept;
 
     double dt() const { return dt_; }
-    std::int64_t n_inputs() const { return n_inputs_; }
-    std::int64_t n_outputs() const { return n_outputs_; }
-    std::int64_t n_connections() const { return n_connections_; }
+    std::int64_t n_inputs() const { return n_in_; }
+    std::int64_t n_outputs() const { return n_out_; }
+    // Neurons plus connections over all networks: the size of a tick's work.
+    std::int64_t work() const { return static_cast<std::int64_t>(x_.size() + col_.size()); }
     std::size_t size() const { return nets_.size(); }
     std::vector<std::int64_t> handles() const;
     std::int64_t input_offset(std::int64_t handle) const;
@@ -78,37 +84,43 @@ class BatchController {
     double time(std::int64_t handle) const;
 
    private:
-    struct Neuron {  // a non-input neuron, with its parameters pre-combined
-        std::int8_t kind;
-        double gain, bias;          // linear, sigmoid
-        double omega, shift, amp;   // oscillator: 2 pi / period [rad/s], period * phase [s]
-    };
-    struct Network {
+    struct Network {  // one robot's network, as given (spec order), plus its packed offsets
         std::int64_t handle;
         std::int64_t n, n_in, n_out;
-        std::int64_t in_offset = 0, out_offset = 0;
-        std::vector<Neuron> neurons;            // n - n_in, spec order
-        std::vector<std::int64_t> row;          // CSR row pointers, n - n_in + 1
-        std::vector<std::int32_t> col;          // source neuron of each CSR entry
-        std::vector<double> w;                  // weight of each CSR entry
-        std::vector<std::int64_t> csr_of;       // original connection index -> CSR entry
-        std::vector<double> x;                  // neuron values, n
-        std::vector<double> next;               // scratch, n - n_in
-        double t = 0.0;
+        std::vector<std::int8_t> kinds;
+        std::vector<double> params;  // n * kParamColumns
+        std::vector<std::int32_t> src, dst;
+        std::vector<double> weight;
+        std::int64_t in_off = 0, out_off = 0, hid_off = 0;  // within each block
+        std::vector<double> saved;                          // state while repacking
+        double saved_t = 0.0;
     };
 
     static void check_params(const std::int8_t* kinds, std::int64_t n, const double* params,
                              const double* weight, std::int64_t m);
-    static void load_params(Network& net, const std::int8_t* kinds, const double* params,
-                            const double* weight);
     std::size_t index_of(std::int64_t handle) const;
-    void relayout();
+    std::int64_t global(const Network& net, std::int64_t i) const;  // spec index -> state index
+    void save_state();  // copy each network's packed state into Network::saved
+    void pack();        // rebuild the packed arrays from nets_ and their saved state
 
     double dt_;
     std::int64_t next_handle_ = 0;
-    std::int64_t n_inputs_ = 0, n_outputs_ = 0, n_connections_ = 0;
     std::vector<Network> nets_;
     std::unordered_map<std::int64_t, std::size_t> index_;
+
+    // Packed arrays. Rows are the non-input neurons, row r is state index n_in_ + r.
+    std::int64_t n_in_ = 0, n_out_ = 0;
+    std::vector<double> x_;                // state, n_in_ + rows
+    std::vector<double> next_;             // next values of the rows
+    std::vector<std::int64_t> row_;        // CSR row pointers
+    std::vector<std::int32_t> col_;        // state index of each entry's source
+    std::vector<double> w_;                // weight of each entry
+    std::vector<double> gain_, bias_;      // per row (linear and sigmoid rows)
+    std::vector<std::int32_t> sig_rows_;   // rows with a sigmoid
+    std::vector<double> sig_buf_;          // scratch for the vectorised exp
+    std::vector<std::int32_t> osc_rows_, osc_net_;
+    std::vector<double> osc_omega_, osc_shift_, osc_amp_;  // rad/s, s, dimensionless
+    std::vector<double> t_;                // time of each network, seconds
 };
 
 }  // namespace revolve
