@@ -87,11 +87,15 @@ class OperatorOutcome:
             fails, which means no child).
         applied: Whether the operator changed the robot.
         detail: What it did, or why it did nothing, for people and logs.
+        paths: The paths it acted on when applied (crossover: ``(a_c, b_c)``; removals: the
+            removed path; duplication: ``(source, new copy)``; swap: ``(s1, s2)``; add_part: the
+            new part's path); empty otherwise.
     """
 
     robot: Robot | None
     applied: bool
     detail: str
+    paths: tuple[Path, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -223,7 +227,7 @@ def crossover(a: Robot, b: Robot, rng: np.random.Generator, config: EvolutionCon
             return OperatorOutcome(
                 child, True,
                 f"a's subtree at {_fmt(a_c)} ({removed.size()} parts) replaced by b's subtree at "
-                f"{_fmt(b_c)} ({sub.size()} parts)",
+                f"{_fmt(b_c)} ({sub.size()} parts)", (a_c, b_c),
             )
         n_overlap += 1
     return OperatorOutcome(
@@ -264,7 +268,8 @@ def remove_subtree(robot: Robot, rng: np.random.Generator, config: EvolutionConf
                                              f"{config.min_parts} parts")
     path, size = _pick(rng, cands)
     child = robot.replace_node(path, None).prune_connections()
-    return OperatorOutcome(child, True, f"removed the subtree at {_fmt(path)} ({size} parts)")
+    return OperatorOutcome(child, True, f"removed the subtree at {_fmt(path)} ({size} parts)",
+                           (path,))
 
 
 def _duplication_candidates(robot: Robot, config: EvolutionConfig) -> list[tuple[Path, int]]:
@@ -314,7 +319,8 @@ def duplicate_subtree(
                                             *_carried_connections(robot.connections, mapping)))
         if constructible(child, config.limits):
             return OperatorOutcome(child, True, f"copied the subtree at {_fmt(src)} ({size} parts) "
-                                                f"to slot {slot} of {_fmt(parent)}")
+                                                f"to slot {slot} of {_fmt(parent)}",
+                                   (src, (*parent, slot)))
     return OperatorOutcome(robot, False, f"every one of {config.operator_attempts} tried copies "
                                          "would overlap")
 
@@ -337,7 +343,8 @@ def swap_subtrees(robot: Robot, rng: np.random.Generator, config: EvolutionConfi
         n1, n2 = robot.node(s1), robot.node(s2)
         child = robot.replace_node(s1, n2).replace_node(s2, n1)
         if constructible(child, config.limits):
-            return OperatorOutcome(child, True, f"swapped the subtrees at {_fmt(s1)} and {_fmt(s2)}")
+            return OperatorOutcome(child, True, f"swapped the subtrees at {_fmt(s1)} and {_fmt(s2)}",
+                                   (s1, s2))
     if not any(
         not _is_prefix(p, q) and not _is_prefix(q, p) for p in paths for q in paths
     ):
@@ -378,7 +385,7 @@ def add_part(robot: Robot, rng: np.random.Generator, config: EvolutionConfig) ->
         child = replace(child, connections=(*robot.connections, *new))
         if constructible(child, config.limits):
             return OperatorOutcome(child, True, f"added a {part_type.value} at slot {slot} of "
-                                                f"{_fmt(parent)}")
+                                                f"{_fmt(parent)}", ((*parent, slot),))
     return OperatorOutcome(robot, False, f"every one of {config.operator_attempts} tried parts "
                                          "would overlap")
 
@@ -390,7 +397,7 @@ def remove_leaf(robot: Robot, rng: np.random.Generator, config: EvolutionConfig)
     leaves = [p for p, n in robot.walk() if p and not n.children]
     path = _pick(rng, leaves)
     child = robot.replace_node(path, None).prune_connections()
-    return OperatorOutcome(child, True, f"removed the leaf at {_fmt(path)}")
+    return OperatorOutcome(child, True, f"removed the leaf at {_fmt(path)}", (path,))
 
 
 # -- neural operators ---------------------------------------------------------------------------
