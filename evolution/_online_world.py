@@ -1,0 +1,71 @@
+"""The online world of the engine over the PettingZoo population environment (issue 4).
+
+Adapts :class:`revolve_env.envs.population.PopulationEnv` to
+:class:`evolution.engine.OnlineWorld`: robots are added with ``add_robot(robot, position,
+controlled_by="brain")`` (their own brains drive them, so ``step`` gets no actions), removed
+with ``remove_robot``, and the per-agent ``infos`` give the sliding-window fitness, the core
+position and the reason a robot was removed (blow-up). Imported lazily: ``evolution`` itself
+never imports the physics.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from evolution.engine import AgentStatus
+from evolution.experiment import ExperimentConfig
+from revolve_env.body.robot import Robot
+
+
+class PopulationWorld:
+    """One population environment holding a run's whole population."""
+
+    def __init__(self, config: ExperimentConfig, seed: int) -> None:
+        from revolve_env.envs.population import PopulationEnv
+
+        self._env: Any = PopulationEnv(insertion=config.insertion,
+                                       window=config.evaluation_time,
+                                       fertile_age=config.fertile_age)
+        self._env.reset(seed=seed)
+        self._last: dict[str, dict[str, Any]] = {}
+
+    @property
+    def time(self) -> float:
+        """Simulated time. Seconds."""
+        return float(self._env.time)
+
+    def add(self, robot: Robot, position: tuple[float, float]) -> str:
+        return str(self._env.add_robot(robot, position, controlled_by="brain"))
+
+    def remove(self, agent: str) -> None:
+        self._env.remove_robot(agent)
+        self._last.pop(agent, None)
+
+    def advance_to(self, t: float) -> dict[str, AgentStatus]:
+        before = set(self._env.agents)
+        removed: dict[str, str] = {}
+        # Half a control period of tolerance: ticks land on whole control steps.
+        while self.time < t - 0.5 * float(self._env.control_period):
+            _, _, terminations, truncations, infos = self._env.step({})
+            for agent, info in infos.items():
+                self._last[agent] = info
+            for agent in before:
+                if (terminations.get(agent) or truncations.get(agent)) and agent not in removed:
+                    info = self._last.get(agent, {})
+                    removed[agent] = str(info.get("removed") or info.get("blow_up") or "removed")
+        out: dict[str, AgentStatus] = {}
+        for agent in before:
+            info = self._last.get(agent, {})
+            x, y = tuple(info.get("position", (0.0, 0.0)))[:2]
+            out[agent] = AgentStatus(float(info.get("fitness", 0.0)), info.get("v"),
+                                     info.get("s"), (float(x), float(y)), removed.get(agent))
+            if agent in removed:
+                self._last.pop(agent, None)
+        return out
+
+    def positions(self) -> dict[str, tuple[float, float]]:
+        return {a: tuple(i.get("position", (0.0, 0.0)))[:2]  # type: ignore[misc]
+                for a, i in self._last.items() if a in set(self._env.agents)}
+
+    def close(self) -> None:
+        self._env.close()
