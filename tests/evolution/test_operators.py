@@ -368,3 +368,20 @@ def test_body_size_stays_roughly_constant_over_1000_generations() -> None:
     start, late, hidden_change = _size_drift(generations=1000, n_robots=12, seed=2)
     assert abs(late - start) < 3.0
     assert abs(hidden_change) < 2.0
+
+
+def test_children_build_and_step_in_the_simulator() -> None:
+    from revolve_env.world import World  # the evolution package itself never imports pybullet
+
+    rng = np.random.default_rng(11)
+    parents = [random_robot(rng, CONFIG) for _ in range(4)]
+    children = [c for c in (reproduce(parents[i], parents[(i + 1) % 4], rng, CONFIG).child
+                            for i in range(4)) if c is not None]
+    assert children
+    with World() as world:
+        for k, child in enumerate(children):
+            h = world.add_robot(child, position=(1.5 * k, 0.0))
+            assert world.n_inputs(h) == len(child.neurons_of(Layer.INPUT))
+            assert world.n_outputs(h) == len(child.neurons_of(Layer.OUTPUT))
+        world.step(20)
+        assert all(world.blow_up(h) is None for h in world.handles)

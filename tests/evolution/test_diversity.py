@@ -1,0 +1,122 @@
+"""Tree edit distance: hand-computed cases for each cost rule, and the fast path equals zss."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from evolution import _treedit
+from evolution.config import EvolutionConfig
+from evolution.diversity import (
+    TreeArrays,
+    diversity,
+    pairwise_distances,
+    tree_arrays,
+    tree_edit_distance,
+    tree_edit_distance_zss,
+    zss_distance_arrays,
+)
+from evolution.random_robot import random_robot
+from revolve_env.body.robot import Activation, Layer, Neuron, Node, PartType, Robot
+
+T = PartType
+
+
+def body(children: dict[int, Node] | None = None) -> Robot:
+    return Robot(Node(T.CORE, children=tuple(sorted((children or {}).items()))))
+
+
+def n(t: PartType, children: dict[int, Node] | None = None, **kw: object) -> Node:
+    return Node(t, children=tuple(sorted((children or {}).items())), **kw)  # type: ignore[arg-type]
+
+
+CASES = [
+    ("identical", body({0: n(T.BRICK)}), body({0: n(T.BRICK)}), 0),
+    ("insert one node", body(), body({0: n(T.BRICK)}), 1),
+    ("remove a two-node subtree", body({0: n(T.BRICK, {1: n(T.BRICK)})}), body(), 2),
+    ("type change", body({0: n(T.BRICK)}), body({0: n(T.ACTIVE_HINGE)}), 1),
+    ("different parent slot", body({0: n(T.BRICK)}), body({1: n(T.BRICK)}), 1),
+    ("type and slot change", body({0: n(T.BRICK)}), body({3: n(T.TOUCH_SENSOR)}), 2),
+    ("deep type change", body({0: n(T.BRICK, {2: n(T.BRICK)})}),
+     body({0: n(T.BRICK, {2: n(T.LIGHT_SENSOR)})}), 1),
+    ("remove an inner node, child moves up", body({0: n(T.BRICK, {1: n(T.ACTIVE_HINGE)})}),
+     body({0: n(T.ACTIVE_HINGE)}), 2),  # remove brick (1) + the hinge's slot 1 -> 0 (1)
+]
+
+
+@pytest.mark.parametrize("name, a, b, expected", CASES, ids=[c[0] for c in CASES])
+def test_hand_computed_distances(name: str, a: Robot, b: Robot, expected: int) -> None:
+    assert tree_edit_distance_zss(a, b) == expected
+    assert tree_edit_distance(a, b) == expected
+    assert tree_edit_distance(b, a) == expected
+
+
+def test_neural_and_parameter_differences_are_ignored() -> None:
+    a = body({0: n(T.PARAMETRIC_BAR, params=(0.05, 0.0, 0.0))})
+    b = Robot(
+        Node(T.CORE, orientation=90, children=((0, n(
+            T.PARAMETRIC_BAR, params=(0.1, 30.0, 90.0), orientation=180, color=(1.0, 0.0, 0.0),
+            neurons=(Neuron("h", Layer.HIDDEN, Activation.LINEAR),))),)),
+    )
+    assert tree_edit_distance(a, b) == 0 == tree_edit_distance_zss(a, b)
+
+
+@st.composite
+def trees(draw: st.DrawFn, max_nodes: int = 25) -> TreeArrays:
+    """Random ordered trees in pre-order: each new node hangs below a node on the right spine."""
+    size = draw(st.integers(1, max_nodes))
+    types = [draw(st.integers(0, 6)) for _ in range(size)]
+    slots = [-1] + [draw(st.integers(0, 3)) for _ in range(size - 1)]
+    parents = [-1]
+    spine = [0]
+    for k in range(1, size):
+        depth = draw(st.integers(0, len(spine) - 1))
+        del spine[depth + 1:]
+        parents.append(spine[-1])
+        spine.append(k)
+    i32 = lambda xs: np.asarray(xs, dtype=np.int32)  # noqa: E731
+    return TreeArrays(i32(types), i32(slots), i32(parents))
+
+
+@settings(max_examples=150, deadline=None)
+@given(trees(), trees())
+def test_fast_path_equals_zss_on_random_trees(a: TreeArrays, b: TreeArrays) -> None:
+    fast = _treedit.distance(a.types, a.slots, a.parents, b.types, b.slots, b.parents)
+    assert fast == zss_distance_arrays(a, b)
+
+
+def test_pairwise_and_diversity_on_random_robots() -> None:
+    rng = np.random.default_rng(0)
+    robots = [random_robot(rng, EvolutionConfig()) for _ in range(6)]
+    d = pairwise_distances(robots)
+    assert d.shape == (6, 6) and np.all(np.diag(d) == 0) and np.array_equal(d, d.T)
+    for i in range(6):
+        for j in range(i + 1, 6):
+            assert d[i, j] == tree_edit_distance_zss(robots[i], robots[j])
+    assert diversity(robots) == pytest.approx(d[np.triu_indices(6, 1)].mean())
+    assert diversity(robots[:1]) == 0.0 and diversity([]) == 0.0
+    assert diversity([robots[0]] * 3) == 0.0
+    assert pairwise_distances([]).shape == (0, 0)
+
+
+def test_tree_arrays_are_pre_order_with_slots() -> None:
+    t = tree_arrays(body({0: n(T.BRICK, {2: n(T.BRICK)}), 3: n(T.LIGHT_SENSOR)}))
+    assert t.parents.tolist() == [-1, 0, 1, 0]
+    assert t.slots.tolist() == [-1, 0, 2, 3]
+
+
+@pytest.mark.parametrize("parents, match", [
+    ([0, 0], "parent -1"),
+    ([-1, 1], "pre-order"),
+    ([-1, 0, 0, 1], "pre-order"),  # node 3 hangs under 1 after 1's subtree was closed
+])
+def test_malformed_trees_raise_value_error(parents: list[int], match: str) -> None:
+    k = len(parents)
+    z = np.zeros(k, dtype=np.int32)
+    with pytest.raises(ValueError, match=match):
+        _treedit.distance(z, z, np.asarray(parents, dtype=np.int32), z[:1], z[:1],
+                          np.asarray([-1], dtype=np.int32))
+    with pytest.raises(ValueError, match="same length"):
+        _treedit.distance(z, z[:1], np.asarray(parents, dtype=np.int32), z, z, z)
