@@ -6,16 +6,35 @@
 #include <cstring>
 #include <limits>
 
-#include "revolve/fast_exp.hpp"
+#include "revolve/fast_math.hpp"
 
 namespace revolve {
 
 #if defined(__x86_64__) && defined(__linux__) && (defined(__clang__) || defined(__GNUC__)) && \
     (!defined(__clang__) || __clang_major__ >= 14)
-__attribute__((target_clones("avx2", "default")))
+#define REVOLVE_MULTIVERSION __attribute__((target_clones("avx2", "default")))
+#else
+#define REVOLVE_MULTIVERSION
 #endif
-void exp_array(const double* x, double* out, std::size_t n) {
+
+REVOLVE_MULTIVERSION void exp_array(const double* x, double* out, std::size_t n) {
     for (std::size_t i = 0; i < n; ++i) out[i] = exp_one(x[i]);
+}
+
+REVOLVE_MULTIVERSION static void sin_kernel(const double* x, double* out, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i) out[i] = sin_one(x[i]);
+}
+
+void sin_array(const double* x, double* out, std::size_t n) {
+    // The reduction is exact only for |x| < 2^20 pi/2; larger (or non-finite) inputs, which need
+    // robots older than about ten hours, go to libm.
+    bool large = false;
+    for (std::size_t i = 0; i < n; ++i) large |= !(std::fabs(x[i]) < 1e6);
+    if (!large) {
+        sin_kernel(x, out, n);
+        return;
+    }
+    for (std::size_t i = 0; i < n; ++i) out[i] = std::fabs(x[i]) < 1e6 ? sin_one(x[i]) : std::sin(x[i]);
 }
 
 namespace {
@@ -195,6 +214,7 @@ void BatchController::pack() {
         t_[k] = net.saved_t;
     }
     sig_buf_.assign(sig_rows_.size(), 0.0);
+    osc_buf_.assign(osc_rows_.size(), 0.0);
 }
 
 void BatchController::reset_all() {
@@ -249,12 +269,15 @@ void BatchController::step(const double* inputs, double* outputs) noexcept {
     exp_array(buf, buf, ns);
     for (std::size_t k = 0; k < ns; ++k) next[sig[k]] = 1.0 / (1.0 + buf[k]);
 
-    // Oscillators: functions of each network's own time only.
+    // Oscillators: functions of each network's own time only; one vectorised sin over all.
     const double* t = t_.data();
-    for (std::size_t k = 0; k < osc_rows_.size(); ++k) {
+    const std::size_t no = osc_rows_.size();
+    double* phase = osc_buf_.data();
+    for (std::size_t k = 0; k < no; ++k) phase[k] = osc_omega_[k] * (t[osc_net_[k]] - osc_shift_[k]);
+    sin_array(phase, phase, no);
+    for (std::size_t k = 0; k < no; ++k) {
         const double amp = osc_amp_[k];
-        const double s = std::sin(osc_omega_[k] * (t[osc_net_[k]] - osc_shift_[k]));
-        next[osc_rows_[k]] = 0.5 - amp / 2.0 + amp * (s + 1.0) / 2.0;
+        next[osc_rows_[k]] = 0.5 - amp / 2.0 + amp * (phase[k] + 1.0) / 2.0;
     }
 
     if (rows > 0) std::memcpy(x + n_in_, next, rows * sizeof(double));

@@ -12,7 +12,7 @@
 #include <optional>
 
 #include "revolve/batch_controller.hpp"
-#include "revolve/fast_exp.hpp"
+#include "revolve/fast_math.hpp"
 
 namespace nb = nanobind;
 using revolve::BatchController;
@@ -98,6 +98,15 @@ NB_MODULE(_controller, m) {
         },
         nb::arg("x"), nb::arg("out").noconvert(),
         "out[:] = exp(x) with the controller's vectorised exp (exposed for its accuracy test).");
+
+    m.def(
+        "sin_into",
+        [](Vec<double> x, nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu> out) {
+            if (x.shape(0) != out.shape(0)) throw nb::value_error("x and out must have the same length");
+            revolve::sin_array(x.data(), out.data(), x.shape(0));
+        },
+        nb::arg("x"), nb::arg("out").noconvert(),
+        "out[:] = sin(x) with the controller's vectorised sin (exposed for its accuracy test).");
 
     nb::register_exception_translator([](const std::exception_ptr& p, void*) {
         try {

@@ -10,8 +10,8 @@
 // Output o becomes the normalised hinge target clip(2 o - 1, -1, 1).
 //
 // Neuron order in a network (spec order): inputs, outputs, hidden. Connections are summed per
-// destination in their original order starting from 0, as the NumPy reference does; exp is the
-// vectorised one of fast_exp.hpp (within 1-2 ulp of libm), so both agree to rounding.
+// destination in their original order starting from 0, as the NumPy reference does; exp and sin
+// are the vectorised ones of fast_math.hpp (within rounding of libm), so both agree to rounding.
 //
 // Layout: all networks are packed into one state vector [all inputs | all outputs | all hidden],
 // each block in order of addition, so a tick copies the inputs in with one memcpy, runs one loop
@@ -120,6 +120,7 @@ class BatchController {
     std::vector<double> sig_buf_;          // scratch for the vectorised exp
     std::vector<std::int32_t> osc_rows_, osc_net_;
     std::vector<double> osc_omega_, osc_shift_, osc_amp_;  // rad/s, s, dimensionless
+    std::vector<double> osc_buf_;          // scratch for the vectorised sin
     std::vector<double> t_;                // time of each network, seconds
 };
 
