@@ -59,14 +59,17 @@ def tree_arrays(robot: Robot) -> TreeArrays:
         types.append(PART_TYPE_IDS[node.type])
         slots.append(path[-1] if path else ROOT_SLOT)
         parents.append(index[path[:-1]] if path else -1)
-    as_i32 = lambda xs: np.asarray(xs, dtype=np.int32)  # noqa: E731
-    return TreeArrays(as_i32(types), as_i32(slots), as_i32(parents))
+    return TreeArrays(_i32(types), _i32(slots), _i32(parents))
+
+
+def _i32(values: Sequence[int] | NDArray[np.int32]) -> NDArray[np.int32]:
+    return np.ascontiguousarray(values, dtype=np.int32)
 
 
 # -- reference: zss -----------------------------------------------------------------------------
 
 class _ZNode:
-    __slots__ = ("type", "slot", "children")
+    __slots__ = ("children", "slot", "type")
 
     def __init__(self, type_: int, slot: int) -> None:
         self.type = type_
@@ -125,7 +128,9 @@ def pairwise_distances(robots: Sequence[Robot]) -> NDArray[np.int32]:
     trees = [tree_arrays(r) for r in robots]
     offsets = np.zeros(len(trees) + 1, dtype=np.int32)
     offsets[1:] = np.cumsum([len(t) for t in trees])
-    cat = lambda xs: np.ascontiguousarray(np.concatenate(xs) if xs else [], dtype=np.int32)  # noqa: E731
+    def cat(parts: list[NDArray[np.int32]]) -> NDArray[np.int32]:
+        return _i32(np.concatenate(parts) if parts else [])
+
     return np.asarray(_treedit.pairwise(
         cat([t.types for t in trees]), cat([t.slots for t in trees]),
         cat([t.parents for t in trees]), offsets,

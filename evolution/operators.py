@@ -34,7 +34,6 @@ import numpy as np
 
 from evolution.config import EvolutionConfig
 from evolution.random_robot import (
-    Counts,
     IdAllocator,
     add_neurons,
     allowed_types,

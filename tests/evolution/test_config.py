@@ -35,16 +35,16 @@ def test_bad_probabilities_name_the_field(field: str, value: float) -> None:
 
 
 @pytest.mark.parametrize("kwargs, field", [
-    (dict(min_parts=10, max_parts=5), "min_parts"),
-    (dict(max_parts=0), "max_parts"),
-    (dict(max_hidden=-1), "max_hidden"),
-    (dict(max_inputs=5), "max_inputs"),
-    (dict(initial_parts_sd=-1.0), "initial_parts_sd"),
-    (dict(mutation_sigma=-0.1), "mutation_sigma"),
-    (dict(mutation_sigma=1.5), "mutation_sigma"),
-    (dict(max_parts=3.0), "max_parts"),
-    (dict(operator_attempts=0), "operator_attempts"),
-    (dict(balance_by_removal="yes"), "balance_by_removal"),
+    ({"min_parts": 10, "max_parts": 5}, "min_parts"),
+    ({"max_parts": 0}, "max_parts"),
+    ({"max_hidden": -1}, "max_hidden"),
+    ({"max_inputs": 5}, "max_inputs"),
+    ({"initial_parts_sd": -1.0}, "initial_parts_sd"),
+    ({"mutation_sigma": -0.1}, "mutation_sigma"),
+    ({"mutation_sigma": 1.5}, "mutation_sigma"),
+    ({"max_parts": 3.0}, "max_parts"),
+    ({"operator_attempts": 0}, "operator_attempts"),
+    ({"balance_by_removal": "yes"}, "balance_by_removal"),
 ])
 def test_bad_values_raise_at_construction(kwargs: dict, field: str) -> None:
     with pytest.raises(ValueError, match=field):

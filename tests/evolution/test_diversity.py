@@ -76,8 +76,7 @@ def trees(draw: st.DrawFn, max_nodes: int = 25) -> TreeArrays:
         del spine[depth + 1:]
         parents.append(spine[-1])
         spine.append(k)
-    i32 = lambda xs: np.asarray(xs, dtype=np.int32)  # noqa: E731
-    return TreeArrays(i32(types), i32(slots), i32(parents))
+    return TreeArrays(*(np.asarray(xs, dtype=np.int32) for xs in (types, slots, parents)))
 
 
 @settings(max_examples=150, deadline=None)
