@@ -1,0 +1,702 @@
+"""Online population: a PettingZoo parallel env whose robots are born and die in one world.
+
+All robots live in ONE :class:`~revolve_env.world.World` (an infinite flat plane; robots collide
+with each other). Robots are added and removed between steps by the caller (online evolution, a
+test harness, a learner); each is one PettingZoo agent ``robot_<n>``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from numpy.typing import ArrayLike, NDArray
+from pettingzoo import ParallelEnv
+
+from revolve_env.body.examples import EXAMPLES
+from revolve_env.body.geometry import assemble
+from revolve_env.body.parts import PART_SPECS
+from revolve_env.body.robot import Layer, PartType, Robot
+from revolve_env.body.validate import Limits, validate
+from revolve_env.brain import BatchController
+from revolve_env.brain.spec import NetworkSpec
+from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
+from revolve_env.world import World, WorldConfig
+
+__all__ = ["PopulationEnv", "footprint_radius", "population_env", "sensor_bounds"]
+
+Controller = Literal["brain", "agent"]
+_NO_TERMS = FitnessTerms(0.0, 0.0, 0.0)
+
+
+def sensor_bounds(robot: Robot) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Lower and upper bounds of a robot's sensor values, in controller input order.
+
+    The core's IMU is unbounded; touch (binary) and light (intensity) sensors read in [0, 1].
+    """
+    low: list[float] = []
+    high: list[float] = []
+    for _, node in robot.walk():
+        n = PART_SPECS[node.type].n_inputs
+        bounded = node.type != PartType.CORE
+        low += [0.0 if bounded else -np.inf] * n
+        high += [1.0 if bounded else np.inf] * n
+    return np.array(low), np.array(high)
+
+
+def footprint_radius(robot: Robot) -> float:
+    """Radius of the smallest vertical cylinder about the core holding the assembled robot.
+
+    Whatever the robot's heading, its horizontal footprint at assembly lies within this distance
+    of its core centre. Metres.
+    """
+    lower, upper = assemble(robot).bounds()
+    return float(math.hypot(max(-lower[0], upper[0]), max(-lower[1], upper[1])))
+
+
+@dataclass(eq=False)
+class _Member:
+    """A living robot (private, mutable bookkeeping)."""
+
+    agent: str
+    robot: Robot
+    controlled_by: Controller
+    handle: int  # world handle
+    brain: int | None  # BatchController handle (brain-controlled robots)
+    birth_step: int
+    birth_position: tuple[float, float]
+    yaw: float
+    radius: float  # footprint radius, metres
+    obs: NDArray[np.float64]
+    obs_low: NDArray[np.float64]
+    obs_high: NDArray[np.float64]
+    position: NDArray[np.float64]  # core centre after the last step (last finite one), metres
+    fitness: SlidingWindowFitness
+    terms: FitnessTerms = _NO_TERMS
+    age_steps: int = 0
+    trajectory: NDArray[np.float64] = field(default_factory=lambda: np.empty((64, 3)))
+    n_trajectory: int = 0
+    blow_up: str | None = None
+    in_slice: slice = field(default_factory=lambda: slice(0, 0))
+    out_slice: slice = field(default_factory=lambda: slice(0, 0))
+
+    def record(self, position: NDArray[np.float64]) -> None:
+        if self.n_trajectory == len(self.trajectory):
+            grown = np.empty((2 * len(self.trajectory), 3))
+            grown[: self.n_trajectory] = self.trajectory
+            self.trajectory = grown
+        self.trajectory[self.n_trajectory] = position
+        self.n_trajectory += 1
+
+
+class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
+    """A changing population of RoboGen robots in one world; reward is each robot's fitness gain.
+
+    ## Agents
+    Each robot is an agent ``robot_<n>`` (``n`` counts births since ``reset``, from 0). Ids are
+    never reused and a dead agent never comes back; ``possible_agents`` is the pool
+    ``robot_0 .. robot_<max_births - 1>``. Robots enter through :meth:`add_robot` (or ``reset``'s
+    initial robots) and leave through :meth:`remove_robot` or a physics blow-up:
+
+    * A robot added between two steps is in :attr:`agents` at once and is reported in all five
+      dicts of the next :meth:`step` (it is simulated in that step).
+    * A robot removed between two steps leaves the world (and :attr:`agents`) at once; the next
+      :meth:`step` reports it one last time with ``terminations[agent] = True`` and
+      ``infos[agent]["death"] = "removed"``; then it disappears.
+    * A robot whose simulation blows up is removed at the end of the step that saw it, reported in
+      that step with ``terminations[agent] = True``, ``infos[agent]["death"] = "blow_up"`` and the
+      reason in ``infos[agent]["blow_up"]``.
+
+    With ``max_steps`` set, every living robot is truncated after that many steps (the episode
+    ends); by default the episode never ends on its own.
+
+    ## Control
+    ``controlled_by="brain"``: the robot's own neural network (its ``Robot`` neurons) drives its
+    hinges; all brain-controlled robots are stepped by one call of the compiled
+    :class:`~revolve_env.brain.BatchController`, fed with the robot's previous observation. Its
+    action, if given, is checked and ignored. ``controlled_by="agent"``: the action from the
+    ``actions`` dict drives the hinges; an agent-controlled robot missing from ``actions`` keeps its
+    previous targets (0 at birth).
+
+    ## Action Space (per agent)
+    ``Box(-1, 1, (n,), float32)`` with ``n`` the robot's active hinges in traversal order (its
+    output neuron order); ``n`` may be 0:
+
+    | Index | Action                              | Min | Max | Unit                    |
+    |-------|-------------------------------------|-----|-----|-------------------------|
+    | i     | position target of active hinge i   | -1  | 1   | normalized (1 = 45 deg) |
+
+    ## Observation Space (per agent)
+    ``Box(low, high, (m,), float64)``: the robot's sensor values in traversal order, as in
+    :class:`~revolve_env.envs.locomotion.LocomotionEnv`: core IMU (accelerometer m/s^2, gyroscope
+    rad/s; unbounded), touch sensors (two binary halves, [0, 1]), light sensors (intensity,
+    [0, 1]). The observation of a robot whose simulation blew up is all zeros.
+
+    ## Rewards
+    ``reward = fitness(t) - fitness(t - control_period)`` with the sliding-window fitness
+    ``f = v + 5 s`` (:class:`~revolve_env.fitness.SlidingWindowFitness`, window
+    ``fitness_window``) over the core positions sampled after the insertion phase (the first
+    ``insertion_time`` seconds of the robot's life, scored 0). On a blow-up the fitness is set to 0
+    (that step's reward is minus the fitness so far). A removed robot's last reward is 0.
+
+    ## Info (per agent)
+    | Key            | Meaning                                                               |
+    |----------------|-----------------------------------------------------------------------|
+    | age            | seconds since birth                                                   |
+    | birth_time     | simulated time of birth. Seconds                                      |
+    | inserting      | ``age < insertion_time`` (the fitness is not yet sampled)             |
+    | is_mature      | ``age >= maturity_age``                                               |
+    | fitness        | ``v + 5 s`` over the window. Metres                                   |
+    | fitness_v      | horizontal path length over the window. Metres                        |
+    | fitness_s      | straight horizontal displacement over the window. Metres              |
+    | position       | core centre ``(x, y, z)``. Metres (a copy)                            |
+    | trajectory     | ``(T, 3)`` read-only core positions, one per ``trajectory_stride``     |
+    |                | control periods since birth (birth position first). Metres            |
+    | controlled_by  | ``"brain"`` or ``"agent"``                                            |
+    | blow_up        | reason string, or None                                                |
+    | death          | None while alive; ``"removed"`` or ``"blow_up"`` in the last report   |
+
+    ## Birth placement
+    :meth:`add_robot` drops a robot (lowest point ``world_config.drop_height`` above the ground)
+    at the given ``(x, y)``, or at a uniformly random position within ``birth_radius`` of the
+    origin, with a random heading. A robot occupies a disc of radius :func:`footprint_radius`
+    about its core; a new robot's disc must keep ``birth_clearance`` from every living robot's
+    disc (about its current core position). Random placement gives up after
+    ``max_placement_tries`` draws with a ``ValueError``; a given position that overlaps is a
+    ``ValueError`` too. Draws come from the generator seeded by ``reset(seed=...)``.
+
+    ## Reset
+    ``reset(seed, options)`` builds a fresh world and adds the initial robots:
+    ``options["robots"]`` if given, else the ``initial_robots`` argument, else one of each example
+    robot of :data:`revolve_env.body.examples.EXAMPLES` (spider, gecko, snake, sensor crawler,
+    bar walker), brain-controlled, at random free positions. Each entry is a ``Robot`` or a mapping
+    with keys ``robot`` and optional ``position``, ``controlled_by``, ``yaw``. Other option keys are
+    ignored (PettingZoo's API test passes arbitrary ones).
+
+    ## Arguments
+    | Keyword             | Default  | Meaning                                                     |
+    |---------------------|----------|-------------------------------------------------------------|
+    | max_births          | 1000     | size of ``possible_agents``: births per episode             |
+    | initial_robots      | None     | robots added by ``reset`` (see Reset)                       |
+    | render_mode         | None     | "rgb_array"                                                 |
+    | render_view         | "top"    | "top" (straight down) or "chase" (oblique), whole arena     |
+    | render_size         | (480, 360) | image width and height. Pixels                            |
+    | insertion_time      | 3.0      | not scored after birth. Seconds                             |
+    | maturity_age        | 15.0     | age from which ``is_mature`` holds. Seconds                 |
+    | fitness_window      | 12.0     | sliding window of the fitness. Seconds                      |
+    | birth_radius        | 2.0      | random births lie within this distance of the origin. m     |
+    | birth_clearance     | 0.02     | gap kept between footprints at birth. Metres                |
+    | max_placement_tries | 200      | random draws before a birth gives up                        |
+    | trajectory_stride   | 1        | control periods between trajectory samples                  |
+    | max_steps           | None     | truncate every robot after this many steps (None: never)    |
+    | control_period      | 1/60     | time per env step. Seconds (a multiple of 1/240 s)          |
+    | world_config        | None     | a :class:`~revolve_env.world.WorldConfig` (physics)         |
+    | limits              | None     | validation limits (:class:`~revolve_env.body.validate.Limits`) |
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "name": "revolve_population_v0", "render_fps": 60,
+                "is_parallelizable": True}
+
+    def __init__(
+        self,
+        max_births: int = 1000,
+        initial_robots: Sequence[Robot | Mapping[str, Any]] | None = None,
+        render_mode: Literal["rgb_array"] | None = None,
+        render_view: Literal["top", "chase"] = "top",
+        render_size: tuple[int, int] = (480, 360),
+        insertion_time: float = 3.0,
+        maturity_age: float = 15.0,
+        fitness_window: float = DEFAULT_WINDOW,
+        birth_radius: float = 2.0,
+        birth_clearance: float = 0.02,
+        max_placement_tries: int = 200,
+        trajectory_stride: int = 1,
+        max_steps: int | None = None,
+        control_period: float = 1.0 / 60.0,
+        world_config: WorldConfig | None = None,
+        limits: Limits | None = None,
+    ) -> None:
+        if not (isinstance(max_births, int) and max_births >= 1):
+            raise ValueError(f"max_births must be an integer >= 1, got {max_births!r}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, "
+                             f"got {render_mode!r}")
+        if render_view not in ("top", "chase"):
+            raise ValueError(f"render_view must be 'top' or 'chase', got {render_view!r}")
+        if len(render_size) != 2 or min(render_size) < 1:
+            raise ValueError(f"render_size must be (width, height) in pixels, got {render_size!r}")
+        for name, value in (("insertion_time", insertion_time), ("maturity_age", maturity_age),
+                            ("birth_radius", birth_radius), ("birth_clearance", birth_clearance)):
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+        if not (math.isfinite(fitness_window) and fitness_window > 0):
+            raise ValueError(f"fitness_window must be a positive number of seconds, got "
+                             f"{fitness_window}")
+        if max_placement_tries < 1:
+            raise ValueError(f"max_placement_tries must be >= 1, got {max_placement_tries}")
+        if trajectory_stride < 1:
+            raise ValueError(f"trajectory_stride must be >= 1, got {trajectory_stride}")
+        if max_steps is not None and max_steps < 1:
+            raise ValueError(f"max_steps must be >= 1 or None, got {max_steps}")
+
+        base = world_config if world_config is not None else WorldConfig()
+        if world_config is None or not math.isclose(base.control_period, control_period):
+            fields = {f: getattr(base, f) for f in base.__dataclass_fields__}
+            fields["control_period"] = control_period
+            base = WorldConfig(**fields)  # validates control_period against the timestep
+        self.config = base
+        self.max_births = max_births
+        self.initial_robots = None if initial_robots is None else list(initial_robots)
+        self.render_mode = render_mode
+        self.render_view = render_view
+        self.render_size = (int(render_size[0]), int(render_size[1]))
+        self.insertion_time = float(insertion_time)
+        self.maturity_age = float(maturity_age)
+        self.fitness_window = float(fitness_window)
+        self.birth_radius = float(birth_radius)
+        self.birth_clearance = float(birth_clearance)
+        self.max_placement_tries = int(max_placement_tries)
+        self.trajectory_stride = int(trajectory_stride)
+        self.max_steps = max_steps
+        self.limits = limits
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / self.config.control_period)}
+        dt = self.config.control_period
+        self._insertion_steps = int(round(self.insertion_time / dt))
+        self._maturity_steps = int(round(self.maturity_age / dt))
+
+        self.possible_agents: list[str] = [f"robot_{n}" for n in range(max_births)]
+        self.agents: list[str] = []
+        self._members: dict[str, _Member] = {}
+        self._dead: list[tuple[_Member, str]] = []  # removed since the last step: (member, death)
+        self._obs_spaces: dict[str, spaces.Box] = {}
+        self._act_spaces: dict[str, spaces.Box] = {}
+        self._births = 0
+        self._steps = 0
+        self._world: World | None = None
+        self._brain: BatchController | None = None
+        self._brain_in = np.zeros(0)
+        self._brain_out = np.zeros(0)
+        self._brain_members: list[_Member] = []
+        self._np_random: np.random.Generator | None = None
+        self._np_random_seed: int | None = None
+
+    # -- spaces ----------------------------------------------------------------------------------
+    def observation_space(self, agent: str) -> spaces.Box:
+        """The observation space of a robot born in this episode (the same object every call)."""
+        try:
+            return self._obs_spaces[agent]
+        except KeyError:
+            raise KeyError(self._unknown(agent)) from None
+
+    def action_space(self, agent: str) -> spaces.Box:
+        """The action space of a robot born in this episode (the same object every call)."""
+        try:
+            return self._act_spaces[agent]
+        except KeyError:
+            raise KeyError(self._unknown(agent)) from None
+
+    def _unknown(self, agent: str) -> str:
+        if agent in self.possible_agents:
+            return f"agent {agent!r} has not been born in this episode"
+        return f"unknown agent {agent!r} (ids are robot_0 .. robot_{self.max_births - 1})"
+
+    # -- properties ------------------------------------------------------------------------------
+    @property
+    def np_random(self) -> np.random.Generator:
+        """The env's generator (birth positions and headings), seeded by ``reset(seed=...)``."""
+        if self._np_random is None:
+            self._np_random, self._np_random_seed = seeding.np_random()
+        return self._np_random
+
+    @property
+    def time(self) -> float:
+        """Simulated time since reset. Seconds."""
+        return self._steps * self.config.control_period
+
+    @property
+    def world(self) -> World:
+        """The physics world (read-only use: adding or removing robots here breaks the env)."""
+        if self._world is None:
+            raise RuntimeError("call reset() first")
+        return self._world
+
+    def robot(self, agent: str) -> Robot:
+        """The body and brain of a living robot."""
+        return self._member(agent, "robot").robot
+
+    def positions(self) -> dict[str, tuple[float, float]]:
+        """Core positions ``(x, y)`` of the living robots, in birth order. Metres."""
+        if self._world is None:
+            return {}
+        world = self._world
+        return {a: (float(p[0]), float(p[1])) for a, p in zip(
+            self.agents, world.core_positions([self._members[a].handle for a in self.agents]))}
+
+    def agent_info(self, agent: str) -> dict[str, Any]:
+        """The current info of a living robot (as :meth:`step` reports it)."""
+        return self._get_info(self._member(agent, "agent_info"), None)
+
+    def _member(self, agent: str, what: str) -> _Member:
+        try:
+            return self._members[agent]
+        except KeyError:
+            pass
+        if agent in self._obs_spaces:
+            raise KeyError(f"{what}: agent {agent!r} is dead (removed or blown up)")
+        raise KeyError(f"{what}: {self._unknown(agent)}")
+
+    # -- PettingZoo API --------------------------------------------------------------------------
+    def reset(
+        self, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, NDArray[np.float64]], dict[str, dict[str, Any]]]:
+        """Start a new episode in a fresh world and add the initial robots (see the class doc)."""
+        if seed is not None or self._np_random is None:
+            self._np_random, self._np_random_seed = seeding.np_random(seed)
+        if self._world is not None:
+            self._world.close()
+        self._world = World(self.config)
+        self._brain = BatchController(self.config.control_period)
+        self._brain_in = np.zeros(0)
+        self._brain_out = np.zeros(0)
+        self._brain_members = []
+        self.agents = []
+        self._members = {}
+        self._dead = []
+        self._obs_spaces = {}
+        self._act_spaces = {}
+        self._births = 0
+        self._steps = 0
+
+        entries: Iterable[Robot | Mapping[str, Any]]
+        if options is not None and "robots" in options:
+            entries = options["robots"]
+        elif self.initial_robots is not None:
+            entries = self.initial_robots
+        else:
+            entries = [make() for make in EXAMPLES.values()]
+        for k, entry in enumerate(entries):
+            if isinstance(entry, Robot):
+                self.add_robot(entry)
+            elif isinstance(entry, Mapping):
+                unknown = set(entry) - {"robot", "position", "controlled_by", "yaw"}
+                if unknown or "robot" not in entry:
+                    raise ValueError(f"initial robot {k}: expected a Robot or a mapping with keys "
+                                     f"'robot' and optional 'position', 'controlled_by', 'yaw'; "
+                                     f"got keys {sorted(entry)}")
+                self.add_robot(entry["robot"], entry.get("position"),
+                               controlled_by=entry.get("controlled_by", "brain"),
+                               yaw=entry.get("yaw"))
+            else:
+                raise TypeError(f"initial robot {k}: expected a Robot or a mapping, got "
+                                f"{type(entry).__name__}")
+        obs = {a: self._members[a].obs.copy() for a in self.agents}
+        infos = {a: self._get_info(self._members[a], None) for a in self.agents}
+        return obs, infos
+
+    def step(
+        self, actions: Mapping[str, ArrayLike]
+    ) -> tuple[
+        dict[str, NDArray[np.float64]], dict[str, float], dict[str, bool], dict[str, bool],
+        dict[str, dict[str, Any]],
+    ]:
+        """Advance every robot one control period (see the class doc for the five dicts).
+
+        Raises:
+            KeyError: an action for an agent that is not alive (never born, removed, blown up).
+            ValueError: an action of the wrong shape, or with NaN or infinity.
+        """
+        world = self._world
+        if world is None or self._brain is None:
+            raise RuntimeError("call reset() before step()")
+        # Check every action before anything changes.
+        checked: list[tuple[_Member, NDArray[np.float64]]] = []
+        for agent, action in actions.items():
+            member = self._member(agent, "action")
+            a = np.asarray(action, dtype=np.float64)
+            shape = self._act_spaces[agent].shape
+            if a.shape != shape:
+                raise ValueError(f"action for {agent!r} must have shape {shape}, got {a.shape}")
+            if not np.all(np.isfinite(a)):
+                raise ValueError(f"action for {agent!r} contains NaN or infinity: {a}")
+            if member.controlled_by == "agent":
+                checked.append((member, a))
+
+        for member, a in checked:
+            world.set_targets(member.handle, a)  # clips to [-1, 1]
+        if self._brain_members:
+            brain_in = self._brain_in
+            for m in self._brain_members:
+                brain_in[m.in_slice] = m.obs
+            self._brain.step(brain_in, self._brain_out)
+            for m in self._brain_members:
+                world.set_targets(m.handle, self._brain_out[m.out_slice])
+        world.step(1)
+        self._steps += 1
+
+        obs: dict[str, NDArray[np.float64]] = {}
+        rewards: dict[str, float] = {}
+        terminations: dict[str, bool] = {}
+        truncations: dict[str, bool] = {}
+        infos: dict[str, dict[str, Any]] = {}
+        for member, death in self._dead:
+            a = member.agent
+            obs[a] = member.obs.copy()
+            rewards[a] = 0.0
+            terminations[a] = True
+            truncations[a] = False
+            infos[a] = self._get_info(member, death)
+        self._dead = []
+
+        truncate = self.max_steps is not None and self._steps >= self.max_steps
+        blown: list[_Member] = []
+        for agent in self.agents:
+            m = self._members[agent]
+            m.age_steps += 1
+            previous = m.terms.fitness
+            m.blow_up = world.blow_up(m.handle)
+            if m.blow_up is not None:
+                m.obs = np.zeros_like(m.obs)
+                m.terms = _NO_TERMS
+                blown.append(m)
+            else:
+                m.obs = np.clip(world.read_sensors(m.handle), m.obs_low, m.obs_high)
+                position = world.core_position(m.handle)
+                m.position = position
+                if m.age_steps % self.trajectory_stride == 0:
+                    m.record(position)
+                if m.age_steps >= self._insertion_steps:
+                    m.fitness.add(self.time, position)
+                    m.terms = m.fitness.terms()
+            obs[agent] = m.obs.copy()
+            rewards[agent] = m.terms.fitness - previous
+            terminations[agent] = m.blow_up is not None
+            truncations[agent] = truncate and m.blow_up is None
+            infos[agent] = self._get_info(m, "blow_up" if m.blow_up is not None else None)
+
+        for m in blown:
+            self._drop(m)
+        if truncate:
+            for agent in list(self.agents):
+                self._drop(self._members[agent])
+        return obs, rewards, terminations, truncations, infos
+
+    def render(self) -> NDArray[np.uint8] | None:
+        """An RGB image ``(height, width, 3)`` of the whole arena (``render_mode="rgb_array"``).
+
+        The camera frames every living robot (and the birth disc): straight down for
+        ``render_view="top"``, obliquely for ``"chase"``. Robots are drawn in their parts' colours.
+        """
+        if self.render_mode is None or self._world is None:
+            return None
+        return self.render_frame(self.render_view)
+
+    def render_frame(self, view: Literal["top", "chase"] = "top") -> NDArray[np.uint8]:
+        """An RGB image of the whole arena from ``view``, whatever the render mode."""
+        world = self.world
+        width, height = self.render_size
+        pts = world.core_positions([self._members[a].handle for a in self.agents])[:, :2]
+        r = self.birth_radius
+        corners = np.array([[-r, -r], [r, r]])
+        pts = np.vstack([pts, corners]) if len(pts) else corners
+        lo, hi = pts.min(axis=0) - 0.4, pts.max(axis=0) + 0.4
+        centre = (lo + hi) / 2
+        half = (hi - lo) / 2
+        # fov 60 deg vertically: fit the larger of the vertical and the aspect-corrected extents
+        extent = max(half[1], half[0] * height / width)
+        distance = extent / math.tan(math.radians(30.0))
+        target = (float(centre[0]), float(centre[1]), 0.0)
+        if view == "top":
+            return world.render(width, height, target=target, distance=distance, yaw_deg=0.0,
+                                pitch_deg=-89.9)
+        if view == "chase":
+            return world.render(width, height, target=target, distance=1.3 * distance,
+                                yaw_deg=30.0, pitch_deg=-40.0)
+        raise ValueError(f"view must be 'top' or 'chase', got {view!r}")
+
+    def close(self) -> None:
+        """Release the physics client (the env can be reset again)."""
+        if self._world is not None:
+            self._world.close()
+            self._world = None
+        self._brain = None
+        self.agents = []
+        self._members = {}
+        self._brain_members = []
+
+    # -- births and deaths -----------------------------------------------------------------------
+    def add_robot(
+        self,
+        robot: Robot,
+        position: tuple[float, float] | None = None,
+        *,
+        controlled_by: Controller = "brain",
+        yaw: float | None = None,
+    ) -> str:
+        """Drop a robot into the world (between steps); returns its new agent id.
+
+        Args:
+            robot: A valid robot (checked with ``revolve_env.body.validate``); a brain-controlled
+                robot's network must be valid with one input neuron per sensor value.
+            position: Core ``(x, y)``. Metres; None draws a free position within
+                ``birth_radius`` of the origin.
+            controlled_by: ``"brain"`` (its own network) or ``"agent"`` (actions from ``step``).
+            yaw: Heading. Radians; None draws one uniformly.
+
+        Raises:
+            ValueError: invalid robot or network, a position overlapping a living robot, no free
+                position found, or ``max_births`` reached. Nothing changes then.
+        """
+        world = self._world
+        if world is None or self._brain is None:
+            raise RuntimeError("call reset() before add_robot()")
+        n = self._births
+        agent = f"robot_{n}"
+        if n >= self.max_births:
+            raise ValueError(f"cannot add a robot: max_births={self.max_births} births already "
+                             "happened in this episode (raise max_births)")
+        if controlled_by not in ("brain", "agent"):
+            raise ValueError(f"add_robot ({agent}): controlled_by must be 'brain' or 'agent', "
+                             f"got {controlled_by!r}")
+        if not isinstance(robot, Robot):
+            raise TypeError(f"add_robot ({agent}): expected a Robot, got {type(robot).__name__}")
+        try:
+            validate(robot, self.limits)
+        except ValueError as e:
+            raise ValueError(f"add_robot ({agent}): invalid robot: {e}") from e
+        low, high = sensor_bounds(robot)
+        n_outputs = len(robot.neurons_of(Layer.OUTPUT))
+        if controlled_by == "brain":
+            try:
+                spec = NetworkSpec.from_robot(robot)
+            except ValueError as e:
+                raise ValueError(f"add_robot ({agent}): invalid network: {e}") from e
+            if spec.n_inputs != len(low):
+                raise ValueError(f"add_robot ({agent}): the network has {spec.n_inputs} input "
+                                 f"neurons but the body has {len(low)} sensor values")
+        radius = footprint_radius(robot)
+        rng = self.np_random
+        if position is None:
+            xy = self._free_position(agent, radius, rng)
+        else:
+            xy = (float(position[0]), float(position[1]))
+            if not (math.isfinite(xy[0]) and math.isfinite(xy[1])):
+                raise ValueError(f"add_robot ({agent}): position must be finite, got {position!r}")
+            clash = self._clash(xy, radius)
+            if clash is not None:
+                raise ValueError(f"add_robot ({agent}): position {xy} overlaps {clash}: a robot "
+                                 f"of footprint radius {radius:.3f} m needs "
+                                 f"{self.birth_clearance} m clearance")
+        heading = float(rng.uniform(0.0, 2.0 * math.pi)) if yaw is None else float(yaw)
+        if not math.isfinite(heading):
+            raise ValueError(f"add_robot ({agent}): yaw must be finite, got {yaw!r}")
+
+        # All checks passed: from here on nothing can fail on bad input.
+        handle = world.add_robot(robot, xy, heading)
+        brain = self._brain.add(robot) if controlled_by == "brain" else None
+        member = _Member(
+            agent=agent, robot=robot, controlled_by=controlled_by, handle=handle, brain=brain,
+            birth_step=self._steps, birth_position=xy, yaw=heading, radius=radius,
+            obs=np.zeros(len(low)), obs_low=low, obs_high=high,
+            position=world.core_position(handle), fitness=SlidingWindowFitness(self.fitness_window),
+        )
+        member.obs = np.clip(world.read_sensors(handle), low, high)
+        member.record(member.position)
+        if self._insertion_steps == 0:
+            member.fitness.add(self.time, member.position)
+        self._births += 1
+        self._members[agent] = member
+        self.agents.append(agent)
+        self._obs_spaces[agent] = spaces.Box(low, high, dtype=np.float64)
+        self._act_spaces[agent] = spaces.Box(-1.0, 1.0, (n_outputs,), dtype=np.float32)
+        if brain is not None:
+            self._relayout_brains()
+        return agent
+
+    def remove_robot(self, agent: str) -> None:
+        """Take a living robot out of the world (between steps); its bodies are deleted at once.
+
+        The next :meth:`step` reports it one last time, terminated, with ``death="removed"``.
+
+        Raises:
+            KeyError: the agent is unknown, not yet born, or already dead.
+        """
+        member = self._member(agent, "remove_robot")
+        self._drop(member)
+        self._dead.append((member, "removed"))
+
+    def _drop(self, member: _Member) -> None:
+        assert self._world is not None and self._brain is not None
+        self._world.remove_robot(member.handle)
+        del self._members[member.agent]
+        self.agents.remove(member.agent)
+        if member.brain is not None:
+            self._brain.remove(member.brain)
+            self._relayout_brains()
+
+    def _relayout_brains(self) -> None:
+        """Recompute every brain robot's slice of the flat controller arrays (after a change)."""
+        assert self._brain is not None
+        brain = self._brain
+        self._brain_members = [m for m in self._members.values() if m.brain is not None]
+        for m in self._brain_members:
+            assert m.brain is not None
+            m.in_slice = brain.input_slice(m.brain)
+            m.out_slice = brain.output_slice(m.brain)
+        self._brain_in = np.zeros(brain.n_inputs)
+        self._brain_out = np.zeros(brain.n_outputs)
+
+    def _clash(self, xy: tuple[float, float], radius: float) -> str | None:
+        """The first living robot whose footprint is too close to a disc at ``xy``, else None."""
+        if not self._members:
+            return None
+        assert self._world is not None
+        members = list(self._members.values())
+        centres = self._world.core_positions([m.handle for m in members])[:, :2]
+        reach = np.array([m.radius for m in members]) + radius + self.birth_clearance
+        gaps = np.hypot(centres[:, 0] - xy[0], centres[:, 1] - xy[1]) - reach
+        k = int(np.argmin(gaps))
+        return members[k].agent if gaps[k] < 0 else None
+
+    def _free_position(self, agent: str, radius: float,
+                       rng: np.random.Generator) -> tuple[float, float]:
+        for _ in range(self.max_placement_tries):
+            r = self.birth_radius * math.sqrt(float(rng.random()))
+            angle = float(rng.uniform(0.0, 2.0 * math.pi))
+            xy = (r * math.cos(angle), r * math.sin(angle))
+            if self._clash(xy, radius) is None:
+                return xy
+        raise ValueError(
+            f"add_robot ({agent}): no free position within {self.birth_radius} m of the origin "
+            f"for a robot of footprint radius {radius:.3f} m after {self.max_placement_tries} "
+            f"tries ({len(self._members)} robots alive); raise birth_radius or remove robots"
+        )
+
+    # -- private ---------------------------------------------------------------------------------
+    def _get_info(self, m: _Member, death: str | None) -> dict[str, Any]:
+        dt = self.config.control_period
+        trajectory = m.trajectory[: m.n_trajectory]
+        trajectory.flags.writeable = False
+        return {
+            "age": m.age_steps * dt,
+            "birth_time": m.birth_step * dt,
+            "inserting": m.age_steps < self._insertion_steps,
+            "is_mature": m.age_steps >= self._maturity_steps,
+            "fitness": m.terms.fitness,
+            "fitness_v": m.terms.v,
+            "fitness_s": m.terms.s,
+            "position": m.position.copy(),
+            "trajectory": trajectory,
+            "controlled_by": m.controlled_by,
+            "blow_up": m.blow_up,
+            "death": death,
+        }
+
+
+def population_env(**kwargs: Any) -> PopulationEnv:
+    """Make a :class:`PopulationEnv` (keyword arguments as documented there)."""
+    return PopulationEnv(**kwargs)

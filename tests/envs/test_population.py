@@ -1,0 +1,294 @@
+"""PopulationEnv: births and deaths, ids, spaces, placement, control, determinism, blow-ups."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from revolve_env.body.examples import gecko, snake, spider
+from revolve_env.body.geometry import Assembly, PlacedBox, assemble, overlapping_boxes
+from revolve_env.body.robot import Node, PartType, Robot
+from revolve_env.body.validate import RobotError
+from revolve_env.envs.population import PopulationEnv, footprint_radius, population_env
+from revolve_env.world import WorldConfig
+
+
+def small_env(**kwargs: object) -> PopulationEnv:
+    """An env whose reset adds nothing (tests add their own robots)."""
+    kwargs.setdefault("initial_robots", [])
+    return population_env(**kwargs)
+
+
+def test_default_reset_adds_the_example_robots() -> None:
+    env = population_env()
+    obs, infos = env.reset(seed=3)
+    assert env.agents == [f"robot_{i}" for i in range(5)]
+    assert set(obs) == set(infos) == set(env.agents)
+    for agent in env.agents:
+        assert env.observation_space(agent).contains(obs[agent])
+        assert infos[agent]["age"] == 0.0 and infos[agent]["inserting"]
+        assert math.hypot(*infos[agent]["position"][:2]) <= env.birth_radius + 1e-9
+    assert env.world.body_count() == 1 + 5
+    env.close()
+
+
+def test_ids_are_never_reused_and_the_dead_stay_dead() -> None:
+    env = small_env(max_births=4)
+    env.reset(seed=0)
+    a = env.add_robot(snake(2))
+    b = env.add_robot(snake(2))
+    env.remove_robot(a)
+    c = env.add_robot(snake(2))
+    assert (a, b, c) == ("robot_0", "robot_1", "robot_2")
+    assert env.agents == [b, c]
+    with pytest.raises(KeyError, match="robot_0.*dead"):
+        env.remove_robot(a)
+    with pytest.raises(KeyError, match="robot_0.*dead"):
+        env.step({a: np.zeros(2, np.float32)})
+    with pytest.raises(KeyError, match="robot_3.*not been born"):
+        env.remove_robot("robot_3")
+    with pytest.raises(KeyError, match="unknown agent 'robot_99'"):
+        env.remove_robot("robot_99")
+    _, _, term, _, infos = env.step({})
+    assert term == {a: True, b: False, c: False}
+    assert infos[a]["death"] == "removed"
+    _, _, term, _, _ = env.step({})
+    assert set(term) == {b, c}  # reported once, then gone
+    assert env.add_robot(snake(2)) == "robot_3"
+    bodies = env.world.body_count()
+    with pytest.raises(ValueError, match="max_births=4"):
+        env.add_robot(snake(2))
+    assert env.world.body_count() == bodies and len(env.agents) == 3
+    assert set(env.agents) <= set(env.possible_agents)
+
+
+def test_spaces_are_cached_per_agent_and_follow_the_body() -> None:
+    env = small_env()
+    env.reset(seed=0)
+    a = env.add_robot(snake(3), controlled_by="agent")
+    b = env.add_robot(gecko())
+    assert env.observation_space(a) is env.observation_space(a)
+    assert env.action_space(a) is env.action_space(a)
+    assert env.action_space(a).shape == (3,)
+    assert env.action_space(b).shape == (len(gecko().neurons_of(_output_layer())),)
+    space = env.action_space(a)
+    env.remove_robot(a)
+    env.step({})
+    assert env.action_space(a) is space  # a dead agent keeps its space for the episode
+    with pytest.raises(KeyError, match="not been born"):
+        env.observation_space("robot_7")
+
+
+def _output_layer():  # noqa: ANN202
+    from revolve_env.body.robot import Layer
+
+    return Layer.OUTPUT
+
+
+def _posed_boxes(robot: Robot, xy: np.ndarray, yaw: float, part: int) -> list[PlacedBox]:
+    c, s = math.cos(yaw), math.sin(yaw)
+    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    shift = np.array([xy[0], xy[1], 0.0])
+    return [replace(b, center=rot @ b.center + shift, rotation=rot @ b.rotation, part=part)
+            for b in assemble(robot).boxes]
+
+
+def test_random_births_never_overlap_a_living_robot() -> None:
+    env = small_env(birth_radius=0.9, max_placement_tries=500)
+    env.reset(seed=11)
+    robots = [spider(), gecko(), snake(4), spider(), gecko(), snake(3), spider(), gecko()]
+    agents = [env.add_robot(r) for r in robots]
+    boxes: list[PlacedBox] = []
+    for k, agent in enumerate(agents):
+        m = env._members[agent]
+        assert math.hypot(*m.birth_position) <= 0.9 + 1e-9
+        boxes += _posed_boxes(m.robot, np.asarray(m.birth_position), m.yaw, part=k)
+    # Boxes of different robots (= different "parts" here) must not intersect.
+    assert overlapping_boxes(Assembly(parts=(), boxes=tuple(boxes), bodies=())) == []
+    # and the check has teeth: two robots at the same place do overlap
+    twin = _posed_boxes(robots[0], np.zeros(2), 0.0, 0) + _posed_boxes(robots[1], np.zeros(2), 0.0, 1)
+    assert overlapping_boxes(Assembly(parts=(), boxes=tuple(twin), bodies=()))
+
+
+def test_bad_births_change_nothing() -> None:
+    env = small_env(birth_radius=0.3, max_placement_tries=20)
+    env.reset(seed=0)
+    a = env.add_robot(spider(), (0.0, 0.0))
+    bodies, agents = env.world.body_count(), list(env.agents)
+    with pytest.raises(ValueError, match="overlaps robot_0"):
+        env.add_robot(gecko(), (0.1, 0.0))
+    with pytest.raises(ValueError, match="no free position within 0.3 m"):
+        env.add_robot(spider())
+    bad = Robot(Node(PartType.BRICK))
+    with pytest.raises(ValueError, match="robot_1.*invalid robot.*root") as err:
+        env.add_robot(bad, (5.0, 5.0))
+    assert isinstance(err.value.__cause__, RobotError)
+    with pytest.raises(ValueError, match="controlled_by"):
+        env.add_robot(gecko(), (5.0, 5.0), controlled_by="human")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="finite"):
+        env.add_robot(gecko(), (math.nan, 0.0))
+    assert env.world.body_count() == bodies and env.agents == agents
+    assert env.add_robot(gecko(), (5.0, 5.0)) == "robot_1"  # no id was consumed
+    del a
+
+
+def test_bad_actions_name_the_agent_and_change_nothing() -> None:
+    env = small_env()
+    env.reset(seed=0)
+    a = env.add_robot(snake(2), (0.0, 0.0), controlled_by="agent")
+    b = env.add_robot(gecko(), (1.0, 0.0))
+    t = env.time
+    with pytest.raises(ValueError, match=f"action for '{a}' must have shape \\(2,\\)"):
+        env.step({a: np.zeros(3)})
+    with pytest.raises(ValueError, match=f"action for '{b}' must have shape"):
+        env.step({a: np.zeros(2), b: np.zeros(1)})
+    with pytest.raises(ValueError, match=f"'{a}' contains NaN"):
+        env.step({a: np.array([0.0, np.nan])})
+    with pytest.raises(KeyError, match="robot_5"):
+        env.step({a: np.zeros(2), "robot_5": np.zeros(2)})
+    assert env.time == t
+    assert all(i["age"] == 0.0 for i in (env.agent_info(a), env.agent_info(b)))
+
+
+def test_a_removed_robot_leaves_no_body_behind() -> None:
+    env = small_env()
+    env.reset(seed=0)
+    assert env.world.body_count() == 1  # the ground
+    agents = [env.add_robot(r) for r in (spider(), gecko(), snake(3))]
+    assert env.world.body_count() == 4
+    env.step({})
+    env.remove_robot(agents[1])
+    assert env.world.body_count() == 3
+    assert set(env.positions()) == {agents[0], agents[2]}
+    env.step({})
+    for agent in (agents[0], agents[2]):
+        env.remove_robot(agent)
+    assert env.world.body_count() == 1 and env.agents == []
+    _, _, term, _, _ = env.step({})
+    assert term == {agents[0]: True, agents[2]: True}
+
+
+def test_brain_and_agent_robots_share_the_world() -> None:
+    env = small_env()
+    env.reset(seed=0)
+    driven = env.add_robot(snake(2), (0.0, 0.0), controlled_by="agent")
+    walker = env.add_robot(gecko(), (1.5, 0.0))
+    rng = np.random.default_rng(0)
+    target = np.array([0.5, -0.5], np.float32)
+    for _ in range(60):
+        # the brain robot's action is checked and ignored
+        _, rewards, _, _, infos = env.step({driven: target,
+                                            walker: rng.uniform(-1, 1, 6).astype(np.float32)})
+    angles = env.world.joint_angles(env._members[driven].handle)
+    np.testing.assert_allclose(angles, target * math.radians(45.0), atol=0.05)
+    walker_angles = env.world.joint_angles(env._members[walker].handle)
+    assert np.ptp(walker_angles) > 0.1  # its own gait moves it
+
+    # Same births, other (ignored) actions for the brain robot: same motion.
+    env2 = small_env()
+    env2.reset(seed=0)
+    env2.add_robot(snake(2), (0.0, 0.0), controlled_by="agent")
+    env2.add_robot(gecko(), (1.5, 0.0))
+    for _ in range(60):
+        _, _, _, _, infos2 = env2.step({driven: target})
+    np.testing.assert_array_equal(infos2[walker]["trajectory"], infos[walker]["trajectory"])
+
+
+def test_age_insertion_maturity_fitness_and_reward() -> None:
+    env = small_env(insertion_time=0.5, maturity_age=1.0, fitness_window=0.5)
+    env.reset(seed=0)
+    a = env.add_robot(gecko(), (0.0, 0.0))
+    total = 0.0
+    for step in range(1, 91):
+        _, rewards, _, _, infos = env.step({})
+        info = infos[a]
+        total += rewards[a]
+        assert info["age"] == pytest.approx(step / 60)
+        assert info["inserting"] == (step < 30)
+        assert info["is_mature"] == (step >= 60)
+        if step < 30:
+            assert rewards[a] == 0.0 and info["fitness"] == 0.0
+    # rewards sum to the current fitness, which is v + 5 s over the last 0.5 s of trajectory
+    assert total == pytest.approx(info["fitness"])
+    traj = info["trajectory"]
+    assert traj.shape == (91, 3) and not traj.flags.writeable
+    window = traj[-31:, :2]
+    v = np.sum(np.linalg.norm(np.diff(window, axis=0), axis=1))
+    s = np.linalg.norm(window[-1] - window[0])
+    assert info["fitness"] == pytest.approx(v + 5 * s)
+    assert info["fitness"] > 0.0
+
+
+def _run(seed: int) -> list[tuple]:
+    env = small_env()
+    env.reset(seed=seed)
+    out = []
+    env.add_robot(gecko())
+    env.add_robot(snake(3), controlled_by="agent")
+    rng = np.random.default_rng(1)
+    for k in range(45):
+        if k == 10:
+            env.add_robot(spider())
+        if k == 20:
+            env.remove_robot("robot_0")
+        actions = {"robot_1": rng.uniform(-1, 1, 3)}
+        obs, rew, term, trunc, infos = env.step(actions)
+        out.append((obs, rew, term, {a: (i["position"], i["fitness"]) for a, i in infos.items()}))
+    env.close()
+    return out
+
+
+def test_same_seed_and_same_births_and_deaths_give_the_same_run() -> None:
+    a, b = _run(5), _run(5)
+    for (oa, ra, ta, ia), (ob, rb, tb, ib) in zip(a, b, strict=True):
+        assert oa.keys() == ob.keys() and ta == tb and ra == rb
+        for agent in oa:
+            np.testing.assert_array_equal(oa[agent], ob[agent])
+            np.testing.assert_array_equal(ia[agent][0], ib[agent][0])
+    c = _run(6)  # other seed: other birth places
+    assert not np.array_equal(a[0][3]["robot_0"][0], c[0][3]["robot_0"][0])
+
+
+def test_blow_up_removes_the_robot_with_a_reason() -> None:
+    # Hinges faster than 5 rad/s count as a blow-up: the flailing robot blows up, the still one
+    # does not.
+    env = small_env(world_config=WorldConfig(max_angular_speed=5.0, drop_height=0.0))
+    env.reset(seed=0)
+    still = env.add_robot(snake(2), (0.0, 0.0), controlled_by="agent")
+    wild = env.add_robot(snake(2), (1.0, 0.0), controlled_by="agent")
+    sign = 1.0
+    for _ in range(30):
+        sign = -sign
+        obs, rewards, term, trunc, infos = env.step({still: np.zeros(2), wild: np.full(2, sign)})
+        if term[wild]:
+            break
+    assert term == {still: False, wild: True}
+    assert infos[wild]["death"] == "blow_up" and "exceeds 5.0 rad/s" in infos[wild]["blow_up"]
+    assert np.all(obs[wild] == 0.0)
+    assert env.agents == [still] and env.world.body_count() == 2
+    _, _, term, _, _ = env.step({still: np.zeros(2)})
+    assert term == {still: False}
+    with pytest.raises(KeyError, match="dead"):
+        env.step({wild: np.zeros(2)})
+
+
+def test_max_steps_truncates_everyone() -> None:
+    env = small_env(max_steps=3)
+    env.reset(seed=0)
+    a = env.add_robot(snake(2))
+    for _ in range(2):
+        _, _, term, trunc, _ = env.step({})
+        assert trunc == {a: False}
+    _, _, term, trunc, _ = env.step({})
+    assert trunc == {a: True} and term == {a: False} and env.agents == []
+
+
+def test_footprint_radius_covers_the_robot() -> None:
+    for robot in (spider(), gecko(), snake(5)):
+        lower, upper = assemble(robot).bounds()
+        r = footprint_radius(robot)
+        corners = [(x, y) for x in (lower[0], upper[0]) for y in (lower[1], upper[1])]
+        assert max(math.hypot(*c) for c in corners) == pytest.approx(r)
