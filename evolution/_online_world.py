@@ -35,7 +35,9 @@ class PopulationWorld:
         return float(self._env.time)
 
     def add(self, robot: Robot, position: tuple[float, float]) -> str:
-        return str(self._env.add_robot(robot, position, controlled_by="brain"))
+        agent = str(self._env.add_robot(robot, position, controlled_by="brain"))
+        self._last[agent] = {"position": position, "fitness": 0.0}
+        return agent
 
     def remove(self, agent: str) -> None:
         self._env.remove_robot(agent)

@@ -20,7 +20,7 @@ import multiprocessing
 import os
 import queue
 import traceback
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -32,8 +32,8 @@ from evolution.lifecycle import InfancyHook
 __all__ = [
     "EvalOutcome",
     "EvalTask",
-    "Evaluator",
     "EvaluateFunction",
+    "Evaluator",
     "LocalEvaluator",
     "RayEvaluator",
     "evaluate_task",
@@ -104,8 +104,9 @@ def _apply_infancy(task: EvalTask, robot: Any) -> tuple[Any, str | None]:
 
 def evaluate_task(task: EvalTask) -> EvalOutcome:
     """Evaluate a robot alone at the origin with :func:`revolve_env.evaluate.evaluate`."""
-    from revolve_env.body.serialize import from_json
     from revolve_env.evaluate import evaluate
+
+    from revolve_env.body.serialize import from_json
 
     robot, learner_failure = _apply_infancy(task, from_json(task.genome))
     result = evaluate(robot, seconds=task.seconds, insertion=task.insertion, seed=task.seed)

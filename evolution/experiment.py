@@ -34,10 +34,10 @@ from typing import Any
 from evolution.config import EvolutionConfig
 
 __all__ = [
+    "PRESETS",
     "ConfigError",
     "ExperimentConfig",
     "ExperimentSummary",
-    "PRESETS",
     "ProgressCallback",
     "preset",
     "resume",

@@ -32,13 +32,13 @@ if TYPE_CHECKING:
     from revolve_env.body.robot import Robot
 
 __all__ = [
+    "LEGAL_TRANSITIONS",
     "InfancyHook",
     "Lifecycle",
     "LifecycleError",
     "LifecycleTiming",
     "Stage",
     "Transition",
-    "LEGAL_TRANSITIONS",
 ]
 
 

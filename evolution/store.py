@@ -43,8 +43,8 @@ import numpy as np
 from evolution.lifecycle import Stage, Transition
 
 __all__ = [
-    "SCHEMA_VERSION",
     "DB_NAME",
+    "SCHEMA_VERSION",
     "Batch",
     "Checkpoint",
     "DiversityPoint",

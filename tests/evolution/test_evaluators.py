@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 from experiment_fakes import fake_evaluate, small
 
-import evolution.experiment as experiment
+from evolution import experiment
 from evolution.evaluators import EvalTask, LocalEvaluator, evaluation_seed
 from evolution.experiment import preset
 

@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 from experiment_fakes import fake_evaluate, fake_world, small
 
-import evolution.experiment as experiment
+from evolution import experiment
 from evolution.engine import ProgressEvent
 from evolution.evaluators import EvalOutcome, EvalTask, LocalEvaluator
 from evolution.experiment import ExperimentConfig, preset

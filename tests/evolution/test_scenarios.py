@@ -11,14 +11,14 @@ from pathlib import Path
 
 import pytest
 from experiment_fakes import (
-    small,
     fake_evaluate,
     fake_evaluate_with_losses,
     fake_world,
     fake_world_with_blow_ups,
+    small,
 )
 
-import evolution.experiment as experiment
+from evolution import experiment
 from evolution.evaluators import LocalEvaluator
 from evolution.experiment import ConfigError, ExperimentConfig, preset
 
