@@ -1,0 +1,47 @@
+"""Infancy learning: the Training Center of the Triangle of Life.
+
+* :class:`Learner` / :class:`LearningResult`: the protocol every learner follows (budget in
+  simulated seconds, explicit generator).
+* :class:`CMAESLearner`, :class:`RandomSearchLearner`: learners over the flat controller
+  parameters, candidates evaluated brain-driven in worker processes.
+* :class:`SB3Learner`, :class:`PolicyAgent`: any stable-baselines3 algorithm on the infant's
+  Gym env, and the adapter that lets the trained policy drive the robot in the population env.
+* :class:`TrainingCenter`: a learner + budget + Darwinian/Lamarckian inheritance, usable as the
+  lifecycle's infancy hook.
+
+Importing this package loads neither pybullet nor torch; they load when a learner runs.
+"""
+
+from evolution.learning.base import (
+    InfancyOutcome,
+    Inheritance,
+    Learner,
+    LearnerError,
+    LearningResult,
+    TrainingCenter,
+    same_body,
+)
+from evolution.learning.params import (
+    CandidateEvaluation,
+    CMAESLearner,
+    RandomSearchLearner,
+    evaluate_params,
+)
+from evolution.learning.sb3 import PolicyAgent, SB3Learner, rollout_fitness
+
+__all__ = [
+    "CMAESLearner",
+    "CandidateEvaluation",
+    "InfancyOutcome",
+    "Inheritance",
+    "Learner",
+    "LearnerError",
+    "LearningResult",
+    "PolicyAgent",
+    "RandomSearchLearner",
+    "SB3Learner",
+    "TrainingCenter",
+    "evaluate_params",
+    "rollout_fitness",
+    "same_body",
+]

@@ -1,0 +1,275 @@
+"""stable-baselines3 in the Training Center: train any SB3 algorithm on the infant's Gym env.
+
+:class:`SB3Learner` trains an SB3 algorithm class (``PPO``, ``SAC``, ``TD3``, ... or its name)
+on ``revolve_env/Locomotion-v0`` with the infant's body, in vectorised envs
+(``SubprocVecEnv``, or ``DummyVecEnv`` in this process). Two action modes:
+
+* ``action="targets"``: the policy sets every hinge target directly (the network is unused);
+* ``action="modulate"``: the robot's own network (its CPG) keeps running and the policy scales
+  and offsets its outputs; the zero action is the inborn gait, so training starts from it.
+
+The trained policy becomes a :class:`PolicyAgent`: a small adapter that maps the robot's
+observation (its sensor values, in input-neuron order) to hinge targets each control period, and
+therefore drives the robot as an *agent-controlled* robot in the population env
+(``add_robot(robot, controlled_by="agent")``) or in the single-robot env with
+``controller="agent"``.
+
+Budget: ``budget`` simulated seconds buy ``budget / control_period`` training steps (summed over
+the parallel envs). The evaluations of the inborn controller and of the trained policy that frame
+the record are not charged (they are one episode each).
+
+The policy lives outside the genome, so an SB3 learner is Darwinian only
+(:class:`~evolution.learning.base.TrainingCenter` refuses ``"lamarckian"`` for it).
+
+SB3 and torch are imported only when a learner trains (``pip install 'revolve-env[learn]'``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from functools import partial
+from typing import Any, Literal
+
+import numpy as np
+
+from evolution.learning.base import LearningResult, check_budget
+from revolve_env.body.robot import Layer, Robot
+
+__all__ = ["PolicyAgent", "SB3Learner", "rollout_fitness"]
+
+ActionMode = Literal["targets", "modulate"]
+
+
+def _algorithm_class(algorithm: type | str) -> type:
+    if not isinstance(algorithm, str):
+        return algorithm
+    try:
+        import stable_baselines3
+    except ImportError as error:  # pragma: no cover - depends on the installation
+        raise ImportError("SB3Learner needs stable-baselines3: pip install 'revolve-env[learn]'") from error
+    cls = getattr(stable_baselines3, algorithm, None)
+    if not isinstance(cls, type):
+        known = [n for n in ("A2C", "DDPG", "DQN", "PPO", "SAC", "TD3") if hasattr(stable_baselines3, n)]
+        raise ValueError(f"stable_baselines3 has no algorithm {algorithm!r}; known: {', '.join(known)}")
+    return cls
+
+
+def _make_env(robot: Robot, action: ActionMode, insertion: float, seconds: float,
+              control_period: float) -> Any:
+    """The infant's single-robot env (module level, so that worker processes can build it)."""
+    from revolve_env.envs import LocomotionEnv
+
+    return LocomotionEnv(
+        robot,
+        insertion_time=insertion,
+        evaluation_time=seconds,
+        fitness_window=seconds,
+        control_period=control_period,
+        controller="brain" if action == "modulate" else "agent",
+        action=action,
+    )
+
+
+class PolicyAgent:
+    """A trained policy as a robot controller: observation in, hinge targets out.
+
+    Use one agent per robot: in ``"modulate"`` mode it runs the robot's network (its state
+    evolves with every :meth:`act`), exactly as the training env did.
+
+    Args:
+        policy: An SB3 policy (``model.policy``) with ``predict(obs, deterministic=...)``.
+        robot: The robot it was trained on.
+        action: ``"targets"`` or ``"modulate"`` (as in training).
+        control_period: The period between two calls of :meth:`act`. Seconds.
+    """
+
+    def __init__(self, policy: Any, robot: Robot, action: ActionMode, control_period: float) -> None:
+        if action not in ("targets", "modulate"):
+            raise ValueError(f"action must be 'targets' or 'modulate', got {action!r}")
+        if not (math.isfinite(control_period) and control_period > 0):
+            raise ValueError(f"control_period must be a positive number of seconds, got {control_period}")
+        self.policy = policy
+        self.robot = robot
+        self.action = action
+        self.control_period = float(control_period)
+        self.n_inputs = len(robot.neurons_of(Layer.INPUT))
+        self.n_outputs = len(robot.neurons_of(Layer.OUTPUT))
+        self._brain: Any = None
+        self._out = np.zeros(self.n_outputs)
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        state["_brain"] = None  # the compiled controller is rebuilt (state 0) after unpickling
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+
+    def reset(self) -> None:
+        """Start a new episode: the network's state and time go back to 0."""
+        if self._brain is not None:
+            self._brain.reset()
+
+    def policy_action(self, observation: np.ndarray) -> np.ndarray:
+        """The policy's deterministic action (the env's action space) for one observation."""
+        obs = np.asarray(observation, dtype=np.float64).reshape(-1)
+        if obs.shape != (self.n_inputs,):
+            raise ValueError(f"observation must have shape ({self.n_inputs},), got {obs.shape}")
+        action, _ = self.policy.predict(obs, deterministic=True)
+        return np.asarray(action, dtype=np.float64).reshape(-1)
+
+    def act(self, observation: np.ndarray) -> np.ndarray:
+        """Normalised hinge targets in [-1, 1] (one per active hinge) for one observation.
+
+        In ``"modulate"`` mode this also advances the robot's network by one control period.
+        """
+        obs = np.ascontiguousarray(observation, dtype=np.float64).reshape(-1)
+        a = np.clip(self.policy_action(obs), -1.0, 1.0)
+        if self.action == "targets":
+            return a
+        if self._brain is None:
+            from revolve_env.brain import BatchController
+
+            self._brain = BatchController(self.control_period)
+            self._brain.add(self.robot)
+        self._brain.step(obs, self._out)
+        n = self.n_outputs
+        return np.clip((1.0 + a[:n]) * self._out + a[n:], -1.0, 1.0)
+
+    __call__ = act
+
+
+def rollout_fitness(agent: PolicyAgent | None, robot: Robot, insertion: float, seconds: float,
+                    control_period: float, seed: int) -> float:
+    """Fitness of one episode of ``robot`` driven by ``agent`` (``None``: by its own network).
+
+    The agent drives the single-robot env with ``controller="agent"``: the same path as an
+    agent-controlled robot in the population env. Metres; 0 after a blow-up.
+    """
+    if agent is None:
+        env = _make_env(robot, "modulate", insertion, seconds, control_period)
+    else:
+        env = _make_env(robot, "targets", insertion, seconds, control_period)
+        agent.reset()
+    try:
+        obs, info = env.reset(seed=seed)
+        zero = np.zeros(env.action_space.shape, dtype=np.float32)
+        while True:
+            action = zero if agent is None else agent.act(obs).astype(np.float32)
+            obs, _, terminated, truncated, info = env.step(action)
+            if terminated or truncated:
+                break
+        return 0.0 if info["blow_up"] is not None else float(info["fitness"])
+    finally:
+        env.close()
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class SB3Learner:
+    """Trains an SB3 algorithm on the infant's single-robot env (see the module docstring).
+
+    Attributes:
+        algorithm: An SB3 algorithm class (``stable_baselines3.PPO``, ``SAC``, ``TD3``, ...) or
+            its name.
+        policy: The SB3 policy name (``"MlpPolicy"``).
+        action: ``"modulate"`` (on top of the robot's CPG; default) or ``"targets"``.
+        n_envs: Parallel training envs.
+        vec_env: ``"subproc"`` (one process per env) or ``"dummy"`` (all in this process).
+        insertion: Settling time of each training episode. Seconds.
+        seconds: Scored part of each training episode (and the fitness window). Seconds.
+        control_period: Time per env step. Seconds (a multiple of the physics timestep).
+        algorithm_kwargs: Extra keyword arguments of the algorithm (``n_steps``, ...).
+    """
+
+    algorithm: type | str = "PPO"
+    policy: str = "MlpPolicy"
+    action: ActionMode = "modulate"
+    n_envs: int = 2
+    vec_env: Literal["subproc", "dummy"] = "subproc"
+    insertion: float = 0.5
+    seconds: float = 4.0
+    control_period: float = 1.0 / 60.0
+    algorithm_kwargs: Mapping[str, Any] = field(default_factory=dict)
+
+    learns_policy = True  # class constant: the controller is the policy, not the genome's network
+
+    def __post_init__(self) -> None:
+        if self.action not in ("targets", "modulate"):
+            raise ValueError(f"action must be 'targets' or 'modulate', got {self.action!r}")
+        if self.vec_env not in ("subproc", "dummy"):
+            raise ValueError(f"vec_env must be 'subproc' or 'dummy', got {self.vec_env!r}")
+        if not isinstance(self.n_envs, int) or self.n_envs < 1:
+            raise ValueError(f"n_envs must be an integer >= 1, got {self.n_envs!r}")
+        for name in ("seconds", "control_period"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number of seconds, got {value}")
+        if not (math.isfinite(self.insertion) and self.insertion >= 0):
+            raise ValueError(f"insertion must be a finite number of seconds >= 0, got {self.insertion}")
+        _algorithm_class(self.algorithm)  # fail early on an unknown name
+
+    def learn(self, robot: Robot, budget: float, rng: np.random.Generator) -> LearningResult:
+        """Train for ``budget`` simulated seconds; the result carries the :class:`PolicyAgent`.
+
+        Raises:
+            ValueError: a budget shorter than one step per env, or a robot the env refuses.
+        """
+        from stable_baselines3.common.callbacks import BaseCallback
+        from stable_baselines3.common.env_util import make_vec_env
+        from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+        from revolve_env.brain import get_params
+
+        steps = int(math.floor(check_budget(budget) / self.control_period + 1e-9))
+        if steps < self.n_envs:
+            raise ValueError(f"a budget of {budget} s is {steps} steps: fewer than one per env "
+                             f"({self.n_envs} envs)")
+        seed = int(rng.integers(0, 2**31 - 1))
+        factory = partial(_make_env, robot, self.action, self.insertion, self.seconds,
+                          self.control_period)
+        cls = SubprocVecEnv if self.vec_env == "subproc" and self.n_envs > 1 else DummyVecEnv
+        kwargs = {"start_method": "forkserver"} if cls is SubprocVecEnv else None
+        venv = make_vec_env(factory, n_envs=self.n_envs, seed=seed, vec_env_cls=cls,
+                            vec_env_kwargs=kwargs)
+        episodes: list[float] = []
+        failures = [0]
+
+        class _Record(BaseCallback):  # type: ignore[misc]
+            """Collects the fitness at the end of every training episode."""
+
+            def _on_step(self) -> bool:
+                for done, info in zip(self.locals["dones"], self.locals["infos"]):
+                    if done:
+                        blown = info.get("blow_up") is not None
+                        failures[0] += int(blown)
+                        episodes.append(0.0 if blown else float(info["fitness"]))
+                return True
+
+        try:
+            model = _algorithm_class(self.algorithm)(
+                self.policy, venv, seed=seed, device="cpu", verbose=0, **dict(self.algorithm_kwargs)
+            )
+            model.learn(total_timesteps=steps, callback=_Record())
+            used = int(model.num_timesteps)
+        finally:
+            venv.close()
+        agent = PolicyAgent(model.policy, robot, self.action, self.control_period)
+        eval_seed = int(rng.integers(0, 2**31 - 1))
+        inborn = rollout_fitness(None, robot, self.insertion, self.seconds, self.control_period,
+                                 eval_seed)
+        trained = rollout_fitness(agent, robot, self.insertion, self.seconds, self.control_period,
+                                  eval_seed)
+        agent.reset()
+        return LearningResult(
+            robot=robot,
+            params=get_params(robot),
+            fitness=tuple(episodes),
+            inborn_fitness=inborn,
+            best_fitness=trained,
+            evaluations=len(episodes),
+            sim_seconds=used * self.control_period,
+            failures=failures[0],
+            policy=agent,
+        )
