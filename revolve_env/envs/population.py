@@ -488,7 +488,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     def render(self) -> NDArray[np.uint8] | None:
         """An RGB image ``(height, width, 3)`` of the whole arena (``render_mode="rgb_array"``).
 
-        The camera frames every living robot (and the birth disc): straight down for
+        The camera frames every living robot (the birth disc when there is none): straight down for
         ``render_view="top"``, obliquely for ``"chase"``. Robots are drawn in their parts' colours.
         """
         if self.render_mode is None or self._world is None:
@@ -499,13 +499,15 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         """An RGB image of the whole arena from ``view``, whatever the render mode."""
         world = self.world
         width, height = self.render_size
-        pts = world.core_positions([self._members[a].handle for a in self.agents])[:, :2]
-        r = self.birth_radius
-        corners = np.array([[-r, -r], [r, r]])
-        pts = np.vstack([pts, corners]) if len(pts) else corners
-        lo, hi = pts.min(axis=0) - 0.4, pts.max(axis=0) + 0.4
+        members = [self._members[a] for a in self.agents]
+        if members:
+            xy = world.core_positions([m.handle for m in members])[:, :2]
+            reach = np.array([[m.radius] for m in members]) + 0.2  # footprint and a margin
+            lo, hi = (xy - reach).min(axis=0), (xy + reach).max(axis=0)
+        else:
+            lo, hi = np.full(2, -self.birth_radius), np.full(2, self.birth_radius)
         centre = (lo + hi) / 2
-        half = (hi - lo) / 2
+        half = np.maximum((hi - lo) / 2, 0.5)
         # fov 60 deg vertically: fit the larger of the vertical and the aspect-corrected extents
         extent = max(half[1], half[0] * height / width)
         distance = extent / math.tan(math.radians(30.0))

@@ -1,0 +1,109 @@
+"""Write videos of a run: GIF through Pillow, MP4 through imageio's ffmpeg plugin when present."""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import warnings
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from revolve_env.envs.population import PopulationEnv
+
+__all__ = ["mp4_available", "record_video", "write_video"]
+
+
+def mp4_available() -> bool:
+    """Whether MP4 can be written here (imageio with its ffmpeg plugin installed)."""
+    return (importlib.util.find_spec("imageio") is not None
+            and importlib.util.find_spec("imageio_ffmpeg") is not None)
+
+
+def write_video(
+    frames: Sequence[NDArray[np.uint8]], path: str | os.PathLike[str], fps: float = 30.0
+) -> Path:
+    """Write RGB frames ``(height, width, 3)`` uint8 as a ``.gif`` or ``.mp4`` file.
+
+    MP4 needs ffmpeg (the ``imageio-ffmpeg`` package); without it a GIF is written next to the
+    requested path (same name, ``.gif``) and a ``UserWarning`` says so.
+
+    Args:
+        frames: At least one frame; all of the same shape.
+        path: Output file; its suffix (``.gif`` or ``.mp4``) picks the format.
+        fps: Frames per second of the video.
+
+    Returns:
+        The path actually written.
+    """
+    out = Path(path)
+    if not frames:
+        raise ValueError("no frames to write")
+    shape = np.asarray(frames[0]).shape
+    if len(shape) != 3 or shape[2] != 3:
+        raise ValueError(f"frames must be RGB images (height, width, 3), got shape {shape}")
+    for k, f in enumerate(frames):
+        if np.asarray(f).shape != shape:
+            raise ValueError(f"frame {k} has shape {np.asarray(f).shape}, frame 0 has {shape}")
+    if not fps > 0:
+        raise ValueError(f"fps must be positive, got {fps}")
+    suffix = out.suffix.lower()
+    if suffix not in (".gif", ".mp4"):
+        raise ValueError(f"video path must end in .gif or .mp4, got {out.name!r}")
+    if suffix == ".mp4":
+        if mp4_available():
+            import imageio.v2 as imageio
+
+            with imageio.get_writer(out, fps=fps, macro_block_size=1) as writer:
+                for f in frames:
+                    writer.append_data(np.asarray(f, dtype=np.uint8))
+            return out
+        out = out.with_suffix(".gif")
+        warnings.warn(f"MP4 needs ffmpeg (pip install imageio-ffmpeg), which is not installed: "
+                      f"writing a GIF instead, to {out}", UserWarning, stacklevel=2)
+    from PIL import Image
+
+    images = [Image.fromarray(np.asarray(f, dtype=np.uint8)) for f in frames]
+    images[0].save(out, save_all=True, append_images=images[1:],
+                   duration=max(20, round(1000.0 / fps)), loop=0)
+    return out
+
+
+def record_video(
+    env: PopulationEnv,
+    path: str | os.PathLike[str],
+    steps: int,
+    *,
+    policy: Callable[[PopulationEnv], dict[str, Any]] | None = None,
+    every: int = 6,
+    view: Literal["top", "chase"] | None = None,
+) -> Path:
+    """Step ``env`` (already reset) ``steps`` times and write a video of the arena.
+
+    One frame is taken before the first step and then every ``every`` steps; the video plays in
+    real time (``fps = 1 / (every * control_period)``).
+
+    Args:
+        env: A reset :class:`PopulationEnv` (any ``render_mode``).
+        path: Output ``.gif`` or ``.mp4`` (see :func:`write_video`).
+        steps: Control periods to simulate.
+        policy: Called before each step with the env; returns the actions dict (default: none,
+            so agent-controlled robots hold their targets). It may add or remove robots.
+        every: Steps between frames.
+        view: ``"top"`` or ``"chase"``; defaults to ``env.render_view``.
+
+    Returns:
+        The path written.
+    """
+    if steps < 1 or every < 1:
+        raise ValueError(f"steps and every must be >= 1, got {steps} and {every}")
+    camera = view if view is not None else env.render_view
+    frames = [env.render_frame(camera)]
+    for k in range(1, steps + 1):
+        env.step(policy(env) if policy is not None else {})
+        if k % every == 0:
+            frames.append(env.render_frame(camera))
+    return write_video(frames, path, fps=1.0 / (every * env.config.control_period))
