@@ -23,9 +23,11 @@ class PopulationWorld:
     def __init__(self, config: ExperimentConfig, seed: int) -> None:
         from revolve_env.envs.population import PopulationEnv
 
-        self._env: Any = PopulationEnv(insertion=config.insertion,
-                                       window=config.evaluation_time,
-                                       fertile_age=config.fertile_age)
+        self._env: Any = PopulationEnv(max_births=config.births + config.min_alive + 1,
+                                       insertion_time=config.insertion,
+                                       maturity_age=config.fertile_age,
+                                       fitness_window=config.evaluation_time,
+                                       birth_radius=config.birth_radius)
         self._env.reset(seed=seed)
         self._last: dict[str, dict[str, Any]] = {}
 
@@ -35,7 +37,12 @@ class PopulationWorld:
         return float(self._env.time)
 
     def add(self, robot: Robot, position: tuple[float, float]) -> str:
-        agent = str(self._env.add_robot(robot, position, controlled_by="brain"))
+        try:
+            agent = str(self._env.add_robot(robot, position, controlled_by="brain"))
+        except ValueError:
+            # The env's footprint check is stricter than the engine's centre distance: let the
+            # env place the robot (its own seeded generator keeps the run deterministic).
+            agent = str(self._env.add_robot(robot, None, controlled_by="brain"))
         self._last[agent] = {"position": position, "fitness": 0.0}
         return agent
 
@@ -47,20 +54,21 @@ class PopulationWorld:
         before = set(self._env.agents)
         removed: dict[str, str] = {}
         # Half a control period of tolerance: ticks land on whole control steps.
-        while self.time < t - 0.5 * float(self._env.control_period):
+        while self.time < t - 0.5 * float(self._env.config.control_period):
             _, _, terminations, truncations, infos = self._env.step({})
             for agent, info in infos.items():
                 self._last[agent] = info
             for agent in before:
                 if (terminations.get(agent) or truncations.get(agent)) and agent not in removed:
                     info = self._last.get(agent, {})
-                    removed[agent] = str(info.get("removed") or info.get("blow_up") or "removed")
+                    removed[agent] = str(info.get("blow_up") or info.get("death") or "removed")
         out: dict[str, AgentStatus] = {}
         for agent in before:
             info = self._last.get(agent, {})
             x, y = tuple(info.get("position", (0.0, 0.0)))[:2]
-            out[agent] = AgentStatus(float(info.get("fitness", 0.0)), info.get("v"),
-                                     info.get("s"), (float(x), float(y)), removed.get(agent))
+            out[agent] = AgentStatus(float(info.get("fitness", 0.0)), info.get("fitness_v"),
+                                     info.get("fitness_s"), (float(x), float(y)),
+                                     removed.get(agent))
             if agent in removed:
                 self._last.pop(agent, None)
         return out

@@ -556,9 +556,9 @@ class _OnlineRun(_Run):
             f"no position {config.birth_clearance} m from the others; best gap {best_gap:.3f} m"))
         return best
 
-    def give_birth(self, time_s: float) -> None:
+    def give_birth(self, time_s: float, random: bool = False) -> None:
         mature = [m for m in self.population if m.lifecycle.fertile]
-        robot, pa, pb, origin = self.conceive(mature, time_s)
+        robot, pa, pb, origin = self.conceive(mature, time_s, random)
         position = self.position(time_s)
         member, record = self.new_member(robot, (pa, pb), origin, time_s, time_s)
         member.agent = self.world.add(robot, position)
@@ -628,7 +628,7 @@ class _OnlineRun(_Run):
             self.replay_until = checkpoint
             self.stored_genomes = {r.robot_id: r.genome for r in self.store.robots(self.run_id)}
         for _ in range(config.population_size):
-            self.give_birth(0.0)
+            self.give_birth(0.0, random=True)
         self._commit_online(force=True)
         next_tick = config.conception_interval
         while not self.done():
