@@ -10,6 +10,8 @@ anchors.
 from __future__ import annotations
 
 import math
+import os
+import sys
 from dataclasses import dataclass, field
 from types import TracebackType
 
@@ -77,12 +79,32 @@ class World:
         Args:
             config: Physics settings; defaults to ``WorldConfig()``.
             gui: Open pybullet's window (one per process) instead of a headless client.
+
+        Raises:
+            RuntimeError: no physics server could be started, or a GUI was asked for without a
+                display or while another GUI is open.
         """
         self.config = config if config is not None else WorldConfig()
         self._gui = gui
+        if gui and sys.platform.startswith("linux") and not (
+            os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+        ):
+            # pybullet's GUI would hang or abort the process without a display: refuse instead.
+            raise RuntimeError("cannot open pybullet's GUI: no display (DISPLAY is not set)")
         self._cid = pb.connect(pb.GUI if gui else pb.DIRECT)
         if self._cid < 0:
-            raise RuntimeError("could not connect to a pybullet physics server")
+            raise RuntimeError(
+                "could not connect to a pybullet physics server"
+                + (" (pybullet allows one GUI per process)" if gui else "")
+            )
+        self._closed = False
+        self._robots: dict[int, _RobotState] = {}
+        self._next_handle = 0
+        self._time = 0.0
+        self._setup()
+
+    def _setup(self) -> None:
+        """Physics settings and the ground (on a fresh or freshly reset client)."""
         cid = self._cid
         c = self.config
         pb.setPhysicsEngineParameter(
@@ -90,17 +112,25 @@ class World:
             deterministicOverlappingPairs=1, physicsClientId=cid,
         )
         pb.setGravity(0.0, 0.0, -c.gravity, physicsClientId=cid)
-        if gui:
+        if self._gui:
             pb.configureDebugVisualizer(pb.COV_ENABLE_GUI, 0, physicsClientId=cid)
         plane = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=cid)
         self._ground = pb.createMultiBody(0.0, plane, physicsClientId=cid)
         pb.changeDynamics(self._ground, -1, lateralFriction=c.friction, restitution=0.0,
                           physicsClientId=cid)
         pb.changeVisualShape(self._ground, -1, rgbaColor=(0.85, 0.85, 0.8, 1.0), physicsClientId=cid)
-        self._robots: dict[int, _RobotState] = {}
-        self._next_handle = 0
+
+    def reset(self) -> None:
+        """Remove every robot and restart the simulation from time 0 on the same client.
+
+        After a reset the world behaves exactly like a new one (same inputs, same trajectory).
+        Handles are still never reused.
+        """
+        self._check_open()
+        pb.resetSimulation(physicsClientId=self._cid)
+        self._robots.clear()
         self._time = 0.0
-        self._closed = False
+        self._setup()
 
     # -- lifetime ---------------------------------------------------------------------------
     def close(self) -> None:

@@ -214,3 +214,22 @@ def test_inputs_follow_the_input_neuron_layout() -> None:
     for robot in (spider(), every_part(), _leg_with_touch()):
         assert build_model(robot).n_inputs == len(robot.neurons_of(Layer.INPUT))
         assert build_model(robot).n_outputs == len(robot.neurons_of(Layer.OUTPUT))
+
+
+def test_reset_world_replays_exactly() -> None:
+    def run(world: World) -> np.ndarray:
+        h = world.add_robot(spider())
+        out = []
+        for i in range(60):
+            world.set_targets(h, np.cos(3 * i / 60 + np.arange(8)))
+            world.step()
+            out.append(world.core_position(h))
+        return np.array(out)
+
+    with World() as world:
+        first = run(world)
+        world.add_robot(snake(), position=(1, 1))  # leftovers must not matter
+        world.step(10)
+        world.reset()
+        assert world.time == 0.0 and world.handles == () and world.body_count() == 1
+        np.testing.assert_array_equal(run(world), first)

@@ -1,0 +1,327 @@
+"""Single-robot locomotion task: ``revolve_env/Locomotion-v0``.
+
+One RoboGen robot on a flat plane; the episode is an insertion phase followed by an evaluation
+phase, and the return is the robot's locomotion fitness ``f = v + 5 s`` (:mod:`revolve_env.fitness`).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import warnings
+from typing import Any, Literal
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import NDArray
+
+from revolve_env.body.parts import PART_SPECS
+from revolve_env.body.robot import Layer, PartType, Robot
+from revolve_env.body.serialize import load
+from revolve_env.body.validate import Limits, validate
+from revolve_env.brain import BatchController
+from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
+from revolve_env.world import World, WorldConfig
+
+__all__ = ["LocomotionEnv"]
+
+# Full-scale ranges of the MPU-9150 IMU on RoboGen's core board (+-16 g, +-2000 deg/s): readings
+# saturate there, as the real sensor's do.
+_ACCEL_RANGE = 16 * 9.81  # metres per second squared
+_GYRO_RANGE = math.radians(2000.0)  # radians per second
+
+
+class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
+    """Make a RoboGen modular robot walk: reward is the step's increase of its fitness.
+
+    ## Description
+    The robot (any valid :class:`~revolve_env.body.robot.Robot`, or a path to its JSON) is dropped
+    on an infinite flat plane. For ``insertion_time`` seconds it settles (its controller already
+    acts; nothing is scored); then for ``evaluation_time`` seconds its core is tracked and the
+    fitness ``f = v + 5 s`` is computed over a sliding window of ``fitness_window`` seconds, where
+    ``v`` is the horizontal path length of the core and ``s`` its straight horizontal displacement
+    over the window. With the defaults (window = evaluation time) the undiscounted return equals
+    the fitness at the end of the episode.
+
+    ## Action Space
+    ``Box(-1, 1, (n,), float32)``. With ``action="targets"`` (default), ``n`` is the number of
+    active hinges, in traversal order (the robot's output neuron order):
+
+    | Index | Action                              | Min | Max | Unit                    |
+    |-------|-------------------------------------|-----|-----|-------------------------|
+    | i     | position target of active hinge i   | -1  | 1   | normalized (1 = 45 deg) |
+
+    With ``controller="brain"`` and ``action="targets"`` the robot's own network drives the
+    hinges and the action is ignored. With ``action="modulate"`` (brain required) ``n`` is twice
+    the number of hinges: target ``i`` is ``clip((1 + a[i]) * brain[i] + a[n/2 + i], -1, 1)``, so
+    the zero action leaves the brain's gait unchanged.
+
+    ## Observation Space
+    ``Box(low, high, (m,), float64)``: every sensor value in traversal order (the robot's input
+    neuron order); per part type:
+
+    | Part          | Values                                    | Min  | Max | Unit           |
+    |---------------|-------------------------------------------|------|-----|----------------|
+    | core          | accelerometer x, y, z (core frame, incl.  | -157 | 157 | m/s^2 (16 g)   |
+    |               | the reaction to gravity)                  |      |     |                |
+    | core          | gyroscope x, y, z (core frame)            | -34.9| 34.9| rad/s          |
+    | touch sensor  | left half touching, right half touching   | 0    | 1   | binary         |
+    | light sensor  | light intensity                           | 0    | 1   | dimensionless  |
+
+    Readings saturate at the bounds (the IMU's full-scale range, as on the real board).
+    ``sensor_noise`` adds Gaussian noise of that standard deviation to every value (then clipped
+    to the bounds); ``actuator_noise`` adds Gaussian noise to every normalized hinge target.
+    Both draw from the generator seeded by ``reset(seed=...)``.
+
+    ## Rewards
+    ``reward = fitness(t) - fitness(t - control_period)``: 0 during insertion. If the simulation
+    blows up (NaN, or a part faster than a sane speed) the fitness is set to 0, so that step's
+    reward is minus the fitness so far, and the episode terminates.
+
+    ## Episode End
+    * Truncation: when ``insertion_time + evaluation_time`` seconds have been simulated.
+    * Termination: only on a simulation blow-up.
+
+    ## Info
+    ``fitness``, ``fitness_v``, ``fitness_s`` (metres; the fitness and its terms), ``reward_fitness``
+    (the reward), ``time`` (seconds since reset), ``evaluating`` (past insertion), ``x_position``,
+    ``y_position`` (core, metres) and ``blow_up`` (the reason string, or None).
+
+    ## Arguments
+    | Keyword            | Default   | Meaning                                                    |
+    |--------------------|-----------|------------------------------------------------------------|
+    | robot              | required  | Robot, or path to its JSON; validated before any physics  |
+    | render_mode        | None      | "rgb_array" or "human"                                    |
+    | insertion_time     | 3.0       | settling phase, not scored. Seconds                        |
+    | evaluation_time    | 12.0      | scored phase. Seconds                                      |
+    | control_period     | 1/60      | time per env step. Seconds (a multiple of 1/240 s)         |
+    | fitness_window     | 12.0      | sliding window of the fitness. Seconds                     |
+    | sensor_noise       | 0.0       | std of Gaussian sensor noise (units of each sensor)        |
+    | actuator_noise     | 0.0       | std of Gaussian noise on normalized targets                |
+    | controller         | "agent"   | "agent": the action drives; "brain": the robot's network   |
+    | action             | "targets" | "targets" or "modulate" (scale/offset the brain's outputs) |
+    | world_config       | None      | a :class:`~revolve_env.world.WorldConfig` (physics)        |
+    | limits             | None      | validation limits (:class:`~revolve_env.body.validate.Limits`) |
+    """
+
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 60}
+
+    def __init__(
+        self,
+        robot: Robot | str | os.PathLike[str],
+        render_mode: Literal["rgb_array", "human"] | None = None,
+        insertion_time: float = 3.0,
+        evaluation_time: float = 12.0,
+        control_period: float = 1.0 / 60.0,
+        fitness_window: float = DEFAULT_WINDOW,
+        sensor_noise: float = 0.0,
+        actuator_noise: float = 0.0,
+        controller: Literal["agent", "brain"] = "agent",
+        action: Literal["targets", "modulate"] = "targets",
+        world_config: WorldConfig | None = None,
+        limits: Limits | None = None,
+    ) -> None:
+        if isinstance(robot, (str, os.PathLike)):
+            robot = load(robot, limits)
+        elif isinstance(robot, Robot):
+            validate(robot, limits)
+        else:
+            raise TypeError(f"robot must be a Robot or a path to its JSON, got {type(robot).__name__}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, "
+                             f"got {render_mode!r}")
+        for name, value in (("insertion_time", insertion_time), ("sensor_noise", sensor_noise),
+                            ("actuator_noise", actuator_noise)):
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+        for name, value in (("evaluation_time", evaluation_time), ("fitness_window", fitness_window)):
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number of seconds, got {value}")
+        if controller not in ("agent", "brain"):
+            raise ValueError(f"controller must be 'agent' or 'brain', got {controller!r}")
+        if action not in ("targets", "modulate"):
+            raise ValueError(f"action must be 'targets' or 'modulate', got {action!r}")
+        if action == "modulate" and controller != "brain":
+            raise ValueError("action='modulate' scales the brain's outputs: it needs controller='brain'")
+
+        base = world_config if world_config is not None else WorldConfig()
+        if world_config is None or not math.isclose(base.control_period, control_period):
+            fields = {f: getattr(base, f) for f in base.__dataclass_fields__}
+            fields["control_period"] = control_period
+            base = WorldConfig(**fields)  # validates control_period against the timestep
+        self.config = base
+        self.robot = robot
+        self.render_mode = render_mode
+        self.insertion_time = float(insertion_time)
+        self.evaluation_time = float(evaluation_time)
+        self.fitness_window = float(fitness_window)
+        self.sensor_noise = float(sensor_noise)
+        self.actuator_noise = float(actuator_noise)
+        self.controller = controller
+        self.action_mode = action
+        dt = self.config.control_period
+        self._insertion_steps = int(round(self.insertion_time / dt))
+        self._total_steps = self._insertion_steps + int(round(self.evaluation_time / dt))
+        if self._total_steps <= self._insertion_steps:
+            raise ValueError(f"evaluation_time {evaluation_time} s is shorter than one control "
+                             f"period ({dt} s)")
+
+        self._n_outputs = len(robot.neurons_of(Layer.OUTPUT))
+        low, high = self._sensor_bounds(robot)
+        self._obs_low, self._obs_high = low, high
+        self._n_inputs = len(low)
+        if controller == "brain" and len(robot.neurons_of(Layer.INPUT)) != self._n_inputs:
+            raise ValueError(f"the robot's network has {len(robot.neurons_of(Layer.INPUT))} input "
+                             f"neurons but its body has {self._n_inputs} sensor values")
+        if self._n_outputs == 0:
+            raise ValueError("the robot has no active hinge: there is nothing to control")
+        n_act = 2 * self._n_outputs if action == "modulate" else self._n_outputs
+        self.observation_space = spaces.Box(low, high, dtype=np.float64)
+        self.action_space = spaces.Box(-1.0, 1.0, (n_act,), dtype=np.float32)
+
+        self._world: World | None = None
+        self._handle = -1
+        self._brain: BatchController | None = None
+        self._brain_in = np.zeros(self._n_inputs)
+        self._brain_out = np.zeros(self._n_outputs)
+        self._fitness = SlidingWindowFitness(self.fitness_window)
+        self._terms = FitnessTerms(0.0, 0.0, 0.0)
+        self._step_count = 0
+        self._obs = np.zeros(self._n_inputs)
+        self._blow_up: str | None = None
+
+    # -- spaces ----------------------------------------------------------------------------------
+    @staticmethod
+    def _sensor_bounds(robot: Robot) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        low: list[float] = []
+        high: list[float] = []
+        for _, node in robot.walk():
+            n = PART_SPECS[node.type].n_inputs
+            if node.type == PartType.CORE:  # accelerometer, then gyroscope
+                low += [-_ACCEL_RANGE] * 3 + [-_GYRO_RANGE] * 3
+                high += [_ACCEL_RANGE] * 3 + [_GYRO_RANGE] * 3
+            else:  # touch (binary) and light (intensity) sensors read in [0, 1]
+                low += [0.0] * n
+                high += [1.0] * n
+        return np.array(low), np.array(high)
+
+    # -- gymnasium API -----------------------------------------------------------------------------
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[NDArray[np.float64], dict[str, Any]]:
+        super().reset(seed=seed)
+        if self._world is None:
+            self._world = self._make_world()
+        else:
+            self._world.reset()
+        self._handle = self._world.add_robot(self.robot)
+        if self.controller == "brain":
+            self._brain = BatchController(self.config.control_period)
+            self._brain.add(self.robot)
+        self._fitness.reset()
+        if self._insertion_steps == 0:  # the evaluation starts right away, from here
+            self._fitness.add(0.0, self._world.core_position(self._handle))
+        self._terms = FitnessTerms(0.0, 0.0, 0.0)
+        self._step_count = 0
+        self._blow_up = None
+        self._obs = self._get_obs()
+        if self.render_mode == "human":
+            self.render()
+        return self._obs.copy(), self._get_info(0.0)
+
+    def step(
+        self, action: NDArray[np.float32]
+    ) -> tuple[NDArray[np.float64], float, bool, bool, dict[str, Any]]:
+        if self._world is None:
+            raise RuntimeError("call reset() before step()")
+        if self._blow_up is not None or self._step_count >= self._total_steps:
+            raise RuntimeError("the episode is over; call reset()")
+        world = self._world
+        targets = self._targets(np.asarray(action, dtype=np.float64).reshape(-1))
+        if self.actuator_noise > 0:
+            targets = targets + self.np_random.normal(0.0, self.actuator_noise, targets.shape)
+        world.set_targets(self._handle, np.clip(targets, -1.0, 1.0))
+        world.step(1)
+        self._step_count += 1
+
+        self._blow_up = world.blow_up(self._handle)
+        if self._step_count >= self._insertion_steps and self._blow_up is None:
+            self._fitness.add(world.time, world.core_position(self._handle))
+        reward = self._get_reward()
+        terminated = self._blow_up is not None
+        truncated = not terminated and self._step_count >= self._total_steps
+        self._obs = self._get_obs()
+        if self.render_mode == "human":
+            self.render()
+        return self._obs.copy(), reward, terminated, truncated, self._get_info(reward)
+
+    def render(self) -> NDArray[np.uint8] | None:
+        if self._world is None or self.render_mode is None:
+            return None
+        target = self._world.core_position(self._handle)
+        if self.render_mode == "human":
+            self._world.look_at(target)
+            return None
+        return self._world.render(target=target)
+
+    def close(self) -> None:
+        if self._world is not None:
+            self._world.close()
+            self._world = None
+
+    # -- private -----------------------------------------------------------------------------------
+    def _make_world(self) -> World:
+        if self.render_mode == "human":
+            try:
+                return World(self.config, gui=True)
+            except RuntimeError as exc:
+                warnings.warn(f"render_mode='human' without a window: {exc}", stacklevel=3)
+        return World(self.config)
+
+    def _targets(self, action: NDArray[np.float64]) -> NDArray[np.float64]:
+        if action.shape != self.action_space.shape:
+            raise ValueError(f"action must have shape {self.action_space.shape}, got {action.shape}")
+        if not np.all(np.isfinite(action)):
+            raise ValueError(f"action contains NaN or infinity: {action}")
+        action = np.clip(action, -1.0, 1.0)
+        if self._brain is None:
+            return action
+        self._brain_in[:] = self._obs
+        self._brain.step(self._brain_in, self._brain_out)
+        if self.action_mode == "targets":
+            return self._brain_out.copy()
+        n = self._n_outputs
+        return (1.0 + action[:n]) * self._brain_out + action[n:]
+
+    def _get_obs(self) -> NDArray[np.float64]:
+        assert self._world is not None
+        obs = self._world.read_sensors(self._handle)
+        if self._blow_up is not None or not np.all(np.isfinite(obs)):
+            return np.zeros(self._n_inputs)
+        if self.sensor_noise > 0:
+            obs = obs + self.np_random.normal(0.0, self.sensor_noise, obs.shape)
+        return np.clip(obs, self._obs_low, self._obs_high)
+
+    def _get_reward(self) -> float:
+        previous = self._terms.fitness
+        if self._blow_up is not None:
+            self._terms = FitnessTerms(0.0, 0.0, 0.0)
+        elif self._step_count >= self._insertion_steps:
+            self._terms = self._fitness.terms()
+        return self._terms.fitness - previous
+
+    def _get_info(self, reward: float) -> dict[str, Any]:
+        assert self._world is not None
+        pos = self._world.core_position(self._handle)
+        return {
+            "fitness": self._terms.fitness,
+            "fitness_v": self._terms.v,
+            "fitness_s": self._terms.s,
+            "reward_fitness": reward,
+            "time": self._step_count * self.config.control_period,
+            "evaluating": self._step_count >= self._insertion_steps,
+            "x_position": float(pos[0]),
+            "y_position": float(pos[1]),
+            "blow_up": self._blow_up,
+        }
