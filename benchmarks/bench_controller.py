@@ -37,7 +37,7 @@ def typical_robot(rng: np.random.Generator) -> Robot:
         for k in range(5)
     )
     core_neurons = tuple(Neuron(f"core-{n}", Layer.INPUT, Activation.INPUT) for n in imu) + hidden
-    arms = []
+    arms: list[tuple[int, Node]] = []
     for a in range(4):
         tip: Node | None = None
         if a < 2:
@@ -50,6 +50,7 @@ def typical_robot(rng: np.random.Generator) -> Robot:
                          bias=rng.uniform(-1, 1), gain=rng.uniform(0.5, 3))
             tip = Node(PartType.ACTIVE_HINGE, neurons=(out,),
                        children=((1, tip),) if tip is not None else ())
+        assert tip is not None
         arms.append((a, tip))
     body = Node(PartType.CORE, neurons=core_neurons, children=tuple(arms))
     robot = Robot(body)

@@ -14,8 +14,9 @@ value for any other neuron (recurrent connections included); then
 All neurons start at 0. Each output value ``o`` becomes a normalised hinge target
 ``clip(2 o - 1, -1, 1)`` (the world multiplies it by the servo's range).
 
-The compiled :class:`~revolve_env.brain.controller.BatchController` computes the same thing in the
-same order of floating-point operations; tests compare the two. This class is vectorised over all
+The compiled :class:`~revolve_env.brain.controller.BatchController` computes the same thing with
+the same floating-point operations in the same order (its exp and sin differ from NumPy's by at
+most an ulp or two); tests compare the two. This class is vectorised over all
 networks (one ``bincount`` per tick) and is the benchmark baseline.
 """
 

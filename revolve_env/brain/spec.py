@@ -17,7 +17,7 @@ order (outputs, then hidden), the parameters of its activation in ``ACTIVATION_P
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Final
+from typing import Any, Final
 
 import numpy as np
 import numpy.typing as npt
@@ -36,8 +36,8 @@ from revolve_env.body.robot import (
 __all__ = [
     "KIND_INPUT",
     "KIND_LINEAR",
-    "KIND_SIGMOID",
     "KIND_OSCILLATOR",
+    "KIND_SIGMOID",
     "NEURON_PARAM_COLUMNS",
     "NetworkSpec",
     "get_params",
@@ -63,7 +63,7 @@ NEURON_PARAM_COLUMNS: Final[tuple[str, ...]] = ("bias", "gain", "period", "phase
 
 
 def _frozen(a: npt.ArrayLike, dtype: type) -> np.ndarray:
-    out = np.array(a, dtype=dtype)
+    out: np.ndarray = np.array(a, dtype=dtype)
     out.setflags(write=False)
     return out
 
@@ -321,7 +321,7 @@ def set_params(robot: Robot, params: npt.ArrayLike) -> Robot:
     connections = tuple(
         Connection(c.src, c.dst, w) for c, w in zip(robot.connections, weights, strict=True)
     )
-    updated: dict[str, dict[str, float]] = {}
+    updated: dict[str, dict[str, Any]] = {}
     for cell in new.param_cells:
         i, col = divmod(int(cell), 5)
         updated.setdefault(new.ids[i], {})[NEURON_PARAM_COLUMNS[col]] = float(new.neuron_params[i, col])

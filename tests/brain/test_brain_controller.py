@@ -20,7 +20,7 @@ DT = 0.05  # seconds
 # Both do the same floating-point operations in the same order (on the development machine the
 # results are bitwise equal); exp and sin may still differ in the last bit between the C library
 # and NumPy on other platforms, hence a tolerance rather than equality.
-TOL = dict(rtol=1e-9, atol=1e-9)
+TOL = {"rtol": 1e-9, "atol": 1e-9}
 
 
 def run(ctrl: BatchController | ReferenceBatchController, inputs: np.ndarray) -> np.ndarray:
@@ -111,40 +111,43 @@ def test_batch_equals_each_alone(batch: list[Robot], seed: int) -> None:
 @settings(max_examples=20, deadline=None)
 def test_add_and_remove_between_ticks(four: list[Robot], seed: int) -> None:
     """Population changes keep every survivor's state, time and slot contents."""
-    rng = np.random.default_rng(seed)
     for cls in CONTROLLERS:
-        batch = cls(DT)
-        alone: dict[int, tuple[object, Robot]] = {}
+        _check_add_remove(cls, four, np.random.default_rng(seed))
 
-        def add(r: Robot) -> None:
-            single = cls(DT)
-            single.add(r)
-            alone[batch.add(r)] = (single, r)
 
-        def tick() -> None:
-            x = rng.uniform(-1, 1, batch.n_inputs)
-            y = np.full(batch.n_outputs, np.nan)
-            batch.step(x, y)
-            for h, (single, _) in alone.items():
-                want = np.empty(single.n_outputs)
-                single.step(np.ascontiguousarray(x[batch.input_slice(h)]), want)
-                np.testing.assert_array_equal(y[batch.output_slice(h)], want)
+def _check_add_remove(cls: type, four: list[Robot], rng: np.random.Generator) -> None:
+    batch = cls(DT)
+    alone: dict[int, BatchController | ReferenceBatchController] = {}
 
-        for r in four[:3]:
-            add(r)
-        tick(), tick()
-        first, middle = batch.handles[0], batch.handles[1]
-        batch.remove(middle)
-        del alone[middle]
-        tick()
-        add(four[3])
-        tick()
-        batch.remove(first)
-        del alone[first]
-        tick(), tick()
-        assert batch.handles == list(alone)
-        assert middle not in batch.handles and max(batch.handles) == 3  # handles are never reused
-        assert batch.n_inputs == sum(s.n_inputs for s, _ in alone.values())
+    def add(r: Robot) -> None:
+        single = cls(DT)
+        single.add(r)
+        alone[batch.add(r)] = single
+
+    def tick() -> None:
+        x = rng.uniform(-1, 1, batch.n_inputs)
+        y = np.full(batch.n_outputs, np.nan)
+        batch.step(x, y)
+        for h, single in alone.items():
+            want = np.empty(single.n_outputs)
+            single.step(np.ascontiguousarray(x[batch.input_slice(h)]), want)
+            np.testing.assert_array_equal(y[batch.output_slice(h)], want)
+
+    for r in four[:3]:
+        add(r)
+    tick(), tick()
+    first, middle = batch.handles[0], batch.handles[1]
+    batch.remove(middle)
+    del alone[middle]
+    tick()
+    add(four[3])
+    tick()
+    batch.remove(first)
+    del alone[first]
+    tick(), tick()
+    assert batch.handles == list(alone)
+    assert middle not in batch.handles and max(batch.handles) == 3  # handles are never reused
+    assert batch.n_inputs == sum(s.n_inputs for s in alone.values())
 
 
 @pytest.mark.parametrize("cls", CONTROLLERS)
@@ -240,26 +243,26 @@ def test_unknown_handles_and_bad_params(cls: type) -> None:
 
 def _raw_args() -> dict:
     spec = NetworkSpec.from_robot(small_robot())
-    return dict(
-        kinds=np.array(spec.kinds), neuron_params=np.array(spec.neuron_params),
-        src=np.array(spec.src), dst=np.array(spec.dst), weight=np.array(spec.weight),
-        n_inputs=spec.n_inputs, n_outputs=spec.n_outputs,
-    )
+    return {
+        "kinds": np.array(spec.kinds), "neuron_params": np.array(spec.neuron_params),
+        "src": np.array(spec.src), "dst": np.array(spec.dst), "weight": np.array(spec.weight),
+        "n_inputs": spec.n_inputs, "n_outputs": spec.n_outputs,
+    }
 
 
 @pytest.mark.parametrize(
     ("change", "message"),
     [
-        (dict(src=np.array([0, 1, 9], np.int32)), "missing source"),
-        (dict(dst=np.array([1, 1, -1], np.int32)), "missing destination"),
-        (dict(dst=np.array([1, 0, 2], np.int32)), "input neuron"),
-        (dict(weight=np.array([0.0, np.nan, 0.0])), "weight"),
-        (dict(weight=np.zeros(2)), "same length"),
-        (dict(kinds=np.array([0, 2, 1, 7], np.int8)), "unknown kind"),
-        (dict(kinds=np.array([0, 0, 1, 3], np.int8)), "input neurons"),
-        (dict(neuron_params=np.zeros((4, 4))), "shape"),
-        (dict(neuron_params=np.zeros((4, 5))), "period"),  # oscillator with period 0
-        (dict(n_inputs=3, n_outputs=2), "sizes"),
+        ({"src": np.array([0, 1, 9], np.int32)}, "missing source"),
+        ({"dst": np.array([1, 1, -1], np.int32)}, "missing destination"),
+        ({"dst": np.array([1, 0, 2], np.int32)}, "input neuron"),
+        ({"weight": np.array([0.0, np.nan, 0.0])}, "weight"),
+        ({"weight": np.zeros(2)}, "same length"),
+        ({"kinds": np.array([0, 2, 1, 7], np.int8)}, "unknown kind"),
+        ({"kinds": np.array([0, 0, 1, 3], np.int8)}, "input neurons"),
+        ({"neuron_params": np.zeros((4, 4))}, "shape"),
+        ({"neuron_params": np.zeros((4, 5))}, "period"),  # oscillator with period 0
+        ({"n_inputs": 3, "n_outputs": 2}, "sizes"),
     ],
 )
 def test_compiled_module_validates_raw_networks(change: dict, message: str) -> None:
