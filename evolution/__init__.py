@@ -71,3 +71,6 @@ __all__ += [
     "ConfigError", "ExperimentConfig", "Lifecycle", "LifecycleError", "LocalEvaluator",
     "RayEvaluator", "Stage", "Store", "StoreError", "preset", "resume", "run",
 ]
+from evolution.reporting import report  # noqa: E402
+
+__all__ += ["report"]

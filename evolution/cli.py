@@ -1,0 +1,621 @@
+"""The ``revolve`` command line: run, resume and report experiments; show and export robots.
+
+Results layout: ``revolve run CONFIG --out DIR`` writes the experiment to ``DIR/<name>/``
+(``name`` from the config; ``--name`` changes it) with its database ``results.sqlite``. Several
+experiments can therefore share one ``DIR``; ``revolve report DIR`` finds every results database
+at or below ``DIR`` and compares them, writing into ``DIR/report/``. Existing results are never
+overwritten: running into a directory that holds results is an error (use ``revolve resume``).
+
+Errors in the input (unknown scenario or config key, out-of-range value, a directory holding
+other results, a corrupt or newer database, a bad robot file) print one line to stderr and exit
+with status 2. Ctrl-C stops after the last commit point (status 130); ``revolve resume``
+continues from there.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import shutil
+import sys
+import tempfile
+import time
+import tomllib
+from collections.abc import Callable, Sequence
+from importlib import resources
+from pathlib import Path
+from typing import Any, TextIO
+
+__all__ = ["CliError", "ProgressBar", "main", "resolve_config", "shipped_configs"]
+
+EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
+
+
+class CliError(ValueError):
+    """Bad command-line input (reported on one line, exit status 2)."""
+
+
+# --------------------------------------------------------------------------------------------
+# Configurations
+
+
+def shipped_configs() -> dict[str, Path]:
+    """The experiment configs shipped with the package (``evolution/configs/*.toml``) by name."""
+    folder = resources.files("evolution") / "configs"
+    return {Path(str(p)).stem: Path(str(p)) for p in folder.iterdir()
+            if str(p).endswith(".toml")}
+
+
+def _parse_set(items: Sequence[str]) -> dict[str, Any]:
+    """``KEY=VALUE`` overrides (VALUE read as TOML, else as a string; ``evolution.KEY`` nests)."""
+    data: dict[str, Any] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise CliError(f"--set expects KEY=VALUE, got {item!r}")
+        parts = key.split(".")
+        if any(not p.replace("_", "").isalnum() for p in parts):
+            raise CliError(f"--set: {key!r} is not a config key")
+        try:
+            parsed = tomllib.loads(f"v = {value.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            parsed = value.strip()
+        target = data
+        for p in parts[:-1]:
+            target = target.setdefault(p, {})
+            if not isinstance(target, dict):
+                raise CliError(f"--set: {key!r} conflicts with another --set")
+        target[parts[-1]] = parsed
+    return data
+
+
+def resolve_config(name_or_path: str, overrides: dict[str, Any] | None = None) -> Any:
+    """An :class:`~evolution.experiment.ExperimentConfig` from a shipped name or a TOML path.
+
+    Args:
+        name_or_path: A shipped config name (``scenario1``, ..., ``quick``) or a TOML file.
+        overrides: Config keys to change (``evolution`` as a nested table).
+
+    Raises:
+        ConfigError: unknown name, unreadable file, unknown key or value out of range.
+    """
+    from evolution.experiment import ConfigError, ExperimentConfig
+
+    shipped = shipped_configs()
+    path = Path(name_or_path)
+    if path.suffix == ".toml" or path.is_file():
+        if not path.is_file():
+            raise ConfigError(f"no such config file: {path}")
+        config = ExperimentConfig.from_toml(path)
+    elif name_or_path in shipped:
+        config = ExperimentConfig.from_toml(shipped[name_or_path])
+    else:
+        raise ConfigError(
+            f"unknown scenario {name_or_path!r}; known: {', '.join(sorted(shipped))} "
+            "(or give the path of a TOML config file)")
+    if overrides:
+        data = config.to_dict()
+        evolution = {**data.get("evolution", {}), **overrides.get("evolution", {})}
+        data.update({k: v for k, v in overrides.items() if k != "evolution"})
+        data["evolution"] = evolution
+        config = ExperimentConfig.from_dict(data)
+    return config
+
+
+# --------------------------------------------------------------------------------------------
+# Progress
+
+
+def _duration(seconds: float) -> str:
+    if not math.isfinite(seconds):
+        return "?"
+    seconds = int(round(seconds))
+    h, rest = divmod(seconds, 3600)
+    m, s = divmod(rest, 60)
+    return f"{h}h{m:02d}m" if h else f"{m}m{s:02d}s"
+
+
+def _metres(value: float) -> str:
+    return "-" if not math.isfinite(value) else f"{value:.3f}"
+
+
+class ProgressBar:
+    """Progress of an experiment's runs, fed with :class:`~evolution.engine.ProgressEvent`.
+
+    On a terminal one line is redrawn in place (at most every ``redraw`` seconds); otherwise a
+    plain line is printed every ``interval`` seconds and when a run finishes.
+
+    Args:
+        targets: Births at which each run stops, by run id.
+        done: Births already committed by each run (resume), by run id.
+        stream: Where to draw (default stderr).
+        tty: Force terminal mode on or off (default: ``stream.isatty()``).
+        interval: Seconds between plain lines. Seconds.
+        redraw: Minimum seconds between terminal redraws. Seconds.
+        clock: Wall clock (tests). Seconds.
+    """
+
+    def __init__(
+        self,
+        targets: dict[int, int],
+        done: dict[int, int] | None = None,
+        stream: TextIO | None = None,
+        tty: bool | None = None,
+        interval: float = 10.0,
+        redraw: float = 0.2,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.targets = dict(targets)
+        self.births = {run: (done or {}).get(run, 0) for run in targets}
+        self.stream = stream if stream is not None else sys.stderr
+        self.tty = self.stream.isatty() if tty is None else tty
+        self.interval = interval
+        self.redraw = redraw
+        self.clock = clock
+        self.started = clock()
+        self.births_at_start = sum(self.births.values())
+        self.speeds: dict[int, float] = {}
+        self.finished: set[int] = set()
+        self.last_event: Any = None
+        self.last_draw = -math.inf
+        self.drawn = False
+
+    @property
+    def total(self) -> int:
+        """Births of all runs together at the end."""
+        return sum(self.targets.values())
+
+    @property
+    def done(self) -> int:
+        """Births committed so far, all runs together."""
+        return sum(self.births.values())
+
+    def eta(self) -> float:
+        """Estimated wall-clock seconds left (from the birth rate since this bar started)."""
+        elapsed = self.clock() - self.started
+        gained = self.done - self.births_at_start
+        if gained <= 0 or elapsed <= 0:
+            return math.inf
+        return (self.total - self.done) * elapsed / gained
+
+    def line(self, width: int = 20) -> str:
+        """The progress line (without line ending)."""
+        total = max(1, self.total)
+        fraction = min(1.0, self.done / total)
+        filled = int(round(fraction * width))
+        bar = "#" * filled + "-" * (width - filled)
+        text = f"[{bar}] {100 * fraction:3.0f}% births {self.done}/{self.total}"
+        if len(self.targets) > 1:
+            text += f" | runs done {len(self.finished)}/{len(self.targets)}"
+        event = self.last_event
+        if event is not None:
+            if event.replaying:
+                text += f" | run {event.run_id} replaying to its last commit point"
+            else:
+                who = f"run {event.run_id} " if len(self.targets) > 1 else ""
+                text += (f" | {who}best {_metres(event.best)} m mean {_metres(event.mean)} m"
+                         f" pop {event.population_size}")
+        speed = sum(v for v in self.speeds.values() if math.isfinite(v))
+        if self.speeds:
+            text += f" | sim {speed:.1f}x"
+        text += f" | ETA {_duration(self.eta())}"
+        return text
+
+    def __call__(self, event: Any) -> None:
+        """Take one progress event (called after every commit point of every run)."""
+        if event.run_id in self.targets:
+            self.births[event.run_id] = event.births
+        self.last_event = event
+        if not event.replaying and math.isfinite(event.sim_speed):
+            self.speeds[event.run_id] = event.sim_speed
+        if event.finished:
+            self.finished.add(event.run_id)
+            self.speeds.pop(event.run_id, None)
+        now = self.clock()
+        if self.tty:
+            if now - self.last_draw >= self.redraw or event.finished:
+                columns = shutil.get_terminal_size((100, 20)).columns
+                self.stream.write("\r" + self.line()[: columns - 1].ljust(columns - 1))
+                self.stream.flush()
+                self.last_draw = now
+                self.drawn = True
+        elif now - self.last_draw >= self.interval or event.finished:
+            self.stream.write(self.line() + "\n")
+            self.stream.flush()
+            self.last_draw = now
+
+    def close(self) -> None:
+        """End the terminal line (if one was drawn)."""
+        if self.tty and self.drawn:
+            self.stream.write("\n")
+            self.stream.flush()
+            self.drawn = False
+
+
+# --------------------------------------------------------------------------------------------
+# Subcommands
+
+
+def _say(text: str) -> None:
+    print(text, flush=True)
+
+
+def _print_runs(summary: Any) -> None:
+    for r in summary.runs:
+        _say(f"run {r.run_id}: {r.status}, {r.births} births, {r.sim_time:.0f} s simulated, "
+             f"best {_metres(r.best)} m, mean {_metres(r.mean)} m, population {r.population_size}, "
+             f"{_duration(r.wall_time)}")
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from evolution.experiment import run
+
+    overrides = _parse_set(args.set or [])
+    for key in ("runs", "births", "seed", "workers", "name"):
+        value = getattr(args, key)
+        if value is not None:
+            overrides[key] = value
+    config = resolve_config(args.config, overrides)
+    out = Path(args.out) / config.name
+    bar = ProgressBar({i: config.births for i in range(config.runs)})
+    _say(f"{config.name}: {config.runs} run(s) x {config.births} births ({config.engine}) -> {out}")
+    try:
+        summary = run(config, out, bar)
+    except KeyboardInterrupt:
+        bar.close()
+        if (out / "results.sqlite").exists():
+            print(f"revolve: interrupted; finished work is saved in {out}; continue with: "
+                  f"revolve resume {out}", file=sys.stderr)
+        else:
+            print("revolve: interrupted before anything was saved", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    bar.close()
+    _print_runs(summary)
+    _say(f"results: {summary.db_path}\nnext: revolve report {args.out}")
+    return 0
+
+
+def _experiment_dirs(root: Path) -> list[Path]:
+    from evolution.store import DB_NAME, StoreError
+
+    if not root.exists():
+        raise StoreError(f"no such results directory: {root}")
+    if (root / DB_NAME).is_file():
+        return [root]
+    found = sorted(p.parent for p in root.rglob(DB_NAME))
+    if not found:
+        raise StoreError(f"no results database ({DB_NAME}) at or below {root}")
+    return found
+
+
+def _cmd_resume(args: argparse.Namespace) -> int:
+    from evolution.experiment import ExperimentConfig, resume
+    from evolution.store import DB_NAME, Store
+
+    todo = []
+    for folder in _experiment_dirs(Path(args.dir)):
+        with Store.open(folder / DB_NAME) as store:
+            config = ExperimentConfig.from_dict(store.config)
+            runs = store.runs()
+        if any(r.status != "finished" for r in runs):
+            todo.append((folder, config, runs))
+    if not todo:
+        _say(f"nothing to resume: every run below {args.dir} has finished")
+        return 0
+    for folder, config, runs in todo:
+        left = [r for r in runs if r.status != "finished"]
+        bar = ProgressBar({r.run_id: config.births for r in left},
+                          {r.run_id: r.births for r in left})
+        _say(f"{config.name}: resuming {len(left)} run(s) in {folder}")
+        try:
+            summary = resume(folder, bar)
+        except KeyboardInterrupt:
+            bar.close()
+            print(f"revolve: interrupted; finished work is saved in {folder}; continue with: "
+                  f"revolve resume {folder}", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        bar.close()
+        _print_runs(summary)
+    return 0
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from evolution.reporting import report
+
+    formats = tuple(f.strip() for f in args.formats.split(",") if f.strip())
+    result = report(args.dir, args.out, formats)
+    _say(f"{len(result.experiments)} experiment(s): "
+         + ", ".join(f"{e.label} ({len(e.runs)} runs)" for e in result.experiments))
+    for path in (*result.figures, *result.tables):
+        _say(str(path))
+    return 0
+
+
+def _load_robot(args: argparse.Namespace) -> tuple[Any, str]:
+    """The robot named on the command line and a short name for it."""
+    from revolve_env.body.examples import EXAMPLES, example
+    from revolve_env.body.serialize import load
+
+    if args.db is not None:
+        from evolution.store import DB_NAME, Store
+
+        if args.robot is not None:
+            raise CliError("give either a robot file/example or --db, not both")
+        if (args.robot_id is None) == (not args.best):
+            raise CliError("with --db, give --robot ID or --best")
+        db = Path(args.db)
+        db = db if db.name == DB_NAME else db / DB_NAME
+        with Store.open(db) as store:
+            if args.run not in {r.run_id for r in store.runs()}:
+                raise CliError(f"{db} has no run {args.run}")
+            if args.best:
+                final = [(f, rid) for rid, f in store.final_population(args.run)
+                         if f is not None and math.isfinite(f)]
+                if not final:
+                    raise CliError(f"run {args.run} of {db} has no evaluated population yet")
+                robot_id = max(final)[1]
+            else:
+                robot_id = args.robot_id
+            try:
+                record = store.robot(args.run, robot_id)
+            except KeyError as error:
+                raise CliError(str(error.args[0])) from None
+            return record.robot(), f"run{args.run}_robot{robot_id}"
+    if args.robot is None:
+        raise CliError("give a robot JSON file, an example name "
+                       f"({', '.join(EXAMPLES)}) or --db DIR --robot ID")
+    if args.robot in EXAMPLES and not Path(args.robot).exists():
+        return example(args.robot), args.robot
+    path = Path(args.robot)
+    if not path.is_file():
+        raise CliError(f"no such robot file: {path} (examples: {', '.join(EXAMPLES)})")
+    try:
+        return load(path), path.stem
+    except ValueError as error:
+        raise CliError(f"{path}: {error}") from None
+
+
+def _cmd_show(args: argparse.Namespace) -> int:
+    from evolution.video import record_robot
+
+    robot, name = _load_robot(args)
+    out = Path(args.out) if args.out else Path(f"{name}.gif")
+    video = record_robot(robot, out, seconds=args.seconds, insertion=args.insertion, fps=args.fps)
+    _say(f"{video.path}: {video.frames} frames, {video.seconds:.1f} s simulated, fitness "
+         f"{video.fitness:.3f} m, {video.distance:.3f} m from the start")
+    return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from revolve_env.body.export import bill_of_materials, to_sdf, to_urdf
+
+    robot, _ = _load_robot(args)
+    if args.format == "urdf":
+        text = to_urdf(robot)
+    elif args.format == "sdf":
+        text = to_sdf(robot)
+    elif args.format == "bom":
+        text = bill_of_materials(robot).to_text()
+    else:
+        text = json.dumps(bill_of_materials(robot).to_dict(), indent=2)
+    if not text.endswith("\n"):
+        text += "\n"
+    if args.out is None:
+        sys.stdout.write(text)
+    else:
+        Path(args.out).write_text(text, encoding="utf-8")
+        _say(f"wrote {args.out}")
+    return 0
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from revolve_env.body.examples import spider
+    from revolve_env.body.serialize import to_json
+
+    from evolution.config import EvolutionConfig
+    from evolution.evaluators import EvalTask, evaluate_task
+    from evolution.experiment import ExperimentConfig, run
+
+    started = time.perf_counter()
+    robot = spider()
+    outcome = evaluate_task(EvalTask(0, to_json(robot, indent=None), 3.0, args.seconds, 0))
+    if outcome.fitness is None:
+        raise CliError(f"the example spider could not be evaluated: {outcome.failure}")
+    _say(f"example spider: fitness {outcome.fitness:.3f} m over {args.seconds:g} s "
+         f"(path {outcome.v or 0:.3f} m, displacement {outcome.s or 0:.3f} m)")
+    config = ExperimentConfig(
+        name="demo", population_size=args.population, offspring_size=args.population,
+        births=args.births, evaluation_time=args.seconds, fertile_age=3.0 + args.seconds,
+        diversity_interval=args.population, workers=args.workers,
+        evolution=EvolutionConfig(initial_parts_mean=8.0, initial_parts_sd=3.0, max_parts=15),
+    )
+    _say(f"evolving: {config.population_size} random robots, then ({config.population_size}+"
+         f"{config.offspring_size}) generations up to {config.births} births")
+    with tempfile.TemporaryDirectory(prefix="revolve-demo-") as tmp:
+        out = Path(args.out) / "demo" if args.out else Path(tmp) / "demo"
+        bar = ProgressBar({0: config.births})
+        try:
+            summary = run(config, out, bar)
+        finally:
+            bar.close()
+        best = summary.runs[0].best
+        _say(f"best fitness after {summary.runs[0].births} births: {_metres(best)} m "
+             f"(population mean {_metres(summary.runs[0].mean)} m); "
+             f"{time.perf_counter() - started:.0f} s in all")
+        if args.out:
+            _say(f"results: {out}; try: revolve report {args.out}")
+    return 0
+
+
+# --------------------------------------------------------------------------------------------
+# Parser
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def _non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
+    return value
+
+
+def _robot_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("robot", nargs="?", metavar="ROBOT",
+                        help="robot JSON file, or an example name (spider, gecko, snake, "
+                             "sensor_crawler, bar_walker)")
+    parser.add_argument("--db", metavar="DIR",
+                        help="take the robot from this experiment's results directory instead")
+    parser.add_argument("--run", type=_non_negative_int, default=0,
+                        help="run of --db (default 0)")
+    parser.add_argument("--robot", dest="robot_id", type=_non_negative_int, metavar="ID",
+                        help="robot id (birth index) within the run of --db")
+    parser.add_argument("--best", action="store_true",
+                        help="with --db: the fittest robot of the run's final population")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``revolve`` (one subparser per subcommand)."""
+    parser = argparse.ArgumentParser(
+        prog="revolve",
+        description="Online and offline evolution of modular robots (the Revolve experiments).",
+        epilog="Start with `revolve demo`; then `revolve run quick` and `revolve report results`.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    names = ", ".join(sorted(shipped_configs()))
+
+    p = sub.add_parser(
+        "run", help="run an experiment",
+        description="Run an experiment and store it in OUT/<name>/results.sqlite (name from the "
+                    "config or --name). Several experiments may share OUT; existing results are "
+                    "never overwritten. Ctrl-C stops after the last commit point; continue with "
+                    "`revolve resume OUT/<name>`.",
+        epilog=f"shipped configs: {names}. Example: revolve run quick --runs 3 --out results",
+    )
+    p.add_argument("config", metavar="CONFIG_OR_SCENARIO",
+                   help=f"a shipped config ({names}) or the path of a TOML config file")
+    p.add_argument("--runs", type=_positive_int, help="independent repeats")
+    p.add_argument("--births", type=_positive_int, help="stop each run after this many births")
+    p.add_argument("--seed", type=_non_negative_int, help="experiment seed")
+    p.add_argument("--workers", type=_non_negative_int, help="worker processes (0: all cores)")
+    p.add_argument("--name", help="experiment name (the folder inside OUT)")
+    p.add_argument("--out", default="results", metavar="DIR",
+                   help="results folder (default: results)")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="change any config key, e.g. --set evaluation_time=6 or "
+                        "--set evolution.max_parts=20 (repeatable)")
+    p.set_defaults(handler=_cmd_run)
+
+    p = sub.add_parser(
+        "resume", help="continue interrupted experiments",
+        description="Continue every unfinished run of the experiment in DIR (a folder holding "
+                    "results.sqlite), or of every experiment below DIR, to the result an "
+                    "uninterrupted run would have given.",
+    )
+    p.add_argument("dir", metavar="DIR", help="an experiment's results folder, or a folder of them")
+    p.set_defaults(handler=_cmd_resume)
+
+    p = sub.add_parser(
+        "report", help="figures and tables comparing experiments",
+        description="Compare every experiment at or below DIR. Writes fitness_over_births, "
+                    "final_fitness, diversity_over_births and final_diversity (PNG and PDF), "
+                    "summary.csv, mann_whitney.csv (Mann-Whitney U tests between experiments) "
+                    "and summary.md into DIR/report (or --out). Needs matplotlib and scipy "
+                    "(pip install revolve-env[report]).",
+    )
+    p.add_argument("dir", metavar="DIR", help="results folder (as given to `revolve run --out`)")
+    p.add_argument("--out", metavar="DIR", help="output folder (default: DIR/report)")
+    p.add_argument("--formats", default="png,pdf",
+                   help="figure formats, comma-separated: png, pdf, svg (default: png,pdf)")
+    p.set_defaults(handler=_cmd_report)
+
+    p = sub.add_parser(
+        "show", help="render a GIF of a robot walking",
+        description="Simulate a robot driven by its own brain and write an animated GIF (with "
+                    "time, fitness and a map of its path). The robot is a JSON file, an example "
+                    "name, or a robot of a results database (--db DIR --robot ID / --best).",
+    )
+    _robot_arguments(p)
+    p.add_argument("--out", metavar="FILE", help="GIF to write (default: <robot name>.gif)")
+    p.add_argument("--seconds", type=_positive_float, default=12.0,
+                   help="evaluation time after insertion, seconds (default 12)")
+    p.add_argument("--insertion", type=float, default=3.0,
+                   help="settling time shown first, seconds (default 3)")
+    p.add_argument("--fps", type=_positive_float, default=15.0,
+                   help="frames per simulated second (default 15)")
+    p.set_defaults(handler=_cmd_show)
+
+    p = sub.add_parser(
+        "export", help="export a robot as URDF, SDF or bill of materials",
+        description="Write a robot as URDF or SDF, or its bill of materials (bom: a table; "
+                    "bom-json: JSON). The robot is given as for `revolve show`.",
+    )
+    _robot_arguments(p)
+    p.add_argument("--format", required=True, choices=("urdf", "sdf", "bom", "bom-json"))
+    p.add_argument("--out", metavar="FILE", help="file to write (default: stdout)")
+    p.set_defaults(handler=_cmd_export)
+
+    p = sub.add_parser(
+        "demo", help="check the installation: evaluate a robot, evolve a few",
+        description="Evaluate the example spider and print its fitness, then evolve a small "
+                    "population for a few births and print the best fitness (about a minute on "
+                    "two cores).",
+    )
+    p.add_argument("--births", type=_positive_int, default=16, help="births (default 16)")
+    p.add_argument("--population", type=_positive_int, default=4,
+                   help="population size and children per generation (default 4)")
+    p.add_argument("--seconds", type=_positive_float, default=6.0,
+                   help="evaluation time per robot, seconds (default 6)")
+    p.add_argument("--workers", type=_non_negative_int, default=0,
+                   help="worker processes (default 0: all cores)")
+    p.add_argument("--out", metavar="DIR", help="keep the demo's results in DIR/demo")
+    p.set_defaults(handler=_cmd_demo)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``revolve``; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.handler(args))
+    except KeyboardInterrupt:
+        print("revolve: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except (ValueError, OSError) as error:
+        # ConfigError, StoreError, RobotError and CliError are ValueErrors: bad input.
+        message = str(error).splitlines()[0] if str(error) else type(error).__name__
+        print(f"revolve {args.command}: error: {message}", file=sys.stderr)
+        return EXIT_USAGE
+    except ImportError as error:
+        print(f"revolve {args.command}: error: {error} (pip install revolve-env[report])",
+              file=sys.stderr)
+        return EXIT_USAGE
+
+
+if __name__ == "__main__":
+    sys.exit(main())

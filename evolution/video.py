@@ -1,0 +1,144 @@
+"""Videos of a robot walking: frames from the locomotion environment, written as an animated GIF.
+
+The camera of :class:`revolve_env.envs.LocomotionEnv` follows the robot over a plain ground, so
+every frame is annotated with the simulated time, the fitness so far and a small map of the
+path the core has travelled (north up, 1 m scale bar), which is what shows the robot moving.
+Needs Pillow (``pip install revolve-env[report]``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from revolve_env.body.robot import Robot
+
+__all__ = ["Video", "record_robot", "write_gif"]
+
+
+@dataclass(frozen=True, slots=True)
+class Video:
+    """A written video.
+
+    Attributes:
+        path: The GIF file.
+        frames: Number of frames.
+        seconds: Simulated time shown (insertion included). Seconds.
+        fitness: Fitness ``v + 5 s`` at the end of the evaluation. Metres.
+        distance: Straight distance of the core from its start. Metres.
+    """
+
+    path: Path
+    frames: int
+    seconds: float
+    fitness: float
+    distance: float
+
+
+def write_gif(frames: Sequence[NDArray[np.uint8]], path: str | os.PathLike[str], fps: float) -> Path:
+    """Write RGB frames (``(height, width, 3)`` uint8) as a looping animated GIF.
+
+    Raises:
+        ValueError: no frames, frames of different shapes, or ``fps`` not positive.
+    """
+    from PIL import Image
+
+    if not frames:
+        raise ValueError("a video needs at least one frame")
+    if not (math.isfinite(fps) and fps > 0):
+        raise ValueError(f"fps must be a positive number, got {fps}")
+    shape = frames[0].shape
+    if len(shape) != 3 or shape[2] != 3 or any(f.shape != shape for f in frames):
+        raise ValueError(f"frames must all be (height, width, 3) arrays; first is {shape}")
+    images = [Image.fromarray(np.ascontiguousarray(f, dtype=np.uint8)) for f in frames]
+    path = Path(path)
+    images[0].save(path, save_all=True, append_images=images[1:],
+                   duration=max(20, int(round(1000 / fps))), loop=0, optimize=False)
+    return path
+
+
+def _annotate(frame: NDArray[np.uint8], text: str, path: list[tuple[float, float]]) -> NDArray[np.uint8]:
+    from PIL import Image, ImageDraw
+
+    image = Image.fromarray(frame)
+    draw = ImageDraw.Draw(image)
+    draw.rectangle((0, 0, image.width, 16), fill=(255, 255, 255))
+    draw.text((4, 2), text, fill=(0, 0, 0))
+    size, margin = 90, 6
+    box = (image.width - size - margin, 20, image.width - margin, 20 + size)
+    draw.rectangle(box, fill=(255, 255, 255), outline=(80, 80, 80))
+    xs = np.array([p[0] for p in path])
+    ys = np.array([p[1] for p in path])
+    cx, cy = xs[0], ys[0]
+    span = max(1.0, 2.2 * float(np.max(np.hypot(xs - cx, ys - cy))))  # metres across the map
+    scale = (size - 10) / span
+    mid = ((box[0] + box[2]) / 2, (box[1] + box[3]) / 2)
+    points = [(mid[0] + (x - cx) * scale, mid[1] - (y - cy) * scale) for x, y in path]
+    if len(points) > 1:
+        draw.line(points, fill=(200, 40, 40), width=2)
+    draw.ellipse((mid[0] - 2, mid[1] - 2, mid[0] + 2, mid[1] + 2), fill=(0, 0, 0))
+    draw.line((box[0] + 4, box[3] - 4, box[0] + 4 + scale, box[3] - 4), fill=(0, 0, 0), width=2)
+    draw.text((box[0] + 6, box[3] - 16), "1 m", fill=(0, 0, 0))
+    return np.asarray(image)
+
+
+def record_robot(
+    robot: Robot,
+    path: str | os.PathLike[str],
+    seconds: float = 12.0,
+    insertion: float = 3.0,
+    fps: float = 15.0,
+) -> Video:
+    """Simulate ``robot`` driven by its own brain and write a GIF of it.
+
+    Args:
+        robot: A valid robot with at least one active hinge.
+        path: Where to write the GIF.
+        seconds: Evaluation time after insertion. Seconds.
+        insertion: Settling time shown first. Seconds.
+        fps: Frames per simulated second (the GIF plays in real time; 480x360 pixels).
+
+    Raises:
+        ValueError: bad timing, or a robot the environment cannot drive (no hinge).
+    """
+    from revolve_env.envs.locomotion import LocomotionEnv
+
+    if not (math.isfinite(fps) and fps > 0):
+        raise ValueError(f"fps must be a positive number, got {fps}")
+    env = LocomotionEnv(robot, render_mode="rgb_array", insertion_time=insertion,
+                        evaluation_time=seconds, controller="brain")
+    try:
+        env.reset(seed=0)
+        dt = env.config.control_period
+        every = max(1, int(round(1.0 / (fps * dt))))
+        action = np.zeros(env.action_space.shape, dtype=np.float32)
+        frames: list[NDArray[np.uint8]] = []
+        trail: list[tuple[float, float]] = []
+        info: dict[str, object] = {}
+        step = 0
+        done = False
+        while not done:
+            _, _, terminated, truncated, info = env.step(action)
+            done = terminated or truncated
+            trail.append((float(info["x_position"]), float(info["y_position"])))  # type: ignore[arg-type]
+            step += 1
+            if step % every == 0 or done:
+                frame = env.render()
+                assert frame is not None
+                label = (f"t = {step * dt:5.1f} s   fitness = {float(info['fitness']):.3f} m"  # type: ignore[arg-type]
+                         + ("   (settling)" if not info.get("evaluating") else ""))
+                frames.append(_annotate(frame, label, trail))
+        if info.get("blow_up"):
+            raise ValueError(f"the simulation blew up: {info['blow_up']}")
+    finally:
+        env.close()
+    distance = math.hypot(trail[-1][0] - trail[0][0], trail[-1][1] - trail[0][1])
+    written = write_gif(frames, path, fps=1.0 / (every * dt))
+    return Video(written, len(frames), step * dt, float(info["fitness"]), distance)  # type: ignore[arg-type]
+
