@@ -25,6 +25,7 @@ from evolution.learning.params import (
     CandidateEvaluation,
     CMAESLearner,
     RandomSearchLearner,
+    evaluate_in_env,
     evaluate_params,
 )
 from evolution.learning.sb3 import PolicyAgent, SB3Learner, rollout_fitness
@@ -41,6 +42,7 @@ __all__ = [
     "RandomSearchLearner",
     "SB3Learner",
     "TrainingCenter",
+    "evaluate_in_env",
     "evaluate_params",
     "rollout_fitness",
     "same_body",

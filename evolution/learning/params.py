@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from evolution.evaluators import EvalTask, EvaluateFunction, LocalEvaluator, evaluate_task
+from evolution.evaluators import EvalOutcome, EvalTask, EvaluateFunction, LocalEvaluator, evaluate_task
 from evolution.learning.base import LearningResult, check_budget
 from revolve_env.body.robot import Robot
 
@@ -31,8 +31,35 @@ __all__ = [
     "CMAESLearner",
     "CandidateEvaluation",
     "RandomSearchLearner",
+    "evaluate_in_env",
     "evaluate_params",
 ]
+
+
+def evaluate_in_env(task: EvalTask) -> EvalOutcome:
+    """Brain-driven evaluation through ``revolve_env/Locomotion-v0`` (``controller="brain"``).
+
+    Same task and outcome types as :func:`~evolution.evaluators.evaluate_task`; an alternative
+    evaluation function for :class:`CandidateEvaluation` that goes through the Gym env (one
+    episode: ``task.insertion`` then a ``task.seconds`` fitness window).
+    """
+    from revolve_env.body.serialize import from_json
+    from revolve_env.envs import LocomotionEnv
+
+    env = LocomotionEnv(from_json(task.genome), controller="brain", insertion_time=task.insertion,
+                        evaluation_time=task.seconds, fitness_window=task.seconds)
+    try:
+        env.reset(seed=task.seed)
+        zero = np.zeros(env.action_space.shape, dtype=np.float32)
+        while True:
+            _, _, terminated, truncated, info = env.step(zero)
+            if terminated or truncated:
+                break
+    finally:
+        env.close()
+    if info["blow_up"] is not None:
+        return EvalOutcome(None, failure=f"blow-up: {info['blow_up']}")
+    return EvalOutcome(float(info["fitness"]), float(info["fitness_v"]), float(info["fitness_s"]))
 
 
 @dataclass(frozen=True, slots=True)
