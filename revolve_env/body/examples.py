@@ -3,8 +3,8 @@
 Every function returns a fresh, valid :class:`~revolve_env.body.robot.Robot`. Each active hinge
 carries one oscillator output neuron (period about 1 s); the phase offsets make a gait:
 
-* ``spider``: core and four legs (hip yaw hinge, brick, knee pitch hinge, brick); opposite legs
-  move together, the two pairs half a period apart, each knee a quarter period ahead of its hip.
+* ``spider``: core and four legs (hip yaw hinge, brick, knee pitch hinge, brick); all hips in
+  phase, each knee a quarter period ahead of its hip.
 * ``gecko``: two front legs, a two-segment spine that bends sideways and two hind legs; the front
   legs push together, the spine carries a travelling wave and the hind legs alternate.
 * ``snake``: a chain of hinges of alternating orientation (pitch, yaw, ...) behind the core with a
@@ -74,13 +74,14 @@ def _brick(orientation: int = 0, children: dict[int, Node] | None = None) -> Nod
 
 
 def spider() -> Robot:
-    """Core with four two-hinge legs (17 parts, 8 servos): a trotting gait."""
+    """Core with four two-hinge legs (17 parts, 8 servos)."""
     legs = {}
-    # Opposite legs (front/back, left/right) in phase; the two pairs half a period apart.
-    for slot, name, phase in ((0, "front", 0.0), (1, "left", 0.5), (2, "back", 0.0),
-                              (3, "right", 0.5)):
-        knee = _hinge(f"{name}_knee", 0, phase + 0.25, _brick())
-        legs[slot] = _hinge(f"{name}_hip", 90, phase, _brick(0, {1: knee}))
+    # All hips in phase, each knee a quarter period ahead. A pattern with opposite legs in
+    # phase and the pairs half a period apart is symmetric under a half turn of the robot, so on
+    # flat ground its net displacement is exactly zero; this one is not.
+    for slot, name in ((0, "front"), (1, "left"), (2, "back"), (3, "right")):
+        knee = _hinge(f"{name}_knee", 0, 0.25, _brick())
+        legs[slot] = _hinge(f"{name}_hip", 90, 0.0, _brick(0, {1: knee}))
     return Robot(_core(legs), (), "spider")
 
 
