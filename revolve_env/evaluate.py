@@ -1,0 +1,124 @@
+"""Brain-driven evaluation of one robot: ``revolve_env.evaluate(robot) -> EvaluationResult``."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from revolve_env.body.robot import Layer, Robot
+from revolve_env.body.validate import Limits, validate
+from revolve_env.brain import BatchController
+from revolve_env.fitness import DEFAULT_S_WEIGHT, fitness_terms
+from revolve_env.world import World, WorldConfig
+
+__all__ = ["EvaluationResult", "evaluate"]
+
+
+@dataclass(frozen=True)
+class EvaluationResult:
+    """Outcome of :func:`evaluate`.
+
+    Attributes:
+        fitness: ``v + 5 s`` over the evaluation (0 if the simulation blew up). Metres.
+        v: Horizontal path length of the core over the evaluation. Metres.
+        s: Horizontal distance between the core's first and last positions. Metres.
+        trajectory: Core positions at every control period of the evaluation, first row at the
+            end of insertion; shape (T, 3), read-only. Metres.
+        blow_up: Why the simulation blew up, or None.
+    """
+
+    fitness: float
+    v: float
+    s: float
+    trajectory: NDArray[np.float64] = field(repr=False, compare=False)
+    blow_up: str | None = None
+
+
+def evaluate(
+    robot: Robot,
+    *,
+    seconds: float = 12.0,
+    insertion: float = 3.0,
+    seed: int = 0,
+    sensor_noise: float = 0.0,
+    actuator_noise: float = 0.0,
+    config: WorldConfig | None = None,
+    limits: Limits | None = None,
+) -> EvaluationResult:
+    """Run ``robot`` on its own controller in a fresh world and measure its fitness.
+
+    The robot is validated, dropped at the origin, left ``insertion`` seconds to settle (its
+    controller already runs) and then followed for ``seconds``; the fitness is ``v + 5 s`` over
+    that span (:mod:`revolve_env.fitness`). The network is stepped by the compiled
+    :class:`~revolve_env.brain.BatchController` once per control period.
+
+    Args:
+        robot: The robot, with its neural network.
+        seconds: Evaluation time (the fitness window). Seconds.
+        insertion: Settling time before the evaluation. Seconds.
+        seed: Seeds the sensor and actuator noise (the physics itself is deterministic).
+        sensor_noise: Standard deviation of Gaussian noise on every sensor value.
+        actuator_noise: Standard deviation of Gaussian noise on every normalized hinge target.
+        config: Physics settings; ``WorldConfig()`` by default.
+        limits: Validation limits.
+
+    Raises:
+        RobotError: the robot is invalid (before any physics runs).
+        ValueError: a bad timing or noise argument, or a network whose inputs do not match
+            the body's sensors.
+    """
+    validate(robot, limits)
+    for name, value in (("seconds", seconds), ("insertion", insertion),
+                        ("sensor_noise", sensor_noise), ("actuator_noise", actuator_noise)):
+        if not (math.isfinite(value) and value >= 0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+    cfg = config if config is not None else WorldConfig()
+    dt = cfg.control_period
+    insertion_ticks = int(round(insertion / dt))
+    evaluation_ticks = int(round(seconds / dt))
+    if evaluation_ticks < 1:
+        raise ValueError(f"seconds ({seconds}) must cover at least one control period ({dt} s)")
+    rng = np.random.default_rng(seed)
+
+    brain = BatchController(dt)
+    brain.add(robot)
+    inputs = np.zeros(brain.n_inputs)
+    outputs = np.zeros(brain.n_outputs)
+    trajectory = np.empty((evaluation_ticks + 1, 3))
+    with World(cfg) as world:
+        h = world.add_robot(robot)
+        if world.n_inputs(h) != len(inputs) or world.n_outputs(h) != len(outputs):
+            raise ValueError(
+                f"the network has {len(inputs)} inputs / {len(outputs)} outputs but the body has "
+                f"{world.n_inputs(h)} sensor values / {world.n_outputs(h)} active hinges"
+            )
+        reason: str | None = None
+        rows = 0
+        for tick in range(insertion_ticks + evaluation_ticks):
+            if tick == insertion_ticks:
+                trajectory[0] = world.core_position(h)
+                rows = 1
+            inputs[:] = world.read_sensors(h)
+            if sensor_noise > 0:
+                inputs += rng.normal(0.0, sensor_noise, inputs.shape)
+            brain.step(inputs, outputs)
+            if actuator_noise > 0:
+                world.set_targets(h, outputs + rng.normal(0.0, actuator_noise, outputs.shape))
+            else:
+                world.set_targets(h, outputs)
+            world.step(1)
+            reason = world.blow_up(h)
+            if reason is not None:
+                break
+            if tick >= insertion_ticks:
+                trajectory[rows] = world.core_position(h)
+                rows += 1
+    path = trajectory[:rows].copy()
+    path.setflags(write=False)
+    if reason is not None:
+        return EvaluationResult(0.0, 0.0, 0.0, path, reason)
+    terms = fitness_terms(path, DEFAULT_S_WEIGHT)
+    return EvaluationResult(terms.fitness, terms.v, terms.s, path, None)
