@@ -1,16 +1,16 @@
-"""Videos of a robot walking: frames from the locomotion environment, written as an animated GIF.
+"""Videos of a robot walking: frames from the locomotion environment, written as GIF (or MP4).
 
 The camera of :class:`revolve_env.envs.LocomotionEnv` follows the robot over a plain ground, so
 every frame is annotated with the simulated time, the fitness so far and a small map of the
 path the core has travelled (north up, 1 m scale bar), which is what shows the robot moving.
-Needs Pillow (``pip install revolve-env[report]``).
+Written by :func:`revolve_env.envs.video.write_video`: GIF needs Pillow (``pip install
+revolve-env[report]``), MP4 also ``imageio-ffmpeg`` (without it a GIF is written instead).
 """
 
 from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from revolve_env.body.robot import Robot
 
-__all__ = ["Video", "record_robot", "write_gif"]
+__all__ = ["Video", "record_robot"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -27,7 +27,7 @@ class Video:
     """A written video.
 
     Attributes:
-        path: The GIF file.
+        path: The video file written.
         frames: Number of frames.
         seconds: Simulated time shown (insertion included). Seconds.
         fitness: Fitness ``v + 5 s`` at the end of the evaluation. Metres.
@@ -39,28 +39,6 @@ class Video:
     seconds: float
     fitness: float
     distance: float
-
-
-def write_gif(frames: Sequence[NDArray[np.uint8]], path: str | os.PathLike[str], fps: float) -> Path:
-    """Write RGB frames (``(height, width, 3)`` uint8) as a looping animated GIF.
-
-    Raises:
-        ValueError: no frames, frames of different shapes, or ``fps`` not positive.
-    """
-    from PIL import Image
-
-    if not frames:
-        raise ValueError("a video needs at least one frame")
-    if not (math.isfinite(fps) and fps > 0):
-        raise ValueError(f"fps must be a positive number, got {fps}")
-    shape = frames[0].shape
-    if len(shape) != 3 or shape[2] != 3 or any(f.shape != shape for f in frames):
-        raise ValueError(f"frames must all be (height, width, 3) arrays; first is {shape}")
-    images = [Image.fromarray(np.ascontiguousarray(f, dtype=np.uint8)) for f in frames]
-    path = Path(path)
-    images[0].save(path, save_all=True, append_images=images[1:],
-                   duration=max(20, int(round(1000 / fps))), loop=0, optimize=False)
-    return path
 
 
 def _annotate(frame: NDArray[np.uint8], text: str, path: list[tuple[float, float]]) -> NDArray[np.uint8]:
@@ -95,11 +73,11 @@ def record_robot(
     insertion: float = 3.0,
     fps: float = 15.0,
 ) -> Video:
-    """Simulate ``robot`` driven by its own brain and write a GIF of it.
+    """Simulate ``robot`` driven by its own brain and write a video of it.
 
     Args:
         robot: A valid robot with at least one active hinge.
-        path: Where to write the GIF.
+        path: Where to write the video (``.gif`` or ``.mp4``).
         seconds: Evaluation time after insertion. Seconds.
         insertion: Settling time shown first. Seconds.
         fps: Frames per simulated second (the GIF plays in real time; 480x360 pixels).
@@ -108,6 +86,7 @@ def record_robot(
         ValueError: bad timing, or a robot the environment cannot drive (no hinge).
     """
     from revolve_env.envs.locomotion import LocomotionEnv
+    from revolve_env.envs.video import write_video
 
     if not (math.isfinite(fps) and fps > 0):
         raise ValueError(f"fps must be a positive number, got {fps}")
@@ -139,6 +118,6 @@ def record_robot(
     finally:
         env.close()
     distance = math.hypot(trail[-1][0] - trail[0][0], trail[-1][1] - trail[0][1])
-    written = write_gif(frames, path, fps=1.0 / (every * dt))
+    written = write_video(frames, path, fps=1.0 / (every * dt))
     return Video(written, len(frames), step * dt, float(info["fitness"]), distance)  # type: ignore[arg-type]
 
