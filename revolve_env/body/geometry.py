@@ -7,13 +7,15 @@ its multibody from an :class:`Assembly`; constructibility checks use :func:`over
 
 from __future__ import annotations
 
+import functools
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from revolve_env.body.parts import PART_SPECS, rotation_about
-from revolve_env.body.robot import Node, Path, Robot
+from revolve_env.body.parts import PART_SPECS, PartGeometry, rotation_about
+from revolve_env.body.robot import Node, PartType, Path, Robot
 
 __all__ = [
     "Assembly",
@@ -136,13 +138,41 @@ def child_frame(
     The child's ``+x`` is the slot's outward normal and its ``+z`` the slot's tangent turned about
     the normal by ``orientation`` degrees.
     """
-    x = slot_normal / np.linalg.norm(slot_normal)
-    z = rotation_about(x, orientation) @ slot_tangent
-    z = z - x * float(np.dot(z, x))
-    z = z / np.linalg.norm(z)
-    y = np.cross(z, x)
-    local = np.column_stack([x, y, z])
+    # Plain float arithmetic: this runs for every part of every robot that operators check, and
+    # NumPy's per-call overhead on 3-vectors dominated the cost of assembling a robot.
+    nx, ny, nz = (float(v) for v in slot_normal)
+    inv = 1.0 / math.sqrt(nx * nx + ny * ny + nz * nz)
+    nx, ny, nz = nx * inv, ny * inv, nz * inv
+    tx, ty, tz = (float(v) for v in slot_tangent)
+    c, s = _cos_sin(orientation)
+    # Rodrigues' rotation of the tangent about the normal.
+    cx, cy, cz = ny * tz - nz * ty, nz * tx - nx * tz, nx * ty - ny * tx
+    d = nx * tx + ny * ty + nz * tz
+    zx, zy, zz = tx * c + cx * s + nx * d * (1 - c), ty * c + cy * s + ny * d * (1 - c), \
+        tz * c + cz * s + nz * d * (1 - c)
+    d = zx * nx + zy * ny + zz * nz  # remove any component along the normal
+    zx, zy, zz = zx - nx * d, zy - ny * d, zz - nz * d
+    inv = 1.0 / math.sqrt(zx * zx + zy * zy + zz * zz)
+    zx, zy, zz = zx * inv, zy * inv, zz * inv
+    yx, yy, yz = zy * nz - zz * ny, zz * nx - zx * nz, zx * ny - zy * nx
+    local = np.array([[nx, yx, zx], [ny, yy, zy], [nz, yz, zz]])
     return parent_pos + parent_rot @ slot_pos, parent_rot @ local
+
+
+def _cos_sin(degrees: float) -> tuple[float, float]:
+    """Exact cosine and sine for multiples of 90 degrees (the legal orientations)."""
+    exact = {0: (1.0, 0.0), 90: (0.0, 1.0), 180: (-1.0, 0.0), 270: (0.0, -1.0)}
+    key = int(degrees) % 360 if float(degrees).is_integer() else None
+    if key in exact:
+        return exact[key]
+    t = math.radians(degrees)
+    return math.cos(t), math.sin(t)
+
+
+@functools.lru_cache(maxsize=512)
+def _part_geometry(part_type: PartType, params: tuple[float, ...]) -> PartGeometry:
+    """Geometry of a part type with given parameters (cached: specs are pure functions)."""
+    return PART_SPECS[part_type].geometry(params)
 
 
 def assemble(robot: Robot) -> Assembly:
@@ -160,7 +190,7 @@ def assemble(robot: Robot) -> Assembly:
 
     def place(node: Node, path: Path, pos: Vec3, rot: Mat3, body: int) -> None:
         spec = PART_SPECS[node.type]
-        geom = spec.geometry(node.params if node.params else spec.default_params())
+        geom = _part_geometry(node.type, node.params if node.params else spec.default_params())
         part_index = len(parts)
         part_bodies = [body]
         if geom.joint is not None:

@@ -109,6 +109,12 @@ def _check_node(path: Path, node: Node) -> None:
             )
     if len(node.color) != 3 or not all(_finite(c) and 0.0 <= c <= 1.0 for c in node.color):
         raise RobotError(f"colour {node.color!r} is not 3 values in [0, 1]", path=path, rule="color")
+    if not isinstance(node.children, tuple) or not all(
+        isinstance(sc, tuple) and len(sc) == 2 and isinstance(sc[0], int)
+        and isinstance(sc[1], Node) for sc in node.children
+    ):
+        raise RobotError("children must be a tuple of (slot, Node) pairs", path=path,
+                         rule="children")
     slots = [s for s, _ in node.children]
     for s in slots:
         if s not in spec.child_slots:
