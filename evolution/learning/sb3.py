@@ -15,7 +15,8 @@ therefore drives the robot as an *agent-controlled* robot in the population env
 ``controller="agent"``.
 
 Budget: ``budget`` simulated seconds buy ``budget / control_period`` training steps (summed over
-the parallel envs). The evaluations of the inborn controller and of the trained policy that frame
+the parallel envs; on-policy algorithms round up to a whole rollout of ``n_steps * n_envs``, and
+:attr:`LearningResult.sim_seconds` reports the steps actually taken). The evaluations of the inborn controller and of the trained policy that frame
 the record are not charged (they are one episode each).
 
 The policy lives outside the genome, so an SB3 learner is Darwinian only
@@ -118,7 +119,12 @@ class PolicyAgent:
         if obs.shape != (self.n_inputs,):
             raise ValueError(f"observation must have shape ({self.n_inputs},), got {obs.shape}")
         action, _ = self.policy.predict(obs, deterministic=True)
-        return np.asarray(action, dtype=np.float64).reshape(-1)
+        action = np.asarray(action, dtype=np.float64).reshape(-1)
+        expected = self.n_outputs * (2 if self.action == "modulate" else 1)
+        if action.shape != (expected,):
+            raise ValueError(f"the policy gave an action of shape {action.shape}; {self.action!r} "
+                             f"needs ({expected},) for {self.n_outputs} hinges")
+        return action
 
     def act(self, observation: np.ndarray) -> np.ndarray:
         """Normalised hinge targets in [-1, 1] (one per active hinge) for one observation.
@@ -157,7 +163,7 @@ def rollout_fitness(agent: PolicyAgent | None, robot: Robot, insertion: float, s
         obs, info = env.reset(seed=seed)
         zero = np.zeros(env.action_space.shape, dtype=np.float32)
         while True:
-            action = zero if agent is None else agent.act(obs).astype(np.float32)
+            action = zero if agent is None else agent.act(obs)  # float64: exact targets
             obs, _, terminated, truncated, info = env.step(action)
             if terminated or truncated:
                 break

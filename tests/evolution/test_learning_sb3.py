@@ -1,0 +1,131 @@
+"""The stable-baselines3 adapter: training on the infant's Gym env, and the trained policy
+driving an agent-controlled robot in the population env."""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import pytest
+
+from evolution.learning import PolicyAgent, SB3Learner, TrainingCenter, rollout_fitness
+from revolve_env.body.examples import EXAMPLES
+from revolve_env.body.robot import Layer, Robot
+
+pytest.importorskip("stable_baselines3")
+
+DT = 1.0 / 30.0
+
+
+class ZeroPolicy:
+    """A policy that always answers the zero action (``predict`` as SB3 policies have it)."""
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+
+    def predict(self, obs: np.ndarray, deterministic: bool = True) -> tuple[np.ndarray, None]:
+        return np.zeros(self.size, dtype=np.float32), None
+
+
+def drive_in_population(agent: PolicyAgent | None, robot: Robot, insertion: float, seconds: float,
+                        control_period: float) -> dict:
+    """One robot at the origin of the population env for ``insertion + seconds``: driven by
+    ``agent`` (agent-controlled) or by its own network (``None``). Its final info."""
+    from revolve_env.envs import PopulationEnv
+
+    steps = int(round((insertion + seconds) / control_period))
+    env = PopulationEnv(insertion_time=insertion, fitness_window=seconds, max_steps=steps,
+                        control_period=control_period)
+    entry = {"robot": robot, "position": (0.0, 0.0), "yaw": 0.0,
+             "controlled_by": "brain" if agent is None else "agent"}
+    try:
+        obs, _ = env.reset(seed=0, options={"robots": [entry]})
+        (name,) = env.agents
+        if agent is not None:
+            agent.reset()
+        for _ in range(steps):
+            actions = {} if agent is None else {name: agent.act(obs[name])}
+            obs, _, terminations, truncations, infos = env.step(actions)
+        assert truncations[name] and not terminations[name]
+        return infos[name]
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("name", ["gecko", "sensor_crawler"])
+def test_zero_modulation_agent_drives_exactly_like_the_brain_in_the_population_env(name: str) -> None:
+    robot = EXAMPLES[name]()
+    n = len(robot.neurons_of(Layer.OUTPUT))
+    agent = PolicyAgent(ZeroPolicy(2 * n), robot, "modulate", DT)
+    by_brain = drive_in_population(None, robot, 0.5, 2.0, DT)
+    by_agent = drive_in_population(agent, robot, 0.5, 2.0, DT)
+    assert by_agent["controlled_by"] == "agent"
+    assert by_agent["fitness"] > 0.1  # it walks
+    assert by_agent["fitness"] == by_brain["fitness"]
+    np.testing.assert_array_equal(by_agent["position"], by_brain["position"])
+    # ... and the single-robot env measures the same fitness for the same agent.
+    assert rollout_fitness(agent, robot, 0.5, 2.0, DT, seed=3) == by_agent["fitness"]
+
+
+def test_policy_agent_refuses_mismatched_shapes() -> None:
+    robot = EXAMPLES["gecko"]()
+    agent = PolicyAgent(ZeroPolicy(5), robot, "targets", DT)
+    with pytest.raises(ValueError, match="observation"):
+        agent.act(np.zeros(3))
+    with pytest.raises(ValueError, match="shape"):
+        agent.act(np.zeros(6))
+    with pytest.raises(ValueError, match="action"):
+        PolicyAgent(ZeroPolicy(6), robot, "joints", DT)  # type: ignore[arg-type]
+
+
+def test_ppo_trains_and_its_policy_drives_the_robot_in_the_population_env() -> None:
+    robot = EXAMPLES["gecko"]()
+    learner = SB3Learner("PPO", action="modulate", n_envs=2, vec_env="dummy", insertion=0.25,
+                         seconds=1.0, control_period=DT,
+                         algorithm_kwargs={"n_steps": 40, "batch_size": 40, "n_epochs": 2})
+    budget = 2 * 40 * DT  # one rollout of 40 steps in each of the 2 envs
+    result = learner.learn(robot, budget, np.random.default_rng(0))
+    # Episodes are 38 steps (1.25 s): each env finished one during 40 steps.
+    assert result.evaluations == 2 == len(result.fitness)
+    assert result.sim_seconds == pytest.approx(budget)
+    assert result.robot == robot  # the network is untouched; the policy is the learned part
+    agent = result.policy
+    assert isinstance(agent, PolicyAgent) and agent.action == "modulate"
+    # The trained policy changes the gait (it is not the zero action any more).
+    obs = np.zeros(len(robot.neurons_of(Layer.INPUT)))
+    obs[2] = 9.81
+    assert np.any(agent.policy_action(obs) != 0.0)
+    # Plugged into the population env as an agent-controlled robot, it walks exactly as the
+    # learner measured in the single-robot env.
+    info = drive_in_population(agent, robot, 0.25, 1.0, DT)
+    assert info["fitness"] == result.best_fitness
+    # It survives pickling (to reach the worker process that runs the world).
+    clone = pickle.loads(pickle.dumps(agent))
+    assert drive_in_population(clone, robot, 0.25, 1.0, DT)["fitness"] == info["fitness"]
+
+
+def test_sb3_learners_cannot_be_lamarckian() -> None:
+    learner = SB3Learner("PPO", vec_env="dummy")
+    assert TrainingCenter(learner, 10.0).inheritance == "darwinian"
+    with pytest.raises(ValueError, match="Lamarckian"):
+        TrainingCenter(learner, 10.0, "lamarckian")
+    with pytest.raises(ValueError, match="no algorithm"):
+        SB3Learner("NotAnAlgorithm")
+
+
+@pytest.mark.slow
+def test_sac_with_direct_targets_in_subprocess_envs() -> None:
+    from stable_baselines3 import SAC
+
+    robot = EXAMPLES["snake"]()
+    learner = SB3Learner(SAC, action="targets", n_envs=2, vec_env="subproc", insertion=0.25,
+                         seconds=1.0, control_period=DT,
+                         algorithm_kwargs={"learning_starts": 20, "batch_size": 32,
+                                           "buffer_size": 1000})
+    result = learner.learn(robot, 100 * DT, np.random.default_rng(0))
+    again = learner.learn(robot, 100 * DT, np.random.default_rng(0))
+    assert result.fitness == again.fitness and result.best_fitness == again.best_fitness
+    assert result.evaluations == 2 and result.policy is not None
+    assert result.policy.action == "targets"
+    info = drive_in_population(result.policy, robot, 0.25, 1.0, DT)
+    assert info["fitness"] == result.best_fitness
