@@ -73,8 +73,6 @@ class _Member:
     yaw: float
     radius: float  # footprint radius, metres
     obs: NDArray[np.float64]
-    obs_low: NDArray[np.float64]
-    obs_high: NDArray[np.float64]
     position: NDArray[np.float64]  # core centre after the last step (last finite one), metres
     fitness: SlidingWindowFitness
     terms: FitnessTerms = _NO_TERMS
@@ -464,7 +462,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
                 m.terms = _NO_TERMS
                 blown.append(m)
             else:
-                m.obs = np.clip(world.read_sensors(m.handle), m.obs_low, m.obs_high)
+                # No clipping needed: touch and light sensors read in [0, 1] by construction.
+                m.obs = world.read_sensors(m.handle)
                 position = world.core_position(m.handle)
                 m.position = position
                 if m.age_steps % self.trajectory_stride == 0:
@@ -603,10 +602,10 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         member = _Member(
             agent=agent, robot=robot, controlled_by=controlled_by, handle=handle, brain=brain,
             birth_step=self._steps, birth_position=xy, yaw=heading, radius=radius,
-            obs=np.zeros(len(low)), obs_low=low, obs_high=high,
+            obs=np.zeros(len(low)),
             position=world.core_position(handle), fitness=SlidingWindowFitness(self.fitness_window),
         )
-        member.obs = np.clip(world.read_sensors(handle), low, high)
+        member.obs = world.read_sensors(handle)
         member.record(member.position)
         if self._insertion_steps == 0:
             member.fitness.add(self.time, member.position)

@@ -292,3 +292,15 @@ def test_footprint_radius_covers_the_robot() -> None:
         r = footprint_radius(robot)
         corners = [(x, y) for x in (lower[0], upper[0]) for y in (lower[1], upper[1])]
         assert max(math.hypot(*c) for c in corners) == pytest.approx(r)
+
+
+def test_observations_stay_in_their_spaces() -> None:
+    from revolve_env.body.examples import sensor_crawler
+
+    env = small_env()
+    env.reset(seed=0)
+    agents = [env.add_robot(r) for r in (sensor_crawler(), gecko(), snake(3))]
+    for _ in range(40):
+        obs, _, _, _, _ = env.step({})
+        for a in agents:
+            assert env.observation_space(a).contains(obs[a]), (a, obs[a])
