@@ -304,3 +304,29 @@ def test_observations_stay_in_their_spaces() -> None:
         obs, _, _, _, _ = env.step({})
         for a in agents:
             assert env.observation_space(a).contains(obs[a]), (a, obs[a])
+
+
+def test_brains_keep_their_own_network_when_another_brain_robot_dies() -> None:
+    from revolve_env.body.examples import sensor_crawler
+    from revolve_env.brain import ReferenceBatchController
+
+    env = small_env()
+    env.reset(seed=0)
+    first = env.add_robot(snake(3), (0.0, 0.0))
+    second = env.add_robot(sensor_crawler(), (2.0, 0.0))
+    third = env.add_robot(gecko(), (-2.0, 0.0))
+    dt = env.config.control_period
+    reference = ReferenceBatchController(dt)
+    reference.add(sensor_crawler())
+    out = np.zeros(reference.n_outputs)
+    inputs = env._members[second].obs.copy()  # the brain's first input: the birth observation
+    for k in range(30):
+        if k == 10:
+            env.remove_robot(first)  # shifts every later robot's slice in the batch arrays
+        reference.step(inputs, out)
+        obs, _, _, _, _ = env.step({})
+        world_targets = env.world._robots[env._members[second].handle].targets
+        np.testing.assert_allclose(world_targets, np.clip(out, -1, 1) * math.radians(45.0),
+                                   atol=1e-9)
+        inputs = obs[second]
+    assert third in env.agents
