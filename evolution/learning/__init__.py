@@ -21,6 +21,11 @@ from evolution.learning.base import (
     TrainingCenter,
     same_body,
 )
+from evolution.learning.config import (
+    LEARNERS,
+    load_learning_experiment,
+    training_center_from_dict,
+)
 from evolution.learning.params import (
     CandidateEvaluation,
     CMAESLearner,
@@ -31,6 +36,7 @@ from evolution.learning.params import (
 from evolution.learning.sb3 import PolicyAgent, SB3Learner, rollout_fitness
 
 __all__ = [
+    "LEARNERS",
     "CMAESLearner",
     "CandidateEvaluation",
     "InfancyOutcome",
@@ -44,6 +50,8 @@ __all__ = [
     "TrainingCenter",
     "evaluate_in_env",
     "evaluate_params",
+    "load_learning_experiment",
     "rollout_fitness",
     "same_body",
+    "training_center_from_dict",
 ]

@@ -289,3 +289,49 @@ def test_lamarckian_children_inherit_learned_params_darwinian_ones_do_not(inheri
     expected = learned if inheritance == "lamarckian" else get_params(parent)
     np.testing.assert_array_equal(get_params(child), expected)
     assert center.genome_for_children(parent, outcome.robot) == outcome.genome
+
+
+# -- configs and the default evaluation ------------------------------------------------------------
+
+def test_the_default_candidate_evaluation_matches_the_env_path() -> None:
+    from evolution.evaluators import evaluate_task
+
+    task = EvalTask(0, to_json(weak_gecko()), 0.25, 1.0, 0)
+    assert CandidateEvaluation().function is evaluate_task
+    assert evaluate_task(task).fitness == pytest.approx(evaluate_in_env(task).fitness, abs=1e-12)
+
+
+def test_shipped_learning_configs_add_learning_to_scenarios_1_and_3() -> None:
+    from pathlib import Path
+
+    import evolution
+    from evolution.experiment import preset
+    from evolution.learning import load_learning_experiment
+
+    folder = Path(evolution.__file__).parent / "configs" / "learning"
+    for scenario, inheritance in (("scenario1", "darwinian"), ("scenario3", "lamarckian")):
+        config, center = load_learning_experiment(folder / f"{scenario}_learning.toml")
+        assert config.replace(name=scenario) == preset(scenario)
+        assert center is not None and center.inheritance == inheritance
+        assert isinstance(center.learner, CMAESLearner) and center.budget == 119.0
+        # The budget pays for exactly the inborn controller and 4 generations of 4.
+        assert center.budget / center.learner.evaluation.cost == 17
+
+
+def test_learning_table_errors_name_the_problem(tmp_path) -> None:
+    from evolution.experiment import ConfigError
+    from evolution.learning import load_learning_experiment, training_center_from_dict
+
+    with pytest.raises(ValueError, match="learner must be one of"):
+        training_center_from_dict({"learner": "hill-climb", "budget": 10.0})
+    with pytest.raises(ValueError, match="unknown learning key.*popsiz"):
+        training_center_from_dict({"learner": "cma-es", "budget": 10.0, "popsiz": 4})
+    with pytest.raises(ValueError, match="budget"):
+        training_center_from_dict({"learner": "random-search"})
+    bad = tmp_path / "bad.toml"
+    bad.write_text('preset = "scenario1"\n[learning]\nlearner = "cma-es"\nbudget = -1.0\n')
+    with pytest.raises(ConfigError, match="bad.toml.*budget"):
+        load_learning_experiment(bad)
+    plain = tmp_path / "plain.toml"
+    plain.write_text('preset = "quick"\n')
+    assert load_learning_experiment(plain)[1] is None

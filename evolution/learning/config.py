@@ -1,0 +1,113 @@
+"""Learning settings in experiment configs: the ``[learning]`` table.
+
+An experiment config with learning is an ordinary experiment TOML (see
+:class:`~evolution.experiment.ExperimentConfig`) plus a ``[learning]`` table::
+
+    [learning]
+    learner     = "cma-es"       # "cma-es", "random-search" or "sb3"
+    budget      = 90.0           # simulated seconds of learning per infant
+    inheritance = "lamarckian"   # or "darwinian"
+    sigma       = 0.15           # cma-es: initial step; random-search: perturbation (fraction of range)
+    popsize     = 8              # cma-es: candidates per generation; random-search: batch size
+    insertion   = 1.0            # settling time of each candidate evaluation, seconds
+    seconds     = 6.0            # fitness window of each candidate evaluation, seconds
+    workers     = 1              # processes evaluating candidates (1: inside the robot's worker)
+    # sb3 only: algorithm = "PPO", action = "modulate", n_envs = 2, vec_env = "subproc",
+    #           control_period = 0.0166667, algorithm_kwargs = { n_steps = 256 }
+
+:func:`load_learning_experiment` reads such a file; :func:`training_center_from_dict` builds the
+:class:`~evolution.learning.base.TrainingCenter` from the table alone.
+"""
+
+from __future__ import annotations
+
+import os
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from evolution.learning.base import TrainingCenter
+from evolution.learning.params import CandidateEvaluation, CMAESLearner, RandomSearchLearner
+
+__all__ = ["LEARNERS", "load_learning_experiment", "training_center_from_dict"]
+
+LEARNERS = ("cma-es", "random-search", "sb3")
+"""Names accepted by ``learner``."""
+
+_COMMON = {"learner", "budget", "inheritance", "insertion", "seconds"}
+_KEYS = {
+    "cma-es": _COMMON | {"sigma", "popsize", "workers"},
+    "random-search": _COMMON | {"sigma", "popsize", "workers"},
+    "sb3": _COMMON | {"algorithm", "policy", "action", "n_envs", "vec_env", "control_period",
+                      "algorithm_kwargs"},
+}
+
+
+def training_center_from_dict(data: Mapping[str, Any]) -> TrainingCenter:
+    """The Training Center a ``[learning]`` table describes (keys: module docstring).
+
+    Raises:
+        ValueError: unknown learner or key (named, with the known ones), a missing budget, or a
+            value out of range.
+    """
+    data = dict(data)
+    name = data.get("learner")
+    if name not in LEARNERS:
+        raise ValueError(f"learning.learner must be one of {', '.join(LEARNERS)}, got {name!r}")
+    unknown = sorted(set(data) - _KEYS[name])
+    if unknown:
+        raise ValueError(f"unknown learning key(s) for {name}: {', '.join(unknown)}; known: "
+                         f"{', '.join(sorted(_KEYS[name]))}")
+    if "budget" not in data:
+        raise ValueError("learning.budget (simulated seconds per infant) is required")
+    timing = {k: float(data[k]) for k in ("insertion", "seconds") if k in data}
+    learner: Any
+    if name == "sb3":
+        from evolution.learning.sb3 import SB3Learner
+
+        kwargs = {k: data[k] for k in ("algorithm", "policy", "action", "n_envs", "vec_env",
+                                       "control_period") if k in data}
+        learner = SB3Learner(**kwargs, **timing,
+                             algorithm_kwargs=dict(data.get("algorithm_kwargs", {})))
+    else:
+        evaluation = CandidateEvaluation(**timing, workers=int(data.get("workers", 1)))
+        if name == "cma-es":
+            learner = CMAESLearner(sigma0=float(data.get("sigma", 0.15)),
+                                   popsize=data.get("popsize", 8), evaluation=evaluation)
+        else:
+            learner = RandomSearchLearner(sigma=float(data.get("sigma", 0.15)),
+                                          batch_size=int(data.get("popsize", 8)),
+                                          evaluation=evaluation)
+    return TrainingCenter(learner, float(data["budget"]), data.get("inheritance", "darwinian"))
+
+
+def load_learning_experiment(path: str | os.PathLike[str]) -> tuple[Any, TrainingCenter | None]:
+    """An experiment TOML with an optional ``[learning]`` table.
+
+    Returns:
+        The :class:`~evolution.experiment.ExperimentConfig` (everything but ``[learning]``) and
+        the Training Center (``None`` without a ``[learning]`` table), ready for
+        ``evolution.run(config, out_dir, infancy=center)``.
+
+    Raises:
+        ConfigError: unreadable or invalid TOML, or an invalid experiment or learning table
+            (the message names the file).
+    """
+    from evolution.experiment import ConfigError, ExperimentConfig
+
+    path = Path(path)
+    try:
+        with open(path, "rb") as f:
+            data = tomllib.load(f)
+    except OSError as error:
+        raise ConfigError(f"cannot read experiment config {path}: {error}") from error
+    except tomllib.TOMLDecodeError as error:
+        raise ConfigError(f"{path} is not valid TOML: {error}") from error
+    table = data.pop("learning", None)
+    try:
+        config = ExperimentConfig.from_dict(data)
+        center = None if table is None else training_center_from_dict(table)
+    except (ValueError, TypeError) as error:
+        raise ConfigError(f"{path}: {error}") from error
+    return config, center
