@@ -110,8 +110,9 @@ class SlidingWindowFitness:
     """Fitness over a sliding window of time-stamped core positions (online, ring buffer).
 
     ``add(t, position)`` appends a sample; ``terms()`` gives the fitness over the samples with
-    ``t >= t_last - window``, exactly as :func:`window_fitness` on the same samples. Samples older
-    than the window are dropped, so memory stays bounded however long the robot lives.
+    ``t >= t_last - window``, as :func:`window_fitness` on the same samples (to rounding: the path
+    length is kept as a running sum, so each query costs O(1)). Samples older than the window are
+    dropped, so memory stays bounded however long the robot lives.
     """
 
     def __init__(
@@ -131,6 +132,7 @@ class SlidingWindowFitness:
         self.s_weight = float(s_weight)
         self._t = np.empty(capacity)
         self._xy = np.empty((capacity, 2))
+        self._path = np.empty(capacity)  # path length from an arbitrary origin up to each sample
         self._start = 0  # ring index of the oldest kept sample
         self._n = 0
 
@@ -146,13 +148,19 @@ class SlidingWindowFitness:
     def add(self, t: float, position: ArrayLike) -> None:
         """Append the core's position at time ``t`` (seconds; not before the previous sample)."""
         p = np.asarray(position, dtype=np.float64).reshape(-1)
-        if p.shape[0] not in (2, 3) or not np.all(np.isfinite(p)):
+        if p.shape[0] not in (2, 3) or not np.isfinite(p).all():
             raise ValueError(f"position must be 2 or 3 finite numbers, got {position!r}")
+        t = float(t)
         if not math.isfinite(t):
             raise ValueError(f"time must be finite, got {t}")
+        x, y = float(p[0]), float(p[1])
         cap = len(self._t)
-        if self._n and t < self._t[(self._start + self._n - 1) % cap]:
-            raise ValueError(f"time {t} s is before the previous sample")
+        path = 0.0
+        if self._n:
+            last = (self._start + self._n - 1) % cap
+            if t < self._t[last]:
+                raise ValueError(f"time {t} s is before the previous sample")
+            path = float(self._path[last]) + math.hypot(x - self._xy[last, 0], y - self._xy[last, 1])
         # Drop samples that left the window (the newest one always stays).
         while self._n and self._t[self._start] < t - self.window - _TIME_EPS:
             self._start = (self._start + 1) % cap
@@ -162,16 +170,21 @@ class SlidingWindowFitness:
             cap = len(self._t)
         i = (self._start + self._n) % cap
         self._t[i] = t
-        self._xy[i] = p[:2]
+        self._xy[i, 0] = x
+        self._xy[i, 1] = y
+        self._path[i] = path
         self._n += 1
+        if path > 1e3:  # keep the running sum small so that differences stay exact to ~1e-13 m
+            self._path -= self._path[self._start]
 
     def _grow(self) -> None:
-        t, xy = self.samples()
+        idx = (self._start + np.arange(self._n)) % len(self._t)
+        t, xy, path = self._t[idx], self._xy[idx], self._path[idx]
         cap = 2 * len(self._t)
-        self._t = np.empty(cap)
-        self._xy = np.empty((cap, 2))
+        self._t, self._xy, self._path = np.empty(cap), np.empty((cap, 2)), np.empty(cap)
         self._t[: len(t)] = t
         self._xy[: len(t)] = xy
+        self._path[: len(t)] = path
         self._start = 0
 
     def samples(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -181,8 +194,13 @@ class SlidingWindowFitness:
 
     def terms(self) -> FitnessTerms:
         """Fitness and its terms over the current window."""
-        _, xy = self.samples()
-        return fitness_terms(xy, self.s_weight)
+        if self._n < 2:
+            return FitnessTerms(0.0, 0.0, 0.0)
+        first = self._start
+        last = (self._start + self._n - 1) % len(self._t)
+        v = float(self._path[last] - self._path[first])
+        s = math.hypot(self._xy[last, 0] - self._xy[first, 0], self._xy[last, 1] - self._xy[first, 1])
+        return FitnessTerms(v + self.s_weight * s, v, s)
 
     @property
     def fitness(self) -> float:

@@ -241,7 +241,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         targets = self._targets(np.asarray(action, dtype=np.float64).reshape(-1))
         if self.actuator_noise > 0:
             targets = targets + self.np_random.normal(0.0, self.actuator_noise, targets.shape)
-        world.set_targets(self._handle, np.clip(targets, -1.0, 1.0))
+        world.set_targets(self._handle, targets)  # the world clips to [-1, 1]
         world.step(1)
         self._step_count += 1
 
@@ -282,9 +282,9 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     def _targets(self, action: NDArray[np.float64]) -> NDArray[np.float64]:
         if action.shape != self.action_space.shape:
             raise ValueError(f"action must have shape {self.action_space.shape}, got {action.shape}")
-        if not np.all(np.isfinite(action)):
+        if not np.isfinite(action).all():
             raise ValueError(f"action contains NaN or infinity: {action}")
-        action = np.clip(action, -1.0, 1.0)
+        action = np.minimum(np.maximum(action, -1.0), 1.0)
         if self._brain is None:
             return action
         self._brain_in[:] = self._obs
@@ -297,11 +297,11 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     def _get_obs(self) -> NDArray[np.float64]:
         assert self._world is not None
         obs = self._world.read_sensors(self._handle)
-        if self._blow_up is not None or not np.all(np.isfinite(obs)):
+        if self._blow_up is not None or not np.isfinite(obs).all():
             return np.zeros(self._n_inputs)
         if self.sensor_noise > 0:
-            obs = obs + self.np_random.normal(0.0, self.sensor_noise, obs.shape)
-        return np.clip(obs, self._obs_low, self._obs_high)
+            obs += self.np_random.normal(0.0, self.sensor_noise, obs.shape)
+        return np.minimum(np.maximum(obs, self._obs_low, out=obs), self._obs_high, out=obs)
 
     def _get_reward(self) -> float:
         previous = self._terms.fitness

@@ -197,8 +197,10 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     | limits              | None     | validation limits (:class:`~revolve_env.body.validate.Limits`) |
     """
 
-    metadata = {"render_modes": ["rgb_array"], "name": "revolve_population_v0", "render_fps": 60,
-                "is_parallelizable": True}
+    metadata: dict[str, Any] = {  # noqa: RUF012 (PettingZoo's convention; copied per instance)
+        "render_modes": ["rgb_array"], "name": "revolve_population_v0", "render_fps": 60,
+        "is_parallelizable": True,
+    }
 
     def __init__(
         self,
@@ -221,9 +223,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     ) -> None:
         if not (isinstance(max_births, int) and max_births >= 1):
             raise ValueError(f"max_births must be an integer >= 1, got {max_births!r}")
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, "
-                             f"got {render_mode!r}")
+        if render_mode is not None and render_mode != "rgb_array":
+            raise ValueError(f"render_mode must be 'rgb_array' or None, got {render_mode!r}")
         if render_view not in ("top", "chase"):
             raise ValueError(f"render_view must be 'top' or 'chase', got {render_view!r}")
         if len(render_size) != 2 or min(render_size) < 1:
@@ -264,8 +265,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self.limits = limits
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.config.control_period)}
         dt = self.config.control_period
-        self._insertion_steps = int(round(self.insertion_time / dt))
-        self._maturity_steps = int(round(self.maturity_age / dt))
+        self._insertion_steps = round(self.insertion_time / dt)
+        self._maturity_steps = round(self.maturity_age / dt)
 
         self.possible_agents: list[str] = [f"robot_{n}" for n in range(max_births)]
         self.agents: list[str] = []
@@ -442,12 +443,12 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         truncations: dict[str, bool] = {}
         infos: dict[str, dict[str, Any]] = {}
         for member, death in self._dead:
-            a = member.agent
-            obs[a] = member.obs.copy()
-            rewards[a] = 0.0
-            terminations[a] = True
-            truncations[a] = False
-            infos[a] = self._get_info(member, death)
+            gone = member.agent
+            obs[gone] = member.obs.copy()
+            rewards[gone] = 0.0
+            terminations[gone] = True
+            truncations[gone] = False
+            infos[gone] = self._get_info(member, death)
         self._dead = []
 
         truncate = self.max_steps is not None and self._steps >= self.max_steps

@@ -322,10 +322,10 @@ class World:
             raise ValueError(
                 f"robot {handle} has {state.model.n_outputs} active hinges, got {t.shape[0]} targets"
             )
-        if not np.all(np.isfinite(t)):
+        if not np.isfinite(t).all():
             raise ValueError(f"targets for robot {handle} contain NaN or infinity: {t}")
-        np.clip(t, -1.0, 1.0, out=t)
-        state.targets = t * math.radians(self.config.range_deg)
+        # minimum/maximum: np.clip's Python wrapper costs more than the clipping (hot path)
+        state.targets = np.minimum(np.maximum(t, -1.0), 1.0) * math.radians(self.config.range_deg)
 
     def step(self, n: int = 1) -> None:
         """Advance ``n`` control periods (each ``config.substeps`` physics steps)."""
@@ -339,7 +339,8 @@ class World:
             for state in self._robots.values():
                 if state.active_joints:
                     q = state.joint_pos[state.active_joints]
-                    vel = np.clip(k * (state.targets - q), -c.max_velocity, c.max_velocity)
+                    vel = np.minimum(np.maximum(k * (state.targets - q), -c.max_velocity),
+                                     c.max_velocity)
                     pb.setJointMotorControlArray(
                         state.body, state.active_joints, pb.VELOCITY_CONTROL,
                         targetVelocities=vel.tolist(),
@@ -385,16 +386,18 @@ class World:
                  + state.joint_pos.sum() + state.joint_vel.sum())
         if not math.isfinite(float(total)):
             return f"non-finite state (NaN or infinity) at t={self._time:.3f} s"
-        speed = float(np.linalg.norm(state.core_vel))
+        vx, vy, vz = state.core_vel
+        speed = math.sqrt(vx * vx + vy * vy + vz * vz)
         if speed > c.max_linear_speed:
             return (f"core speed {speed:.1f} m/s exceeds {c.max_linear_speed} m/s "
                     f"at t={self._time:.3f} s")
-        spin = float(np.linalg.norm(state.core_angvel))
+        wx, wy, wz = state.core_angvel
+        spin = math.sqrt(wx * wx + wy * wy + wz * wz)
         if spin > c.max_angular_speed:
             return (f"core spin {spin:.1f} rad/s exceeds {c.max_angular_speed} rad/s "
                     f"at t={self._time:.3f} s")
         if state.joint_vel.size:
-            fastest = float(np.max(np.abs(state.joint_vel)))
+            fastest = float(np.abs(state.joint_vel).max())
             if fastest > c.max_angular_speed:
                 return (f"hinge speed {fastest:.1f} rad/s exceeds {c.max_angular_speed} rad/s "
                         f"at t={self._time:.3f} s")
