@@ -10,7 +10,7 @@ import pytest
 
 from revolve_env.body.examples import gecko, snake, spider
 from revolve_env.body.geometry import Assembly, PlacedBox, assemble, overlapping_boxes
-from revolve_env.body.robot import Node, PartType, Robot
+from revolve_env.body.robot import Layer, Node, PartType, Robot
 from revolve_env.body.validate import RobotError
 from revolve_env.envs.population import PopulationEnv, footprint_radius, population_env
 from revolve_env.world import WorldConfig
@@ -73,19 +73,13 @@ def test_spaces_are_cached_per_agent_and_follow_the_body() -> None:
     assert env.observation_space(a) is env.observation_space(a)
     assert env.action_space(a) is env.action_space(a)
     assert env.action_space(a).shape == (3,)
-    assert env.action_space(b).shape == (len(gecko().neurons_of(_output_layer())),)
+    assert env.action_space(b).shape == (len(gecko().neurons_of(Layer.OUTPUT)),)
     space = env.action_space(a)
     env.remove_robot(a)
     env.step({})
     assert env.action_space(a) is space  # a dead agent keeps its space for the episode
     with pytest.raises(KeyError, match="not been born"):
         env.observation_space("robot_7")
-
-
-def _output_layer():  # noqa: ANN202
-    from revolve_env.body.robot import Layer
-
-    return Layer.OUTPUT
 
 
 def _posed_boxes(robot: Robot, xy: np.ndarray, yaw: float, part: int) -> list[PlacedBox]:
@@ -180,7 +174,7 @@ def test_brain_and_agent_robots_share_the_world() -> None:
     target = np.array([0.5, -0.5], np.float32)
     for _ in range(60):
         # the brain robot's action is checked and ignored
-        _, rewards, _, _, infos = env.step({driven: target,
+        _, _, _, _, infos = env.step({driven: target,
                                             walker: rng.uniform(-1, 1, 6).astype(np.float32)})
     angles = env.world.joint_angles(env._members[driven].handle)
     np.testing.assert_allclose(angles, target * math.radians(45.0), atol=0.05)
@@ -235,7 +229,7 @@ def _run(seed: int) -> list[tuple]:
         if k == 20:
             env.remove_robot("robot_0")
         actions = {"robot_1": rng.uniform(-1, 1, 3)}
-        obs, rew, term, trunc, infos = env.step(actions)
+        obs, rew, term, _, infos = env.step(actions)
         out.append((obs, rew, term, {a: (i["position"], i["fitness"]) for a, i in infos.items()}))
     env.close()
     return out
@@ -262,7 +256,7 @@ def test_blow_up_removes_the_robot_with_a_reason() -> None:
     sign = 1.0
     for _ in range(30):
         sign = -sign
-        obs, rewards, term, trunc, infos = env.step({still: np.zeros(2), wild: np.full(2, sign)})
+        obs, _, term, _, infos = env.step({still: np.zeros(2), wild: np.full(2, sign)})
         if term[wild]:
             break
     assert term == {still: False, wild: True}

@@ -11,7 +11,7 @@ from PIL import Image
 
 from revolve_env.body.examples import gecko, snake
 from revolve_env.body.robot import Node, Robot
-from revolve_env.envs.population import population_env
+from revolve_env.envs.population import PopulationEnv, population_env
 from revolve_env.envs.video import mp4_available, record_video, write_video
 
 
@@ -86,7 +86,7 @@ def test_record_video_of_a_run_with_a_birth(tmp_path: Path) -> None:
     env = population_env(render_size=(64, 48), initial_robots=[snake(2)])
     env.reset(seed=0)
 
-    def policy(e):  # noqa: ANN001, ANN202
+    def policy(e: PopulationEnv) -> dict:
         if e.time > 0.1 and len(e.agents) == 1:
             e.add_robot(snake(2))
         return {}
