@@ -1,0 +1,416 @@
+"""The ``revolve`` command line: help, bad input (one line, exit 2, nothing overwritten),
+run -> report end to end, resume after Ctrl-C, export, show, shipped configs, progress bar.
+
+Experiments run on the fast physics stand-ins of ``experiment_fakes`` (``make_evaluator`` is
+patched); the tests marked slow use the real physics.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import sqlite3
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Any
+
+import pytest
+from experiment_fakes import fake_evaluate
+
+import evolution.evaluators as evaluators
+from evolution.cli import ProgressBar, build_parser, main, resolve_config, shipped_configs
+from evolution.engine import ProgressEvent
+from evolution.evaluators import EvalOutcome, EvalTask, LocalEvaluator
+from evolution.experiment import ConfigError, ExperimentConfig, preset
+from evolution.store import DB_NAME, Store
+
+SUBCOMMANDS = ("run", "resume", "report", "show", "export", "demo")
+SMALL = ["--set", "evolution.initial_parts_mean=5", "--set", "evolution.initial_parts_sd=2",
+         "--set", "evolution.max_parts=12"]
+
+
+@pytest.fixture
+def fake_physics(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Experiments started by the CLI evaluate robots with the fast stand-in."""
+    monkeypatch.setattr(evaluators, "make_evaluator",
+                        lambda *a, **k: LocalEvaluator(workers=1, function=fake_evaluate))
+
+
+def _error(capsys: pytest.CaptureFixture[str], argv: list[str]) -> str:
+    """Run ``argv``, expect exit status 2 and exactly one line on stderr; return it."""
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    return lines[0]
+
+
+# -- help ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("command", SUBCOMMANDS)
+def test_every_subcommand_has_help(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main([command, "--help"])
+    assert exit_info.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"usage: revolve {command}")
+    expected = {"run": "--births", "resume": "DIR", "report": "mann_whitney.csv",
+                "show": "--robot", "export": "--format", "demo": "--births"}[command]
+    assert expected in out
+
+
+def test_top_level_help_lists_the_subcommands(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    out = capsys.readouterr().out
+    assert all(c in out for c in SUBCOMMANDS)
+
+
+def test_console_script_points_at_main() -> None:
+    import tomllib
+
+    pyproject = tomllib.loads((Path(__file__).parents[2] / "pyproject.toml").read_text())
+    assert pyproject["project"]["scripts"]["revolve"] == "evolution.cli:main"
+
+
+# -- shipped configs ----------------------------------------------------------------------------
+
+
+def test_shipped_configs_are_the_papers_five_experiments_and_quick() -> None:
+    configs = shipped_configs()
+    assert set(configs) == {"scenario1", "scenario2", "scenario3", "baseline_a", "baseline_b",
+                            "quick"}
+    for name, path in configs.items():
+        config = ExperimentConfig.from_toml(path)
+        runs = 1 if name == "quick" else 30  # the paper repeats every experiment 30 times
+        assert config == preset(name, runs=runs), name
+        assert config.name == name
+
+
+def test_resolve_config_from_name_path_and_overrides(tmp_path: Path) -> None:
+    config = resolve_config("scenario2", {"births": 45, "evolution": {"max_parts": 20}})
+    assert (config.offspring_size, config.births, config.evolution.max_parts) == (1, 45, 20)
+    assert config.evolution.p_swap_subtree == preset("scenario2").evolution.p_swap_subtree
+    path = tmp_path / "mine.toml"
+    path.write_text('preset = "scenario3"\nname = "mine"\nbirths = 40\n')
+    config = resolve_config(str(path))
+    assert (config.engine, config.name, config.births) == ("online", "mine", 40)
+    with pytest.raises(ConfigError, match="unknown scenario 'scenario4'"):
+        resolve_config("scenario4")
+    with pytest.raises(ConfigError, match="no such config file"):
+        resolve_config(str(tmp_path / "missing.toml"))
+
+
+# -- bad input ----------------------------------------------------------------------------------
+
+
+def test_unknown_scenario(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    line = _error(capsys, ["run", "scenario9", "--out", str(tmp_path)])
+    assert "unknown scenario 'scenario9'" in line and "scenario1" in line
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_unknown_config_key(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    line = _error(capsys, ["run", "quick", "--set", "populaton_size=4", "--out", str(tmp_path)])
+    assert "populaton_size" in line
+    path = tmp_path / "bad.toml"
+    path.write_text('name = "x"\n[evolution]\nmax_partz = 3\n')
+    line = _error(capsys, ["run", str(path), "--out", str(tmp_path)])
+    assert "max_partz" in line and "bad.toml" in line
+
+
+def test_out_of_range_values(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    assert "births (5) must be >= population_size (15)" in _error(
+        capsys, ["run", "quick", "--births", "5", "--out", str(tmp_path)])
+    assert "death_threshold" in _error(
+        capsys, ["run", "scenario3", "--set", "death_threshold=-1", "--out", str(tmp_path)])
+    assert "evolution" in _error(
+        capsys, ["run", "quick", "--set", "evolution.p_swap_subtree=2", "--out", str(tmp_path)])
+    # argparse's own range checks also exit with 2.
+    with pytest.raises(SystemExit) as exit_info:
+        main(["run", "quick", "--runs", "0"])
+    assert exit_info.value.code == 2
+    assert "must be >= 1" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_existing_results_are_never_overwritten(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    with Store.create(tmp_path / "quick" / DB_NAME, preset("quick").to_dict(), 0):
+        pass
+    other = tmp_path / "other" / "quick"
+    with Store.create(other / DB_NAME, preset("scenario2").to_dict(), 0):
+        pass
+    before = [(p, p.read_bytes()) for p in sorted(tmp_path.rglob("*")) if p.is_file()]
+    assert "resume" in _error(capsys, ["run", "quick", "--out", str(tmp_path)])
+    line = _error(capsys, ["run", "quick", "--out", str(tmp_path / "other")])
+    assert "another experiment ('scenario2')" in line
+    after = [(p, p.read_bytes()) for p in sorted(tmp_path.rglob("*")) if p.is_file()]
+    assert after == before
+
+
+def test_existing_results_of_the_same_experiment_point_to_resume(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    with Store.create(tmp_path / "quick" / DB_NAME, preset("quick").to_dict(), 0):
+        pass
+    line = _error(capsys, ["run", "quick", "--out", str(tmp_path)])
+    assert "already holds results of this experiment" in line and "resume" in line
+
+
+def test_missing_directories(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    for command in ("resume", "report"):
+        line = _error(capsys, [command, str(tmp_path / "nothing")])
+        assert "no such results directory" in line
+        line = _error(capsys, [command, str(tmp_path)])
+        assert "no results database" in line
+
+
+def test_corrupt_and_newer_databases(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    corrupt = tmp_path / "corrupt"
+    corrupt.mkdir()
+    (corrupt / DB_NAME).write_bytes(b"\x00garbage" * 512)
+    for command in ("resume", "report"):
+        assert "corrupt" in _error(capsys, [command, str(corrupt)])
+    newer = tmp_path / "newer"
+    with Store.create(newer / DB_NAME, preset("quick").to_dict(), 0):
+        pass
+    con = sqlite3.connect(newer / DB_NAME)
+    con.execute("UPDATE meta SET value = '7' WHERE key = 'schema_version'")
+    con.commit()
+    con.close()
+    for command in ("resume", "report"):
+        assert "schema version 7, newer" in _error(capsys, [command, str(newer)])
+    assert "corrupt" in _error(capsys, ["show", "--db", str(corrupt), "--best"])
+
+
+def test_bad_robot_inputs(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    assert "no such robot file" in _error(capsys, ["export", str(tmp_path / "r.json"),
+                                                   "--format", "urdf"])
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"schema": "revolve-robot", "version": 1, "body": 3}')
+    assert "bad.json" in _error(capsys, ["export", str(bad), "--format", "sdf"])
+    assert "give a robot" in _error(capsys, ["export", "--format", "bom"])
+
+
+# -- end to end ---------------------------------------------------------------------------------
+
+
+def test_run_then_report(fake_physics: None, tmp_path: Path,
+                         capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "results"
+    for name in ("scenario1", "baseline_a"):
+        assert main(["run", name, "--runs", "2", "--births", "18", "--seed", "3",
+                     "--set", "population_size=6", "--set", "offspring_size=6",
+                     "--out", str(out), *SMALL]) == 0
+    captured = capsys.readouterr()
+    assert "run 1: finished, 18 births" in captured.out
+    assert "births 36/36" in captured.err  # the progress bar's last line
+    with Store.open(out / "scenario1" / DB_NAME) as store:
+        assert store.config["seed"] == 3 and store.config["evolution"]["max_parts"] == 12
+        assert [(r.status, r.births) for r in store.runs()] == [("finished", 18)] * 2
+
+    assert main(["report", str(out), "--formats", "png"]) == 0
+    report_dir = out / "report"
+    for stem in ("fitness_over_births", "final_fitness", "diversity_over_births",
+                 "final_diversity"):
+        assert (report_dir / f"{stem}.png").read_bytes()[:4] == b"\x89PNG"
+        assert not (report_dir / f"{stem}.pdf").exists()
+    with open(report_dir / "summary.csv", newline="") as f:
+        summary = list(csv.DictReader(f))
+    assert [r["experiment"] for r in summary] == ["scenario1", "baseline_a"]
+    assert all(r["runs"] == "2" and r["finished_runs"] == "2" for r in summary)
+    with open(report_dir / "mann_whitney.csv", newline="") as f:
+        tests = list(csv.DictReader(f))
+    assert {r["sample"] for r in tests} == {"final_fitness", "run_mean_fitness", "final_diversity"}
+    assert len(tests) == 3
+    assert all(0.0 <= float(r["p_value"]) <= 1.0 for r in tests)
+    assert (report_dir / "summary.md").is_file()
+
+
+class _CtrlC:
+    """An in-process evaluator that raises KeyboardInterrupt at its n-th evaluation."""
+
+    workers = 1
+
+    def __init__(self, n: int) -> None:
+        self.left = n
+
+    def evaluate(self, tasks: list[EvalTask]) -> list[EvalOutcome]:
+        out = []
+        for task in tasks:
+            self.left -= 1
+            if self.left == 0:
+                raise KeyboardInterrupt
+            out.append(fake_evaluate(task))
+        return out
+
+    def run_jobs(self, fn: Any, jobs: list[Any], on_event: Any = None) -> list[Any]:
+        return [fn(job, self, on_event or (lambda e: None)) for job in jobs]
+
+    def close(self) -> None:
+        pass
+
+
+def test_ctrl_c_then_resume(monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
+                            capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setattr(evaluators, "make_evaluator", lambda *a, **k: _CtrlC(15 + 15 + 4))
+    argv = ["run", "scenario1", "--runs", "1", "--births", "45", "--out", str(tmp_path), *SMALL]
+    assert main(argv) == 130
+    err = capsys.readouterr().err
+    assert f"revolve resume {tmp_path / 'scenario1'}" in err and "Traceback" not in err
+    db = tmp_path / "scenario1" / DB_NAME
+    with Store.open(db) as store:
+        assert store.checkpoint(0).births == 30  # two whole generations were committed
+    monkeypatch.setattr(evaluators, "make_evaluator",
+                        lambda *a, **k: LocalEvaluator(workers=1, function=fake_evaluate))
+    assert main(["resume", str(tmp_path)]) == 0
+    with Store.open(db) as store:
+        assert [(r.status, r.births) for r in store.runs()] == [("finished", 45)]
+    assert main(["resume", str(tmp_path)]) == 0
+    assert "nothing to resume" in capsys.readouterr().out
+
+
+# -- robots -------------------------------------------------------------------------------------
+
+
+def test_export_formats(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from revolve_env.body.examples import spider
+    from revolve_env.body.serialize import save
+
+    path = tmp_path / "spider.json"
+    save(spider(), path)
+    assert main(["export", str(path), "--format", "urdf"]) == 0
+    urdf = ET.fromstring(capsys.readouterr().out)
+    assert urdf.tag == "robot"
+    assert len(urdf.findall("joint[@type='revolute']")) == 8
+    assert main(["export", "spider", "--format", "sdf", "--out", str(tmp_path / "s.sdf")]) == 0
+    assert ET.parse(tmp_path / "s.sdf").getroot().tag == "sdf"
+    assert main(["export", str(path), "--format", "bom"]) == 0
+    assert "servos: 8" in capsys.readouterr().out
+    assert main(["export", "spider", "--format", "bom-json"]) == 0
+    bom = json.loads(capsys.readouterr().out)
+    assert bom["servos"] == 8 and bom["parts"]["core"] == 1
+
+
+def test_export_a_robot_of_a_results_database(fake_physics: None, tmp_path: Path,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["run", "scenario1", "--runs", "1", "--births", "30", "--out", str(tmp_path),
+                 *SMALL]) == 0
+    db_dir = tmp_path / "scenario1"
+    capsys.readouterr()
+    assert main(["export", "--db", str(db_dir), "--robot", "17", "--format", "bom-json"]) == 0
+    bom = json.loads(capsys.readouterr().out)
+    with Store.open(db_dir / DB_NAME) as store:
+        robot = store.robot(0, 17).robot()
+        best_id = max((f, rid) for rid, f in store.final_population(0))[1]
+        best = store.robot(0, best_id).robot()
+    assert bom["parts"]["core"] == 1 and sum(bom["parts"].values()) == len(list(robot.walk()))
+    assert main(["export", "--db", str(db_dir), "--best", "--format", "bom-json"]) == 0
+    assert sum(json.loads(capsys.readouterr().out)["parts"].values()) == len(list(best.walk()))
+    assert "no robot 99" in _error(capsys, ["export", "--db", str(db_dir), "--robot", "99",
+                                            "--format", "urdf"])
+    assert "no run 5" in _error(capsys, ["export", "--db", str(db_dir), "--run", "5", "--best",
+                                         "--format", "urdf"])
+    assert "--robot ID or --best" in _error(capsys, ["export", "--db", str(db_dir),
+                                                     "--format", "urdf"])
+
+
+def test_show_writes_a_gif_of_the_robot_walking(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    from PIL import Image
+
+    out = tmp_path / "spider.gif"
+    assert main(["show", "spider", "--seconds", "0.5", "--insertion", "0.25", "--fps", "8",
+                 "--out", str(out)]) == 0
+    assert "fitness" in capsys.readouterr().out
+    with Image.open(out) as gif:
+        # 0.75 s at 8 frames per second: a frame every 8 control periods of 1/60 s (45 steps).
+        assert gif.n_frames == 6
+        assert gif.size == (480, 360)
+        first = gif.convert("RGB").tobytes()
+        gif.seek(gif.n_frames - 1)
+        assert gif.convert("RGB").tobytes() != first  # the robot moved (and the clock ran)
+
+
+# -- progress bar -------------------------------------------------------------------------------
+
+
+def _event(run_id: int, births: int, finished: bool = False) -> ProgressEvent:
+    return ProgressEvent(run_id, births, 100, births * 15.0, 2.5, 1.25, 15, 40.0, 1.0,
+                         finished=finished)
+
+
+def test_progress_bar_plain_lines_off_a_terminal() -> None:
+    now = [0.0]
+    stream = io.StringIO()
+    bar = ProgressBar({0: 100, 1: 100}, stream=stream, tty=False, interval=10.0,
+                      clock=lambda: now[0])
+    now[0] = 5.0
+    bar(_event(0, 30))  # first event: printed
+    now[0] = 8.0
+    bar(_event(1, 30))  # within the interval: not printed
+    now[0] = 20.0
+    bar(_event(0, 100, finished=True))  # a run finished: printed
+    lines = stream.getvalue().splitlines()
+    assert len(lines) == 2
+    assert "births 30/200" in lines[0] and "15%" in lines[0]
+    assert "births 130/200" in lines[1] and "runs done 1/2" in lines[1]
+    assert "best 2.500 m mean 1.250 m pop 15" in lines[1]
+    assert "sim 40.0x" in lines[1]  # run 0 finished; run 1 still simulates 40 s per second
+    # 130 births in 20 s -> 70 left take 10.8 s
+    assert "ETA 0m11s" in lines[1]
+    bar.close()
+    assert "\r" not in stream.getvalue()
+
+
+def test_progress_bar_redraws_one_line_on_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("COLUMNS", "60")
+    now = [0.0]
+    stream = io.StringIO()
+    bar = ProgressBar({0: 100}, {0: 40}, stream=stream, tty=True, redraw=0.5,
+                      clock=lambda: now[0])
+    for k, t in enumerate((1.0, 1.1, 2.0)):
+        now[0] = t
+        bar(_event(0, 50 + 10 * k))
+    bar.close()
+    text = stream.getvalue()
+    assert text.count("\r") == 2 and text.endswith("\n")  # the event at 1.1 s was not drawn
+    drawn = text.strip("\n").split("\r")[1:]
+    assert all(len(line) == 59 for line in drawn)  # cut to the terminal, no wrapping
+    assert "births 70/100" in drawn[1]
+    # 30 births since the (resumed) start at 40, in 2 s -> 30 left take 2 s
+    monkeypatch.setenv("COLUMNS", "200")
+    assert bar.line().endswith("ETA 0m02s")
+
+
+def test_parser_defaults() -> None:
+    args = build_parser().parse_args(["run", "quick"])
+    assert args.out == "results" and args.runs is None and args.births is None
+
+
+# -- real physics -------------------------------------------------------------------------------
+
+
+@pytest.mark.slow
+def test_demo_with_real_physics(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["demo", "--births", "6", "--population", "3", "--seconds", "2",
+                 "--workers", "1", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "example spider: fitness" in out and "best fitness after 6 births" in out
+    with Store.open(tmp_path / "demo" / DB_NAME) as store:
+        assert store.runs()[0].births == 6
+
+
+@pytest.mark.slow
+def test_run_and_report_with_real_physics(tmp_path: Path) -> None:
+    argv = ["--births", "8", "--runs", "2", "--workers", "2", "--out", str(tmp_path),
+            "--set", "population_size=4", "--set", "offspring_size=4",
+            "--set", "evaluation_time=2", "--set", "fertile_age=5", *SMALL]
+    assert main(["run", "scenario1", *argv]) == 0
+    assert main(["run", "baseline_b", *argv]) == 0
+    assert main(["report", str(tmp_path), "--formats", "png"]) == 0
+    with open(tmp_path / "report" / "mann_whitney.csv", newline="") as f:
+        assert all(0 <= float(r["p_value"]) <= 1 for r in csv.DictReader(f))
