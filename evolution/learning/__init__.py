@@ -9,6 +9,14 @@
 * :class:`TrainingCenter`: a learner + budget + Darwinian/Lamarckian inheritance, usable as the
   lifecycle's infancy hook.
 
+Engine integration. Offline engine: pass ``infancy=center`` to :func:`evolution.run`; the
+evaluator calls ``center(robot, rng)`` before the evaluation (a :class:`LearnerError` keeps the
+inborn robot and lands in the failures table as kind ``"learner"``). Lamarckian inheritance needs
+the engine to take the learned robot back from the worker and give it to the member that
+reproduces (``member.robot = center.genome_for_children(inborn, learned)``); the online engine
+needs to call the hook at birth, before ``world.add``. :class:`SB3Learner` results drive the
+robot through :class:`PolicyAgent` as an agent-controlled robot of the population env.
+
 Importing this package loads neither pybullet nor torch; they load when a learner runs.
 """
 
