@@ -429,7 +429,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     config = ExperimentConfig(
         name="demo", population_size=args.population, offspring_size=args.population,
         births=args.births, evaluation_time=args.seconds, fertile_age=3.0 + args.seconds,
-        diversity_interval=args.population, workers=args.workers,
+        diversity_interval=args.population, workers=args.workers, seed=args.seed,
         evolution=EvolutionConfig(initial_parts_mean=8.0, initial_parts_sd=3.0, max_parts=15),
     )
     _say(f"evolving: {config.population_size} random robots, then ({config.population_size}+"
@@ -585,11 +585,12 @@ def build_parser() -> argparse.ArgumentParser:
                     "population for a few births and print the best fitness (about a minute on "
                     "two cores).",
     )
-    p.add_argument("--births", type=_positive_int, default=16, help="births (default 16)")
-    p.add_argument("--population", type=_positive_int, default=4,
-                   help="population size and children per generation (default 4)")
-    p.add_argument("--seconds", type=_positive_float, default=6.0,
-                   help="evaluation time per robot, seconds (default 6)")
+    p.add_argument("--births", type=_positive_int, default=30, help="births (default 30)")
+    p.add_argument("--population", type=_positive_int, default=6,
+                   help="population size and children per generation (default 6)")
+    p.add_argument("--seconds", type=_positive_float, default=12.0,
+                   help="evaluation time per robot after 3 s insertion, seconds (default 12)")
+    p.add_argument("--seed", type=_non_negative_int, default=0, help="seed (default 0)")
     p.add_argument("--workers", type=_non_negative_int, default=0,
                    help="worker processes (default 0: all cores)")
     p.add_argument("--out", metavar="DIR", help="keep the demo's results in DIR/demo")
