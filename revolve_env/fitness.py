@@ -148,7 +148,7 @@ class SlidingWindowFitness:
     def add(self, t: float, position: ArrayLike) -> None:
         """Append the core's position at time ``t`` (seconds; not before the previous sample)."""
         p = np.asarray(position, dtype=np.float64).reshape(-1)
-        if p.shape[0] not in (2, 3) or not np.isfinite(p).all():
+        if p.shape[0] not in (2, 3) or not (math.isfinite(float(p[0])) and math.isfinite(float(p[1]))):
             raise ValueError(f"position must be 2 or 3 finite numbers, got {position!r}")
         t = float(t)
         if not math.isfinite(t):

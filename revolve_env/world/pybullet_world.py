@@ -29,6 +29,11 @@ __all__ = ["World"]
 _ROBOT_FRICTION = 1.0  # pybullet multiplies the two bodies' coefficients; the ground sets the value
 
 
+def _all_finite(a: NDArray[np.float64]) -> bool:
+    """Whether every entry is finite (fast path: one reduction; exact on overflow)."""
+    return math.isfinite(float(np.add.reduce(a, axis=None))) or bool(np.isfinite(a).all())
+
+
 @dataclass
 class _RobotState:
     """Mutable per-robot bookkeeping (private)."""
@@ -41,6 +46,7 @@ class _RobotState:
     all_joints: list[int]
     sensor_links: list[int]
     targets: NDArray[np.float64]
+    forces: list[float]  # servo torque limit per active hinge
     # refreshed every control period
     core_pos: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
     core_rot: NDArray[np.float64] = field(default_factory=lambda: np.eye(3))
@@ -294,6 +300,7 @@ class World:
             body=body, model=model, robot=robot, shapes=shapes,
             active_joints=[i - 1 for i in model.active_links], all_joints=all_joints,
             sensor_links=sensor_links, targets=np.zeros(model.n_outputs),
+            forces=[self.config.max_torque] * model.n_outputs,
         )
         handle = self._next_handle
         self._next_handle += 1
@@ -322,7 +329,7 @@ class World:
             raise ValueError(
                 f"robot {handle} has {state.model.n_outputs} active hinges, got {t.shape[0]} targets"
             )
-        if not np.isfinite(t).all():
+        if not _all_finite(t):
             raise ValueError(f"targets for robot {handle} contain NaN or infinity: {t}")
         # minimum/maximum: np.clip's Python wrapper costs more than the clipping (hot path)
         state.targets = np.minimum(np.maximum(t, -1.0), 1.0) * math.radians(self.config.range_deg)
@@ -343,8 +350,7 @@ class World:
                                      c.max_velocity)
                     pb.setJointMotorControlArray(
                         state.body, state.active_joints, pb.VELOCITY_CONTROL,
-                        targetVelocities=vel.tolist(),
-                        forces=[c.max_torque] * len(state.active_joints), physicsClientId=cid,
+                        targetVelocities=vel.tolist(), forces=state.forces, physicsClientId=cid,
                     )
             for _ in range(c.substeps):
                 pb.stepSimulation(physicsClientId=cid)
@@ -355,36 +361,39 @@ class World:
 
     # -- state --------------------------------------------------------------------------------
     def _refresh(self, state: _RobotState) -> None:
-        """Read the core's pose and velocity and the joint states; check for a blow-up."""
+        """Read the core's pose and velocity and the joint states; check for a blow-up.
+
+        Called for every robot every control period, so it keeps to three engine calls and a
+        few small array operations.
+        """
         cid = self._cid
         com, orn = pb.getBasePositionAndOrientation(state.body, physicsClientId=cid)
         v_com, w = pb.getBaseVelocity(state.body, physicsClientId=cid)
         root = state.model.links[0]
-        r_inertial = quat_to_matrix(orn)
-        rot = r_inertial @ root.inertia_axes.T  # world <- root link frame (= core frame)
-        com_arr = np.asarray(com)
-        w_arr = np.asarray(w)
-        offset = -rot @ root.com  # core centre minus centre of mass, world frame
-        state.core_rot = rot
-        state.core_pos = com_arr + offset
+        rot = quat_to_matrix(orn) @ root.inertia_axes.T  # world <- root link frame = core frame
+        ox, oy, oz = (-rot @ root.com).tolist()  # core centre minus centre of mass, world frame
         wx, wy, wz = w
-        ox, oy, oz = offset
-        state.core_vel = np.array(
-            [v_com[0] + wy * oz - wz * oy, v_com[1] + wz * ox - wx * oz, v_com[2] + wx * oy - wy * ox]
-        )
-        state.core_angvel = w_arr
+        state.core_rot = rot
+        state.core_pos = np.array((com[0] + ox, com[1] + oy, com[2] + oz))
+        state.core_vel = np.array((
+            v_com[0] + wy * oz - wz * oy, v_com[1] + wz * ox - wx * oz, v_com[2] + wx * oy - wy * ox
+        ))
+        state.core_angvel = np.array(w)
+        joint_sum = 0.0
         if state.all_joints:
-            js = pb.getJointStates(state.body, state.all_joints, physicsClientId=cid)
-            state.joint_pos = np.array([j[0] for j in js])
-            state.joint_vel = np.array([j[1] for j in js])
+            js = np.array(
+                [j[:2] for j in pb.getJointStates(state.body, state.all_joints, physicsClientId=cid)]
+            )
+            state.joint_pos = js[:, 0]
+            state.joint_vel = js[:, 1]
+            joint_sum = float(js.sum())
         if state.blow_up is None:
-            state.blow_up = self._check_blow_up(state)
+            finite = math.isfinite(sum(com) + sum(orn) + sum(v_com) + sum(w) + joint_sum)
+            state.blow_up = self._check_blow_up(state, finite)
 
-    def _check_blow_up(self, state: _RobotState) -> str | None:
+    def _check_blow_up(self, state: _RobotState, finite: bool) -> str | None:
         c = self.config
-        total = (state.core_pos.sum() + state.core_vel.sum() + state.core_angvel.sum()
-                 + state.joint_pos.sum() + state.joint_vel.sum())
-        if not math.isfinite(float(total)):
+        if not finite:
             return f"non-finite state (NaN or infinity) at t={self._time:.3f} s"
         vx, vy, vz = state.core_vel
         speed = math.sqrt(vx * vx + vy * vy + vz * vz)
@@ -469,11 +478,10 @@ class World:
         k = 0
         for kind, sensor in model.sensors:
             if kind == "imu":
-                rot_t = state.core_rot.T
-                accel = (state.core_vel - state.prev_core_vel) / self.config.control_period
-                accel = accel + np.array([0.0, 0.0, self.config.gravity])
-                out[k:k + 3] = rot_t @ accel
-                out[k + 3:k + 6] = rot_t @ state.core_angvel
+                accel = (state.core_vel - state.prev_core_vel) * (1.0 / self.config.control_period)
+                accel[2] += self.config.gravity
+                out[k:k + 6] = (np.concatenate((accel, state.core_angvel)).reshape(2, 3)
+                                @ state.core_rot).reshape(6)  # rows: R^T a, R^T w
                 k += 6
             elif kind == "touch":
                 assert isinstance(sensor, TouchSensorModel)
