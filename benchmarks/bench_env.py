@@ -13,7 +13,8 @@ For the example spider (17 parts) and a 20-part robot (the spider with bricks on
 
 :func:`world_tick_breakdown` times a 30-robot world's control tick (sensors, controller, targets,
 physics) so the controller's share can be read off. Figures are the best of ``repeats`` runs,
-which filters out other processes on a shared machine.
+which filters out other processes on a shared machine; the env/raw ratio is also given in
+process CPU time, which other processes disturb less than wall time.
 """
 
 from __future__ import annotations
@@ -53,25 +54,37 @@ def _actions(n: int, ticks: int, dt: float) -> np.ndarray:
     return np.sin(2 * math.pi * t + np.arange(n)[None, :]).astype(np.float32)
 
 
-def env_rate(robot: Robot, seconds: float) -> float:
-    """Simulated seconds per wall second of the env driven by a fixed action sequence."""
+@dataclass(frozen=True)
+class Rate:
+    """Simulated seconds per second of wall-clock time and of this process's CPU time."""
+
+    wall: float
+    cpu: float
+
+
+def _rate(simulated: float, wall: float, cpu: float) -> Rate:
+    return Rate(simulated / wall, simulated / cpu)
+
+
+def env_rate(robot: Robot, seconds: float) -> Rate:
+    """Simulated seconds per second of the env driven by a fixed action sequence."""
     env = gym.make(LOCOMOTION_ID, robot=robot)
     dt = env.unwrapped.config.control_period
     ticks = int(round(seconds / dt))
     actions = _actions(env.action_space.shape[0], ticks, dt)
     env.reset(seed=0)
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     for a in actions:
         _, _, terminated, truncated, _ = env.step(a)
         if terminated or truncated:
             env.reset()
-    wall = time.perf_counter() - start
+    wall, cpu = time.perf_counter() - start, time.process_time() - cpu
     env.close()
-    return ticks * dt / wall
+    return _rate(ticks * dt, wall, cpu)
 
 
-def raw_rate(robot: Robot, seconds: float, physics_only: bool = False) -> float:
-    """Simulated seconds per wall second of the same multibody in a bare pybullet loop."""
+def raw_rate(robot: Robot, seconds: float, physics_only: bool = False) -> Rate:
+    """Simulated seconds per second of the same multibody in a bare pybullet loop."""
     config = WorldConfig()
     dt = config.control_period
     ticks = int(round(seconds / dt))
@@ -83,7 +96,7 @@ def raw_rate(robot: Robot, seconds: float, physics_only: bool = False) -> float:
         k = config.servo_gain / dt
         forces = [config.max_torque] * len(joints)
         substeps = config.substeps
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         for target in actions:
             if not physics_only:
                 q = np.array([s[0] for s in pb.getJointStates(body, joints, physicsClientId=cid)])
@@ -93,8 +106,8 @@ def raw_rate(robot: Robot, seconds: float, physics_only: bool = False) -> float:
                                              physicsClientId=cid)
             for _ in range(substeps):
                 pb.stepSimulation(physicsClientId=cid)
-        wall = time.perf_counter() - start
-    return ticks * dt / wall
+        wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+    return _rate(ticks * dt, wall, cpu)
 
 
 @dataclass(frozen=True)
@@ -166,13 +179,18 @@ def main() -> None:
     print(f"physics 1/{round(1 / WorldConfig().timestep)} s, control 1/{round(1 / dt)} s; "
           f"{args.seconds:g} simulated s per run, best of {args.repeats}")
     print(f"{'robot':<10}{'parts':>6}{'env steps/s':>13}{'env sim s/s':>13}"
-          f"{'raw sim s/s':>13}{'physics-only':>14}{'env/raw':>9}")
+          f"{'raw sim s/s':>13}{'physics-only':>14}{'env/raw wall':>14}{'env/raw cpu':>13}")
     for robot in (spider(), twenty_part_robot()):
-        env = max(env_rate(robot, args.seconds) for _ in range(args.repeats))
-        raw = max(raw_rate(robot, args.seconds) for _ in range(args.repeats))
-        phys = max(raw_rate(robot, args.seconds, physics_only=True) for _ in range(args.repeats))
-        print(f"{robot.name:<10}{robot.num_parts():>6}{env / dt:>13.0f}{env:>13.2f}{raw:>13.2f}"
-              f"{phys:>14.2f}{raw / env:>9.3f}")
+        runs: dict[str, list[Rate]] = {"env": [], "raw": [], "phys": []}
+        for _ in range(args.repeats):  # interleaved, so that all three see the same load
+            runs["env"].append(env_rate(robot, args.seconds))
+            runs["raw"].append(raw_rate(robot, args.seconds))
+            runs["phys"].append(raw_rate(robot, args.seconds, physics_only=True))
+        best = {k: Rate(max(r.wall for r in v), max(r.cpu for r in v)) for k, v in runs.items()}
+        env, raw, phys = best["env"], best["raw"], best["phys"]
+        print(f"{robot.name:<10}{robot.num_parts():>6}{env.wall / dt:>13.0f}{env.wall:>13.2f}"
+              f"{raw.wall:>13.2f}{phys.wall:>14.2f}{raw.wall / env.wall:>14.3f}"
+              f"{raw.cpu / env.cpu:>13.3f}")
 
     best = min((world_tick_breakdown(args.robots) for _ in range(args.repeats)),
                key=lambda b: b.total)

@@ -21,7 +21,7 @@ from revolve_env.body.geometry import Assembly, assemble
 from revolve_env.body.parts import PART_SPECS, SLOT_THICKNESS
 from revolve_env.body.robot import PartType, Robot
 
-__all__ = ["LinkModel", "LightSensorModel", "RobotModel", "TouchSensorModel", "build_model"]
+__all__ = ["LightSensorModel", "LinkModel", "RobotModel", "TouchSensorModel", "build_model"]
 
 Vec3 = NDArray[np.float64]
 Mat3 = NDArray[np.float64]

@@ -14,6 +14,7 @@ import os
 import sys
 from dataclasses import dataclass, field
 from types import TracebackType
+from typing import Self
 
 import numpy as np
 import pybullet as pb
@@ -148,7 +149,7 @@ class World:
             except pb.error:  # already gone (e.g. the GUI window was closed)
                 pass
 
-    def __enter__(self) -> World:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(
@@ -534,5 +535,5 @@ class World:
     def look_at(self, target: ArrayLike, distance: float = 1.0) -> None:
         """Point the GUI window's camera at ``target`` (no effect without a GUI)."""
         if self._gui:
-            pb.resetDebugVisualizerCamera(distance, 45.0, -30.0, [float(v) for v in target],
+            pb.resetDebugVisualizerCamera(distance, 45.0, -30.0, np.asarray(target, float).tolist(),
                                           physicsClientId=self._cid)

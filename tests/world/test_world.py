@@ -7,13 +7,12 @@ import math
 import numpy as np
 import pybullet as pb
 import pytest
+from world_robots import _in, core, every_part, lone_core, snake, spider
 
 from revolve_env.body.geometry import assemble
 from revolve_env.body.parts import PART_SPECS, SERVO
 from revolve_env.body.robot import Layer, Node, PartType, Robot
 from revolve_env.world import World, WorldConfig, build_model
-
-from world_robots import _in, core, every_part, lone_core, snake, spider
 
 
 def test_every_part_builds_with_its_joints_and_mass() -> None:
