@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import os
 import warnings
-from typing import Any, ClassVar, Literal
+from typing import Any, Literal
 
 import gymnasium as gym
 import numpy as np
@@ -110,7 +110,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     | limits             | None      | validation limits (:class:`~revolve_env.body.validate.Limits`) |
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array", "human"], "render_fps": 60}
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 60}  # noqa: RUF012 (gymnasium API)
 
     def __init__(
         self,
