@@ -252,6 +252,16 @@ class World:
             shapes.append(s)
             return s
 
+        def visual(link: int) -> int:
+            lk = model.links[link]
+            return pb.createVisualShapeArray(
+                shapeTypes=[pb.GEOM_BOX] * len(lk.box_centers),
+                halfExtents=lk.box_half_extents.tolist(),
+                visualFramePositions=lk.box_centers.tolist(),
+                visualFrameOrientations=[matrix_to_quat(r) for r in lk.box_rotations],
+                physicsClientId=cid,
+            )
+
         root = model.links[0]
         others = model.links[1:]
         base_rot = np.array([[math.cos(yaw), -math.sin(yaw), 0], [math.sin(yaw), math.cos(yaw), 0],
@@ -259,14 +269,14 @@ class World:
         body = pb.createMultiBody(
             baseMass=root.mass,
             baseCollisionShapeIndex=collision(0),
-            baseVisualShapeIndex=-1,
+            baseVisualShapeIndex=visual(0),
             basePosition=(x, y, gap - model.lowest_z),
             baseOrientation=matrix_to_quat(base_rot),
             baseInertialFramePosition=root.com.tolist(),
             baseInertialFrameOrientation=matrix_to_quat(root.inertia_axes),
             linkMasses=[lk.mass for lk in others],
             linkCollisionShapeIndices=[collision(i + 1) for i in range(len(others))],
-            linkVisualShapeIndices=[-1] * len(others),
+            linkVisualShapeIndices=[visual(i + 1) for i in range(len(others))],
             linkPositions=[(lk.origin - model.links[lk.parent].origin).tolist() for lk in others],
             linkOrientations=[(0.0, 0.0, 0.0, 1.0)] * len(others),
             linkInertialFramePositions=[lk.com.tolist() for lk in others],
@@ -282,8 +292,9 @@ class World:
                 body, link, lateralFriction=_ROBOT_FRICTION, restitution=0.0,
                 localInertiaDiagonal=lk.inertia_diagonal.tolist(), physicsClientId=cid,
             )
-            pb.changeVisualShape(body, link, rgbaColor=(*lk.box_colors[0], 1.0),
-                                 physicsClientId=cid)
+            for shape, color in enumerate(lk.box_colors):  # each box in its part's colour
+                pb.changeVisualShape(body, link, shapeIndex=shape, rgbaColor=(*color, 1.0),
+                                     physicsClientId=cid)
         # The hinges: joints 0..n-1 (the welded touch halves come after them), so a joint index
         # is also its position in joint_pos.
         all_joints = [i for i, lk in enumerate(others) if not lk.fixed]
