@@ -31,8 +31,8 @@ if TYPE_CHECKING:
     from evolution.learning.sb3 import PolicyAgent
 
 __all__ = [
-    "Inheritance",
     "InfancyOutcome",
+    "Inheritance",
     "Learner",
     "LearnerError",
     "LearningResult",

@@ -23,7 +23,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from evolution.evaluators import EvalOutcome, EvalTask, EvaluateFunction, LocalEvaluator, evaluate_task
+from evolution.evaluators import (
+    EvalOutcome,
+    EvalTask,
+    EvaluateFunction,
+    LocalEvaluator,
+    evaluate_task,
+)
 from evolution.learning.base import LearningResult, check_budget
 from revolve_env.body.robot import Robot
 
@@ -144,7 +150,7 @@ class _Search:
         bounds = param_bounds(robot)
         self.low, self.high = bounds[:, 0], bounds[:, 1]
         self.span = np.where(self.high > self.low, self.high - self.low, 1.0)
-        self.max_evaluations = int(math.floor(check_budget(budget) / evaluation.cost + 1e-9))
+        self.max_evaluations = math.floor(check_budget(budget) / evaluation.cost + 1e-9)
         self.seed = int(rng.integers(0, 2**63 - 1))
         self.fitness: list[float] = []
         self.failures = 0

@@ -53,7 +53,7 @@ def _algorithm_class(algorithm: type | str) -> type:
     cls = getattr(stable_baselines3, algorithm, None)
     if not isinstance(cls, type):
         known = [n for n in ("A2C", "DDPG", "DQN", "PPO", "SAC", "TD3") if hasattr(stable_baselines3, n)]
-        raise ValueError(f"stable_baselines3 has no algorithm {algorithm!r}; known: {', '.join(known)}")
+        raise ValueError(f"stable_baselines3 has no algorithm {algorithm!r}; known: {', '.join(known)}")  # noqa: TRY004
     return cls
 
 
@@ -228,7 +228,7 @@ class SB3Learner:
 
         from revolve_env.brain import get_params
 
-        steps = int(math.floor(check_budget(budget) / self.control_period + 1e-9))
+        steps = math.floor(check_budget(budget) / self.control_period + 1e-9)
         if steps < self.n_envs:
             raise ValueError(f"a budget of {budget} s is {steps} steps: fewer than one per env "
                              f"({self.n_envs} envs)")

@@ -33,7 +33,7 @@ def drive_in_population(agent: PolicyAgent | None, robot: Robot, insertion: floa
     ``agent`` (agent-controlled) or by its own network (``None``). Its final info."""
     from revolve_env.envs import PopulationEnv
 
-    steps = int(round((insertion + seconds) / control_period))
+    steps = round((insertion + seconds) / control_period)
     env = PopulationEnv(insertion_time=insertion, fitness_window=seconds, max_steps=steps,
                         control_period=control_period)
     entry = {"robot": robot, "position": (0.0, 0.0), "yaw": 0.0,
