@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from revolve_env.body.robot import Layer, Robot
+from revolve_env.body.robot import Robot
 from revolve_env.body.validate import Limits, validate
 from revolve_env.brain import BatchController
 from revolve_env.fitness import DEFAULT_S_WEIGHT, fitness_terms
