@@ -112,7 +112,7 @@ def resolve_config(name_or_path: str, overrides: dict[str, Any] | None = None) -
 def _duration(seconds: float) -> str:
     if not math.isfinite(seconds):
         return "?"
-    seconds = int(round(seconds))
+    seconds = round(seconds)
     h, rest = divmod(seconds, 3600)
     m, s = divmod(rest, 60)
     return f"{h}h{m:02d}m" if h else f"{m}m{s:02d}s"
@@ -185,7 +185,7 @@ class ProgressBar:
         """The progress line (without line ending)."""
         total = max(1, self.total)
         fraction = min(1.0, self.done / total)
-        filled = int(round(fraction * width))
+        filled = round(fraction * width)
         bar = "#" * filled + "-" * (width - filled)
         text = f"[{bar}] {100 * fraction:3.0f}% births {self.done}/{self.total}"
         if len(self.targets) > 1:
@@ -259,6 +259,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if value is not None:
             overrides[key] = value
     config = resolve_config(args.config, overrides)
+    if Path(config.name).name != config.name or config.name in (".", ".."):
+        raise CliError(f"experiment name {config.name!r} cannot be a folder name inside --out")
     out = Path(args.out) / config.name
     bar = ProgressBar({i: config.births for i in range(config.runs)})
     _say(f"{config.name}: {config.runs} run(s) x {config.births} births ({config.engine}) -> {out}")
@@ -412,12 +414,11 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    from revolve_env.body.examples import spider
-    from revolve_env.body.serialize import to_json
-
     from evolution.config import EvolutionConfig
     from evolution.evaluators import EvalTask, evaluate_task
     from evolution.experiment import ExperimentConfig, run
+    from revolve_env.body.examples import spider
+    from revolve_env.body.serialize import to_json
 
     started = time.perf_counter()
     robot = spider()

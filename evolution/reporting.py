@@ -42,11 +42,11 @@ from numpy.typing import NDArray
 from evolution.store import DB_NAME, FitnessSeries, Store, StoreError
 
 __all__ = [
-    "ExperimentData",
     "PAPER_ORDER",
+    "TESTED_SAMPLES",
+    "ExperimentData",
     "Report",
     "RunData",
-    "TESTED_SAMPLES",
     "find_experiments",
     "load_experiment",
     "mann_whitney_rows",
@@ -346,7 +346,7 @@ def mann_whitney_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, A
     rows: list[dict[str, Any]] = []
     samples = {e.label: _samples(e) for e in experiments}
     for sample in TESTED_SAMPLES:
-        block = []
+        block: list[dict[str, Any]] = []
         for a, b in combinations([e.label for e in experiments], 2):
             xa, xb = samples[a][sample], samples[b][sample]
             if xa.size == 0 or xb.size == 0:
@@ -360,7 +360,7 @@ def mann_whitney_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, A
                           "n_a": int(xa.size), "n_b": int(xb.size),
                           "median_a": float(np.median(xa)), "median_b": float(np.median(xb)),
                           "u_statistic": u, "p_value": min(1.0, max(0.0, p))})
-        for row, adjusted in zip(block, _holm([r["p_value"] for r in block])):
+        for row, adjusted in zip(block, _holm([float(r["p_value"]) for r in block])):
             row["p_holm"] = adjusted
         rows += block
     return rows
@@ -402,8 +402,8 @@ def write_tables(experiments: Sequence[ExperimentData], out_dir: Path) -> tuple[
     paths = (out_dir / "summary.csv", out_dir / "mann_whitney.csv", out_dir / "summary.md")
     _write_csv(paths[0], SUMMARY_COLUMNS, summary)
     _write_csv(paths[1], MANN_WHITNEY_COLUMNS, tests)
-    lines = ["# Summary", "", "Fitness in metres (f = v + 5 s); diversity = mean pairwise tree "
-             "edit distance of the bodies.", ""]
+    lines = ["# Summary", "", ("Fitness in metres (f = v + 5 s); diversity = mean pairwise "
+                               "tree edit distance of the bodies."), ""]
     lines += _markdown(SUMMARY_COLUMNS, summary)
     lines += ["", "## Mann-Whitney U tests (two-sided)", ""]
     lines += [f"- `{name}`: {text}" for name, text in TESTED_SAMPLES.items()]

@@ -95,8 +95,8 @@ def record_robot(
     try:
         env.reset(seed=0)
         dt = env.config.control_period
-        every = max(1, int(round(1.0 / (fps * dt))))
-        action = np.zeros(env.action_space.shape, dtype=np.float32)
+        every = max(1, round(1.0 / (fps * dt)))
+        action = np.zeros(env.action_space.shape or (0,), dtype=np.float32)
         frames: list[NDArray[np.uint8]] = []
         trail: list[tuple[float, float]] = []
         info: dict[str, object] = {}

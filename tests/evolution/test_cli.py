@@ -18,7 +18,7 @@ from typing import Any
 import pytest
 from experiment_fakes import fake_evaluate
 
-import evolution.evaluators as evaluators
+from evolution import evaluators
 from evolution.cli import ProgressBar, build_parser, main, resolve_config, shipped_configs
 from evolution.engine import ProgressEvent
 from evolution.evaluators import EvalOutcome, EvalTask, LocalEvaluator

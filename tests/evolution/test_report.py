@@ -18,6 +18,7 @@ import pytest
 from experiment_fakes import fake_evaluate, fake_world, small
 from scipy.stats import mannwhitneyu
 
+from evolution.engine import ProgressEvent
 from evolution.evaluators import LocalEvaluator
 from evolution.experiment import preset, run
 from evolution.reporting import (
@@ -156,8 +157,8 @@ def test_an_interrupted_run_is_reported_as_unfinished(tmp_path: Path) -> None:
     class Stop(Exception):
         pass
 
-    def stop_at_30(event: object) -> None:
-        if getattr(event, "births") >= 30:
+    def stop_at_30(event: ProgressEvent) -> None:
+        if event.births >= 30:
             raise Stop
 
     config = small(preset("scenario1", births=60, runs=1))
