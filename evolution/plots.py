@@ -37,13 +37,26 @@ def _figure(width: float, height: float = 4.0, ncols: int = 1) -> tuple[Any, lis
 
 
 def _band(ax: Any, grid: np.ndarray, values: np.ndarray, color: str, label: str) -> None:
-    """Mean over runs as a line, +-1 standard deviation as a band (where >= 2 runs report)."""
+    """Mean over runs as a line, +-1 standard deviation as a band.
+
+    Solid where every run has reached those births; dashed beyond (the mean of the runs that
+    got further, e.g. when some runs were interrupted).
+    """
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # births no run (or one run) reached
         mean = np.nanmean(values, axis=0)
         sd = np.nanstd(values, axis=0, ddof=1)
     n = values.shape[0]
-    ax.plot(grid, mean, color=color, lw=1.5, label=f"{label} ({n} run{'s' * (n != 1)})")
+    count = np.sum(np.isfinite(values), axis=0)
+    everyone = count == n
+    marker = "o" if grid.size <= 25 else None
+    solid = np.where(everyone, mean, np.nan)
+    ax.plot(grid, solid, color=color, lw=1.5, marker=marker, ms=3,
+            label=f"{label} ({n} run{'s' * (n != 1)})")
+    if not everyone.all():
+        last = int(np.flatnonzero(everyone)[-1]) if everyone.any() else 0
+        partial = np.where(np.arange(grid.size) >= last, mean, np.nan)
+        ax.plot(grid, partial, color=color, lw=1.0, ls="--", marker=marker, ms=2)
     if n > 1:
         ax.fill_between(grid, mean - sd, mean + sd, color=color, alpha=0.2, lw=0)
 
@@ -65,6 +78,9 @@ def fitness_over_births(experiments: Sequence[ExperimentData]) -> Any:
         ax.set_ylabel(f"{what} fitness of the population (m)")
         ax.grid(alpha=0.3)
     left.set_title("Population mean fitness (mean and ±1 SD over runs)")
+    if any(line.get_linestyle() == "--" for line in left.lines):
+        left.text(0.99, 0.01, "dashed: not every run got this far", transform=left.transAxes,
+                  ha="right", va="bottom", fontsize="small", color="0.3")
     right.set_title("Best fitness in the population")
     left.legend(fontsize="small")
     return figure

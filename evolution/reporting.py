@@ -97,12 +97,14 @@ class ExperimentData:
         path: The results directory (holding ``results.sqlite``).
         config: The stored experiment configuration.
         runs: Runs with at least one commit point, by id.
+        registered_runs: Runs in the database (including those that never committed).
     """
 
     label: str
     path: Path
     config: dict[str, Any]
     runs: tuple[RunData, ...]
+    registered_runs: int = 0
 
     @property
     def name(self) -> str:
@@ -167,7 +169,8 @@ def load_experiment(path: str | os.PathLike[str], label: str | None = None) -> E
     runs: list[RunData] = []
     with Store.open(db) as store:
         config = store.config
-        for record in store.runs():
+        records = store.runs()
+        for record in records:
             series = store.fitness_over_births(record.run_id)
             if series.births.size == 0:
                 continue  # never reached its first commit point: nothing to show
@@ -183,7 +186,7 @@ def load_experiment(path: str | os.PathLike[str], label: str | None = None) -> E
                 _final_diversity(store, record.run_id, [rid for rid, _ in final]),
             ))
     name = str(config.get("name", db.parent.name))
-    return ExperimentData(label or name, db.parent, config, tuple(runs))
+    return ExperimentData(label or name, db.parent, config, tuple(runs), len(records))
 
 
 def _order_key(experiment: ExperimentData) -> tuple[int, str]:
@@ -220,7 +223,7 @@ def find_experiments(root: str | os.PathLike[str]) -> list[ExperimentData]:
     for e in experiments:
         if counts[e.label] > 1:
             relative = e.path.relative_to(base).as_posix() if e.path != base else e.path.name
-            e = ExperimentData(relative or e.label, e.path, e.config, e.runs)
+            e = ExperimentData(relative or e.label, e.path, e.config, e.runs, e.registered_runs)
         relabelled.append(e)
     return sorted(relabelled, key=_order_key)
 
@@ -265,7 +268,7 @@ def _describe(values: NDArray[np.float64]) -> tuple[float, float, float, float]:
 
 
 SUMMARY_COLUMNS = (
-    "experiment", "engine", "runs", "finished_runs", "births_mean",
+    "experiment", "engine", "runs", "runs_in_database", "finished_runs", "births_mean",
     "final_population_size_mean", "final_fitness_mean", "final_fitness_median",
     "final_fitness_sd", "final_fitness_max", "run_mean_fitness_mean", "run_mean_fitness_sd",
     "final_diversity_mean", "final_diversity_sd",
@@ -275,6 +278,9 @@ SUMMARY_COLUMNS = (
 
 def summary_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Any]]:
     """One row per experiment (columns :data:`SUMMARY_COLUMNS`).
+
+    ``runs`` counts the runs with at least one commit point (the ones described), of
+    ``runs_in_database``; ``births_mean`` is over those runs.
 
     ``final_fitness_*`` describe the pooled final populations, ``run_mean_fitness_*`` the
     per-run means of the final populations, ``final_diversity_*`` the per-run final diversity.
@@ -288,6 +294,7 @@ def summary_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Any]]:
             "experiment": e.label,
             "engine": e.config.get("engine", ""),
             "runs": len(e.runs),
+            "runs_in_database": e.registered_runs,
             "finished_runs": sum(r.status == "finished" for r in e.runs),
             "births_mean": float(np.mean([r.births for r in e.runs])) if e.runs else math.nan,
             "final_population_size_mean": (

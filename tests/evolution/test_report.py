@@ -161,14 +161,15 @@ def test_an_interrupted_run_is_reported_as_unfinished(tmp_path: Path) -> None:
         if event.births >= 30:
             raise Stop
 
-    config = small(preset("scenario1", births=60, runs=1))
+    config = small(preset("scenario1", births=60, runs=2))  # run 1 never starts
     with pytest.raises(Stop):
         run(config, tmp_path / "scenario1", stop_at_30, evaluator=SERIAL)
     (experiment,) = find_experiments(tmp_path)
     assert [(r.status, r.births) for r in experiment.runs] == [("interrupted", 30)]
     result = report(tmp_path, tmp_path / "out", formats=("png",))
     row = _rows(result.tables[0])[0]
-    assert (row["runs"], row["finished_runs"], row["births_mean"]) == ("1", "0", "30")
+    assert (row["runs"], row["runs_in_database"], row["finished_runs"], row["births_mean"]) == (
+        "1", "2", "0", "30")
     assert len(result.figures) == 4
     # One experiment: no pair to test, the table has only its header.
     assert _rows(result.tables[1]) == []
