@@ -43,8 +43,8 @@ if LOCOMOTION_ID not in gymnasium.registry:
 
 # Names served lazily (PEP 562) because they import the physics engine.
 _LAZY = {
-    "evaluate": ("revolve_env.evaluate", "evaluate"),
-    "EvaluationResult": ("revolve_env.evaluate", "EvaluationResult"),
+    "evaluate": ("revolve_env.evaluation", "evaluate"),
+    "EvaluationResult": ("revolve_env.evaluation", "EvaluationResult"),
     "World": ("revolve_env.world", "World"),
     "WorldConfig": ("revolve_env.world", "WorldConfig"),
     "LocomotionEnv": ("revolve_env.envs.locomotion", "LocomotionEnv"),

@@ -9,7 +9,7 @@ from revolve_env.body.examples import gecko, spider
 from revolve_env.body.robot import Node, PartType, Robot
 from revolve_env.body.validate import RobotError
 from revolve_env.envs import LocomotionEnv
-from revolve_env.evaluate import EvaluationResult, evaluate
+from revolve_env.evaluation import EvaluationResult, evaluate
 from revolve_env.fitness import fitness_terms
 from revolve_env.world import WorldConfig
 

@@ -4,7 +4,7 @@ Both search in *normalised* coordinates, ``x = (p - low) / (high - low)`` in ``[
 parameter (bounds from :func:`revolve_env.brain.param_bounds`), so one step size fits weights
 (-2..2), periods (0.25..4 s) and phases (0..1) alike. Candidates are evaluated with the robot's
 own network driving it (:func:`evolution.evaluators.evaluate_task`, i.e.
-:func:`revolve_env.evaluate.evaluate`), in worker processes when ``workers > 1``.
+:func:`revolve_env.evaluate`), in worker processes when ``workers > 1``.
 
 Determinism: every candidate of one learning run is evaluated with the same seed (drawn once from
 the learner's generator: common random numbers, so candidates are compared under the same

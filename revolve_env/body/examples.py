@@ -3,8 +3,8 @@
 Every function returns a fresh, valid :class:`~revolve_env.body.robot.Robot`. Each active hinge
 carries one oscillator output neuron (period about 1 s); the phase offsets make a gait:
 
-* ``spider``: core and four legs (hip yaw hinge, brick, knee pitch hinge, brick); all hips in
-  phase, each knee a quarter period ahead of its hip.
+* ``spider``: core and four legs (hip pitch hinge, brick, knee pitch hinge, brick) with phases
+  tuned for a forward gait.
 * ``gecko``: two front legs, a two-segment spine that bends sideways and two hind legs; the front
   legs push together, the spine carries a travelling wave and the hind legs alternate.
 * ``snake``: a chain of hinges of alternating orientation (pitch, yaw, ...) behind the core with a
@@ -74,14 +74,18 @@ def _brick(orientation: int = 0, children: dict[int, Node] | None = None) -> Nod
 
 
 def spider() -> Robot:
-    """Core with four two-hinge legs (17 parts, 8 servos)."""
+    """Core with four two-hinge legs (17 parts, 8 servos), walking about 1.6 m in 12 s."""
+    # Hip and knee both pitch, so each leg can lift its foot and push the body. The phases
+    # (fractions of the 1 s period; hip, knee per leg) were found by a short CMA-ES search on
+    # this body in the project's world (12 s evaluation: f = 9.95, s = 1.59 m). Gaits with yaw
+    # hips drag the flat legs over the ground and barely move this robot.
+    phases = {"front": (0.287, 0.355), "left": (0.763, 0.531), "back": (0.091, 0.014),
+              "right": (0.984, 0.410)}
     legs = {}
-    # All hips in phase, each knee a quarter period ahead. A pattern with opposite legs in
-    # phase and the pairs half a period apart is symmetric under a half turn of the robot, so on
-    # flat ground its net displacement is exactly zero; this one is not.
     for slot, name in ((0, "front"), (1, "left"), (2, "back"), (3, "right")):
-        knee = _hinge(f"{name}_knee", 0, 0.25, _brick())
-        legs[slot] = _hinge(f"{name}_hip", 90, 0.0, _brick(0, {1: knee}))
+        hip_phase, knee_phase = phases[name]
+        knee = _hinge(f"{name}_knee", 0, knee_phase, _brick())
+        legs[slot] = _hinge(f"{name}_hip", 0, hip_phase, _brick(0, {1: knee}))
     return Robot(_core(legs), (), "spider")
 
 

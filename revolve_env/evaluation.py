@@ -1,4 +1,8 @@
-"""Brain-driven evaluation of one robot: ``revolve_env.evaluate(robot) -> EvaluationResult``."""
+"""Brain-driven evaluation of one robot: ``revolve_env.evaluate(robot) -> EvaluationResult``.
+
+The module is named ``evaluation`` so that the package attribute ``revolve_env.evaluate`` stays the
+function (a submodule of the same name would replace it once imported).
+"""
 
 from __future__ import annotations
 
