@@ -333,7 +333,9 @@ class World:
     def set_targets(self, handle: int, targets: ArrayLike) -> None:
         """Set the active hinges' position targets, normalized to [-1, 1] (= +-45 degrees).
 
-        Values outside [-1, 1] are clipped; NaN is an error. Targets hold until changed.
+        Values outside [-1, 1] are clipped. Targets hold until changed. NaN or infinity (a
+        controller whose network diverged) marks the robot as blown up (see :meth:`blow_up`) and
+        holds its hinges at 0: the caller sees the reason and nothing crashes.
         """
         state = self._state(handle)
         t = np.asarray(targets, dtype=np.float64).reshape(-1)
@@ -342,7 +344,11 @@ class World:
                 f"robot {handle} has {state.model.n_outputs} active hinges, got {t.shape[0]} targets"
             )
         if not _all_finite(t):
-            raise ValueError(f"targets for robot {handle} contain NaN or infinity: {t}")
+            if state.blow_up is None:
+                state.blow_up = (f"non-finite hinge targets at t={self._time:.3f} s "
+                                 "(the controller's outputs diverged)")
+            state.targets = np.zeros_like(state.targets)
+            return
         # minimum/maximum: np.clip's Python wrapper costs more than the clipping (hot path)
         state.targets = np.minimum(np.maximum(t, -1.0), 1.0) * math.radians(self.config.range_deg)
 
