@@ -37,7 +37,10 @@ class WorldConfig:
         max_linear_speed: A core faster than this means the simulation blew up. Metres per second.
         max_angular_speed: A core or joint spinning faster than this means the simulation blew up.
             Radians per second.
-        solver_iterations: Constraint solver iterations per physics step.
+        solver_iterations: Constraint solver iterations per physics step. 20 rather than
+            pybullet's 50: the example gaits keep their fitness (spider 10.2 vs 9.9, gecko 8.9
+            vs 8.9, snake 10.0 vs 10.7 over 12 s) while a 30-robot world steps about 1.4x
+            faster, which is what lets the online world run faster than real time on one core.
     """
 
     timestep: float = 1.0 / 240.0
@@ -53,7 +56,7 @@ class WorldConfig:
     drop_height: float = 0.02
     max_linear_speed: float = 10.0
     max_angular_speed: float = 200.0
-    solver_iterations: int = 50
+    solver_iterations: int = 20
 
     def __post_init__(self) -> None:
         if not (self.timestep > 0 and math.isfinite(self.timestep)):
