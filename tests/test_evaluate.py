@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from revolve_env.body.examples import gecko, spider
+from revolve_env.body.examples import example, gecko, spider
 from revolve_env.body.robot import Node, PartType, Robot
 from revolve_env.body.validate import RobotError
 from revolve_env.envs import LocomotionEnv
@@ -68,3 +68,19 @@ def test_bad_input_raises_before_physics() -> None:
         evaluate(spider(), seconds=0.0)
     with pytest.raises(ValueError, match="sensor_noise"):
         evaluate(spider(), sensor_noise=-1.0)
+
+
+@pytest.mark.parametrize("name", ["spider", "gecko", "snake"])
+def test_walking_examples_cover_real_distance_on_their_own_controllers(name: str) -> None:
+    """Issue 3: the examples run on their own brains; the walkers get somewhere in 12 s."""
+    result = evaluate(example(name), seconds=12.0, seed=0)
+    assert result.blow_up is None
+    assert result.s > 0.5  # metres of straight displacement (measured: 1.4 to 1.6 m)
+    assert result.fitness == pytest.approx(result.v + 5.0 * result.s)
+
+
+@pytest.mark.parametrize("name", ["sensor_crawler", "bar_walker"])
+def test_other_examples_move_on_their_own_controllers(name: str) -> None:
+    result = evaluate(example(name), seconds=12.0, seed=0)
+    assert result.blow_up is None
+    assert result.v > 0.1  # the core travels (metres of path)
