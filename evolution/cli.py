@@ -545,8 +545,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Compare every experiment at or below DIR. Writes fitness_over_births, "
                     "final_fitness, diversity_over_births and final_diversity (PNG and PDF), "
                     "summary.csv, mann_whitney.csv (Mann-Whitney U tests between experiments) "
-                    "and summary.md into DIR/report (or --out). Needs matplotlib and scipy "
-                    "(pip install revolve-env[report]).",
+                    "and summary.md into DIR/report (or --out).",
     )
     p.add_argument("dir", metavar="DIR", help="results folder (as given to `revolve run --out`)")
     p.add_argument("--out", metavar="DIR", help="output folder (default: DIR/report)")
@@ -614,8 +613,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"revolve {args.command}: error: {message}", file=sys.stderr)
         return EXIT_USAGE
     except ImportError as error:
-        print(f"revolve {args.command}: error: {error} (pip install revolve-env[report])",
-              file=sys.stderr)
+        print(f"revolve {args.command}: error: {error} (a dependency of revolve-env is missing: "
+              "reinstall it with pip)", file=sys.stderr)
         return EXIT_USAGE
 
 

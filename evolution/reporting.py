@@ -21,8 +21,8 @@ file                                  content
 ==================================== ==============================================================
 
 Unfinished runs are included with what they committed; ``summary.csv`` says how many finished.
-Reading needs only the standard library and NumPy; the figures need matplotlib and the tests
-SciPy (``pip install revolve-env[report]``).
+Reading needs only the standard library and NumPy; the figures use matplotlib (Agg, no display)
+and the tests SciPy, both dependencies of the package.
 """
 
 from __future__ import annotations

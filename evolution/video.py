@@ -3,8 +3,8 @@
 The camera of :class:`revolve_env.envs.LocomotionEnv` follows the robot over a plain ground, so
 every frame is annotated with the simulated time, the fitness so far and a small map of the
 path the core has travelled (north up, 1 m scale bar), which is what shows the robot moving.
-Written by :func:`revolve_env.envs.video.write_video`: GIF needs Pillow (``pip install
-revolve-env[report]``), MP4 also ``imageio-ffmpeg`` (without it a GIF is written instead).
+Written by :func:`revolve_env.envs.video.write_video`: GIF with Pillow (a dependency), MP4 needs
+``imageio-ffmpeg`` too (without it a GIF is written instead).
 """
 
 from __future__ import annotations
