@@ -35,6 +35,31 @@ Online (``engine = "online"``)
 
 Evaluation seeds are :func:`~evolution.evaluators.evaluation_seed` (run seed, robot id), so
 offline results do not depend on the number of workers.
+
+Infancy learning (the Training Center, ``RunJob.infancy``)
+    Every newborn goes to the Training Center right after delivery, before it enters a world:
+    offline, the evaluator calls the hook in the worker before the robot's evaluation (so the
+    fitness is that of the learned controller); online, the engine calls it before
+    ``world.add``, and the learned controller drives the robot in the shared world. The Training
+    Center is a *separate* simulation: the learner's simulated seconds are recorded
+    (``learning.sim_seconds``) but do not advance the run's clock, and a robot still matures
+    ``fertile_age`` seconds after its birth, as without learning. So learning changes what a
+    robot does during its life, not how long the life stages last, and runs with and without
+    learning compare at equal simulated time and births.
+
+    The learner's generator is seeded from the robot's evaluation seed
+    (:func:`~evolution.evaluators.infancy_seed`), never from the run's generator, so a learner
+    cannot change the run's other random choices. A hook that raises (a
+    :class:`~evolution.learning.LearnerError`, or any error of a plain hook) keeps the inborn
+    controller; the failure is recorded (kind ``"learner"``) and the run goes on.
+
+    Inheritance: the ``robots`` table holds the inborn genome as conceived; a successful
+    learning is recorded in the ``learning`` table (learned genome, the learner's inborn and
+    learned fitness, evaluations, simulated seconds). With a Lamarckian
+    :class:`~evolution.learning.TrainingCenter` (``center.lamarckian``) the genome the robot
+    passes to its children is the learned one; otherwise (Darwinian, or a plain hook) it is
+    the inborn one. A learner that trains a policy outside the genome (stable-baselines3) is
+    refused: the engine's evaluators and world run robots on their own networks.
 """
 
 from __future__ import annotations
@@ -47,7 +72,14 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from evolution.evaluators import EvalOutcome, EvalTask, Evaluator, evaluation_seed
+from evolution.evaluators import (
+    EvalOutcome,
+    EvalTask,
+    Evaluator,
+    LearningSummary,
+    evaluation_seed,
+    run_infancy,
+)
 from evolution.experiment import ExperimentConfig
 from evolution.lifecycle import InfancyHook, Lifecycle, LifecycleTiming, Stage
 from evolution.store import (
@@ -55,6 +87,7 @@ from evolution.store import (
     Checkpoint,
     FailureRecord,
     FitnessSample,
+    LearningRecord,
     RobotRecord,
     Store,
     StoreError,
@@ -69,6 +102,7 @@ __all__ = [
     "RunJob",
     "RunSummary",
     "WorldFactory",
+    "check_infancy",
     "execute_run",
     "run_seed",
 ]
@@ -190,13 +224,18 @@ class RunJob:
 
 @dataclass(slots=True)
 class _Member:
-    """A living robot known to the engine."""
+    """A living robot known to the engine.
+
+    ``robot`` is the genome the member passes to its children: the inborn one, or the learned
+    one (``learned``) under Lamarckian inheritance.
+    """
 
     robot_id: int
     robot: Robot
     lifecycle: Lifecycle
     fitness: float | None = None
     agent: str | None = None
+    learned: bool = False
 
 
 class _StopRun(Exception):
@@ -204,6 +243,28 @@ class _StopRun(Exception):
 
 
 # ---------------------------------------------------------------------------------------------
+
+
+def check_infancy(hook: InfancyHook | None) -> None:
+    """Refuse an infancy hook the engine cannot honour.
+
+    Raises:
+        TypeError: ``hook`` is not callable.
+        ValueError: its learner trains a policy outside the genome (stable-baselines3): the
+            engine's evaluators and world drive robots with their own networks, so the policy
+            would be silently ignored.
+    """
+    if hook is None:
+        return
+    if not callable(hook):
+        raise TypeError(f"infancy must be a callable hook(robot, rng) -> robot, got {hook!r}")
+    learner = getattr(hook, "learner", None)
+    if getattr(learner, "learns_policy", False):
+        raise ValueError(
+            f"{type(learner).__name__} trains a policy outside the genome, but the engine "
+            "evaluates robots on their own networks; use a controller-parameter learner "
+            "(CMA-ES, random search) in experiments"
+        )
 
 
 def _genome(robot: Robot) -> str:
@@ -246,6 +307,9 @@ class _Run:
         self.sim_time_at_start = 0.0
         self.replay_until: Checkpoint | None = None
         self.stored_genomes: dict[int, str] = {}
+        check_infancy(job.infancy)
+        self.infancy = job.infancy
+        self.lamarckian = bool(getattr(job.infancy, "lamarckian", False))
 
     # -- conception --------------------------------------------------------------------------
 
@@ -309,6 +373,26 @@ class _Run:
         record = RobotRecord(self.run_id, robot_id, genome, parents[0], parents[1], origin,
                              self.generation, conceived, born)
         return _Member(robot_id, robot, life), record
+
+    # -- infancy -----------------------------------------------------------------------------
+
+    def record_infancy(self, member: _Member, time_s: float, failure: str | None,
+                       learning: LearningSummary | None, learned_genome: str | None,
+                       learned: Robot | None = None) -> None:
+        """Record what the Training Center did for ``member`` (born at ``time_s``); under
+        Lamarckian inheritance the learned genome becomes the one it passes on."""
+        if failure is not None:
+            self.batch.failures.append(FailureRecord(member.robot_id, time_s, "learner", failure))
+            return
+        if learning is None:
+            return
+        self.batch.learning.append(LearningRecord(
+            member.robot_id, time_s, "lamarckian" if self.lamarckian else "darwinian",
+            learned_genome, learning.inborn_fitness, learning.learned_fitness,
+            learning.evaluations, learning.sim_seconds, learning.failures))
+        if self.lamarckian and learned_genome is not None:
+            member.robot = learned if learned is not None else _decode(learned_genome)
+            member.learned = True
 
     # -- deaths ------------------------------------------------------------------------------
 
@@ -420,15 +504,34 @@ class _OfflineRun(_Run):
         self.rng.bit_generator.state = checkpoint.rng_state
         self.last_diversity_births = checkpoint.engine_state.get("last_diversity_births")
         members = checkpoint.engine_state["population"]
-        records = {r.robot_id: r for r in self.store.robots(self.run_id, [m[0] for m in members])}
+        ids = [m[0] for m in members]
+        records = {r.robot_id: r for r in self.store.robots(self.run_id, ids)}
+        learned_ids = set(checkpoint.engine_state.get("learned", []))
+        learned = {r.robot_id: r.learned_genome
+                   for r in self.store.learning(self.run_id, sorted(learned_ids))}
         self.population = []
         for robot_id, fitness in members:
             record = records[robot_id]
             life = Lifecycle(robot_id, self.timing, Stage.MATURITY, record.birth_time)
-            self.population.append(_Member(robot_id, record.robot(), life, fitness))
+            if robot_id in learned_ids:
+                genome = learned.get(robot_id)
+                if genome is None:
+                    raise StoreError(
+                        f"run {self.run_id}: robot {robot_id} reproduces with its learned genome "
+                        "but the learning table has none; the database is incomplete"
+                    )
+                robot = _decode(genome)
+            else:
+                robot = record.robot()
+            self.population.append(_Member(robot_id, robot, life, fitness,
+                                           learned=robot_id in learned_ids))
 
     def engine_state(self) -> dict[str, Any]:
-        return {"population": [[m.robot_id, m.fitness] for m in self.population]}
+        state: dict[str, Any] = {"population": [[m.robot_id, m.fitness] for m in self.population]}
+        learned = [m.robot_id for m in self.population if m.learned]
+        if learned:
+            state["learned"] = learned
+        return state
 
     def make_generation(
         self, count: int, parents: Sequence[_Member], random: bool = False
@@ -460,9 +563,9 @@ class _OfflineRun(_Run):
         config = self.config
         life = member.lifecycle
         end = born + config.seconds_per_evaluation
-        if outcome.learner_failure is not None:
-            self.batch.failures.append(FailureRecord(member.robot_id, born + config.insertion,
-                                                     "learner", outcome.learner_failure))
+        if self.infancy is not None:
+            self.record_infancy(member, born, outcome.learner_failure, outcome.learning,
+                                outcome.learned_genome)
         if outcome.failure is not None or outcome.fitness is None:
             cause = outcome.failure or "evaluation gave no fitness"
             self.batch.failures.append(FailureRecord(member.robot_id, end, "evaluation", cause))
@@ -528,11 +631,6 @@ class _OnlineRun(_Run):
     def __init__(self, job: RunJob, store: Store, emit: Callable[[ProgressEvent], None],
                  world: OnlineWorld) -> None:
         super().__init__(job, store, emit)
-        if job.infancy is not None:
-            raise ValueError(
-                "an infancy learner in the online engine needs a world that can swap a living "
-                "robot's brain; use it with the offline engine"
-            )
         self.world = world
         self.dead: list[_Member] = []
 
@@ -561,7 +659,15 @@ class _OnlineRun(_Run):
         robot, pa, pb, origin = self.conceive(mature, time_s, random)
         position = self.position(time_s)
         member, record = self.new_member(robot, (pa, pb), origin, time_s, time_s)
-        member.agent = self.world.add(robot, position)
+        living = robot
+        if self.infancy is not None:
+            # The Training Center: a separate simulation before the robot enters the world.
+            report = run_infancy(self.infancy, robot, evaluation_seed(self.seed, member.robot_id))
+            living = report.robot
+            genome = _genome(living) if report.changed else None
+            self.record_infancy(member, time_s, report.failure, report.learning, genome,
+                                living if report.changed else None)
+        member.agent = self.world.add(living, position)
         self.batch.robots.append(record)
         self.population.append(member)
 

@@ -16,13 +16,14 @@ depend on the number of workers or on which worker ran what.
 
 from __future__ import annotations
 
+import math
 import multiprocessing
 import os
 import queue
 import traceback
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Protocol
 
 import numpy as np
@@ -34,10 +35,16 @@ __all__ = [
     "EvalTask",
     "EvaluateFunction",
     "Evaluator",
+    "InfancyReport",
+    "LearningSummary",
     "LocalEvaluator",
     "RayEvaluator",
+    "evaluate_after_infancy",
+    "evaluate_robot",
     "evaluate_task",
     "evaluation_seed",
+    "infancy_seed",
+    "run_infancy",
     "make_evaluator",
 ]
 
@@ -64,6 +71,29 @@ class EvalTask:
 
 
 @dataclass(frozen=True, slots=True)
+class LearningSummary:
+    """What the Training Center's learner reported for one infant.
+
+    Attributes:
+        inborn_fitness: Fitness of the inborn controller as the learner measured it (its own
+            candidate evaluation, not the experiment's); ``None`` when unknown (a plain hook).
+            Metres.
+        learned_fitness: Fitness of the learned controller as the learner measured it; ``None``
+            when unknown. Metres.
+        evaluations: Evaluations (or training episodes) the learner ran; ``None`` when unknown.
+        sim_seconds: Simulated seconds the learner used in its own Training Center simulations;
+            ``None`` when unknown. Seconds.
+        failures: Learner evaluations that failed (blow-ups).
+    """
+
+    inborn_fitness: float | None = None
+    learned_fitness: float | None = None
+    evaluations: int | None = None
+    sim_seconds: float | None = None
+    failures: int = 0
+
+
+@dataclass(frozen=True, slots=True)
 class EvalOutcome:
     """What an evaluation gave.
 
@@ -74,6 +104,10 @@ class EvalOutcome:
         failure: ``None``, or why the robot was lost (e.g. ``"blow-up: ..."``).
         learner_failure: ``None``, or why the infancy hook failed (the robot was then evaluated
             with its inherited brain).
+        learned_genome: The robot as JSON with the controller the infancy hook gave it, when
+            that differs from the inborn one; ``None`` otherwise (no hook, a failed hook, or
+            nothing learned). The evaluation measured this robot.
+        learning: The learner's own record, when a hook ran and did not fail.
     """
 
     fitness: float | None
@@ -81,6 +115,8 @@ class EvalOutcome:
     s: float | None = None
     failure: str | None = None
     learner_failure: str | None = None
+    learned_genome: str | None = None
+    learning: LearningSummary | None = None
 
 
 EvaluateFunction = Callable[[EvalTask], EvalOutcome]
@@ -92,43 +128,117 @@ def evaluation_seed(run_seed: int, robot_id: int) -> int:
     return int(np.random.SeedSequence([run_seed, robot_id, 0x0E7A1]).generate_state(1)[0])
 
 
+def infancy_seed(evaluation_seed: int) -> np.random.SeedSequence:
+    """The seed of a robot's infancy learning, derived from its evaluation seed.
+
+    Both engines use it, so an infant learns the same way offline and online, and the engine's
+    own generator never depends on what a learner draws.
+    """
+    return np.random.SeedSequence([evaluation_seed, 1])
+
+
+@dataclass(frozen=True, slots=True)
+class InfancyReport:
+    """One call of an infancy hook (:func:`run_infancy`).
+
+    Attributes:
+        robot: The robot that lives on: the learned one, or the inborn one after a failure.
+        changed: True when ``robot``'s controller differs from the inborn one.
+        failure: ``None``, or the hook's error in one line (the inborn robot was kept).
+        learning: The learner's record (``None`` after a failure; without the numbers for a
+            plain hook that is not a :class:`~evolution.learning.TrainingCenter`).
+    """
+
+    robot: Any
+    changed: bool
+    failure: str | None = None
+    learning: LearningSummary | None = None
+
+
+def run_infancy(hook: InfancyHook, robot: Any, seed: int) -> InfancyReport:
+    """Call an infancy hook on a newborn, never raising for a failing learner.
+
+    A :class:`~evolution.learning.TrainingCenter` hook also gives its learner's numbers (inborn
+    and learned fitness, evaluations, simulated seconds). Any exception from the hook (a
+    :class:`~evolution.learning.LearnerError` or a plain hook's own error) keeps the inborn
+    robot and is returned as ``failure``, for the engine to record.
+
+    Args:
+        hook: The infancy hook.
+        robot: The inborn robot.
+        seed: The robot's evaluation seed (:func:`evaluation_seed`); the learner's generator is
+            seeded with :func:`infancy_seed`.
+    """
+    rng = np.random.default_rng(infancy_seed(seed))
+    from evolution.learning.base import TrainingCenter
+
+    try:
+        if isinstance(hook, TrainingCenter):
+            result = hook.run_learner(robot, rng)
+            learned = result.robot
+            summary = LearningSummary(
+                _float_or_none(result.inborn_fitness), _float_or_none(result.best_fitness),
+                int(result.evaluations), float(result.sim_seconds), int(result.failures))
+        else:
+            learned = hook(robot, rng)
+            summary = LearningSummary()
+    except Exception as error:  # a learner failing must not kill the run; it is recorded
+        return InfancyReport(robot, False, f"{type(error).__name__}: {error}")
+    return InfancyReport(learned, learned != robot, None, summary)
+
+
 def _apply_infancy(task: EvalTask, robot: Any) -> tuple[Any, str | None]:
+    """The robot that lives after ``task.infancy`` and the hook's failure (kept for callers of
+    the first engine version; :func:`run_infancy` gives the full report)."""
     if task.infancy is None:
         return robot, None
-    rng = np.random.default_rng(np.random.SeedSequence([task.seed, 1]))
-    try:
-        return task.infancy(robot, rng), None
-    except Exception as error:  # a learner failing must not kill the run; it is recorded
-        return robot, f"{type(error).__name__}: {error}"
+    report = run_infancy(task.infancy, robot, task.seed)
+    return report.robot, report.failure
+
+
+def evaluate_after_infancy(task: EvalTask, evaluate: EvaluateFunction) -> EvalOutcome:
+    """Apply ``task.infancy`` (if any), then ``evaluate`` the robot that lives on.
+
+    ``evaluate`` receives the task with the learned genome and no hook; the outcome carries the
+    learned genome (when it changed), the learner's record and any learner failure. This is how
+    every evaluation function gets the Training Center: :func:`evaluate_task` is
+    ``evaluate_after_infancy(task, evaluate_robot)``.
+    """
+    if task.infancy is None:
+        return evaluate(task)
+    from revolve_env.body.serialize import from_json, to_json
+
+    report = run_infancy(task.infancy, from_json(task.genome), task.seed)
+    learned = to_json(report.robot, indent=None) if report.changed else None
+    outcome = evaluate(replace(task, genome=learned or task.genome, infancy=None))
+    return replace(outcome, learner_failure=report.failure, learned_genome=learned,
+                   learning=report.learning)
+
+
+def evaluate_robot(task: EvalTask) -> EvalOutcome:
+    """Evaluate ``task.genome`` alone at the origin with :func:`revolve_env.evaluate`
+    (its own network driving it; ``task.infancy`` is ignored here)."""
+    from revolve_env.body.serialize import from_json
+    from revolve_env.evaluation import evaluate
+
+    result = evaluate(from_json(task.genome), seconds=task.seconds, insertion=task.insertion,
+                      seed=task.seed)
+    if result.blow_up is not None:
+        return EvalOutcome(None, failure=f"blow-up: {result.blow_up}")
+    return EvalOutcome(float(result.fitness), float(result.v), float(result.s))
 
 
 def evaluate_task(task: EvalTask) -> EvalOutcome:
-    """Evaluate a robot alone at the origin with :func:`revolve_env.evaluate.evaluate`."""
-    from revolve_env.evaluate import evaluate
-
-    from revolve_env.body.serialize import from_json
-
-    robot, learner_failure = _apply_infancy(task, from_json(task.genome))
-    result = evaluate(robot, seconds=task.seconds, insertion=task.insertion, seed=task.seed)
-    reason = _blow_up_reason(result)
-    if reason is not None:
-        return EvalOutcome(None, failure=f"blow-up: {reason}", learner_failure=learner_failure)
-    return EvalOutcome(
-        float(result.fitness), _float_or_none(getattr(result, "v", None)),
-        _float_or_none(getattr(result, "s", None)), learner_failure=learner_failure,
-    )
-
-
-def _blow_up_reason(result: Any) -> str | None:
-    for name in ("blow_up", "blow_up_reason", "blew_up"):
-        value = getattr(result, name, None)
-        if value:
-            return value if isinstance(value, str) else name
-    return None
+    """The default evaluation: the Training Center (``task.infancy``, if any), then the robot
+    evaluated alone at the origin with :func:`revolve_env.evaluate`."""
+    return evaluate_after_infancy(task, evaluate_robot)
 
 
 def _float_or_none(value: Any) -> float | None:
-    return None if value is None else float(value)
+    if value is None:
+        return None
+    value = float(value)
+    return value if math.isfinite(value) else None
 
 
 # --------------------------------------------------------------------------------------------

@@ -349,19 +349,28 @@ def run(
         evaluator: An :mod:`evolution.evaluators` evaluator; default from ``config.evaluator``
             and ``config.workers`` (closed at the end only if made here).
         world_factory: Makes the online world of a run (default: the population environment).
-        infancy: Training Center learner hook (offline engine).
+        infancy: The Training Center: an infancy hook, usually a
+            :class:`~evolution.learning.TrainingCenter` (both engines; see
+            :mod:`evolution.engine` for when it runs, how learning is recorded and what
+            Lamarckian inheritance changes). Not stored with the results: pass the same one to
+            :func:`resume`.
 
     Returns:
         The summary of every run.
 
     Raises:
         ConfigError: invalid configuration.
+        ValueError: an infancy hook the engine cannot honour
+            (:func:`evolution.engine.check_infancy`).
         StoreError: ``out_dir`` already holds results (of this or another experiment).
         KeyboardInterrupt: Ctrl-C; what finished is committed, ``resume(out_dir)`` continues.
     """
     from evolution.store import DB_NAME, Store, StoreError
 
+    from evolution.engine import check_infancy
+
     config = _as_config(config)
+    check_infancy(infancy)
     out = Path(out_dir)
     db_path = out / DB_NAME
     if db_path.exists():
@@ -406,8 +415,10 @@ def resume(
         StoreError: no usable results database in ``out_dir`` (missing, corrupt, newer schema).
         ConfigError: the stored configuration is not valid for this package version.
     """
+    from evolution.engine import check_infancy
     from evolution.store import DB_NAME, Store
 
+    check_infancy(infancy)
     db_path = Path(out_dir) / DB_NAME
     with Store.open(db_path) as store:
         config = ExperimentConfig.from_dict(store.config)

@@ -21,7 +21,19 @@ transitions every lifecycle transition with its simulated time
 population  population snapshots: the members and their fitness after each commit point
 diversity   population diversity over births
 failures    crossover failures, blow-ups, learner failures, ... with their time
+learning    infancy learning in the Training Center: the learned genome, the learner's inborn
+            and learned fitness, its evaluations and simulated seconds (one row per infant
+            whose learner ran without failing; failed learners are in ``failures``)
 ========== ===================================================================================
+
+The ``robots`` table always holds the genome *as conceived* (the inborn one). With Lamarckian
+inheritance the genome a robot passes to its children is its learned genome
+(``learning.learned_genome``); the checkpoint's engine state lists the members that reproduce
+with it (``"learned"``), so a resumed run continues with the same genomes.
+
+Schema versions: 1 had no ``learning`` table. A version-1 database is upgraded in place when
+opened (the empty ``learning`` table is added and the version set to 2; nothing else changes);
+a database newer than this package is refused.
 
 The query functions at the bottom (``fitness_over_births``, ``final_population``, ...) are what
 reports and plots read.
@@ -51,6 +63,7 @@ __all__ = [
     "FailureRecord",
     "FitnessSample",
     "FitnessSeries",
+    "LearningRecord",
     "RobotRecord",
     "RunRecord",
     "Store",
@@ -58,13 +71,14 @@ __all__ = [
     "package_version",
 ]
 
-SCHEMA_VERSION = 1
-"""Version of the database layout; a database with a newer one is refused."""
+SCHEMA_VERSION = 2
+"""Version of the database layout; a database with a newer one is refused, an older one is
+upgraded when opened (see the module docstring)."""
 
 DB_NAME = "results.sqlite"
 """File name of the database inside a results directory."""
 
-_SCHEMA = """
+_SCHEMA_V1 = """
 CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
 CREATE TABLE runs (
     run_id INTEGER PRIMARY KEY,
@@ -138,6 +152,28 @@ CREATE TABLE failures (
     detail TEXT NOT NULL DEFAULT ''
 );
 """
+
+_LEARNING_TABLE = """
+CREATE TABLE learning (
+    run_id INTEGER NOT NULL,
+    robot_id INTEGER NOT NULL,
+    time REAL NOT NULL,
+    inheritance TEXT NOT NULL,
+    learned_genome TEXT,
+    inborn_fitness REAL,
+    learned_fitness REAL,
+    evaluations INTEGER,
+    sim_seconds REAL,
+    failures INTEGER NOT NULL DEFAULT 0,
+    PRIMARY KEY (run_id, robot_id)
+);
+"""
+
+_SCHEMA = _SCHEMA_V1 + _LEARNING_TABLE
+"""The current layout (version :data:`SCHEMA_VERSION`)."""
+
+_MIGRATIONS: dict[int, str] = {1: _LEARNING_TABLE}
+"""For each old version, the statements that bring it to the next one."""
 
 
 class StoreError(ValueError):
@@ -235,6 +271,41 @@ class FailureRecord:
 
 
 @dataclass(frozen=True, slots=True)
+class LearningRecord:
+    """One infancy in the Training Center (a learner that ran without failing).
+
+    Attributes:
+        robot_id: The infant.
+        time: Simulated time of its birth, when it went to the Training Center. Seconds.
+        inheritance: ``"darwinian"`` or ``"lamarckian"``: which genome it passes to children.
+        learned_genome: The robot as JSON with its learned controller; ``None`` when the learner
+            kept the inborn controller.
+        inborn_fitness: Fitness of the inborn controller as the learner measured it. Metres.
+        learned_fitness: Fitness of the learned controller as the learner measured it. Metres.
+        evaluations: Evaluations (or training episodes) the learner ran.
+        sim_seconds: Simulated seconds spent in the Training Center. Seconds.
+        failures: Learner evaluations that failed (blow-ups).
+    """
+
+    robot_id: int
+    time: float
+    inheritance: str
+    learned_genome: str | None
+    inborn_fitness: float | None
+    learned_fitness: float | None
+    evaluations: int | None
+    sim_seconds: float | None
+    failures: int = 0
+
+    @property
+    def improvement(self) -> float | None:
+        """``learned_fitness - inborn_fitness`` (``None`` when either is unknown). Metres."""
+        if self.inborn_fitness is None or self.learned_fitness is None:
+            return None
+        return self.learned_fitness - self.inborn_fitness
+
+
+@dataclass(frozen=True, slots=True)
 class DiversityPoint:
     """Population diversity after ``births`` births (mean pairwise tree edit distance)."""
 
@@ -277,6 +348,7 @@ class Batch:
     """Snapshot (robot_id, fitness) of the population at this commit point, if any."""
     diversity: float | None = None
     failures: list[FailureRecord] = field(default_factory=list)
+    learning: list[LearningRecord] = field(default_factory=list)
 
     def clear(self) -> None:
         """Forget everything (after it has been written)."""
@@ -288,6 +360,7 @@ class Batch:
         self.population = None
         self.diversity = None
         self.failures.clear()
+        self.learning.clear()
 
 
 @dataclass(frozen=True, slots=True)
@@ -423,10 +496,15 @@ class Store:
                 f"{SCHEMA_VERSION}; upgrade revolve-env to read it"
             )
         if version < SCHEMA_VERSION:
-            db.close()
-            raise StoreError(
-                f"{path} has schema version {version}, older than this package's {SCHEMA_VERSION}"
-            )
+            try:
+                _migrate(db, version)
+            except sqlite3.Error as error:
+                db.close()
+                raise StoreError(
+                    f"{path} has schema version {version}, older than this package's "
+                    f"{SCHEMA_VERSION}, and could not be upgraded in place ({error}); open it "
+                    "once with write access, or with the revolve-env version that wrote it"
+                ) from error
         return cls(db, path)
 
     def close(self) -> None:
@@ -531,6 +609,14 @@ class Store:
                 "INSERT INTO failures (run_id, robot_id, time, kind, detail) VALUES (?, ?, ?, ?, ?)",
                 [(run_id, f.robot_id, f.time, f.kind, f.detail) for f in batch.failures],
             )
+            db.executemany(
+                "INSERT INTO learning (run_id, robot_id, time, inheritance, learned_genome, "
+                "inborn_fitness, learned_fitness, evaluations, sim_seconds, failures) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                [(run_id, r.robot_id, r.time, r.inheritance, r.learned_genome,
+                  _nullable(r.inborn_fitness), _nullable(r.learned_fitness), r.evaluations,
+                  r.sim_seconds, r.failures) for r in batch.learning],
+            )
             db.execute(
                 "INSERT OR REPLACE INTO checkpoints "
                 "(run_id, births, sim_time, generation, rng_state, engine_state) "
@@ -622,6 +708,19 @@ class Store:
             args += (kind,)
         return [FailureRecord(*row) for row in self._db.execute(query + " ORDER BY rowid", args)]
 
+    def learning(self, run_id: int, ids: Sequence[int] | None = None) -> list[LearningRecord]:
+        """Infancy learning records of a run (only of ``ids`` if given), in birth order."""
+        rows = self._db.execute(
+            "SELECT robot_id, time, inheritance, learned_genome, inborn_fitness, learned_fitness, "
+            "evaluations, sim_seconds, failures FROM learning WHERE run_id = ? ORDER BY robot_id",
+            (run_id,),
+        ).fetchall()
+        records = [LearningRecord(*row) for row in rows]
+        if ids is not None:
+            wanted = set(ids)
+            records = [r for r in records if r.robot_id in wanted]
+        return records
+
     def population_snapshots(self, run_id: int) -> list[tuple[int, float, list[tuple[int, float | None]]]]:
         """Every population snapshot: ``(births, sim_time, [(robot_id, fitness), ...])``."""
         rows = self._db.execute(
@@ -702,6 +801,18 @@ _ROBOT_COLUMNS = (
     "run_id, robot_id, genome, parent_a, parent_b, origin, generation, conceived_time, "
     "birth_time, death_time, death_cause, fitness"
 )
+
+
+def _migrate(db: sqlite3.Connection, version: int) -> None:
+    """Bring a database of an older schema ``version`` to :data:`SCHEMA_VERSION` (one
+    transaction: either fully upgraded or untouched)."""
+    with _transaction(db):
+        for old in range(version, SCHEMA_VERSION):
+            for statement in _MIGRATIONS[old].split(";"):
+                if statement.strip():
+                    db.execute(statement)
+        db.execute("UPDATE meta SET value = ? WHERE key = 'schema_version'",
+                   (str(SCHEMA_VERSION),))
 
 
 @contextmanager

@@ -114,3 +114,26 @@ SMALL_ROBOTS = EvolutionConfig(initial_parts_mean=5.0, initial_parts_sd=2.0, max
 def small(config: ExperimentConfig) -> ExperimentConfig:
     """The same experiment with smaller robots (faster tests, same rules)."""
     return config.replace(evolution=SMALL_ROBOTS)
+
+
+# -- infancy learning without physics ---------------------------------------------------------------
+
+def param_distance_fitness(task: EvalTask) -> EvalOutcome:
+    """Candidate fitness for learners: 10 minus the normalised distance of the controller
+    parameters to the middle of their ranges (a smooth optimum every robot can approach)."""
+    from revolve_env.body.serialize import from_json
+    from revolve_env.brain import get_params, param_bounds
+
+    robot = from_json(task.genome, check=False)
+    bounds = param_bounds(robot)
+    span = np.where(bounds[:, 1] > bounds[:, 0], bounds[:, 1] - bounds[:, 0], 1.0)
+    d = (get_params(robot) - bounds.mean(axis=1)) / span
+    return EvalOutcome(10.0 - float(np.linalg.norm(d)))
+
+
+def fake_evaluate_after_infancy(task: EvalTask) -> EvalOutcome:
+    """The engine's Training Center call (``task.infancy``), then :func:`fake_evaluate` of the
+    robot that lives on."""
+    from evolution.evaluators import evaluate_after_infancy
+
+    return evaluate_after_infancy(task, fake_evaluate)

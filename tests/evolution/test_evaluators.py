@@ -76,7 +76,6 @@ def test_ray_evaluator_on_a_local_instance(tmp_path: Path) -> None:
 
 def test_real_physics_offline_run_is_reproducible(tmp_path: Path) -> None:
     """Two short offline runs with the real evaluation give identical numbers."""
-    pytest.importorskip("revolve_env.evaluation")
     config = small(preset("scenario1", population_size=3, offspring_size=3, births=6,
                           insertion=0.5, evaluation_time=1.0, fertile_age=1.5))
     with LocalEvaluator(2) as pool:

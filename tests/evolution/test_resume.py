@@ -21,7 +21,7 @@ from evolution.store import Store, StoreError
 
 SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
 TABLES = ("runs", "checkpoints", "robots", "fitness", "transitions", "population", "diversity",
-          "failures")
+          "failures", "learning")
 
 
 def dump(db: Path) -> dict[str, list[tuple[Any, ...]]]:

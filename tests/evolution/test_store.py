@@ -16,13 +16,14 @@ from evolution.store import (
     Checkpoint,
     FailureRecord,
     FitnessSample,
+    LearningRecord,
     RobotRecord,
     Store,
     StoreError,
 )
 
 TABLES = {"meta", "runs", "checkpoints", "robots", "fitness", "transitions", "population",
-          "diversity", "failures"}
+          "diversity", "failures", "learning"}
 
 
 def _checkpoint(births: int, t: float) -> Checkpoint:
@@ -125,6 +126,36 @@ def test_newer_schema_is_refused(tmp_path: Path) -> None:
     db.close()
     with pytest.raises(StoreError, match=f"schema version {SCHEMA_VERSION + 1}, newer"):
         Store.open(path)
+
+
+def test_learning_records_round_trip(store: Store) -> None:
+    learned = LearningRecord(1, 15.0, "lamarckian", '{"id": 1, "learned": true}', 0.25, 0.75, 17,
+                             119.0, 2)
+    unchanged = LearningRecord(0, 0.0, "darwinian", None, 0.5, 0.5, 5, 35.0)
+    store.commit(0, Batch(robots=[_robot(0, 0.0), _robot(1, 15.0)],
+                          learning=[learned, unchanged]), _checkpoint(2, 30.0))
+    assert store.learning(0) == [unchanged, learned]  # birth order
+    assert store.learning(0, [1]) == [learned]
+    assert learned.improvement == 0.5 and LearningRecord(2, 0.0, "darwinian", None, None, 1.0,
+                                                         None, None).improvement is None
+
+
+def test_version_1_database_is_upgraded_in_place(tmp_path: Path) -> None:
+    """A database written before the learning table existed opens, gains an empty learning
+    table and version 2, and keeps every record."""
+    path = tmp_path / "results.sqlite"
+    with Store.create(path, {"name": "old"}, 0) as s:
+        s.add_run(0, 7)
+        s.commit(0, Batch(robots=[_robot(0, 0.0)]), _checkpoint(1, 15.0))
+    db = sqlite3.connect(path)
+    db.execute("DROP TABLE learning")
+    db.execute("UPDATE meta SET value = '1' WHERE key = 'schema_version'")
+    db.commit()
+    db.close()
+    with Store.open(path) as s:
+        assert s.meta()["schema_version"] == str(SCHEMA_VERSION) == "2"
+        assert s.learning(0) == [] and [r.robot_id for r in s.robots(0)] == [0]
+        assert set(s.table_counts()) == TABLES
 
 
 def test_infinite_and_missing_fitness(store: Store) -> None:
