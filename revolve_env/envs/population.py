@@ -336,6 +336,19 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         return {a: (float(p[0]), float(p[1])) for a, p in zip(
             self.agents, world.core_positions([self._members[a].handle for a in self.agents]))}
 
+    def observe(self, agent: str) -> NDArray[np.float64]:
+        """The current observation of a living robot (a copy), as the next :meth:`step` feeds
+        its brain: the sensor values read at its birth, or after the last step.
+
+        A robot added between two steps gets its first observation here, before it is ever
+        reported by :meth:`step` (an agent-controlled policy needs one to choose its first
+        action).
+
+        Raises:
+            KeyError: naming the agent when it is unknown, not yet born, or dead.
+        """
+        return self._member(agent, "observe").obs.copy()
+
     def agent_info(self, agent: str) -> dict[str, Any]:
         """The current info of a living robot (as :meth:`step` reports it)."""
         return self._get_info(self._member(agent, "agent_info"), None)

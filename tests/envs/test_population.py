@@ -324,3 +324,28 @@ def test_brains_keep_their_own_network_when_another_brain_robot_dies() -> None:
                                    atol=1e-9)
         inputs = obs[second]
     assert third in env.agents
+
+
+def test_observe_gives_a_newborn_its_first_observation_and_refuses_the_dead() -> None:
+    env = small_env(max_births=3)
+    env.reset(seed=0)
+    old = env.add_robot(gecko(), (0.0, 0.0), controlled_by="agent")
+    env.step({})
+    newborn = env.add_robot(spider(), (1.5, 0.0), controlled_by="agent")  # mid-episode
+    first = env.observe(newborn)
+    # The sensors read in the world at its birth, inside its own space, never seen by step yet.
+    np.testing.assert_array_equal(first, env.world.read_sensors(env._members[newborn].handle))
+    assert env.observation_space(newborn).contains(first)
+    first[:] = 123.0  # a copy: changing it changes nothing in the env
+    assert not np.any(env.observe(newborn) == 123.0)
+    obs, *_ = env.step({old: np.ones(6, np.float32), newborn: np.zeros(8, np.float32)})
+    for agent in (old, newborn):
+        np.testing.assert_array_equal(env.observe(agent), obs[agent])  # the latest one
+    env.remove_robot(old)
+    with pytest.raises(KeyError, match="observe: agent 'robot_0' is dead"):
+        env.observe(old)
+    with pytest.raises(KeyError, match="robot_2.*not been born"):
+        env.observe("robot_2")
+    with pytest.raises(KeyError, match="unknown agent 'robot_7'"):
+        env.observe("robot_7")
+    env.close()
