@@ -429,7 +429,7 @@ class _Run:
             self.last_diversity_births = self.births
         engine_state = {**engine_state, "last_diversity_births": self.last_diversity_births}
         checkpoint = Checkpoint(self.births, self.sim_time, self.generation,
-                                self.rng.bit_generator.state, engine_state)
+                                dict(self.rng.bit_generator.state), engine_state)
         if self.replay_until is not None:
             target = self.replay_until
             if self.births < target.births:
@@ -711,14 +711,14 @@ class _OnlineRun(_Run):
         fitness = np.array([m.fitness for m in mature], dtype=float)
         # The bounds count every living robot; only the mature ones can be selected.
         min_alive = max(0, config.min_alive - spared)
-        doomed = online_survivors(
+        doomed_indices = online_survivors(
             fitness,
             min_alive=min_alive,
             max_alive=max(min_alive, config.max_alive - spared),
             threshold=config.death_threshold,
             cull_fraction=config.cull_fraction,
         )
-        doomed = [int(i) for i in doomed]
+        doomed = [int(i) for i in doomed_indices]
         if config.survivor_selection == "random" and doomed:
             doomed = [int(i) for i in self.rng.choice(len(mature), size=len(doomed), replace=False)]
         for i in sorted(doomed):

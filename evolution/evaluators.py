@@ -44,8 +44,8 @@ __all__ = [
     "evaluate_task",
     "evaluation_seed",
     "infancy_seed",
-    "run_infancy",
     "make_evaluator",
+    "run_infancy",
 ]
 
 
@@ -182,7 +182,7 @@ def run_infancy(hook: InfancyHook, robot: Any, seed: int) -> InfancyReport:
         else:
             learned = hook(robot, rng)
             summary = LearningSummary()
-    except Exception as error:  # a learner failing must not kill the run; it is recorded
+    except Exception as error:  # noqa: BLE001 - a failing learner must not kill the run; recorded
         return InfancyReport(robot, False, f"{type(error).__name__}: {error}")
     return InfancyReport(learned, learned != robot, None, summary)
 

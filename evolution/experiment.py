@@ -365,9 +365,8 @@ def run(
         StoreError: ``out_dir`` already holds results (of this or another experiment).
         KeyboardInterrupt: Ctrl-C; what finished is committed, ``resume(out_dir)`` continues.
     """
-    from evolution.store import DB_NAME, Store, StoreError
-
     from evolution.engine import check_infancy
+    from evolution.store import DB_NAME, Store, StoreError
 
     config = _as_config(config)
     check_infancy(infancy)

@@ -9,13 +9,19 @@
 * :class:`TrainingCenter`: a learner + budget + Darwinian/Lamarckian inheritance, usable as the
   lifecycle's infancy hook.
 
-Engine integration. Offline engine: pass ``infancy=center`` to :func:`evolution.run`; the
-evaluator calls ``center(robot, rng)`` before the evaluation (a :class:`LearnerError` keeps the
-inborn robot and lands in the failures table as kind ``"learner"``). Lamarckian inheritance needs
-the engine to take the learned robot back from the worker and give it to the member that
-reproduces (``member.robot = center.genome_for_children(inborn, learned)``); the online engine
-needs to call the hook at birth, before ``world.add``. :class:`SB3Learner` results drive the
-robot through :class:`PolicyAgent` as an agent-controlled robot of the population env.
+Engine integration (:mod:`evolution.engine`). Pass ``infancy=center`` to :func:`evolution.run`
+(and the same center to :func:`evolution.resume`); both engines use it. Offline, the evaluator
+runs the infancy in the worker before the robot's evaluation; online, the engine runs it before
+the robot enters the shared world. The Training Center is a separate simulation: it does not
+advance the run's clock and a robot still matures ``fertile_age`` seconds after birth. Each
+learning lands in the store's ``learning`` table (learned genome, the learner's inborn and learned
+fitness, evaluations, simulated seconds); a :class:`LearnerError` (or any error of a hook) keeps
+the inborn robot and lands in the failures table as kind ``"learner"``. With
+``inheritance="lamarckian"`` the engine reproduces from the learned genome, otherwise from the
+inborn one (the ``robots`` table always holds the inborn genome). :class:`SB3Learner` trains a
+policy outside the genome: the engine refuses it (its evaluators and world run robots on their
+own networks); its results drive a robot through :class:`PolicyAgent` as an agent-controlled
+robot of the population env.
 
 Importing this package loads neither pybullet nor torch; they load when a learner runs.
 """

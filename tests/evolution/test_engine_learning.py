@@ -51,8 +51,10 @@ NO_MUTATION = replace(SMALL_ROBOTS, p_remove_subtree=0.0, p_duplicate_subtree=0.
 
 
 def offline_config(**kw: Any) -> ExperimentConfig:
-    base = dict(name="learning", population_size=4, offspring_size=4, births=16, insertion=0.0,
-                evaluation_time=1.0, fertile_age=1.0, diversity_interval=4, evolution=NO_MUTATION)
+    base: dict[str, Any] = {
+        "name": "learning", "population_size": 4, "offspring_size": 4, "births": 16,
+        "insertion": 0.0, "evaluation_time": 1.0, "fertile_age": 1.0, "diversity_interval": 4,
+        "evolution": NO_MUTATION}
     return ExperimentConfig(**{**base, **kw})
 
 
@@ -208,10 +210,11 @@ class RecordingWorld(FakeWorld):
 
 
 def online_config(**kw: Any) -> ExperimentConfig:
-    base = dict(name="online-learning", engine="online", population_size=8, min_alive=8,
-                max_alive=12, births=20, insertion=1.0, evaluation_time=4.0, fertile_age=5.0,
-                conception_interval=5.0, checkpoint_interval=4, diversity_interval=0,
-                evolution=NO_MUTATION)
+    base: dict[str, Any] = {
+        "name": "online-learning", "engine": "online", "population_size": 8, "min_alive": 8,
+        "max_alive": 12, "births": 20, "insertion": 1.0, "evaluation_time": 4.0,
+        "fertile_age": 5.0, "conception_interval": 5.0, "checkpoint_interval": 4,
+        "diversity_interval": 0, "evolution": NO_MUTATION}
     return ExperimentConfig(**{**base, **kw})
 
 
@@ -225,7 +228,7 @@ def test_online_infants_learn_before_entering_the_world(tmp_path: Path) -> None:
         records = store.learning(0)
         assert_every_infant_accounted_for(store, records, 20)
         assert sum(r.learned_genome is not None for r in records) >= 10
-        inborn, learned = passed_on(store, 0)
+        _, learned = passed_on(store, 0)
         # The world got each robot with its learned controller (agent k is robot k).
         assert added == [learned[k] for k in range(20)]
         # Births happen at the conception ticks: learning took no world time, and maturity
@@ -279,3 +282,28 @@ def test_a_policy_learner_is_refused_before_anything_is_written(tmp_path: Path) 
         experiment.run(offline_config(), tmp_path / "out", evaluator=SERIAL,
                        infancy=TrainingCenter(SB3Learner(), 10.0))
     assert not (tmp_path / "out").exists()
+
+
+def test_real_physics_run_with_learning_measures_the_learned_robot(tmp_path: Path) -> None:
+    """The default evaluator with a Training Center: every candidate and every robot in the
+    physics (short times); each robot's fitness is the evaluation of the controller it learned."""
+    from evolution.evaluators import EvalTask, evaluate_robot, evaluation_seed
+
+    physics = CandidateEvaluation(insertion=0.25, seconds=0.5)
+    center = TrainingCenter(RandomSearchLearner(sigma=0.3, batch_size=2, evaluation=physics),
+                            3 * physics.cost, "lamarckian")
+    config = offline_config(population_size=2, offspring_size=2, births=4, insertion=0.5,
+                            evaluation_time=1.0, fertile_age=1.5, evolution=SMALL_ROBOTS)
+    summary = experiment.run(config, tmp_path / "out", evaluator=LocalEvaluator(1),
+                             infancy=center)
+    with Store.open(summary.db_path) as store:
+        records = store.learning(0)
+        assert_every_infant_accounted_for(store, records, 4)
+        assert all(r.evaluations == 3 and r.sim_seconds == 3 * physics.cost for r in records)
+        learned = {r.robot_id: r.learned_genome for r in records}
+        seed = store.runs()[0].seed
+        for robot in store.robots(0):
+            genome = learned.get(robot.robot_id) or robot.genome
+            outcome = evaluate_robot(EvalTask(robot.robot_id, genome, 0.5, 1.0,
+                                              evaluation_seed(seed, robot.robot_id)))
+            assert robot.fitness == outcome.fitness
