@@ -187,15 +187,6 @@ def run_infancy(hook: InfancyHook, robot: Any, seed: int) -> InfancyReport:
     return InfancyReport(learned, learned != robot, None, summary)
 
 
-def _apply_infancy(task: EvalTask, robot: Any) -> tuple[Any, str | None]:
-    """The robot that lives after ``task.infancy`` and the hook's failure (kept for callers of
-    the first engine version; :func:`run_infancy` gives the full report)."""
-    if task.infancy is None:
-        return robot, None
-    report = run_infancy(task.infancy, robot, task.seed)
-    return report.robot, report.failure
-
-
 def evaluate_after_infancy(task: EvalTask, evaluate: EvaluateFunction) -> EvalOutcome:
     """Apply ``task.infancy`` (if any), then ``evaluate`` the robot that lives on.
 

@@ -307,3 +307,22 @@ def test_real_physics_run_with_learning_measures_the_learned_robot(tmp_path: Pat
             outcome = evaluate_robot(EvalTask(robot.robot_id, genome, 0.5, 1.0,
                                               evaluation_seed(seed, robot.robot_id)))
             assert robot.fitness == outcome.fitness
+
+
+def test_online_kill_and_resume_with_learning_replays_to_the_same_result(tmp_path: Path) -> None:
+    config = online_config(births=24)
+    center = random_search("lamarckian")
+
+    def world(c: ExperimentConfig, seed: int) -> RecordingWorld:
+        return RecordingWorld(c, seed, [])
+
+    experiment.run(config, tmp_path / "ref", evaluator=SERIAL, infancy=center,
+                   world_factory=world)
+    out = tmp_path / "killed"
+    with pytest.raises(Kill):
+        experiment.run(config, out, killer(14), evaluator=SERIAL, infancy=center,
+                       world_factory=world)
+    experiment.resume(out, evaluator=SERIAL, infancy=center, world_factory=world)
+    reference = dump(tmp_path / "ref" / "results.sqlite")
+    assert reference["learning"]
+    assert dump(out / "results.sqlite") == reference

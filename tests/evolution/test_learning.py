@@ -14,7 +14,13 @@ import numpy as np
 import pytest
 
 from evolution.config import EvolutionConfig
-from evolution.evaluators import EvalOutcome, EvalTask, LocalEvaluator, _apply_infancy
+from evolution.evaluators import (
+    EvalOutcome,
+    EvalTask,
+    LocalEvaluator,
+    evaluate_after_infancy,
+    run_infancy,
+)
 from evolution.learning import (
     CandidateEvaluation,
     CMAESLearner,
@@ -241,16 +247,14 @@ def test_a_bad_learner_leaves_the_inborn_controller(learner, message: str) -> No
     with pytest.raises(LearnerError):
         center(robot, np.random.default_rng(0))
     # The engine's hook call keeps the inborn robot and reports the failure.
-    task = EvalTask(3, to_json(robot), 0.0, 1.0, 0, center)
-    kept, failure = _apply_infancy(task, robot)
-    assert kept == robot and failure is not None and "LearnerError" in failure
+    report = run_infancy(center, robot, seed=0)
+    assert report.robot == robot and not report.changed and report.learning is None
+    assert report.failure is not None and "LearnerError" in report.failure
 
 
 def _engine_evaluate(task: EvalTask) -> EvalOutcome:
     """The engine's infancy call, then the synthetic fitness of the robot that lives on."""
-    robot, failure = _apply_infancy(task, from_json(task.genome))
-    outcome = distance_fitness(replace(task, genome=to_json(robot)))
-    return replace(outcome, learner_failure=failure)
+    return evaluate_after_infancy(task, distance_fitness)
 
 
 def test_a_raising_learner_is_recorded_in_the_store_and_the_run_goes_on(tmp_path) -> None:
