@@ -89,3 +89,36 @@ def check_step_arrays(inputs: npt.NDArray[np.float64], outputs: npt.NDArray[np.f
             raise ValueError(f"{name} must be C-contiguous")
     if not outputs.flags.writeable:
         raise ValueError("outputs must be writeable")
+
+
+class RegistryViews:
+    """Read-only views of a :class:`Registry` shared by both batch controllers."""
+
+    _reg: Registry
+
+    @property
+    def handles(self) -> list[int]:
+        """Live handles in order of addition."""
+        return list(self._reg.specs)
+
+    @property
+    def n_inputs(self) -> int:
+        """Total inputs over the live networks."""
+        return self._reg.n_inputs
+
+    @property
+    def n_outputs(self) -> int:
+        """Total outputs over the live networks."""
+        return self._reg.n_outputs
+
+    def input_slice(self, handle: int) -> slice:
+        """This network's part of the flat input array."""
+        return self._reg.slices(handle)[0]
+
+    def output_slice(self, handle: int) -> slice:
+        """This network's part of the flat output array."""
+        return self._reg.slices(handle)[1]
+
+    def spec(self, handle: int) -> NetworkSpec:
+        """The spec of a live network."""
+        return self._reg.spec(handle)

@@ -12,13 +12,19 @@ import numpy.typing as npt
 
 from revolve_env import _controller
 from revolve_env.body.robot import Robot
-from revolve_env.brain._registry import Registry, as_spec, check_dt, check_step_arrays
+from revolve_env.brain._registry import (
+    Registry,
+    RegistryViews,
+    as_spec,
+    check_dt,
+    check_step_arrays,
+)
 from revolve_env.brain.spec import NetworkSpec
 
 __all__ = ["BatchController"]
 
 
-class BatchController:
+class BatchController(RegistryViews):
     """Steps the networks of many robots (of different sizes) at once.
 
     Networks are laid out in the flat input and output arrays in order of addition; use
@@ -61,33 +67,6 @@ class BatchController:
         if handle is not None:
             self._reg.spec(handle)
         self._impl.reset(handle)
-
-    @property
-    def handles(self) -> list[int]:
-        """Live handles in order of addition."""
-        return list(self._reg.specs)
-
-    @property
-    def n_inputs(self) -> int:
-        """Total inputs over the live networks."""
-        return self._reg.n_inputs
-
-    @property
-    def n_outputs(self) -> int:
-        """Total outputs over the live networks."""
-        return self._reg.n_outputs
-
-    def input_slice(self, handle: int) -> slice:
-        """This network's part of the flat input array."""
-        return self._reg.slices(handle)[0]
-
-    def output_slice(self, handle: int) -> slice:
-        """This network's part of the flat output array."""
-        return self._reg.slices(handle)[1]
-
-    def spec(self, handle: int) -> NetworkSpec:
-        """The spec of a live network."""
-        return self._reg.spec(handle)
 
     def get_state(self, handle: int) -> np.ndarray:
         """A copy of the neuron values of one network, in spec order."""

@@ -28,7 +28,13 @@ import numpy as np
 import numpy.typing as npt
 
 from revolve_env.body.robot import Robot
-from revolve_env.brain._registry import Registry, as_spec, check_dt, check_step_arrays
+from revolve_env.brain._registry import (
+    Registry,
+    RegistryViews,
+    as_spec,
+    check_dt,
+    check_step_arrays,
+)
 from revolve_env.brain.spec import KIND_LINEAR, KIND_OSCILLATOR, KIND_SIGMOID, NetworkSpec
 
 __all__ = ["ReferenceBatchController"]
@@ -59,7 +65,7 @@ class _Layout:
     osc_amp: np.ndarray
 
 
-class ReferenceBatchController:
+class ReferenceBatchController(RegistryViews):
     """Steps the networks of many robots at once with NumPy (same API as ``BatchController``).
 
     Args:
@@ -99,33 +105,6 @@ class ReferenceBatchController:
         for h in handles:
             self._state[h][:] = 0.0
             self._time[h] = 0.0
-
-    @property
-    def handles(self) -> list[int]:
-        """Live handles in order of addition."""
-        return list(self._reg.specs)
-
-    @property
-    def n_inputs(self) -> int:
-        """Total inputs over the live networks."""
-        return self._reg.n_inputs
-
-    @property
-    def n_outputs(self) -> int:
-        """Total outputs over the live networks."""
-        return self._reg.n_outputs
-
-    def input_slice(self, handle: int) -> slice:
-        """This network's part of the flat input array."""
-        return self._reg.slices(handle)[0]
-
-    def output_slice(self, handle: int) -> slice:
-        """This network's part of the flat output array."""
-        return self._reg.slices(handle)[1]
-
-    def spec(self, handle: int) -> NetworkSpec:
-        """The spec of a live network."""
-        return self._reg.spec(handle)
 
     def get_state(self, handle: int) -> np.ndarray:
         """A copy of the neuron values of one network, in spec order."""
