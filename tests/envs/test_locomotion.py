@@ -3,13 +3,9 @@ increase, truncation, brain control, blow-ups and bad input."""
 
 from __future__ import annotations
 
-import warnings
-
 import gymnasium as gym
 import numpy as np
 import pytest
-from gymnasium.utils.env_checker import check_env
-from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import revolve_env.envs  # noqa: F401  (registers the env)
 from revolve_env.body.examples import EXAMPLES, spider
@@ -17,21 +13,37 @@ from revolve_env.body.robot import Node, PartType, Robot
 from revolve_env.body.serialize import save
 from revolve_env.body.validate import RobotError
 from revolve_env.envs import LOCOMOTION_ID, LocomotionEnv
+from revolve_env.envs.checks import check_determinism, check_locomotion, registered_ids
 from revolve_env.fitness import window_fitness
 from revolve_env.world import WorldConfig
 
 SHORT = dict(insertion_time=0.25, evaluation_time=0.5)
 
 
+@pytest.mark.parametrize("env_id", registered_ids())
 @pytest.mark.parametrize("name", sorted(EXAMPLES))
-def test_checkers_pass_on_every_example_robot(name: str) -> None:
-    env = gym.make(LOCOMOTION_ID, robot=EXAMPLES[name](), **SHORT)
-    with warnings.catch_warnings():
-        # headless test machines have no window for render_mode="human" (the env warns, falls back)
-        warnings.filterwarnings("ignore", message="render_mode='human' without a window")
-        check_env(env.unwrapped)
-        sb3_check_env(env.unwrapped)
-    env.close()
+def test_checkers_pass_on_every_example_robot(name: str, env_id: str) -> None:
+    """Gymnasium's and SB3's checkers, two-env determinism and pickling (library checks)."""
+    check_locomotion(EXAMPLES[name](), env_id, **SHORT)
+
+
+def test_the_package_registers_its_envs() -> None:
+    assert LOCOMOTION_ID in registered_ids()
+
+
+class _SeedIgnoringEnv(LocomotionEnv):
+    """Draws its noise from fresh entropy whatever the seed: not reproducible."""
+
+    def reset(self, *, seed=None, options=None):  # type: ignore[no-untyped-def, override]
+        return super().reset(seed=None, options=options)
+
+
+def test_the_determinism_check_catches_a_nondeterministic_env() -> None:
+    flaky = "revolve_env_test/SeedIgnoring-v0"
+    if flaky not in gym.registry:
+        gym.register(id=flaky, entry_point=_SeedIgnoringEnv)
+    with pytest.raises(AssertionError, match="differ"):
+        check_determinism(flaky, robot=spider(), sensor_noise=0.05, steps=5, **SHORT)
 
 
 def _rollout(env: gym.Env, seed: int, steps: int) -> tuple[np.ndarray, np.ndarray]:
