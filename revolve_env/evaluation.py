@@ -81,8 +81,8 @@ def evaluate(
             raise ValueError(f"{name} must be a finite number >= 0, got {value}")
     cfg = config if config is not None else WorldConfig()
     dt = cfg.control_period
-    insertion_ticks = int(round(insertion / dt))
-    evaluation_ticks = int(round(seconds / dt))
+    insertion_ticks = round(insertion / dt)
+    evaluation_ticks = round(seconds / dt)
     if evaluation_ticks < 1:
         raise ValueError(f"seconds ({seconds}) must cover at least one control period ({dt} s)")
     rng = np.random.default_rng(seed)

@@ -29,8 +29,8 @@ from revolve_env.body.robot import PartType, Robot
 from revolve_env.body.validate import Limits, validate
 
 __all__ = [
-    "BillOfMaterials",
     "PASSIVE_HINGE_LIMIT_DEG",
+    "BillOfMaterials",
     "bill_of_materials",
     "link_inertia",
     "to_sdf",

@@ -184,8 +184,8 @@ def assemble(robot: Robot) -> Assembly:
     parts: list[PlacedPart] = []
     boxes: list[PlacedBox] = []
     bodies: list[dict] = [
-        dict(parent=-1, joint_part=-1, joint_anchor=np.zeros(3), joint_axis=np.array([0, 0, 1.0]),
-             active=False, boxes=[])
+        {"parent": -1, "joint_part": -1, "joint_anchor": np.zeros(3),
+         "joint_axis": np.array([0, 0, 1.0]), "active": False, "boxes": []}
     ]
 
     def place(node: Node, path: Path, pos: Vec3, rot: Mat3, body: int) -> None:
@@ -194,12 +194,12 @@ def assemble(robot: Robot) -> Assembly:
         part_index = len(parts)
         part_bodies = [body]
         if geom.joint is not None:
-            bodies.append(dict(
-                parent=body, joint_part=part_index,
-                joint_anchor=pos + rot @ geom.joint.anchor,
-                joint_axis=rot @ geom.joint.axis,
-                active=geom.joint.active, boxes=[],
-            ))
+            bodies.append({
+                "parent": body, "joint_part": part_index,
+                "joint_anchor": pos + rot @ geom.joint.anchor,
+                "joint_axis": rot @ geom.joint.axis,
+                "active": geom.joint.active, "boxes": [],
+            })
             part_bodies.append(len(bodies) - 1)
         parts.append(PlacedPart(path, node, pos, rot, tuple(part_bodies)))
         for b in geom.boxes:

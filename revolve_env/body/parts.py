@@ -30,13 +30,13 @@ from numpy.typing import NDArray
 from revolve_env.body.robot import PartType
 
 __all__ = [
+    "PART_SPECS",
+    "SERVO",
     "Box",
     "JointGeometry",
-    "PART_SPECS",
     "ParamSpec",
     "PartGeometry",
     "PartSpec",
-    "SERVO",
     "ServoSpec",
     "SlotGeometry",
     "rotation_about",

@@ -22,17 +22,17 @@ from dataclasses import dataclass, field, replace
 from enum import Enum
 
 __all__ = [
+    "ACTIVATION_PARAMS",
+    "NEURON_PARAM_BOUNDS",
+    "WEIGHT_BOUNDS",
     "Activation",
     "Connection",
     "Layer",
     "Neuron",
     "Node",
-    "Path",
     "PartType",
+    "Path",
     "Robot",
-    "ACTIVATION_PARAMS",
-    "NEURON_PARAM_BOUNDS",
-    "WEIGHT_BOUNDS",
 ]
 
 Path = tuple[int, ...]

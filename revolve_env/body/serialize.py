@@ -23,9 +23,18 @@ import math
 import os
 from collections.abc import Mapping
 from dataclasses import fields
-from typing import Any
+from typing import Any, TypeVar
 
-from revolve_env.body.robot import Activation, Connection, Layer, Neuron, Node, PartType, Path, Robot
+from revolve_env.body.robot import (
+    Activation,
+    Connection,
+    Layer,
+    Neuron,
+    Node,
+    PartType,
+    Path,
+    Robot,
+)
 from revolve_env.body.validate import Limits, RobotError, validate
 
 __all__ = [
@@ -53,7 +62,9 @@ _NODE_KEYS = {"type": True, "orientation": False, "params": False, "color": Fals
 _CHILD_KEYS = {**_NODE_KEYS, "slot": True}
 _NEURON_KEYS = {"id": True, "layer": True, "activation": True, **{k: False for k in _NEURON_FLOATS}}
 _CONNECTION_KEYS = {"src": True, "dst": True, "weight": True}
-_DEFAULT_COLOR = Node.__dataclass_fields__["color"].default
+_DEFAULT_COLOR = Node(PartType.CORE).color
+
+_E = TypeVar("_E", PartType, Layer, Activation)
 
 
 # --- writing -----------------------------------------------------------------------------------
@@ -156,8 +167,7 @@ class _Reader:
             raise self.fail(where, f"expected a string, got {_kind(value)}", "json-type", path)
         return value
 
-    def enum(self, enum: type[PartType] | type[Layer] | type[Activation], value: object, where: str,
-             path: Path | None) -> Any:
+    def enum(self, enum: type[_E], value: object, where: str, path: Path | None) -> _E:
         text = self.string(value, where, path)
         try:
             return enum(text)
@@ -179,7 +189,7 @@ class _Reader:
         if len(color_list) != 3:
             raise self.fail(f"{where}.color", f"expected 3 numbers (r, g, b), got {len(color_list)}",
                             "json-value", path)
-        color = tuple(self.number(c, f"{where}.color[{i}]", path) for i, c in enumerate(color_list))
+        r, g, b = (self.number(c, f"{where}.color[{i}]", path) for i, c in enumerate(color_list))
         neurons = tuple(
             self.neuron(n, f"{where}.neurons[{i}]", path)
             for i, n in enumerate(self.list(d.get("neurons", []), f"{where}.neurons", path))
@@ -190,7 +200,7 @@ class _Reader:
             cd = self.obj(c, cw, _CHILD_KEYS, path)
             slot = self.integer(cd["slot"], f"{cw}.slot", path)
             children.append((slot, self.node(cd, cw, (*path, slot))))
-        return Node(part, orientation, params, color, neurons, tuple(children))  # type: ignore[arg-type]
+        return Node(part, orientation, params, (r, g, b), neurons, tuple(children))
 
     def neuron(self, value: object, where: str, path: Path) -> Neuron:
         d = self.obj(value, where, _NEURON_KEYS, path)

@@ -172,10 +172,9 @@ def validate(robot: Robot, limits: Limits | None = None) -> None:
         raise RobotError("the root part must be a core", path=(), rule="root-core")
 
     ids: dict[str, Path] = {}
-    n_parts = n_in = n_out = n_hidden = 0
-    for path, node in robot.walk():
+    n_in = n_out = n_hidden = 0
+    for n_parts, (path, node) in enumerate(robot.walk(), start=1):
         _check_node(path, node)
-        n_parts += 1
         for nr in node.neurons:
             if not isinstance(nr.id, str) or not nr.id:
                 raise RobotError("a neuron id must be a non-empty string", path=path,

@@ -166,8 +166,8 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self.controller = controller
         self.action_mode = action
         dt = self.config.control_period
-        self._insertion_steps = int(round(self.insertion_time / dt))
-        self._total_steps = self._insertion_steps + int(round(self.evaluation_time / dt))
+        self._insertion_steps = round(self.insertion_time / dt)
+        self._total_steps = self._insertion_steps + round(self.evaluation_time / dt)
         if self._total_steps <= self._insertion_steps:
             raise ValueError(f"evaluation_time {evaluation_time} s is shorter than one control "
                              f"period ({dt} s)")

@@ -82,4 +82,4 @@ class WorldConfig:
     @property
     def substeps(self) -> int:
         """Physics steps per control period."""
-        return int(round(self.control_period / self.timestep))
+        return round(self.control_period / self.timestep)

@@ -159,9 +159,10 @@ class World:
         self.close()
 
     def __del__(self) -> None:
+        # Never raise from __del__: at interpreter shutdown pybullet may already be unloaded.
         try:
             self.close()
-        except Exception:  # interpreter shutdown: pybullet may already be unloaded
+        except Exception:  # noqa: BLE001, S110
             pass
 
     def _check_open(self) -> None:
