@@ -53,7 +53,9 @@ class TreeArrays:
 def tree_arrays(robot: Robot) -> TreeArrays:
     """The body of ``robot`` as pre-order arrays (children in slot order)."""
     index: dict[tuple[int, ...], int] = {}
-    types, slots, parents = [], [], []
+    types: list[int] = []
+    slots: list[int] = []
+    parents: list[int] = []
     for path, node in robot.walk():
         index[path] = len(types)
         types.append(PART_TYPE_IDS[node.type])

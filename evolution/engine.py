@@ -360,12 +360,12 @@ class _Run:
         robot_id = self.births
         self.births += 1
         genome = _genome(robot)
-        if self.replay_until is not None and robot_id in self.stored_genomes:
-            if self.stored_genomes[robot_id] != genome:
-                raise ReplayError(
-                    f"run {self.run_id}: replay made a different robot {robot_id} than the stored "
-                    "one; the simulation is not deterministic on this machine, cannot resume"
-                )
+        replaying = self.replay_until is not None and robot_id in self.stored_genomes
+        if replaying and self.stored_genomes[robot_id] != genome:
+            raise ReplayError(
+                f"run {self.run_id}: replay made a different robot {robot_id} than the stored "
+                "one; the simulation is not deterministic on this machine, cannot resume"
+            )
         life = Lifecycle(robot_id, self.timing)
         note = "random" if parents[0] is None else f"parents {parents[0]},{parents[1]}"
         life.conceive(conceived, note if origin != "random-fallback" else "random (fallback)")
@@ -784,9 +784,11 @@ def execute_run(job: RunJob, evaluator: Evaluator, emit: Callable[[Any], None]) 
         emit(run.event(finished=True))
         return run.summary("finished")
     except BaseException:
+        # Best effort: the original error, re-raised below, matters more than a failed status
+        # update (whatever its type: a closed or broken database).
         try:
             store.set_status(job.run_id, "interrupted")
-        except Exception:  # the original error matters more than a failed status update
+        except Exception:  # noqa: BLE001, S110
             pass
         raise
     finally:

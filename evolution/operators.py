@@ -28,6 +28,7 @@ picture of a child shows which parts came from which parent.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -52,6 +53,7 @@ from revolve_env.body.robot import (
     WEIGHT_BOUNDS,
     Connection,
     Layer,
+    Neuron,
     Node,
     Path,
     Robot,
@@ -470,6 +472,21 @@ def _perturb(rng: np.random.Generator, value: float, low: float, high: float, si
     return float(np.clip(value + rng.normal(0.0, sigma * (high - low)), low, high))
 
 
+def _with_neuron_params(nr: Neuron, values: Mapping[str, float]) -> Neuron:
+    """A copy of ``nr`` with the parameters named in ``values`` replaced (the others kept)."""
+    unknown = set(values) - set(NEURON_PARAM_BOUNDS)
+    if unknown:
+        raise ValueError(f"unknown neuron parameters {sorted(unknown)}")
+    return replace(
+        nr,
+        bias=values.get("bias", nr.bias),
+        gain=values.get("gain", nr.gain),
+        period=values.get("period", nr.period),
+        phase_offset=values.get("phase_offset", nr.phase_offset),
+        amplitude=values.get("amplitude", nr.amplitude),
+    )
+
+
 def mutate_parameters(
     robot: Robot, rng: np.random.Generator, config: EvolutionConfig
 ) -> OperatorOutcome:
@@ -488,7 +505,7 @@ def mutate_parameters(
         for nr in n.neurons:
             changes = {name: _perturb(rng, getattr(nr, name), *NEURON_PARAM_BOUNDS[name], sigma)
                        for name in ACTIVATION_PARAMS[nr.activation.value]}
-            neurons.append(replace(nr, **changes) if changes else nr)
+            neurons.append(_with_neuron_params(nr, changes) if changes else nr)
         return replace(n, neurons=tuple(neurons))
 
     def body(n: Node) -> Node:

@@ -49,6 +49,8 @@ def evaluate_in_env(task: EvalTask) -> EvalOutcome:
     evaluation function for :class:`CandidateEvaluation` that goes through the Gym env (one
     episode: ``task.insertion`` then a ``task.seconds`` fitness window).
     """
+    from gymnasium.spaces import Box
+
     from revolve_env.body.serialize import from_json
     from revolve_env.envs import LocomotionEnv
 
@@ -56,6 +58,7 @@ def evaluate_in_env(task: EvalTask) -> EvalOutcome:
                         evaluation_time=task.seconds, fitness_window=task.seconds)
     try:
         env.reset(seed=task.seed)
+        assert isinstance(env.action_space, Box)  # LocomotionEnv's action space is a Box
         zero = np.zeros(env.action_space.shape, dtype=np.float32)
         while True:
             _, _, terminated, truncated, info = env.step(zero)
