@@ -146,12 +146,12 @@ class ExperimentConfig:
             "birth_clearance": (0.0, False), "death_threshold": (0.0, False),
             "cull_fraction": (0.0, True),
         }
-        for key, (low, strict) in floats.items():
+        for key, (bound, strict) in floats.items():
             value = getattr(self, key)
             if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
                 raise ConfigError(f"{key} must be a finite number, got {value!r}")
-            if value < low or (strict and value == low):
-                raise ConfigError(f"{key} must be {'>' if strict else '>='} {low}, got {value}")
+            if value < bound or (strict and value == bound):
+                raise ConfigError(f"{key} must be {'>' if strict else '>='} {bound}, got {value}")
         if self.cull_fraction > 1:
             raise ConfigError(f"cull_fraction must be <= 1, got {self.cull_fraction}")
         if self.max_sim_time is not None and not (
