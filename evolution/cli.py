@@ -42,14 +42,35 @@ class CliError(ValueError):
 
 
 def shipped_configs() -> dict[str, Path]:
-    """The experiment configs shipped with the package (``evolution/configs/*.toml``) by name."""
+    """The experiment configs shipped with the package by name: ``evolution/configs/*.toml``
+    (the paper's five experiments and ``quick``) and ``evolution/configs/learning/*.toml``
+    (scenarios with infancy learning, e.g. ``scenario1_learning``)."""
     folder = resources.files("evolution") / "configs"
-    return {Path(str(p)).stem: Path(str(p)) for p in folder.iterdir()
-            if str(p).endswith(".toml")}
+    found: dict[str, Path] = {}
+    for sub in (folder, folder / "learning"):
+        if sub.is_dir():
+            found.update({Path(str(p)).stem: Path(str(p)) for p in sub.iterdir()
+                          if str(p).endswith(".toml")})
+    return found
+
+
+def _learning_names() -> list[str]:
+    """Shipped configs with a ``[learning]`` table."""
+    return sorted(name for name, path in shipped_configs().items() if path.parent.name == "learning")
+
+
+def _describe_learning(config: Any) -> str:
+    """One line on a config's infancy learning (empty without a ``[learning]`` table)."""
+    if config.learning is None:
+        return ""
+    table = config.learning
+    return (f"infancy learning: {table['learner']}, {float(table['budget']):g} s per infant, "
+            f"{table.get('inheritance', 'darwinian')}")
 
 
 def _parse_set(items: Sequence[str]) -> dict[str, Any]:
-    """``KEY=VALUE`` overrides (VALUE read as TOML, else as a string; ``evolution.KEY`` nests)."""
+    """``KEY=VALUE`` overrides (VALUE read as TOML, else as a string; ``evolution.KEY`` and
+    ``learning.KEY`` nest)."""
     data: dict[str, Any] = {}
     for item in items:
         key, sep, value = item.partition("=")
@@ -76,8 +97,10 @@ def resolve_config(name_or_path: str, overrides: dict[str, Any] | None = None) -
     """An :class:`~evolution.experiment.ExperimentConfig` from a shipped name or a TOML path.
 
     Args:
-        name_or_path: A shipped config name (``scenario1``, ..., ``quick``) or a TOML file.
-        overrides: Config keys to change (``evolution`` as a nested table).
+        name_or_path: A shipped config name (``scenario1``, ..., ``quick``,
+            ``scenario1_learning``, ...) or a TOML file (with an optional ``[learning]`` table).
+        overrides: Config keys to change (``evolution`` and ``learning`` as nested tables,
+            merged key by key into the config's).
 
     Raises:
         ConfigError: unknown name, unreadable file, unknown key or value out of range.
@@ -98,9 +121,19 @@ def resolve_config(name_or_path: str, overrides: dict[str, Any] | None = None) -
             "(or give the path of a TOML config file)")
     if overrides:
         data = config.to_dict()
-        evolution = {**data.get("evolution", {}), **overrides.get("evolution", {})}
-        data.update({k: v for k, v in overrides.items() if k != "evolution"})
-        data["evolution"] = evolution
+        nested = ("evolution", "learning")
+        for table in nested:
+            value = overrides.get(table)
+            if value is None:
+                continue
+            if not isinstance(value, dict):
+                raise ConfigError(f"{table} is a table: set its keys as {table}.KEY=VALUE")
+            if table == "learning" and "learning" not in data and "learner" not in value:
+                raise ConfigError(
+                    f"{name_or_path} has no [learning] table: give learning.learner and "
+                    "learning.budget, or start from a config with one")
+            data[table] = {**data.get(table, {}), **value}
+        data.update({k: v for k, v in overrides.items() if k not in nested})
         config = ExperimentConfig.from_dict(data)
     return config
 
@@ -264,6 +297,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     out = Path(args.out) / config.name
     bar = ProgressBar({i: config.births for i in range(config.runs)})
     _say(f"{config.name}: {config.runs} run(s) x {config.births} births ({config.engine}) -> {out}")
+    if config.learning is not None:
+        _say(_describe_learning(config))
     try:
         summary = run(config, out, bar)
     except KeyboardInterrupt:
@@ -312,6 +347,8 @@ def _cmd_resume(args: argparse.Namespace) -> int:
         bar = ProgressBar({r.run_id: config.births for r in left},
                           {r.run_id: r.births for r in left})
         _say(f"{config.name}: resuming {len(left)} run(s) in {folder}")
+        if config.learning is not None:
+            _say(_describe_learning(config) + " (rebuilt from the stored learning table)")
         try:
             summary = resume(folder, bar)
         except KeyboardInterrupt:
@@ -507,7 +544,9 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Start with `revolve demo`; then `revolve run quick` and `revolve report results`.",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    names = ", ".join(sorted(shipped_configs()))
+    learning = _learning_names()
+    names = ", ".join(sorted(set(shipped_configs()) - set(learning)))
+    learning_names = ", ".join(learning)
 
     p = sub.add_parser(
         "run", help="run an experiment",
@@ -515,10 +554,15 @@ def build_parser() -> argparse.ArgumentParser:
                     "config or --name). Several experiments may share OUT; existing results are "
                     "never overwritten. Ctrl-C stops after the last commit point; continue with "
                     "`revolve resume OUT/<name>`.",
-        epilog=f"shipped configs: {names}. Example: revolve run quick --runs 3 --out results",
+        epilog=f"shipped configs: {names}; with infancy learning (a [learning] table: "
+               f"learner, budget, inheritance, ...): {learning_names}. A TOML file may add a "
+               "[learning] table to any experiment; it is stored with the results and `revolve "
+               "resume` learns the same way. Example: revolve run quick --runs 3 --out results; "
+               "revolve run scenario1_learning --set learning.budget=35 --out results",
     )
     p.add_argument("config", metavar="CONFIG_OR_SCENARIO",
-                   help=f"a shipped config ({names}) or the path of a TOML config file")
+                   help=f"a shipped config ({names}; {learning_names}) or the path of a TOML "
+                        "config file")
     p.add_argument("--runs", type=_positive_int, help="independent repeats")
     p.add_argument("--births", type=_positive_int, help="stop each run after this many births")
     p.add_argument("--seed", type=_non_negative_int, help="experiment seed")
@@ -527,8 +571,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="results", metavar="DIR",
                    help="results folder (default: results)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
-                   help="change any config key, e.g. --set evaluation_time=6 or "
-                        "--set evolution.max_parts=20 (repeatable)")
+                   help="change any config key, e.g. --set evaluation_time=6, "
+                        "--set evolution.max_parts=20 or --set learning.budget=35 (repeatable)")
     p.set_defaults(handler=_cmd_run)
 
     p = sub.add_parser(
@@ -545,7 +589,10 @@ def build_parser() -> argparse.ArgumentParser:
         description="Compare every experiment at or below DIR. Writes fitness_over_births, "
                     "final_fitness, diversity_over_births and final_diversity (PNG and PDF), "
                     "summary.csv, mann_whitney.csv (Mann-Whitney U tests between experiments) "
-                    "and summary.md into DIR/report (or --out).",
+                    "and summary.md into DIR/report (or --out). When an experiment learns (a "
+                    "[learning] table), summary.csv/summary.md also give the mean inborn and "
+                    "learned fitness and the learner failures, and learning_gain (PNG/PDF) "
+                    "compares inborn and learned fitness.",
     )
     p.add_argument("dir", metavar="DIR", help="results folder (as given to `revolve run --out`)")
     p.add_argument("--out", metavar="DIR", help="output folder (default: DIR/report)")

@@ -91,6 +91,9 @@ class ExperimentConfig:
         evaluator: ``"local"`` processes or ``"ray"``.
         ray_address: Ray cluster address (``None``: start or join a local one).
         evolution: Random robot and reproduction parameters.
+        learning: The ``[learning]`` table (:mod:`evolution.learning.config`): infancy learning
+            in a Training Center that :func:`run` and :func:`resume` build from it; ``None``: no
+            learning. Stored with the results, so a resumed run learns the same way.
     """
 
     name: str = "custom"
@@ -121,6 +124,7 @@ class ExperimentConfig:
     evaluator: str = "local"
     ray_address: str | None = None
     evolution: EvolutionConfig = field(default_factory=EvolutionConfig)
+    learning: Mapping[str, Any] | None = field(default=None, hash=False)
 
     def __post_init__(self) -> None:
         for key, choices in _CHOICES.items():
@@ -188,6 +192,12 @@ class ExperimentConfig:
             raise ConfigError(f"evolution must be an EvolutionConfig, got {type(self.evolution).__name__}")
         if not isinstance(self.name, str) or not self.name:
             raise ConfigError(f"name must be a non-empty string, got {self.name!r}")
+        if self.learning is not None:
+            if not isinstance(self.learning, Mapping):
+                raise ConfigError(f"learning must be a table of parameters, got {self.learning!r}")
+            # A JSON-plain copy: detached from the caller's mapping, equal to its stored form.
+            object.__setattr__(self, "learning", _json_roundtrip(dict(self.learning)))
+            self.training_center()  # validates the table
 
     # -- conversions -----------------------------------------------------------------------
 
@@ -198,6 +208,8 @@ class ExperimentConfig:
             value = getattr(self, f.name)
             if f.name == "evolution":
                 value = {g.name: getattr(value, g.name) for g in fields(value)}
+            elif f.name == "learning" and value is not None:
+                value = _json_roundtrip(dict(value))
             if value is not None:
                 data[f.name] = value
         return data
@@ -267,6 +279,21 @@ class ExperimentConfig:
     def replace(self, **changes: Any) -> ExperimentConfig:
         """A copy with some fields changed (validated)."""
         return dataclasses.replace(self, **changes)
+
+    def training_center(self) -> Any:
+        """The :class:`~evolution.learning.TrainingCenter` of :attr:`learning` (``None`` without).
+
+        Raises:
+            ConfigError: the learning table is invalid (unknown learner or key, bad value).
+        """
+        if self.learning is None:
+            return None
+        from evolution.learning.config import training_center_from_dict
+
+        try:
+            return training_center_from_dict(self.learning)
+        except (TypeError, ValueError) as error:
+            raise ConfigError(f"learning: {error}") from error
 
     @property
     def seconds_per_evaluation(self) -> float:
@@ -352,14 +379,16 @@ def run(
         infancy: The Training Center: an infancy hook, usually a
             :class:`~evolution.learning.TrainingCenter` (both engines; see
             :mod:`evolution.engine` for when it runs, how learning is recorded and what
-            Lamarckian inheritance changes). Not stored with the results: pass the same one to
-            :func:`resume`.
+            Lamarckian inheritance changes). Default: the one ``config.learning`` describes
+            (stored with the results; :func:`resume` rebuilds it). A hook given here without
+            ``config.learning`` is not stored: pass the same one to :func:`resume`.
 
     Returns:
         The summary of every run.
 
     Raises:
-        ConfigError: invalid configuration.
+        ConfigError: invalid configuration, or an ``infancy`` other than the Training Center
+            of ``config.learning``.
         ValueError: an infancy hook the engine cannot honour
             (:func:`evolution.engine.check_infancy`).
         StoreError: ``out_dir`` already holds results (of this or another experiment).
@@ -369,6 +398,7 @@ def run(
     from evolution.store import DB_NAME, Store, StoreError
 
     config = _as_config(config)
+    infancy = _infancy_for(config, infancy)
     check_infancy(infancy)
     out = Path(out_dir)
     db_path = out / DB_NAME
@@ -408,11 +438,14 @@ def resume(
 ) -> ExperimentSummary:
     """Continue an interrupted experiment to the result an uninterrupted one would have given.
 
-    Finished runs are left alone; the others continue from their last commit point.
+    Finished runs are left alone; the others continue from their last commit point. With a
+    stored ``learning`` table the Training Center is rebuilt from it (``infancy`` may be given
+    only if it is the same one).
 
     Raises:
         StoreError: no usable results database in ``out_dir`` (missing, corrupt, newer schema).
-        ConfigError: the stored configuration is not valid for this package version.
+        ConfigError: the stored configuration is not valid for this package version, or
+            ``infancy`` differs from the stored learning table's Training Center.
     """
     from evolution.engine import check_infancy
     from evolution.store import DB_NAME, Store
@@ -421,6 +454,8 @@ def resume(
     db_path = Path(out_dir) / DB_NAME
     with Store.open(db_path) as store:
         config = ExperimentConfig.from_dict(store.config)
+    infancy = _infancy_for(config, infancy)
+    check_infancy(infancy)
     return _execute(config, db_path, progress, evaluator, world_factory, infancy)
 
 
@@ -448,6 +483,23 @@ def _execute(
         if own:
             evaluator.close()
     return ExperimentSummary(db_path.parent, db_path, tuple(summaries))
+
+
+def _infancy_for(config: ExperimentConfig, infancy: Callable[..., Any] | None) -> Any:
+    """The infancy hook of a run: ``config.learning``'s Training Center, or ``infancy``.
+
+    Raises:
+        ConfigError: both are given and differ (which one would the stored results describe?).
+    """
+    center = config.training_center()
+    if center is None:
+        return infancy
+    if infancy is not None and infancy != center:
+        raise ConfigError(
+            "the config has a learning table and infancy= gives another Training Center; give "
+            "one of them (the learning table is stored with the results, infancy= is not)"
+        )
+    return center
 
 
 def _as_config(config: ExperimentConfig | str | Mapping[str, Any]) -> ExperimentConfig:

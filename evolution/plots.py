@@ -17,10 +17,12 @@ from evolution.reporting import ExperimentData, runs_on_grid
 
 __all__ = [
     "FIGURES",
+    "LEARNING_FIGURES",
     "diversity_over_births",
     "final_diversity",
     "final_fitness",
     "fitness_over_births",
+    "learning_gain",
     "write_figures",
 ]
 
@@ -151,12 +153,41 @@ FIGURES: dict[str, Callable[[Sequence[ExperimentData]], Any]] = {
 """Figure file stems and the functions drawing them."""
 
 
+def learning_gain(experiments: Sequence[ExperimentData]) -> Any:
+    """Box plots of the infants' inborn and learned fitness (as their learner measured it), for
+    each experiment that learns."""
+    learners = [e for e in experiments if e.learns]
+    figure, (ax,) = _figure(max(4.5, 2.2 * len(learners) + 2))
+    data: list[np.ndarray] = []
+    labels: list[str] = []
+    for e in learners:
+        inborn, learned = e.learning_fitness()
+        gain = float((learned - inborn).mean()) if inborn.size else float("nan")
+        data += [inborn, learned]
+        labels += [f"{e.label}\ninborn (n={inborn.size})",
+                   f"{e.label}\nlearned (gain {gain:+.3g} m)"]
+    _boxes(ax, data, labels)
+    ax.set_ylabel("fitness in the Training Center (m)")
+    ax.set_title("Infancy learning: inborn vs learned controller")
+    return figure
+
+
+LEARNING_FIGURES: dict[str, Callable[[Sequence[ExperimentData]], Any]] = {
+    "learning_gain": learning_gain,
+}
+"""Figures drawn only when an experiment learns."""
+
+
 def write_figures(
     experiments: Sequence[ExperimentData], out_dir: Path, formats: Sequence[str] = ("png", "pdf")
 ) -> tuple[Path, ...]:
-    """Draw every figure of :data:`FIGURES` and save it in each format; returns the paths."""
+    """Draw every figure of :data:`FIGURES` (and of :data:`LEARNING_FIGURES` when an experiment
+    learns) and save it in each format; returns the paths."""
     written = []
-    for stem, draw in FIGURES.items():
+    figures = dict(FIGURES)
+    if any(e.learns for e in experiments):
+        figures.update(LEARNING_FIGURES)
+    for stem, draw in figures.items():
         figure = draw(experiments)
         for fmt in formats:
             path = out_dir / f"{stem}.{fmt}"

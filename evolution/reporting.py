@@ -18,7 +18,13 @@ file                                  content
 ``mann_whitney.csv``                  two-sided Mann-Whitney U tests between every pair of
                                       experiments on three samples (see :func:`mann_whitney_rows`)
 ``summary.md``                        both tables in Markdown
+``learning_gain.{png,pdf}``           only when an experiment learns (a ``[learning]`` table):
+                                      the learner's inborn vs learned fitness of every infant
 ==================================== ==============================================================
+
+With infancy learning, ``summary.csv`` gains the columns of :data:`LEARNING_COLUMNS` (mean
+inborn and learned fitness as the learner measured them, and the learner failures), so runs with
+and without learning compare side by side.
 
 Unfinished runs are included with what they committed; ``summary.csv`` says how many finished.
 Reading needs only the standard library and NumPy; the figures use matplotlib (Agg, no display)
@@ -31,7 +37,7 @@ import csv
 import math
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from itertools import combinations
 from pathlib import Path
 from typing import Any
@@ -42,6 +48,7 @@ from numpy.typing import NDArray
 from evolution.store import DB_NAME, FitnessSeries, Store, StoreError
 
 __all__ = [
+    "LEARNING_COLUMNS",
     "PAPER_ORDER",
     "TESTED_SAMPLES",
     "ExperimentData",
@@ -76,6 +83,11 @@ class RunData:
         diversity: Diversity at those births (mean pairwise tree edit distance).
         final_fitness: Finite fitness values of the last population snapshot. Metres.
         final_diversity: Diversity of the last population (``nan`` with fewer than 2 robots).
+        inborn_fitness: Each infant's inborn-controller fitness as its learner measured it
+            (learning records with a finite value). Metres.
+        learned_fitness: Each infant's learned-controller fitness as its learner measured it
+            (same records, same order). Metres.
+        learner_failures: Infancies whose learner failed (the infant kept its inborn brain).
     """
 
     run_id: int
@@ -86,6 +98,9 @@ class RunData:
     diversity: NDArray[np.float64]
     final_fitness: NDArray[np.float64]
     final_diversity: float
+    inborn_fitness: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    learned_fitness: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    learner_failures: int = 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -124,6 +139,19 @@ class ExperimentData:
         """Final-population diversity of each run (undefined ones left out)."""
         values = np.array([r.final_diversity for r in self.runs], dtype=float)
         return values[np.isfinite(values)]
+
+    @property
+    def learns(self) -> bool:
+        """True when the experiment has infancy learning (a learning table, records or failures)."""
+        return self.config.get("learning") is not None or any(
+            r.inborn_fitness.size or r.learner_failures for r in self.runs)
+
+    def learning_fitness(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Inborn and learned fitness of every infant of every run, pooled and paired. Metres."""
+        inborn = [r.inborn_fitness for r in self.runs]
+        learned = [r.learned_fitness for r in self.runs]
+        return (np.concatenate(inborn) if inborn else np.zeros(0),
+                np.concatenate(learned) if learned else np.zeros(0))
 
 
 @dataclass(frozen=True, slots=True)
@@ -178,12 +206,18 @@ def load_experiment(path: str | os.PathLike[str], label: str | None = None) -> E
             final_fitness = np.array(
                 [f for _, f in final if f is not None and math.isfinite(f)], dtype=float)
             points = store.diversity_over_births(record.run_id)
+            pairs = [(x.inborn_fitness, x.learned_fitness) for x in store.learning(record.run_id)
+                     if x.inborn_fitness is not None and x.learned_fitness is not None
+                     and math.isfinite(x.inborn_fitness) and math.isfinite(x.learned_fitness)]
             runs.append(RunData(
                 record.run_id, record.status, record.births, series,
                 np.array([p.births for p in points], dtype=np.int64),
                 np.array([p.value for p in points], dtype=float),
                 final_fitness,
                 _final_diversity(store, record.run_id, [rid for rid, _ in final]),
+                np.array([a for a, _ in pairs], dtype=float),
+                np.array([b for _, b in pairs], dtype=float),
+                len(store.failures(record.run_id, "learner")),
             ))
     name = str(config.get("name", db.parent.name))
     return ExperimentData(label or name, db.parent, config, tuple(runs), len(records))
@@ -275,9 +309,40 @@ SUMMARY_COLUMNS = (
 )
 """Columns of ``summary.csv``."""
 
+LEARNING_COLUMNS = (
+    "learning", "infants_learned", "learner_failures", "inborn_fitness_mean",
+    "learned_fitness_mean", "learning_gain_mean",
+)
+"""Columns appended to ``summary.csv`` when an experiment learns: the learner and inheritance
+(``none`` without learning), infancies recorded, learner failures, and the mean inborn and
+learned fitness and their difference as the learners measured them (their own evaluation
+window, not the robots' fitness in the run)."""
+
+
+def _learning_cells(e: ExperimentData) -> dict[str, Any]:
+    table = e.config.get("learning")
+    inborn, learned = e.learning_fitness()
+    mean = (lambda x: float(x.mean()) if x.size else math.nan)
+    return {
+        "learning": (f"{table.get('learner', '?')} {table.get('inheritance', 'darwinian')}"
+                     if isinstance(table, dict) else ("yes" if e.learns else "none")),
+        "infants_learned": int(inborn.size),
+        "learner_failures": sum(r.learner_failures for r in e.runs),
+        "inborn_fitness_mean": mean(inborn),
+        "learned_fitness_mean": mean(learned),
+        "learning_gain_mean": mean(learned - inborn),
+    }
+
+
+def summary_columns(experiments: Sequence[ExperimentData]) -> tuple[str, ...]:
+    """Columns of ``summary.csv``: :data:`SUMMARY_COLUMNS`, plus :data:`LEARNING_COLUMNS` when
+    an experiment learns."""
+    return SUMMARY_COLUMNS + (LEARNING_COLUMNS if any(e.learns for e in experiments) else ())
+
 
 def summary_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Any]]:
-    """One row per experiment (columns :data:`SUMMARY_COLUMNS`).
+    """One row per experiment (columns :func:`summary_columns`: :data:`SUMMARY_COLUMNS`, and
+    :data:`LEARNING_COLUMNS` when an experiment learns).
 
     ``runs`` counts the runs with at least one commit point (the ones described), of
     ``runs_in_database``; ``births_mean`` is over those runs.
@@ -308,6 +373,9 @@ def summary_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Any]]:
             "final_diversity_mean": div[0],
             "final_diversity_sd": div[2],
         })
+    if any(e.learns for e in experiments):
+        for row, e in zip(rows, experiments):
+            row.update(_learning_cells(e))
     return rows
 
 
@@ -407,11 +475,19 @@ def write_tables(experiments: Sequence[ExperimentData], out_dir: Path) -> tuple[
     summary = summary_rows(experiments)
     tests = mann_whitney_rows(experiments)
     paths = (out_dir / "summary.csv", out_dir / "mann_whitney.csv", out_dir / "summary.md")
-    _write_csv(paths[0], SUMMARY_COLUMNS, summary)
+    columns = summary_columns(experiments)
+    _write_csv(paths[0], columns, summary)
     _write_csv(paths[1], MANN_WHITNEY_COLUMNS, tests)
     lines = ["# Summary", "", ("Fitness in metres (f = v + 5 s); diversity = mean pairwise "
                                "tree edit distance of the bodies."), ""]
-    lines += _markdown(SUMMARY_COLUMNS, summary)
+    lines += _markdown(columns, summary)
+    if columns != SUMMARY_COLUMNS:
+        lines += ["", ("Learning: `inborn_fitness_mean` and `learned_fitness_mean` are the "
+                       "infants' fitness with their inborn and learned controllers as the "
+                       "learner measured them (its own evaluation window); "
+                       "`learning_gain_mean` is their mean difference; `learner_failures` "
+                       "counts infants that kept their inborn controller because the learner "
+                       "failed.")]
     lines += ["", "## Mann-Whitney U tests (two-sided)", ""]
     lines += [f"- `{name}`: {text}" for name, text in TESTED_SAMPLES.items()]
     lines += ["- `p_holm`: Holm-corrected over the pairs of one sample", ""]
@@ -451,6 +527,6 @@ def report(
         root / REPORT_DIR if root.is_dir() else root.parent / REPORT_DIR)
     out_dir.mkdir(parents=True, exist_ok=True)
     figures = write_figures(experiments, out_dir, formats)
-    assert len(figures) == len(FIGURES) * len(formats)
+    assert len(figures) >= len(FIGURES) * len(formats)
     tables = write_tables(experiments, out_dir)
     return Report(out_dir, tuple(experiments), figures, tables)

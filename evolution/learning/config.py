@@ -15,8 +15,13 @@ An experiment config with learning is an ordinary experiment TOML (see
     # sb3 only: algorithm = "PPO", action = "modulate", n_envs = 2, vec_env = "subproc",
     #           control_period = 0.0166667, algorithm_kwargs = { n_steps = 256 }
 
-:func:`load_learning_experiment` reads such a file; :func:`training_center_from_dict` builds the
-:class:`~evolution.learning.base.TrainingCenter` from the table alone.
+:class:`~evolution.experiment.ExperimentConfig` keeps the table (``config.learning``): it is
+stored with the results, :func:`evolution.run` builds the Training Center from it, and
+:func:`evolution.resume` (``revolve resume``) rebuilds the same one. ``revolve run FILE.toml`` and
+the shipped ``scenario1_learning`` / ``scenario3_learning`` configs go this way.
+:func:`load_learning_experiment` reads such a file and also returns the Training Center (for
+inspection, or to pass as ``infancy=``: the same center is accepted);
+:func:`training_center_from_dict` builds the center from the table alone.
 """
 
 from __future__ import annotations
@@ -61,7 +66,7 @@ def training_center_from_dict(data: Mapping[str, Any]) -> TrainingCenter:
                          f"{', '.join(sorted(_KEYS[name]))}")
     if "budget" not in data:
         raise ValueError("learning.budget (simulated seconds per infant) is required")
-    timing = {k: float(data[k]) for k in ("insertion", "seconds") if k in data}
+    timing: dict[str, Any] = {k: float(data[k]) for k in ("insertion", "seconds") if k in data}
     learner: Any
     if name == "sb3":
         from evolution.learning.sb3 import SB3Learner
@@ -86,9 +91,9 @@ def load_learning_experiment(path: str | os.PathLike[str]) -> tuple[Any, Trainin
     """An experiment TOML with an optional ``[learning]`` table.
 
     Returns:
-        The :class:`~evolution.experiment.ExperimentConfig` (everything but ``[learning]``) and
-        the Training Center (``None`` without a ``[learning]`` table), ready for
-        ``evolution.run(config, out_dir, infancy=center)``.
+        The :class:`~evolution.experiment.ExperimentConfig` (with the table as
+        ``config.learning``) and its Training Center (``None`` without a ``[learning]`` table).
+        ``evolution.run(config, out_dir)`` learns with that center and stores the table.
 
     Raises:
         ConfigError: unreadable or invalid TOML, or an invalid experiment or learning table
@@ -104,10 +109,8 @@ def load_learning_experiment(path: str | os.PathLike[str]) -> tuple[Any, Trainin
         raise ConfigError(f"cannot read experiment config {path}: {error}") from error
     except tomllib.TOMLDecodeError as error:
         raise ConfigError(f"{path} is not valid TOML: {error}") from error
-    table = data.pop("learning", None)
     try:
         config = ExperimentConfig.from_dict(data)
-        center = None if table is None else training_center_from_dict(table)
     except (ValueError, TypeError) as error:
         raise ConfigError(f"{path}: {error}") from error
-    return config, center
+    return config, config.training_center()

@@ -79,15 +79,22 @@ def test_console_script_points_at_main() -> None:
 # -- shipped configs ----------------------------------------------------------------------------
 
 
-def test_shipped_configs_are_the_papers_five_experiments_and_quick() -> None:
+def test_shipped_configs_are_the_papers_five_experiments_quick_and_two_with_learning() -> None:
     configs = shipped_configs()
     assert set(configs) == {"scenario1", "scenario2", "scenario3", "baseline_a", "baseline_b",
-                            "quick"}
+                            "quick", "scenario1_learning", "scenario3_learning"}
     for name, path in configs.items():
         config = ExperimentConfig.from_toml(path)
+        assert config.name == name
+        if name.endswith("_learning"):
+            # Scenario 1 or 3 exactly, plus a learning table.
+            scenario = name.removesuffix("_learning")
+            assert config.replace(name=scenario, learning=None) == preset(scenario)
+            assert config.learning is not None and config.learning["learner"] == "cma-es"
+            continue
         runs = 1 if name == "quick" else 30  # the paper repeats every experiment 30 times
         assert config == preset(name, runs=runs), name
-        assert config.name == name
+        assert config.learning is None
 
 
 def test_resolve_config_from_name_path_and_overrides(tmp_path: Path) -> None:
@@ -414,3 +421,174 @@ def test_run_and_report_with_real_physics(tmp_path: Path) -> None:
     assert main(["report", str(tmp_path), "--formats", "png"]) == 0
     with open(tmp_path / "report" / "mann_whitney.csv", newline="") as f:
         assert all(0 <= float(r["p_value"]) <= 1 for r in csv.DictReader(f))
+
+
+# -- infancy learning ---------------------------------------------------------------------------
+
+# A tiny offline experiment with a [learning] table, on the real physics: 2 robots + 2 children,
+# each learning by random search (its inborn controller and one candidate: 2 x (0.25 + 0.5) s)
+# before its own 0.5 + 1 s evaluation. A few seconds in all.
+TINY_LEARNING = """\
+preset = "scenario1"
+name = "tiny_learning"
+population_size = 2
+offspring_size = 2
+births = 4
+insertion = 0.5
+evaluation_time = 1.0
+fertile_age = 1.5
+diversity_interval = 2
+workers = 1
+seed = 5
+
+[evolution]
+initial_parts_mean = 6.0
+initial_parts_sd = 2.0
+max_parts = 10
+
+[learning]
+learner = "random-search"
+budget = 1.5
+inheritance = "lamarckian"
+sigma = 0.3
+popsize = 2
+insertion = 0.25
+seconds = 0.5
+"""
+LEARNING_TABLES = ("robots", "fitness", "transitions", "population", "failures", "learning")
+
+
+def _tiny_learning(tmp_path: Path, text: str = TINY_LEARNING) -> Path:
+    path = tmp_path / "tiny_learning.toml"
+    path.write_text(text)
+    return path
+
+
+def _learning_dump(db: Path) -> dict[str, list[tuple[Any, ...]]]:
+    con = sqlite3.connect(db)
+    try:
+        return {t: sorted(con.execute(f"SELECT * FROM {t}").fetchall(), key=repr)
+                for t in LEARNING_TABLES}
+    finally:
+        con.close()
+
+
+def test_learning_config_runs_stores_its_table_and_is_reported(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "results"
+    assert main(["run", str(_tiny_learning(tmp_path)), "--out", str(out)]) == 0
+    assert "infancy learning: random-search, 1.5 s per infant, lamarckian" in capsys.readouterr().out
+    with Store.open(out / "tiny_learning" / DB_NAME) as store:
+        table = store.config["learning"]
+        assert table == {"learner": "random-search", "budget": 1.5, "inheritance": "lamarckian",
+                         "sigma": 0.3, "popsize": 2, "insertion": 0.25, "seconds": 0.5}
+        records = store.learning(0)
+        failed = store.failures(0, "learner")
+        # Every infant went to the Training Center: a learning record, or a recorded failure
+        # (a robot without learnable parameters).
+        assert sorted([r.robot_id for r in records] + [f.robot_id for f in failed]) == [0, 1, 2, 3]
+        assert records
+        for r in records:
+            assert (r.evaluations, r.sim_seconds, r.inheritance) == (2, 1.5, "lamarckian")
+            assert r.inborn_fitness is not None and r.learned_fitness is not None
+            assert r.learned_fitness >= r.inborn_fitness  # the best evaluated, inborn included
+    assert main(["report", str(out), "--formats", "png"]) == 0
+    assert (out / "report" / "learning_gain.png").read_bytes()[:4] == b"\x89PNG"
+    with open(out / "report" / "summary.csv", newline="") as f:
+        (row,) = list(csv.DictReader(f))
+    assert row["learning"] == "random-search lamarckian"
+    assert int(row["infants_learned"]) == len(records)
+    assert int(row["learner_failures"]) == len(failed)
+    inborn = [r.inborn_fitness for r in records]
+    learned = [r.learned_fitness for r in records]
+    assert float(row["inborn_fitness_mean"]) == pytest.approx(sum(inborn) / len(inborn), rel=1e-5)
+    assert float(row["learned_fitness_mean"]) == pytest.approx(sum(learned) / len(learned), rel=1e-5)
+    assert "learned_fitness_mean" in (out / "report" / "summary.md").read_text()
+
+
+def test_bad_learning_tables(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    bad = _tiny_learning(tmp_path, TINY_LEARNING.replace("popsize = 2", "popsiz = 2"))
+    line = _error(capsys, ["run", str(bad), "--out", str(tmp_path / "out")])
+    assert "popsiz" in line and "tiny_learning.toml" in line and "known: budget" in line
+    line = _error(capsys, ["run", "scenario1_learning", "--set", "learning.sigmaa=0.1",
+                           "--out", str(tmp_path / "out")])
+    assert "unknown learning key(s) for cma-es: sigmaa" in line
+    assert "learning.learner must be one of" in _error(
+        capsys, ["run", "scenario3_learning", "--set", "learning.learner='hill-climb'",
+                 "--out", str(tmp_path / "out")])
+    assert "budget" in _error(
+        capsys, ["run", "scenario1_learning", "--set", "learning.budget=-1",
+                 "--out", str(tmp_path / "out")])
+    assert "has no [learning] table" in _error(
+        capsys, ["run", "scenario1", "--set", "learning.budget=10", "--out", str(tmp_path / "out")])
+    # A learner the engine cannot honour (a policy outside the genome) is refused up front.
+    sb3 = _tiny_learning(tmp_path, TINY_LEARNING.split("[learning]")[0]
+                         + '[learning]\nlearner = "sb3"\nbudget = 2.0\n')
+    assert "trains a policy outside the genome" in _error(
+        capsys, ["run", str(sb3), "--out", str(tmp_path / "out")])
+    assert not (tmp_path / "out").exists()
+
+
+def test_learning_overrides_merge_into_the_shipped_table() -> None:
+    config = resolve_config("scenario1_learning", {"learning": {"budget": 35.0}})
+    assert config.learning is not None
+    assert config.learning["budget"] == 35.0 and config.learning["learner"] == "cma-es"
+    assert config.learning["popsize"] == 4  # the rest of the shipped table is kept
+    assert config.training_center().budget == 35.0
+    config = resolve_config("scenario1", {"learning": {"learner": "random-search", "budget": 6.0}})
+    assert config.training_center().learner.batch_size == 8
+
+
+def test_run_help_names_the_learning_configs(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "scenario1_learning" in out and "scenario3_learning" in out and "[learning]" in out
+
+
+class _CtrlCReal:
+    """An in-process evaluator on the real physics (Training Center included) that raises
+    KeyboardInterrupt at its n-th evaluation."""
+
+    workers = 1
+
+    def __init__(self, n: int) -> None:
+        self.left = n
+
+    def evaluate(self, tasks: list[EvalTask]) -> list[EvalOutcome]:
+        from evolution.evaluators import evaluate_task
+
+        out = []
+        for task in tasks:
+            self.left -= 1
+            if self.left == 0:
+                raise KeyboardInterrupt
+            out.append(evaluate_task(task))
+        return out
+
+    def run_jobs(self, fn: Any, jobs: list[Any], on_event: Any = None) -> list[Any]:
+        return [fn(job, self, on_event or (lambda e: None)) for job in jobs]
+
+    def close(self) -> None:
+        pass
+
+
+def test_learning_run_ctrl_c_then_resume_rebuilds_the_learner(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    config = _tiny_learning(tmp_path)
+    assert main(["run", str(config), "--out", str(tmp_path / "reference")]) == 0
+    reference = _learning_dump(tmp_path / "reference" / "tiny_learning" / DB_NAME)
+
+    real = evaluators.make_evaluator
+    monkeypatch.setattr(evaluators, "make_evaluator", lambda *a, **k: _CtrlCReal(2 + 1))
+    assert main(["run", str(config), "--out", str(tmp_path / "killed")]) == 130
+    killed = tmp_path / "killed" / "tiny_learning"
+    with Store.open(killed / DB_NAME) as store:
+        assert store.checkpoint(0).births == 2  # the initial population was committed
+        assert {r.robot_id for r in store.learning(0)} <= {0, 1}
+    monkeypatch.setattr(evaluators, "make_evaluator", real)
+    # `revolve resume` takes nothing but the folder: the learner comes from the stored table.
+    assert main(["resume", str(killed)]) == 0
+    resumed = _learning_dump(killed / DB_NAME)
+    assert {r[1] for r in resumed["learning"]} | {r[1] for r in resumed["failures"]} >= {2, 3}
+    assert resumed == reference

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import json
 import math
 import sqlite3
 from itertools import combinations
@@ -15,12 +16,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from experiment_fakes import fake_evaluate, fake_world, small
+from experiment_fakes import (
+    fake_evaluate,
+    fake_evaluate_after_infancy,
+    fake_world,
+    param_distance_fitness,
+    small,
+)
 from scipy.stats import mannwhitneyu
 
 from evolution.engine import ProgressEvent
 from evolution.evaluators import LocalEvaluator
 from evolution.experiment import preset, run
+from evolution.learning import CandidateEvaluation, RandomSearchLearner, TrainingCenter
 from evolution.reporting import (
     MANN_WHITNEY_COLUMNS,
     SUMMARY_COLUMNS,
@@ -33,6 +41,7 @@ from evolution.reporting import (
 from evolution.store import DB_NAME, Store, StoreError
 
 SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
+CANDIDATES = CandidateEvaluation(insertion=0.0, seconds=1.0, function=param_distance_fitness)
 NAMES = ("baseline_b", "scenario3", "scenario1")  # deliberately not in report order
 FIGURE_STEMS = ("fitness_over_births", "final_fitness", "diversity_over_births", "final_diversity")
 
@@ -71,6 +80,59 @@ def test_every_figure_is_written_as_png_and_pdf(written: tuple[Path, dict[str, s
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", stem
         assert pdf.read_bytes()[:5] == b"%PDF-", stem
         assert png.stat().st_size > 5000  # a drawn figure, not an empty canvas
+
+
+def test_without_learning_there_are_no_learning_columns_or_figure(
+        written: tuple[Path, dict[str, str]]) -> None:
+    out, _ = written
+    with open(out / "summary.csv", newline="") as f:
+        assert tuple(next(csv.reader(f))) == SUMMARY_COLUMNS
+    assert not (out / "learning_gain.png").exists()
+
+
+def test_learning_columns_are_the_stored_learning_records(results: Path, tmp_path: Path) -> None:
+    """A learning experiment next to one without: the learning columns summarise the learning
+    table of the results store (records written here through the store's own commit)."""
+    import shutil
+
+    from evolution.reporting import LEARNING_COLUMNS, summary_rows
+
+    root = tmp_path / "mixed"
+    shutil.copytree(results / "scenario1", root / "scenario1")
+    config = small(preset("scenario1", births=30, runs=1, diversity_interval=10)).replace(
+        name="scenario1_learning",
+        learning={"learner": "random-search", "budget": 2.0, "inheritance": "darwinian"})
+    learning_evaluator = LocalEvaluator(workers=1, function=fake_evaluate_after_infancy)
+    center = TrainingCenter(RandomSearchLearner(batch_size=1, evaluation=CANDIDATES), 2.0)
+    # The stored table says random search; the stand-in candidate fitness keeps this fast.
+    run(config.replace(learning=None), root / "learning", evaluator=learning_evaluator,
+        infancy=center)
+    db = root / "learning" / DB_NAME
+    with sqlite3.connect(db) as con:  # the table the CLI would have stored
+        stored = json.loads(con.execute("SELECT value FROM meta WHERE key='config'").fetchone()[0])
+        stored = {**stored, "name": "scenario1_learning", "learning": config.learning}
+        con.execute("UPDATE meta SET value=? WHERE key='config'", (json.dumps(stored),))
+    with Store.open(db) as store:
+        records = store.learning(0)
+        failures = store.failures(0, "learner")
+    assert records
+    experiments = find_experiments(root)
+    rows = {r["experiment"]: r for r in summary_rows(experiments)}
+    learned = rows["scenario1_learning"]
+    assert learned["learning"] == "random-search darwinian"
+    assert learned["infants_learned"] == len(records)
+    assert learned["learner_failures"] == len(failures)
+    assert learned["inborn_fitness_mean"] == pytest.approx(
+        np.mean([r.inborn_fitness for r in records]))
+    assert learned["learning_gain_mean"] == pytest.approx(
+        np.mean([r.learned_fitness - r.inborn_fitness for r in records]))
+    plain = rows["scenario1"]
+    assert (plain["learning"], plain["infants_learned"], plain["learner_failures"]) == ("none", 0, 0)
+    assert math.isnan(plain["inborn_fitness_mean"])
+    result = report(root, formats=("png",))
+    assert root / "report" / "learning_gain.png" in result.figures
+    with open(root / "report" / "summary.csv", newline="") as f:
+        assert tuple(next(csv.reader(f))) == SUMMARY_COLUMNS + LEARNING_COLUMNS
 
 
 def test_report_only_reads_the_databases(results: Path, written: tuple[Path, dict[str, str]]) -> None:
