@@ -23,7 +23,9 @@ class PopulationWorld:
     def __init__(self, config: ExperimentConfig, seed: int) -> None:
         from revolve_env.envs.population import PopulationEnv
 
-        self._env: Any = PopulationEnv(max_births=config.births + config.min_alive + 1,
+        # The run's own robots only (no default initial robots); the engine never adds more
+        # robots than ``config.births``.
+        self._env: Any = PopulationEnv(max_births=max(config.births, 1), initial_robots=(),
                                        insertion_time=config.insertion,
                                        maturity_age=config.fertile_age,
                                        fitness_window=config.evaluation_time,

@@ -1,0 +1,43 @@
+"""The online engine's real world (evolution._online_world over PopulationEnv)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import evolution
+from evolution._online_world import PopulationWorld
+from evolution.experiment import preset
+from evolution.store import Store
+from revolve_env.body.examples import gecko, snake
+
+
+def _tiny_online(**changes: object) -> evolution.ExperimentConfig:
+    return preset(
+        "scenario3", births=7, population_size=3, min_alive=2, max_alive=4,
+        conception_interval=2.0, insertion=0.5, evaluation_time=2.0, fertile_age=2.5,
+        diversity_interval=0, workers=1, **changes,
+    )
+
+
+def test_the_world_holds_only_the_runs_robots() -> None:
+    world = PopulationWorld(_tiny_online(), seed=0)
+    try:
+        assert world.positions() == {}
+        assert world._env.agents == []  # no default example robots join the population
+        a = world.add(gecko(), (0.0, 0.0))
+        b = world.add(snake(), (1.0, 0.0))
+        statuses = world.advance_to(0.5)
+        assert set(statuses) == {a, b}
+        assert sorted(world._env.agents) == sorted([a, b])
+        world.remove(a)
+        assert set(world.advance_to(1.0)) == {b}
+    finally:
+        world.close()
+
+
+def test_a_tiny_online_run_with_real_physics_finishes_with_exact_births(tmp_path: Path) -> None:
+    config = _tiny_online()
+    summary = evolution.run(config, tmp_path / "online")
+    assert [r.births for r in summary.runs] == [7]
+    with Store.open(tmp_path / "online" / "results.sqlite") as store:
+        assert len(store.robots(0)) == 7
