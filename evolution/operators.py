@@ -28,8 +28,9 @@ picture of a child shows which parts came from which parent.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
+from typing import TypeVar
 
 import numpy as np
 
@@ -77,6 +78,8 @@ __all__ = [
     "reproduce",
     "swap_subtrees",
 ]
+
+_T = TypeVar("_T")
 
 
 @dataclass(frozen=True, slots=True)
@@ -172,7 +175,7 @@ def _carried_connections(
     ]
 
 
-def _pick(rng: np.random.Generator, items: list):  # type: ignore[no-untyped-def]
+def _pick(rng: np.random.Generator, items: Sequence[_T]) -> _T:
     return items[int(rng.integers(len(items)))]
 
 
@@ -403,7 +406,7 @@ def remove_leaf(robot: Robot, rng: np.random.Generator, config: EvolutionConfig)
 
 # -- neural operators ---------------------------------------------------------------------------
 
-def _map_nodes(node: Node, fn) -> Node:  # type: ignore[no-untyped-def]
+def _map_nodes(node: Node, fn: Callable[[Node], Node]) -> Node:
     children = tuple((s, _map_nodes(c, fn)) for s, c in node.children)
     return fn(replace(node, children=children))
 

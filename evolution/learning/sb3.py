@@ -242,7 +242,7 @@ class SB3Learner:
         episodes: list[float] = []
         failures = [0]
 
-        class _Record(BaseCallback):  # type: ignore[misc]
+        class _Record(BaseCallback):
             """Collects the fitness at the end of every training episode."""
 
             def _on_step(self) -> bool:
