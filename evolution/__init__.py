@@ -62,15 +62,15 @@ __all__ = [
     "tournament",
     "tree_edit_distance",
 ]
-from evolution.experiment import ConfigError, ExperimentConfig, preset, resume, run  # noqa: E402
-from evolution.lifecycle import Lifecycle, LifecycleError, Stage  # noqa: E402
-from evolution.store import Store, StoreError  # noqa: E402
-from evolution.evaluators import LocalEvaluator, RayEvaluator  # noqa: E402
+from evolution.evaluators import LocalEvaluator, RayEvaluator
+from evolution.experiment import ConfigError, ExperimentConfig, preset, resume, run
+from evolution.lifecycle import Lifecycle, LifecycleError, Stage
+from evolution.store import Store, StoreError
 
 __all__ += [
     "ConfigError", "ExperimentConfig", "Lifecycle", "LifecycleError", "LocalEvaluator",
     "RayEvaluator", "Stage", "Store", "StoreError", "preset", "resume", "run",
 ]
-from evolution.reporting import report  # noqa: E402
+from evolution.reporting import report
 
 __all__ += ["report"]
