@@ -62,7 +62,8 @@ class WorldConfig:
         if not (self.timestep > 0 and math.isfinite(self.timestep)):
             raise ValueError(f"timestep must be a positive number of seconds, got {self.timestep}")
         ratio = self.control_period / self.timestep
-        if self.control_period <= 0 or abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
+        if (not (self.control_period > 0 and math.isfinite(ratio))  # before round(): inf, NaN
+                or abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1):
             raise ValueError(
                 f"control_period ({self.control_period} s) must be a positive whole multiple of "
                 f"timestep ({self.timestep} s)"
@@ -74,8 +75,10 @@ class WorldConfig:
                 raise ValueError(f"{name} must be a finite non-negative number, got {value}")
         if self.light_range <= 0:
             raise ValueError(f"light_range must be positive, got {self.light_range}")
-        if self.drop_height < 0:
-            raise ValueError(f"drop_height must be >= 0 m, got {self.drop_height}")
+        if not (math.isfinite(self.drop_height) and self.drop_height >= 0):
+            raise ValueError(f"drop_height must be a finite number >= 0 m, got {self.drop_height}")
+        if len(self.light_position) != 3 or not all(math.isfinite(v) for v in self.light_position):
+            raise ValueError(f"light_position must be 3 finite numbers, got {self.light_position}")
         if self.solver_iterations < 1:
             raise ValueError(f"solver_iterations must be >= 1, got {self.solver_iterations}")
 

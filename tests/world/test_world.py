@@ -204,6 +204,14 @@ def test_config_is_validated() -> None:
         WorldConfig(timestep=1 / 240, control_period=1 / 100)
     with pytest.raises(ValueError, match="friction"):
         WorldConfig(friction=-1.0)
+    # non-finite values get the same clear error, not an OverflowError from round()
+    for period in (float("inf"), float("nan"), 1e-9):
+        with pytest.raises(ValueError, match="whole multiple"):
+            WorldConfig(control_period=period)
+    with pytest.raises(ValueError, match="drop_height"):
+        WorldConfig(drop_height=float("nan"))
+    with pytest.raises(ValueError, match="light_position"):
+        WorldConfig(light_position=(float("nan"), 0.0, 0.1))
     assert WorldConfig().substeps == 4
 
 
