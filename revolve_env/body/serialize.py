@@ -10,10 +10,10 @@ The schema (``"schema": "revolve-env/robot"``, ``"version": 1``) is described in
      "connections": [{"src": "a", "dst": "b", "weight": 0.5}, ...]}
 
 Floats are written with Python's shortest round-trip representation, so
-``from_json(to_json(r)) == r`` holds exactly. Reading is strict: unknown keys, wrong types, unknown
-part types, NaN or infinite numbers and unknown schema versions are errors naming the JSON path of
-the problem (e.g. ``body.children[2].type``), and the result is validated (limits included) before
-it is returned. Every error raised here is a :class:`~revolve_env.body.validate.RobotError`.
+``from_json(to_json(r)) == r`` holds exactly. Reading is strict: unknown or repeated keys, wrong
+types, unknown part types, NaN or infinite numbers and unknown schema versions are errors naming
+the JSON path of the problem (e.g. ``body.children[2].type``; a repeated key is named by key), and
+the result is validated (limits included) before it is returned. Every error raised here is a :class:`~revolve_env.body.validate.RobotError`.
 """
 
 from __future__ import annotations
@@ -114,6 +114,8 @@ def to_json(robot: Robot, *, indent: int | None = 1) -> str:
         return json.dumps(to_dict(robot), indent=indent, allow_nan=False, ensure_ascii=False)
     except ValueError as exc:
         raise RobotError(f"cannot be written as JSON: {exc}", rule="json-number") from exc
+    except TypeError as exc:  # e.g. a NumPy integer where the schema holds a plain int
+        raise RobotError(f"cannot be written as JSON: {exc}", rule="json-type") from exc
 
 
 def save(robot: Robot, path: str | os.PathLike[str]) -> None:
@@ -152,7 +154,10 @@ class _Reader:
     def number(self, value: object, where: str, path: Path | None = None) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise self.fail(where, f"expected a number, got {_kind(value)}", "json-type", path)
-        result = float(value)
+        try:
+            result = float(value)
+        except OverflowError:  # an integer literal too large for a float
+            result = math.inf
         if not math.isfinite(result):
             raise self.fail(where, f"{value!r} is not a finite number", "json-number", path)
         return result
@@ -264,12 +269,28 @@ def from_dict(data: object, limits: Limits | None = None, *, check: bool = True)
     return robot
 
 
-class _NonFiniteError(ValueError):
-    pass
+class _StrictJSONError(ValueError):
+    """JSON that the standard parser accepts but the schema does not; carries the rule."""
+
+    def __init__(self, message: str, rule: str) -> None:
+        super().__init__(message)
+        self.rule = rule
 
 
 def _reject_constant(name: str) -> float:
-    raise _NonFiniteError(f"{name} is not a finite number; robot JSON holds only finite numbers")
+    raise _StrictJSONError(
+        f"{name} is not a finite number; robot JSON holds only finite numbers", "json-number"
+    )
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """An object's keys, refusing a repeated key (the standard parser keeps the last silently)."""
+    d: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in d:
+            raise _StrictJSONError(f"key {key!r} appears twice in one object", "json-duplicate-key")
+        d[key] = value
+    return d
 
 
 def from_json(text: str | bytes, limits: Limits | None = None, *, check: bool = True) -> Robot:
@@ -285,9 +306,9 @@ def from_json(text: str | bytes, limits: Limits | None = None, *, check: bool = 
             schema (rules ``json-*``, naming the JSON path) or an invalid robot (validation rules).
     """
     try:
-        data = json.loads(text, parse_constant=_reject_constant)
-    except _NonFiniteError as exc:
-        raise RobotError(str(exc), rule="json-number") from exc
+        data = json.loads(text, parse_constant=_reject_constant, object_pairs_hook=_unique_keys)
+    except _StrictJSONError as exc:
+        raise RobotError(str(exc), rule=exc.rule) from exc
     except (ValueError, TypeError) as exc:
         raise RobotError(f"not valid JSON: {exc}", rule="json-syntax") from exc
     return from_dict(data, limits, check=check)

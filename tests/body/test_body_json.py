@@ -9,6 +9,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 
@@ -192,6 +193,10 @@ def test_unknown_part_type_error_names_the_part_path() -> None:
      '"color": [Infinity, 0, 0]}}', "json-number"),
     ('{"schema": "revolve-env/robot", "version": 1, "body": {"type": "core", '
      '"color": [1e999, 0, 0]}}', "json-number"),
+    ('{"schema": "revolve-env/robot", "version": 1, "body": {"type": "core", '
+     '"color": [1' + "0" * 400 + ', 0, 0]}}', "json-number"),  # an integer too large for a float
+    ('{"schema": "revolve-env/robot", "version": 1, "body": {"type": "core", '
+     '"orientation": 0, "orientation": 90}}', "json-duplicate-key"),  # not "the last one wins"
 ])
 def test_non_json_and_non_finite_numbers_are_rejected(text: str, rule: str) -> None:
     with pytest.raises(RobotError) as info:
@@ -205,6 +210,14 @@ def test_writing_a_nan_is_refused() -> None:
     with pytest.raises(RobotError) as info:
         to_json(bad)
     assert info.value.rule == "json-number"
+
+
+def test_writing_a_value_json_cannot_hold_is_a_robot_error() -> None:
+    robot = example("spider")
+    bad = replace(robot, body=replace(robot.body, orientation=np.int64(0)))
+    with pytest.raises(RobotError) as info:
+        to_json(bad)
+    assert info.value.rule == "json-type"
 
 
 def test_reading_validates_with_overridable_limits() -> None:
