@@ -9,6 +9,7 @@
 #include <nanobind/stl/string.h>
 #include <nanobind/stl/vector.h>
 
+#include <mutex>
 #include <optional>
 
 #include "revolve/batch_controller.hpp"
@@ -27,6 +28,17 @@ using Mat = nb::ndarray<const double, nb::ndim<2>, nb::c_contig, nb::device::cpu
 // re-acquisition would cost more than the work.
 constexpr std::int64_t kReleaseGilAbove = 2000;
 
+// The controller and the lock that serialises every call on it. A large step runs with the GIL
+// released, so another Python thread may call into the same object meanwhile; without the lock an
+// add, remove or set_params (which repack, reallocating the state arrays) would free memory under
+// the running step, and two steps would race on the state.
+struct Locked {
+    explicit Locked(double dt) : c(dt) {}
+    BatchController c;
+    std::mutex mu;
+};
+using Guard = std::lock_guard<std::mutex>;
+
 template <typename Array>
 void check_vector(const Array& a, const char* name, std::int64_t n) {
     if (a.device_type() != nb::device::cpu::value || a.dtype() != nb::dtype<double>() || a.ndim() != 1) {
@@ -39,21 +51,35 @@ void check_vector(const Array& a, const char* name, std::int64_t n) {
     if (n > 1 && a.stride(0) != 1) throw nb::value_error((std::string(name) + " must be contiguous").c_str());
 }
 
-void step(BatchController& c, nb::ndarray<nb::ro> inputs, nb::ndarray<> outputs) {
+void step(Locked& l, nb::ndarray<nb::ro> inputs, nb::ndarray<> outputs) {
     // inputs may be read-only; outputs may not (nanobind rejects read-only arrays without nb::ro).
-    check_vector(inputs, "inputs", c.n_inputs());
-    check_vector(outputs, "outputs", c.n_outputs());
+    // The ndarray handles keep both arrays alive while the GIL is released.
     const double* in = static_cast<const double*>(inputs.data());
     double* out = static_cast<double*>(outputs.data());
-    if (c.work() > kReleaseGilAbove) {
-        nb::gil_scoped_release release;
-        c.step(in, out);
-    } else {
-        c.step(in, out);
+    bool release = false;
+    {
+        Guard g(l.mu);  // sizes checked under the lock: no repack between the check and the step
+        check_vector(inputs, "inputs", l.c.n_inputs());
+        check_vector(outputs, "outputs", l.c.n_outputs());
+        release = l.c.work() > kReleaseGilAbove;
+        if (!release) {
+            l.c.step(in, out);
+            return;
+        }
     }
+    // Lock taken after the release: this thread never waits for the lock while holding the GIL
+    // another thread needs to finish a call and unlock. Sizes are re-checked, since another thread
+    // may have changed the population between the two locks.
+    nb::gil_scoped_release unlocked;
+    Guard g(l.mu);
+    if (l.c.n_inputs() != static_cast<std::int64_t>(inputs.shape(0)) ||
+        l.c.n_outputs() != static_cast<std::int64_t>(outputs.shape(0))) {
+        throw std::invalid_argument("the population changed in another thread during step");
+    }
+    l.c.step(in, out);
 }
 
-std::int64_t add(BatchController& c, Vec<std::int8_t> kinds, Mat neuron_params, Vec<std::int32_t> src,
+std::int64_t add(Locked& l, Vec<std::int8_t> kinds, Mat neuron_params, Vec<std::int32_t> src,
                  Vec<std::int32_t> dst, Vec<double> weight, std::int64_t n_inputs, std::int64_t n_outputs) {
     const std::int64_t n = static_cast<std::int64_t>(kinds.shape(0));
     if (static_cast<std::int64_t>(neuron_params.shape(0)) != n || neuron_params.shape(1) != revolve::kParamColumns) {
@@ -72,11 +98,13 @@ std::int64_t add(BatchController& c, Vec<std::int8_t> kinds, Mat neuron_params, 
     v.src = src.data();
     v.dst = dst.data();
     v.weight = weight.data();
-    return c.add(v);
+    Guard g(l.mu);
+    return l.c.add(v);
 }
 
-void set_params(BatchController& c, std::int64_t handle, Mat neuron_params, Vec<double> weight) {
-    c.set_params(handle, neuron_params.data(), static_cast<std::int64_t>(neuron_params.size()), weight.data(),
+void set_params(Locked& l, std::int64_t handle, Mat neuron_params, Vec<double> weight) {
+    Guard g(l.mu);
+    l.c.set_params(handle, neuron_params.data(), static_cast<std::int64_t>(neuron_params.size()), weight.data(),
                  static_cast<std::int64_t>(weight.shape(0)));
 }
 
@@ -116,28 +144,34 @@ NB_MODULE(_controller, m) {
         }
     });
 
-    nb::class_<BatchController>(m, "BatchController", "Networks of many robots stepped in one call.")
+    nb::class_<Locked>(m, "BatchController", "Networks of many robots stepped in one call.")
         .def(nb::init<double>(), nb::arg("dt"), "dt: control period, seconds (> 0).")
         .def("add", &add, nb::arg("kinds"), nb::arg("neuron_params"), nb::arg("src"), nb::arg("dst"),
              nb::arg("weight"), nb::arg("n_inputs"), nb::arg("n_outputs"),
              "Add a network (spec order: inputs, outputs, hidden); returns its handle.")
-        .def("remove", &BatchController::remove, nb::arg("handle"))
+        .def(
+            "remove", [](Locked& l, std::int64_t h) { Guard g(l.mu); l.c.remove(h); }, nb::arg("handle"))
         .def(
             "reset",
-            [](BatchController& c, std::optional<std::int64_t> h) {
-                if (h) c.reset(*h); else c.reset_all();
+            [](Locked& l, std::optional<std::int64_t> h) {
+                Guard g(l.mu);
+                if (h) l.c.reset(*h); else l.c.reset_all();
             },
             nb::arg("handle") = nb::none(), "State 0 and time 0 for one network, or all.")
         .def("set_params", &set_params, nb::arg("handle"), nb::arg("neuron_params"), nb::arg("weight"))
         .def("step", &step, nb::arg("inputs"), nb::arg("outputs"),
              "Advance every network one tick, writing hinge targets in [-1, 1] into outputs in place.")
-        .def_prop_ro("dt", &BatchController::dt)
-        .def_prop_ro("n_inputs", &BatchController::n_inputs)
-        .def_prop_ro("n_outputs", &BatchController::n_outputs)
-        .def("__len__", &BatchController::size)
-        .def("handles", &BatchController::handles)
-        .def("input_offset", &BatchController::input_offset, nb::arg("handle"))
-        .def("output_offset", &BatchController::output_offset, nb::arg("handle"))
-        .def("state", &BatchController::state, nb::arg("handle"))
-        .def("time", &BatchController::time, nb::arg("handle"));
+        .def_prop_ro("dt", [](Locked& l) { return l.c.dt(); })
+        .def_prop_ro("n_inputs", [](Locked& l) { Guard g(l.mu); return l.c.n_inputs(); })
+        .def_prop_ro("n_outputs", [](Locked& l) { Guard g(l.mu); return l.c.n_outputs(); })
+        .def("__len__", [](Locked& l) { Guard g(l.mu); return l.c.size(); })
+        .def("handles", [](Locked& l) { Guard g(l.mu); return l.c.handles(); })
+        .def(
+            "input_offset", [](Locked& l, std::int64_t h) { Guard g(l.mu); return l.c.input_offset(h); },
+            nb::arg("handle"))
+        .def(
+            "output_offset", [](Locked& l, std::int64_t h) { Guard g(l.mu); return l.c.output_offset(h); },
+            nb::arg("handle"))
+        .def("state", [](Locked& l, std::int64_t h) { Guard g(l.mu); return l.c.state(h); }, nb::arg("handle"))
+        .def("time", [](Locked& l, std::int64_t h) { Guard g(l.mu); return l.c.time(h); }, nb::arg("handle"));
 }

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 import pytest
@@ -192,6 +193,52 @@ def test_step_writes_in_place_and_leaves_inputs_alone() -> None:
     ctrl.step(x, out)
     assert (out != 7.0).all() and np.abs(out).max() <= 1.0
     np.testing.assert_array_equal(x, [0.2, -0.4])
+
+
+def _chain(n: int) -> NetworkSpec:
+    """One input feeding a chain of ``n - 1`` linear neurons (the first is the output)."""
+    params = np.zeros((n, 5))
+    params[:, 1] = 1.0  # gain
+    return NetworkSpec.from_arrays(
+        ids=[f"n{i}" for i in range(n)], kinds=[0] + [1] * (n - 1), neuron_params=params,
+        src=np.arange(n - 1), dst=np.arange(1, n), weight=np.full(n - 1, 0.5),
+        n_inputs=1, n_outputs=1,
+    )
+
+
+def test_population_changes_from_another_thread_wait_for_a_released_step() -> None:
+    """A large batch steps with the GIL released; add/set_params/remove from another thread are
+    serialised with it (unserialised, a repack would free the state arrays under the step)."""
+    ctrl = BatchController(DT)
+    big = ctrl.add(_chain(1500))  # 1500 neurons + 1499 connections: above the release threshold
+    stop = threading.Event()
+    ticks = 0
+    unexpected: list[Exception] = []
+
+    def stepper() -> None:
+        nonlocal ticks
+        while not stop.is_set():
+            x, y = np.zeros(ctrl.n_inputs), np.empty(ctrl.n_outputs)
+            try:
+                ctrl.step(x, y)
+                ticks += 1
+            except ValueError as e:  # sizes read before another thread changed the population
+                if "length" not in str(e) and "changed" not in str(e):
+                    unexpected.append(e)
+
+    thread = threading.Thread(target=stepper)
+    thread.start()
+    try:
+        for _ in range(300):
+            h = ctrl.add(small_robot())
+            ctrl.set_params(h, ctrl.get_params(h))
+            ctrl.remove(h)
+    finally:
+        stop.set()
+        thread.join()
+    assert not unexpected and ticks > 0
+    assert ctrl.handles == [big]
+    assert ctrl.time(big) == pytest.approx(ticks * DT)  # every step counted once, none lost
 
 
 # -- bad input ---------------------------------------------------------------------------------
