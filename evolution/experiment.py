@@ -156,8 +156,9 @@ class ExperimentConfig:
                 raise ConfigError(f"{key} must be a finite number, got {value!r}")
             if value < bound or (strict and value == bound):
                 raise ConfigError(f"{key} must be {'>' if strict else '>='} {bound}, got {value}")
-        if self.cull_fraction > 1:
-            raise ConfigError(f"cull_fraction must be <= 1, got {self.cull_fraction}")
+        for key in ("death_threshold", "cull_fraction"):
+            if getattr(self, key) > 1:
+                raise ConfigError(f"{key} must be <= 1, got {getattr(self, key)}")
         if self.max_sim_time is not None and not (
             isinstance(self.max_sim_time, (int, float)) and self.max_sim_time > 0
             and math.isfinite(self.max_sim_time)

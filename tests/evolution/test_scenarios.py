@@ -205,6 +205,8 @@ def test_config_round_trips_through_dict_and_toml(tmp_path: Path) -> None:
     ({"births": 10}, "births \\(10\\) must be >= population_size \\(15\\)"),
     ({"tournament_size": 2.5}, "tournament_size must be an integer"),
     ({"death_threshold": -0.1}, "death_threshold must be >= 0"),
+    ({"death_threshold": 1.5}, "death_threshold must be <= 1"),
+    ({"cull_fraction": 1.5}, "cull_fraction must be <= 1"),
     ({"engine": "online", "population_size": 40}, "must lie within \\[min_alive, max_alive\\]"),
     ({"min_alive": 31}, "min_alive \\(31\\) must be <= max_alive \\(30\\)"),
     ({"max_sim_time": -5.0}, "max_sim_time must be a positive"),
