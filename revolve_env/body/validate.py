@@ -82,6 +82,10 @@ def _finite(x: object) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
 
 
+def _integer(x: object) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
 def _check_node(path: Path, node: Node) -> None:
     if not isinstance(node, Node):
         raise RobotError(f"expected a Node, got {type(node).__name__}", path=path, rule="node-type")
@@ -90,7 +94,9 @@ def _check_node(path: Path, node: Node) -> None:
     if path and node.type == PartType.CORE:
         raise RobotError("a core can only be the root", path=path, rule="core-not-root")
     spec = PART_SPECS[node.type]
-    if node.orientation not in ORIENTATIONS:
+    # ``90.0 in ORIENTATIONS`` and ``False in ORIENTATIONS`` hold, but JSON would write a float or
+    # a boolean that reading refuses: only real integers are orientations.
+    if not _integer(node.orientation) or node.orientation not in ORIENTATIONS:
         raise RobotError(
             f"orientation {node.orientation!r} is not one of {ORIENTATIONS} degrees",
             path=path, rule="orientation",
@@ -110,7 +116,7 @@ def _check_node(path: Path, node: Node) -> None:
     if len(node.color) != 3 or not all(_finite(c) and 0.0 <= c <= 1.0 for c in node.color):
         raise RobotError(f"colour {node.color!r} is not 3 values in [0, 1]", path=path, rule="color")
     if not isinstance(node.children, tuple) or not all(
-        isinstance(sc, tuple) and len(sc) == 2 and isinstance(sc[0], int)
+        isinstance(sc, tuple) and len(sc) == 2 and _integer(sc[0])
         and isinstance(sc[1], Node) for sc in node.children
     ):
         raise RobotError("children must be a tuple of (slot, Node) pairs", path=path,
@@ -149,10 +155,13 @@ def _check_node(path: Path, node: Node) -> None:
                 f"neuron {nr.id!r}: only input neurons (and all of them) use the input activation",
                 path=path, rule="neuron-activation",
             )
-        for pname in ACTIVATION_PARAMS[nr.activation.value]:
+        for pname in NEURON_PARAM_BOUNDS:  # unused ones too: JSON cannot hold NaN or infinity
             value = getattr(nr, pname)
             low, high = NEURON_PARAM_BOUNDS[pname]
-            if not _finite(value) or not (low <= value <= high):
+            if not _finite(value):
+                raise RobotError(f"neuron {nr.id!r}: {pname}={value!r} is not a finite number",
+                                 path=path, rule="neuron-param")
+            if pname in ACTIVATION_PARAMS[nr.activation.value] and not (low <= value <= high):
                 raise RobotError(
                     f"neuron {nr.id!r}: {pname}={value!r} is outside [{low}, {high}]",
                     path=path, rule="neuron-param",

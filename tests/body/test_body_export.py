@@ -11,6 +11,8 @@ import numpy as np
 import pybullet
 import pytest
 from hypothesis import HealthCheck, given, settings
+from strategies import robots
+from test_body_validate import overlapping_ring
 
 from revolve_env.body import (
     EXAMPLES,
@@ -26,8 +28,6 @@ from revolve_env.body import (
     to_urdf,
 )
 from revolve_env.body.export import PASSIVE_HINGE_LIMIT_DEG, link_inertia
-from strategies import robots
-from test_body_validate import overlapping_ring
 
 
 @pytest.fixture

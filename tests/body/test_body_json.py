@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
+from strategies import robots
 
 from revolve_env.body import (
     EXAMPLES,
@@ -28,7 +29,6 @@ from revolve_env.body import (
     to_dict,
     to_json,
 )
-from strategies import robots
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -182,21 +182,19 @@ def test_unknown_part_type_error_names_the_part_path() -> None:
     assert "body.children[2].children[0].type" in str(info.value)
 
 
+_CORE_DOC = '{"schema": "revolve-env/robot", "version": 1, "body": {"type": "core", '
+
+
 @pytest.mark.parametrize(("text", "rule"), [
     ("{ not json", "json-syntax"),
     ("", "json-syntax"),
     ("[1, 2]", "json-type"),
     ("null", "json-type"),
-    ('{"schema": "revolve-env/robot", "version": 1, "body": {"type": "core", '
-     '"params": [NaN]}}', "json-number"),
-    ('{"schema": "revolve-env/robot", "version": 1, "body": {"type": "core", '
-     '"color": [Infinity, 0, 0]}}', "json-number"),
-    ('{"schema": "revolve-env/robot", "version": 1, "body": {"type": "core", '
-     '"color": [1e999, 0, 0]}}', "json-number"),
-    ('{"schema": "revolve-env/robot", "version": 1, "body": {"type": "core", '
-     '"color": [1' + "0" * 400 + ', 0, 0]}}', "json-number"),  # an integer too large for a float
-    ('{"schema": "revolve-env/robot", "version": 1, "body": {"type": "core", '
-     '"orientation": 0, "orientation": 90}}', "json-duplicate-key"),  # not "the last one wins"
+    (_CORE_DOC + '"params": [NaN]}}', "json-number"),
+    (_CORE_DOC + '"color": [Infinity, 0, 0]}}', "json-number"),
+    (_CORE_DOC + '"color": [1e999, 0, 0]}}', "json-number"),
+    (_CORE_DOC + '"color": [1' + "0" * 400 + ", 0, 0]}}", "json-number"),  # too large for a float
+    (_CORE_DOC + '"orientation": 0, "orientation": 90}}', "json-duplicate-key"),  # not "last wins"
 ])
 def test_non_json_and_non_finite_numbers_are_rejected(text: str, rule: str) -> None:
     with pytest.raises(RobotError) as info:

@@ -7,6 +7,7 @@ from dataclasses import replace
 
 import pytest
 from hypothesis import given, settings
+from strategies import robots
 
 from revolve_env.body import (
     EXAMPLES,
@@ -22,7 +23,6 @@ from revolve_env.body import (
     example,
     validate,
 )
-from strategies import robots
 
 IMU = tuple(Neuron(f"imu{k}", Layer.INPUT, Activation.INPUT) for k in range(6))
 
@@ -110,6 +110,12 @@ BAD: dict[str, tuple[Callable[[], Robot | object], str, tuple[int, ...] | None, 
                           None),
     "bad orientation": (lambda: _with_node(base(), (0, 1), orientation=45), "orientation",
                         (0, 1), None),
+    # 90.0 == 90 and False == 0, but JSON would write what reading refuses
+    "float orientation": (lambda: _with_node(base(), (0, 1), orientation=90.0), "orientation",
+                          (0, 1), None),
+    "boolean orientation": (lambda: _with_node(base(), (0, 1), orientation=False), "orientation",
+                            (0, 1), None),
+    "boolean slot": (lambda: Robot(core((True, brick()))), "children", (), None),
     "bad colour": (lambda: _with_node(base(), (0,), color=(1.5, 0.0, 0.0)), "color", (0,), None),
     "too few input neurons": (lambda: _with_node(base(), (), neurons=IMU[:5]), "input-neurons",
                               (), None),
@@ -125,6 +131,9 @@ BAD: dict[str, tuple[Callable[[], Robot | object], str, tuple[int, ...] | None, 
     "neuron param out of range": (lambda: _with_node(base(), (0,), neurons=(
         Neuron("h0", Layer.OUTPUT, Activation.OSCILLATOR, period=10.0),)), "neuron-param", (0,),
         None),
+    "unused neuron param NaN": (lambda: _with_node(base(), (0,), neurons=(
+        Neuron("h0", Layer.OUTPUT, Activation.OSCILLATOR, bias=float("nan")),)), "neuron-param",
+        (0,), None),
     "duplicate neuron id": (lambda: _with_node(base(), (0,), neurons=(
         Neuron("imu3", Layer.OUTPUT, Activation.OSCILLATOR),)), "neuron-id-duplicate", (0,), None),
     "empty neuron id": (lambda: _with_node(base(), (0,), neurons=(
