@@ -164,29 +164,34 @@ class NetworkSpec:
         n = len(ids_t)
         if len(set(ids_t)) != n:
             raise ValueError("duplicate neuron ids")
-        kinds_a = _frozen(np.asarray(kinds).reshape(-1), np.int8)
-        params_a = _frozen(neuron_params, np.float64)
-        src_a = _frozen(np.asarray(src, dtype=np.int64).reshape(-1), np.int32)
-        dst_a = _frozen(np.asarray(dst, dtype=np.int64).reshape(-1), np.int32)
+        # Kinds and indices are range-checked as int64, before the narrowing casts, which would
+        # wrap out-of-range values (kind 257 -> 1, index 2**32 -> 0) into valid-looking ones.
+        kinds_64 = np.asarray(kinds, dtype=np.int64).reshape(-1)
+        src_64 = np.asarray(src, dtype=np.int64).reshape(-1)
+        dst_64 = np.asarray(dst, dtype=np.int64).reshape(-1)
         weight_a = _frozen(np.asarray(weight, dtype=np.float64).reshape(-1), np.float64)
+        params_a = _frozen(neuron_params, np.float64)
         if not (0 <= n_inputs and 0 <= n_outputs and n_inputs + n_outputs <= n):
             raise ValueError(f"n_inputs={n_inputs}, n_outputs={n_outputs} do not fit {n} neurons")
-        if kinds_a.shape != (n,):
-            raise ValueError(f"kinds has shape {kinds_a.shape}, expected ({n},)")
+        if kinds_64.shape != (n,):
+            raise ValueError(f"kinds has shape {kinds_64.shape}, expected ({n},)")
         if params_a.shape != (n, 5):
             raise ValueError(f"neuron_params has shape {params_a.shape}, expected ({n}, 5)")
-        if not (src_a.shape == dst_a.shape == weight_a.shape):
+        if not (src_64.shape == dst_64.shape == weight_a.shape):
             raise ValueError("src, dst and weight must have the same length")
-        bad_kind = ~np.isin(kinds_a, [KIND_INPUT, KIND_LINEAR, KIND_SIGMOID, KIND_OSCILLATOR])
+        bad_kind = ~np.isin(kinds_64, [KIND_INPUT, KIND_LINEAR, KIND_SIGMOID, KIND_OSCILLATOR])
         if bad_kind.any():
             raise ValueError(f"neuron {ids_t[int(np.argmax(bad_kind))]!r} has an unknown kind")
-        is_input = kinds_a == KIND_INPUT
-        if not (is_input[:n_inputs].all() and not is_input[n_inputs:].any()):
-            raise ValueError("the first n_inputs neurons, and only they, must be input neurons")
-        for arr, name in ((src_a, "source"), (dst_a, "destination")):
+        for arr, name in ((src_64, "source"), (dst_64, "destination")):
             out = (arr < 0) | (arr >= n)
             if out.any():
                 raise ValueError(f"connection {int(np.argmax(out))} has a {name} index out of range")
+        kinds_a = _frozen(kinds_64, np.int8)
+        src_a = _frozen(src_64, np.int32)
+        dst_a = _frozen(dst_64, np.int32)
+        is_input = kinds_a == KIND_INPUT
+        if not (is_input[:n_inputs].all() and not is_input[n_inputs:].any()):
+            raise ValueError("the first n_inputs neurons, and only they, must be input neurons")
         into_input = dst_a < n_inputs
         if into_input.any():
             k = int(np.argmax(into_input))

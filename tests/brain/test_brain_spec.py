@@ -162,3 +162,19 @@ def test_params_with_nan_or_bad_period_are_rejected() -> None:
     p[7] = -1.0
     with pytest.raises(ValueError, match="period"):
         set_params(small_robot(), p)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"kinds": [0, 257]}, "'b' has an unknown kind"),  # 257 as int8 would read as linear
+        ({"src": [2**32]}, "source index out of range"),  # 2**32 as int32 would read as 0
+        ({"dst": [2**32 + 1]}, "destination index out of range"),
+    ],
+)
+def test_from_arrays_rejects_values_that_a_narrowing_cast_would_wrap(change: dict, message: str) -> None:
+    arrays = {"ids": ["a", "b"], "kinds": [0, 1], "neuron_params": np.zeros((2, 5)), "src": [0],
+              "dst": [1], "weight": [1.0], "n_inputs": 1, "n_outputs": 1}
+    NetworkSpec.from_arrays(**arrays)  # valid as given
+    with pytest.raises(ValueError, match=message):
+        NetworkSpec.from_arrays(**{**arrays, **change})
