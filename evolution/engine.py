@@ -540,20 +540,21 @@ class _OfflineRun(_Run):
         config = self.config
         span = config.seconds_per_evaluation
         members: list[_Member] = []
+        records: list[RobotRecord] = []
         for i in range(count):
             t0 = self.sim_time + i * span
             robot, pa, pb, origin = self.conceive(parents, t0, random)
             member, record = self.new_member(robot, (pa, pb), origin, t0, t0)
             members.append(member)
-            self.batch.robots.append(record)
+            records.append(record)
+        self.batch.robots.extend(records)
         tasks = [
             EvalTask(m.robot_id, rec.genome, config.insertion, config.evaluation_time,
                      evaluation_seed(self.seed, m.robot_id), self.job.infancy)
-            for m, rec in zip(members, self.batch.robots[-count:])
+            for m, rec in zip(members, records)
         ]
         outcomes = self.evaluator.evaluate(tasks)
-        records = self.batch.robots[-count:]
-        for record, member, outcome in zip(records, members, outcomes):
+        for record, member, outcome in zip(records, members, outcomes, strict=True):
             assert record.birth_time is not None
             self._record_outcome(member, outcome, record.birth_time)
         self.sim_time += count * span
@@ -566,8 +567,10 @@ class _OfflineRun(_Run):
         if self.infancy is not None:
             self.record_infancy(member, born, outcome.learner_failure, outcome.learning,
                                 outcome.learned_genome)
-        if outcome.failure is not None or outcome.fitness is None:
-            cause = outcome.failure or "evaluation gave no fitness"
+        if (outcome.failure is not None or outcome.fitness is None
+                or not math.isfinite(outcome.fitness)):
+            # A non-finite fitness cannot be ranked (selection needs finite values) nor stored.
+            cause = outcome.failure or f"evaluation gave no finite fitness ({outcome.fitness})"
             self.batch.failures.append(FailureRecord(member.robot_id, end, "evaluation", cause))
             life.die(end, cause)
             self.batch.deaths.append((member.robot_id, end, cause, None))

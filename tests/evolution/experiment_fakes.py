@@ -40,6 +40,14 @@ def fake_evaluate_with_losses(task: EvalTask) -> EvalOutcome:
     return fake_evaluate(task)
 
 
+def fake_evaluate_with_nan(task: EvalTask) -> EvalOutcome:
+    """As :func:`fake_evaluate`, but one robot in five gets a NaN fitness (a diverged
+    evaluation that did not report itself as a blow-up)."""
+    if int(hashlib.sha256(task.genome.encode()).hexdigest()[:4], 16) % 5 == 0:
+        return EvalOutcome(math.nan, math.nan, math.nan)
+    return fake_evaluate(task)
+
+
 class FakeWorld:
     """An online world where each robot walks straight at its genome's speed.
 

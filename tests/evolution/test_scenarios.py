@@ -13,6 +13,7 @@ import pytest
 from experiment_fakes import (
     fake_evaluate,
     fake_evaluate_with_losses,
+    fake_evaluate_with_nan,
     fake_world,
     fake_world_with_blow_ups,
     small,
@@ -131,6 +132,17 @@ def test_evaluation_losses_are_recorded_and_the_population_stays_full(tmp_path: 
     assert all(len(m) == 15 for _, _, m in store.population_snapshots(0))
     assert store.runs()[0].births == 75
     _check_lifecycles(store)
+
+
+def test_a_nan_fitness_is_a_lost_evaluation_not_a_crash(tmp_path: Path) -> None:
+    evaluator = LocalEvaluator(workers=1, function=fake_evaluate_with_nan)
+    store = _run(small_preset("scenario1", births=60), tmp_path, evaluator=evaluator)
+    lost = store.failures(0, kind="evaluation")
+    assert lost and all("no finite fitness (nan)" in f.detail for f in lost)
+    for f in lost:
+        assert store.robot(0, f.robot_id).fitness is None
+    assert all(len(m) == 15 for _, _, m in store.population_snapshots(0))
+    assert store.runs()[0].births == 60 and store.runs()[0].status == "finished"
 
 
 def test_online_population_bounds_births_and_mature_parents(tmp_path: Path) -> None:
