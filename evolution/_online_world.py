@@ -59,7 +59,10 @@ class PopulationWorld:
         while self.time < t - 0.5 * float(self._env.config.control_period):
             _, _, terminations, truncations, infos = self._env.step({})
             for agent, info in infos.items():
-                self._last[agent] = info
+                # A robot the engine removed before this call gets one last report; keeping
+                # it would hold every dead robot's info for the rest of the run.
+                if agent in before:
+                    self._last[agent] = info
             for agent in before:
                 if (terminations.get(agent) or truncations.get(agent)) and agent not in removed:
                     info = self._last.get(agent, {})
@@ -76,8 +79,9 @@ class PopulationWorld:
         return out
 
     def positions(self) -> dict[str, tuple[float, float]]:
+        alive = set(self._env.agents)
         return {a: tuple(i.get("position", (0.0, 0.0)))[:2]  # type: ignore[misc]
-                for a, i in self._last.items() if a in set(self._env.agents)}
+                for a, i in self._last.items() if a in alive}
 
     def close(self) -> None:
         self._env.close()

@@ -31,6 +31,8 @@ def test_the_world_holds_only_the_runs_robots() -> None:
         assert sorted(world._env.agents) == sorted([a, b])
         world.remove(a)
         assert set(world.advance_to(1.0)) == {b}
+        assert set(world.positions()) == {b}
+        assert set(world._last) == {b}  # nothing kept of the removed robot
     finally:
         world.close()
 
