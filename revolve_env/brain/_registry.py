@@ -92,7 +92,8 @@ def check_step_arrays(inputs: npt.NDArray[np.float64], outputs: npt.NDArray[np.f
 
 
 class RegistryViews:
-    """Read-only views of a :class:`Registry` shared by both batch controllers."""
+    """Read-only views of a :class:`Registry` (layout, specs, parameters) shared by both batch
+    controllers."""
 
     _reg: Registry
 
@@ -122,3 +123,15 @@ class RegistryViews:
     def spec(self, handle: int) -> NetworkSpec:
         """The spec of a live network."""
         return self._reg.spec(handle)
+
+    def get_params(self, handle: int) -> np.ndarray:
+        """The learnable parameters of a network (layout: ``revolve_env.brain.spec``)."""
+        return self._reg.spec(handle).params()
+
+    def param_names(self, handle: int) -> list[str]:
+        """Names of the learnable parameters of a network."""
+        return self._reg.spec(handle).param_names()
+
+    def param_bounds(self, handle: int) -> np.ndarray:
+        """``(n_params, 2)`` bounds of the learnable parameters of a network."""
+        return self._reg.spec(handle).param_bounds()

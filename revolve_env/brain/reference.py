@@ -122,23 +122,11 @@ class ReferenceBatchController(RegistryViews):
         return float(self._layout.time[self._layout.bases[handle][1]])
 
     # -- parameters ----------------------------------------------------------------------------
-    def get_params(self, handle: int) -> np.ndarray:
-        """The learnable parameters of a network (layout: ``revolve_env.brain.spec``)."""
-        return self._reg.spec(handle).params()
-
     def set_params(self, handle: int, params: npt.ArrayLike) -> None:
         """Replace the learnable parameters of a network; its state and time are kept."""
         spec = self._reg.spec(handle).with_params(params)
         self._unpack()
         self._reg.specs[handle] = spec
-
-    def param_names(self, handle: int) -> list[str]:
-        """Names of the learnable parameters of a network."""
-        return self._reg.spec(handle).param_names()
-
-    def param_bounds(self, handle: int) -> np.ndarray:
-        """``(n_params, 2)`` bounds of the learnable parameters of a network."""
-        return self._reg.spec(handle).param_bounds()
 
     # -- stepping ------------------------------------------------------------------------------
     def step(self, inputs: npt.NDArray[np.float64], outputs: npt.NDArray[np.float64]) -> None:
