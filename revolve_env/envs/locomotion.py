@@ -6,6 +6,7 @@ phase, and the return is the robot's locomotion fitness ``f = v + 5 s`` (:mod:`r
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import warnings
@@ -100,7 +101,8 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     | render_mode        | None      | "rgb_array" or "human"                                    |
     | insertion_time     | 3.0       | settling phase, not scored. Seconds                        |
     | evaluation_time    | 12.0      | scored phase. Seconds                                      |
-    | control_period     | 1/60      | time per env step. Seconds (a multiple of 1/240 s)         |
+    | control_period     | None      | time per env step. Seconds (a multiple of the timestep);   |
+    |                    |           | None: ``world_config``'s (1/60 s by default)               |
     | fitness_window     | 12.0      | sliding window of the fitness. Seconds                     |
     | sensor_noise       | 0.0       | std of Gaussian sensor noise (units of each sensor)        |
     | actuator_noise     | 0.0       | std of Gaussian noise on normalized targets                |
@@ -118,7 +120,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         render_mode: Literal["rgb_array", "human"] | None = None,
         insertion_time: float = 3.0,
         evaluation_time: float = 12.0,
-        control_period: float = 1.0 / 60.0,
+        control_period: float | None = None,
         fitness_window: float = DEFAULT_WINDOW,
         sensor_noise: float = 0.0,
         actuator_noise: float = 0.0,
@@ -150,12 +152,10 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         if action == "modulate" and controller != "brain":
             raise ValueError("action='modulate' scales the brain's outputs: it needs controller='brain'")
 
-        base = world_config if world_config is not None else WorldConfig()
-        if world_config is None or not math.isclose(base.control_period, control_period):
-            fields = {f: getattr(base, f) for f in base.__dataclass_fields__}
-            fields["control_period"] = control_period
-            base = WorldConfig(**fields)  # validates control_period against the timestep
-        self.config = base
+        config = world_config if world_config is not None else WorldConfig()
+        if control_period is not None:  # replace() validates it against the timestep
+            config = dataclasses.replace(config, control_period=control_period)
+        self.config = config
         self.robot = robot
         self.render_mode = render_mode
         self.insertion_time = float(insertion_time)
@@ -166,6 +166,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self.controller = controller
         self.action_mode = action
         dt = self.config.control_period
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / dt)}  # one frame per step
         self._insertion_steps = round(self.insertion_time / dt)
         self._total_steps = self._insertion_steps + round(self.evaluation_time / dt)
         if self._total_steps <= self._insertion_steps:

@@ -13,11 +13,11 @@ from revolve_env.body.robot import Node, PartType, Robot
 from revolve_env.body.serialize import save
 from revolve_env.body.validate import RobotError
 from revolve_env.envs import LOCOMOTION_ID, LocomotionEnv
-from revolve_env.envs.checks import check_determinism, check_locomotion, registered_ids
+from revolve_env.envs.checks import _rollout, check_determinism, check_locomotion, registered_ids
 from revolve_env.fitness import window_fitness
 from revolve_env.world import WorldConfig
 
-SHORT = dict(insertion_time=0.25, evaluation_time=0.5)
+SHORT = {"insertion_time": 0.25, "evaluation_time": 0.5}
 
 
 @pytest.mark.parametrize("env_id", registered_ids())
@@ -44,19 +44,6 @@ def test_the_determinism_check_catches_a_nondeterministic_env() -> None:
         gym.register(id=flaky, entry_point=_SeedIgnoringEnv)
     with pytest.raises(AssertionError, match="differ"):
         check_determinism(flaky, robot=spider(), sensor_noise=0.05, steps=5, **SHORT)
-
-
-def _rollout(env: gym.Env, seed: int, steps: int) -> tuple[np.ndarray, np.ndarray]:
-    obs, _ = env.reset(seed=seed)
-    env.action_space.seed(seed)
-    observations, rewards = [obs], []
-    for _ in range(steps):
-        obs, reward, terminated, truncated, _ = env.step(env.action_space.sample())
-        observations.append(obs)
-        rewards.append(reward)
-        if terminated or truncated:
-            break
-    return np.array(observations), np.array(rewards)
 
 
 def test_reset_with_the_same_seed_replays_exactly() -> None:
@@ -139,7 +126,7 @@ def test_blow_up_terminates_with_zero_fitness_and_finite_observation() -> None:
                         world_config=WorldConfig(max_linear_speed=0.05))
     env.reset(seed=0)
     for _ in range(120):
-        obs, reward, terminated, truncated, info = env.step(np.zeros(8, dtype=np.float32))
+        obs, _, terminated, truncated, info = env.step(np.zeros(8, dtype=np.float32))
         if terminated:
             break
     assert terminated and not truncated
@@ -189,3 +176,18 @@ def test_rgb_array_render_shows_the_robot() -> None:
     assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
     assert frame.std() > 5  # not a blank picture
     env.close()
+
+
+def test_control_period_comes_from_world_config_unless_given() -> None:
+    slow = WorldConfig(control_period=1 / 30)
+    env = LocomotionEnv(spider(), world_config=slow, **SHORT)
+    assert env.config.control_period == pytest.approx(1 / 30)  # not silently reset to 1/60
+    assert env.metadata["render_fps"] == 30  # one frame per env step
+    assert LocomotionEnv.metadata["render_fps"] == 60  # the class default is untouched
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(np.zeros(8, dtype=np.float32))
+    assert info["time"] == pytest.approx(1 / 30)
+    env.close()
+    given = LocomotionEnv(spider(), world_config=slow, control_period=1 / 60, **SHORT)
+    assert given.config.control_period == pytest.approx(1 / 60)
+    assert given.config.max_linear_speed == slow.max_linear_speed
