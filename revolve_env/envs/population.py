@@ -583,8 +583,13 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             validate(robot, self.limits)
         except ValueError as e:
             raise ValueError(f"add_robot ({agent}): invalid robot: {e}") from e
+        if yaw is not None and not math.isfinite(float(yaw)):
+            raise ValueError(f"add_robot ({agent}): yaw must be finite, got {yaw!r}")
+        if position is not None and len(position) != 2:
+            raise ValueError(f"add_robot ({agent}): position must be (x, y), got {position!r}")
         low, high = sensor_bounds(robot)
         n_outputs = len(robot.neurons_of(Layer.OUTPUT))
+        spec: NetworkSpec | None = None
         if controlled_by == "brain":
             try:
                 spec = NetworkSpec.from_robot(robot)
@@ -607,12 +612,10 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
                                  f"of footprint radius {radius:.3f} m needs "
                                  f"{self.birth_clearance} m clearance")
         heading = float(rng.uniform(0.0, 2.0 * math.pi)) if yaw is None else float(yaw)
-        if not math.isfinite(heading):
-            raise ValueError(f"add_robot ({agent}): yaw must be finite, got {yaw!r}")
 
         # All checks passed: from here on nothing can fail on bad input.
         handle = world.add_robot(robot, xy, heading)
-        brain = self._brain.add(robot) if controlled_by == "brain" else None
+        brain = self._brain.add(spec) if spec is not None else None
         member = _Member(
             agent=agent, robot=robot, controlled_by=controlled_by, handle=handle, brain=brain,
             birth_step=self._steps, birth_position=xy, yaw=heading, radius=radius,

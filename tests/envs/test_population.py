@@ -124,6 +124,12 @@ def test_bad_births_change_nothing() -> None:
         env.add_robot(gecko(), (5.0, 5.0), controlled_by="human")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="finite"):
         env.add_robot(gecko(), (math.nan, 0.0))
+    with pytest.raises(ValueError, match=r"position must be \(x, y\)"):
+        env.add_robot(gecko(), (5.0, 5.0, 0.0))  # type: ignore[arg-type]
+    draws = env.np_random.bit_generator.state
+    with pytest.raises(ValueError, match="yaw must be finite"):
+        env.add_robot(gecko(), yaw=math.inf)  # refused before a random position is drawn
+    assert env.np_random.bit_generator.state == draws  # the seeded sequence of births is intact
     assert env.world.body_count() == bodies and env.agents == agents
     assert env.add_robot(gecko(), (5.0, 5.0)) == "robot_1"  # no id was consumed
     del a
