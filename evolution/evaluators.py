@@ -20,7 +20,6 @@ import math
 import multiprocessing
 import os
 import queue
-import traceback
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, replace
@@ -472,8 +471,3 @@ def make_evaluator(kind: str, workers: int = 0, address: str | None = None,
         return RayEvaluator(address, function=function,
                             num_cpus=workers or None if address is None else None)
     raise ValueError(f"unknown evaluator {kind!r}; known: 'local', 'ray'")
-
-
-def format_exception(error: BaseException) -> str:
-    """One line naming an exception (for failure records)."""
-    return "".join(traceback.format_exception_only(type(error), error)).strip()

@@ -779,23 +779,6 @@ class Store:
             "SELECT name FROM sqlite_master WHERE type = 'table' ORDER BY name")]
         return {n: self._db.execute(f"SELECT COUNT(*) FROM {n}").fetchone()[0] for n in names}
 
-    def delete_after_checkpoint(self, run_id: int) -> None:
-        """Nothing to do by construction: records are only written with their checkpoint.
-
-        Kept as an explicit no-op check: raises if records exist beyond the checkpoint (which
-        would mean the database was modified by something else).
-        """
-        cp = self.checkpoint(run_id)
-        births = 0 if cp is None else cp.births
-        (beyond,) = self._db.execute(
-            "SELECT COUNT(*) FROM robots WHERE run_id = ? AND robot_id >= ?", (run_id, births)
-        ).fetchone()
-        if beyond:
-            raise StoreError(
-                f"run {run_id} of {self.path} has {beyond} robots beyond its checkpoint "
-                f"({births} births); the database was modified outside a commit"
-            )
-
 
 _ROBOT_COLUMNS = (
     "run_id, robot_id, genome, parent_a, parent_b, origin, generation, conceived_time, "

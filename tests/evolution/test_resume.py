@@ -13,11 +13,12 @@ from evolution import experiment
 from evolution.engine import ProgressEvent
 from evolution.evaluators import EvalOutcome, EvalTask, LocalEvaluator
 from evolution.experiment import ExperimentConfig, preset
+from evolution.store import Store, StoreError
 
 
 def small_preset(name: str, **kw: object) -> ExperimentConfig:
     return small(preset(name, **kw))
-from evolution.store import Store, StoreError
+
 
 SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
 TABLES = ("runs", "checkpoints", "robots", "fitness", "transitions", "population", "diversity",

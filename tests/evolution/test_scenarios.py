@@ -7,6 +7,7 @@ genome-derived speeds instead of simulating them; test_evaluators.py runs the re
 from __future__ import annotations
 
 from collections import Counter
+from itertools import pairwise
 from pathlib import Path
 
 import pytest
@@ -22,12 +23,13 @@ from experiment_fakes import (
 from evolution import experiment
 from evolution.evaluators import LocalEvaluator
 from evolution.experiment import ConfigError, ExperimentConfig, preset
+from evolution.lifecycle import Stage
+from evolution.store import Store
 
 
 def small_preset(name: str, **kw: object) -> ExperimentConfig:
     return small(preset(name, **kw))
-from evolution.lifecycle import Stage
-from evolution.store import Store
+
 
 SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
 
@@ -71,7 +73,7 @@ def test_offline_keeps_the_population_and_counts_births_exactly(
     assert [b for b, _, _ in snapshots] == list(range(15, births, offspring)) + [births]
     # Survivors are the fittest of parents + children: nobody dropped beats the weakest kept.
     fitness = {r.robot_id: r.fitness for r in robots}
-    for (b0, _, before), (b1, _, after) in zip(snapshots, snapshots[1:]):
+    for (b0, _, before), (b1, _, after) in pairwise(snapshots):
         pool = {rid for rid, _ in before} | set(range(b0, b1))
         kept = {rid for rid, _ in after}
         assert kept <= pool and len(pool) == 15 + (b1 - b0)
