@@ -247,9 +247,16 @@ class CMAESLearner:
                 raise ValueError("the robot's network has no learnable parameters")
             search.evaluate([search.inborn])
             x0 = search.to_unit(search.inborn)
+            # By default cma reseeds NumPy's global generator and samples from it, so anything
+            # else drawing from ``np.random`` in this process would change the candidates (and
+            # cma would reseed the caller's generator). Give it a private generator instead, the
+            # one its ``seed`` option would have made (same candidates); seed NaN: cma then
+            # touches no global state.
+            private = np.random.RandomState(int(rng.integers(1, 2**31 - 1)))
             options = {
                 "bounds": [0.0, 1.0],
-                "seed": int(rng.integers(1, 2**31 - 1)),
+                "seed": math.nan,
+                "randn": private.randn,
                 "verbose": -9,
                 "verb_log": 0,
                 "verb_disp": 0,

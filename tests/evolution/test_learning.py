@@ -135,6 +135,26 @@ def test_learning_is_reproducible_from_the_generator_state() -> None:
         assert a.fitness != c.fitness
 
 
+def draws_from_global_numpy(task: EvalTask) -> EvalOutcome:
+    """:func:`distance_fitness`, after drawing from NumPy's global generator (as a library might)."""
+    np.random.random()
+    return distance_fitness(task)
+
+
+def test_cma_es_neither_uses_nor_changes_numpys_global_generator() -> None:
+    # cma reseeds and samples np.random by default: an in-process evaluation drawing from it would
+    # change the candidates (and the result would depend on the number of workers).
+    robot = EXAMPLES["snake"]()
+    learner = CMAESLearner(popsize=4, evaluation=SYNTHETIC)
+    np.random.seed(5)
+    state = np.random.get_state()[1].copy()
+    a = learner.learn(robot, 13.0, np.random.default_rng(11))
+    np.testing.assert_array_equal(np.random.get_state()[1], state)
+    b = replace(learner, evaluation=replace(SYNTHETIC, function=draws_from_global_numpy)).learn(
+        robot, 13.0, np.random.default_rng(11))
+    assert a.fitness == b.fitness and np.array_equal(a.params, b.params)
+
+
 def test_blown_up_candidates_score_zero_and_are_counted() -> None:
     evaluation = replace(SYNTHETIC, function=blow_up_every_other)
     result = RandomSearchLearner(batch_size=10, evaluation=evaluation).learn(
