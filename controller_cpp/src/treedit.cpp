@@ -137,10 +137,14 @@ nb::ndarray<nb::numpy, int32_t, nb::ndim<2>> py_pairwise(const IntArray& types, 
     if (off[0] != 0 || off[n_off - 1] != static_cast<int32_t>(types.shape(0)))
         throw std::invalid_argument("offsets must start at 0 and end at the total node count");
     const size_t count = n_off - 1;
+    // All offsets checked before any tree is read: with a later offset past the end (say
+    // [0, 100, 5] over 5 nodes) the first tree would otherwise be read out of bounds.
+    for (size_t k = 0; k < count; ++k) {
+        if (off[k + 1] < off[k]) throw std::invalid_argument("offsets must not decrease");
+    }
     std::vector<treedit::Tree> trees;
     trees.reserve(count);
     for (size_t k = 0; k < count; ++k) {
-        if (off[k + 1] < off[k]) throw std::invalid_argument("offsets must not decrease");
         trees.push_back(treedit::make_tree(types.data() + off[k], slots.data() + off[k],
                                            parents.data() + off[k], off[k + 1] - off[k]));
     }
