@@ -119,3 +119,15 @@ def test_malformed_trees_raise_value_error(parents: list[int], match: str) -> No
                           np.asarray([-1], dtype=np.int32))
     with pytest.raises(ValueError, match="same length"):
         _treedit.distance(z, z[:1], np.asarray(parents, dtype=np.int32), z, z, z)
+
+
+@pytest.mark.parametrize("offsets, match", [
+    ([], "at least one"),
+    ([0, 1], "end at the total"),
+    ([0, 100, 2], "must not decrease"),  # refused before tree 0 (100 nodes) would be read
+])
+def test_pairwise_refuses_bad_offsets(offsets: list[int], match: str) -> None:
+    z = np.zeros(2, dtype=np.int32)
+    parents = np.asarray([-1, -1], dtype=np.int32)
+    with pytest.raises(ValueError, match=match):
+        _treedit.pairwise(z, z, parents, np.asarray(offsets, dtype=np.int32))
