@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import sqlite3
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -171,6 +172,9 @@ CREATE TABLE learning (
 
 _SCHEMA = _SCHEMA_V1 + _LEARNING_TABLE
 """The current layout (version :data:`SCHEMA_VERSION`)."""
+
+_TABLES = frozenset(re.findall(r"CREATE TABLE (\w+)", _SCHEMA))
+"""The tables of the current layout (an opened database must have them all)."""
 
 _MIGRATIONS: dict[int, str] = {1: _LEARNING_TABLE}
 """For each old version, the statements that bring it to the next one."""
@@ -488,7 +492,13 @@ class Store:
         if "schema_version" not in rows or "config" not in rows:
             db.close()
             raise StoreError(f"{path} is not a revolve-env results database (meta table incomplete)")
-        version = int(rows["schema_version"])
+        try:
+            version = int(rows["schema_version"])
+        except ValueError:
+            db.close()
+            raise StoreError(
+                f"{path} has an unreadable schema version {rows['schema_version']!r}; corrupt?"
+            ) from None
         if version > SCHEMA_VERSION:
             db.close()
             raise StoreError(
@@ -505,6 +515,11 @@ class Store:
                     f"{SCHEMA_VERSION}, and could not be upgraded in place ({error}); open it "
                     "once with write access, or with the revolve-env version that wrote it"
                 ) from error
+        tables = {row[0] for row in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+        missing = sorted(_TABLES - tables)
+        if missing:
+            db.close()
+            raise StoreError(f"{path} is incomplete: table(s) {', '.join(missing)} missing; corrupt?")
         return cls(db, path)
 
     def close(self) -> None:

@@ -191,6 +191,15 @@ def test_corrupt_and_newer_databases(capsys: pytest.CaptureFixture[str], tmp_pat
     for command in ("resume", "report"):
         assert "schema version 7, newer" in _error(capsys, [command, str(newer)])
     assert "corrupt" in _error(capsys, ["show", "--db", str(corrupt), "--best"])
+    incomplete = tmp_path / "incomplete"
+    with Store.create(incomplete / DB_NAME, preset("quick").to_dict(), 0):
+        pass
+    con = sqlite3.connect(incomplete / DB_NAME)
+    con.execute("DROP TABLE robots")
+    con.commit()
+    con.close()
+    for command in ("resume", "report"):
+        assert "table(s) robots missing" in _error(capsys, [command, str(incomplete)])
 
 
 def test_bad_robot_inputs(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:

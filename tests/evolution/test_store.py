@@ -115,6 +115,20 @@ def test_open_errors_name_the_problem(tmp_path: Path) -> None:
     sqlite3.connect(other).execute("CREATE TABLE t (x)").connection.commit()
     with pytest.raises(StoreError, match="not a revolve-env results database"):
         Store.open(other)
+    broken = tmp_path / "broken.sqlite"
+    Store.create(broken, {}, 0).close()
+    db = sqlite3.connect(broken)
+    db.execute("DROP TABLE runs")
+    db.commit()
+    db.close()
+    with pytest.raises(StoreError, match="incomplete: table\\(s\\) runs missing"):
+        Store.open(broken)
+    db = sqlite3.connect(broken)
+    db.execute("UPDATE meta SET value = 'two' WHERE key = 'schema_version'")
+    db.commit()
+    db.close()
+    with pytest.raises(StoreError, match="unreadable schema version 'two'"):
+        Store.open(broken)
 
 
 def test_newer_schema_is_refused(tmp_path: Path) -> None:
