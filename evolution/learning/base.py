@@ -222,7 +222,7 @@ class TrainingCenter:
             result = self.run_learner(robot, rng)
         except LearnerError as error:
             return InfancyOutcome(robot, robot, None, str(error))
-        return InfancyOutcome(result.robot, result.robot if self.lamarckian else robot, result)
+        return InfancyOutcome(result.robot, self.genome_for_children(robot, result.robot), result)
 
     def genome_for_children(self, inborn: Robot, learned: Robot) -> Robot:
         """The genome a robot passes on: ``learned`` (Lamarckian) or ``inborn`` (Darwinian)."""
