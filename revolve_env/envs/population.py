@@ -7,6 +7,7 @@ test harness, a learner); each is one PettingZoo agent ``robot_<n>``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -192,7 +193,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     | max_placement_tries | 200      | random draws before a birth gives up                        |
     | trajectory_stride   | 1        | control periods between trajectory samples                  |
     | max_steps           | None     | truncate every robot after this many steps (None: never)    |
-    | control_period      | 1/60     | time per env step. Seconds (a multiple of 1/240 s)          |
+    | control_period      | None     | time per env step. Seconds (a multiple of the timestep);    |
+    |                     |          | None: world_config's (1/60 s by default)                    |
     | world_config        | None     | a :class:`~revolve_env.world.WorldConfig` (physics)         |
     | limits              | None     | validation limits (:class:`~revolve_env.body.validate.Limits`) |
     """
@@ -217,7 +219,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         max_placement_tries: int = 200,
         trajectory_stride: int = 1,
         max_steps: int | None = None,
-        control_period: float = 1.0 / 60.0,
+        control_period: float | None = None,
         world_config: WorldConfig | None = None,
         limits: Limits | None = None,
     ) -> None:
@@ -243,12 +245,10 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         if max_steps is not None and max_steps < 1:
             raise ValueError(f"max_steps must be >= 1 or None, got {max_steps}")
 
-        base = world_config if world_config is not None else WorldConfig()
-        if world_config is None or not math.isclose(base.control_period, control_period):
-            fields = {f: getattr(base, f) for f in base.__dataclass_fields__}
-            fields["control_period"] = control_period
-            base = WorldConfig(**fields)  # validates control_period against the timestep
-        self.config = base
+        config = world_config if world_config is not None else WorldConfig()
+        if control_period is not None:  # replace() validates it against the timestep
+            config = dataclasses.replace(config, control_period=control_period)
+        self.config = config
         self.max_births = max_births
         self.initial_robots = None if initial_robots is None else list(initial_robots)
         self.render_mode = render_mode

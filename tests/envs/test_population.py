@@ -355,3 +355,14 @@ def test_observe_gives_a_newborn_its_first_observation_and_refuses_the_dead() ->
     with pytest.raises(KeyError, match="unknown agent 'robot_7'"):
         env.observe("robot_7")
     env.close()
+
+
+def test_world_config_control_period_is_kept_unless_overridden() -> None:
+    """A world_config's own control period is not silently replaced by a default."""
+    from revolve_env.world import WorldConfig
+
+    slow = WorldConfig(control_period=1.0 / 30.0)
+    env = PopulationEnv(world_config=slow, initial_robots=())
+    assert env.config.control_period == slow.control_period
+    env2 = PopulationEnv(world_config=slow, control_period=1.0 / 60.0, initial_robots=())
+    assert env2.config.control_period == 1.0 / 60.0
