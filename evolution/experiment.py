@@ -421,11 +421,7 @@ def run(
         )
     if out.exists() and not out.is_dir():
         raise StoreError(f"{out} exists and is not a directory")
-    with Store.create(db_path, config.to_dict(), config.seed) as store:
-        from evolution.engine import run_seed
-
-        for run_id in range(config.runs):
-            store.add_run(run_id, run_seed(config.seed, run_id))
+    Store.create(db_path, config.to_dict(), config.seed).close()
     return _execute(config, db_path, progress, evaluator, world_factory, infancy)
 
 
@@ -468,11 +464,15 @@ def _execute(
     world_factory: Callable[..., Any] | None,
     infancy: Callable[..., Any] | None,
 ) -> ExperimentSummary:
-    from evolution.engine import RunJob, execute_run
+    from evolution.engine import RunJob, execute_run, run_seed
     from evolution.evaluators import make_evaluator
     from evolution.store import Store
 
     with Store.open(db_path) as store:
+        # Registering is idempotent, so a run killed before all its runs were registered
+        # resumes with every one of them.
+        for run_id in range(config.runs):
+            store.add_run(run_id, run_seed(config.seed, run_id))
         pending = [r.run_id for r in store.runs() if r.status != "finished"]
     jobs = [RunJob(str(db_path), run_id, config, world_factory, infancy) for run_id in pending]
     own = evaluator is None

@@ -164,3 +164,14 @@ def test_resuming_a_finished_experiment_changes_nothing(tmp_path: Path) -> None:
     summary = experiment.resume(out, evaluator=SERIAL)
     assert summary.runs == ()
     assert dump(out / "results.sqlite") == before
+
+
+def test_a_kill_before_all_runs_were_registered_resumes_every_run(tmp_path: Path) -> None:
+    """The database may exist with fewer runs than configured (killed right after creation)."""
+    config = small_preset("scenario2", births=20, runs=2)
+    out = tmp_path / "out"
+    out.mkdir()
+    Store.create(out / "results.sqlite", config.to_dict(), config.seed).close()  # then killed
+    summary = experiment.resume(out, evaluator=SERIAL)
+    assert sorted(r.run_id for r in summary.runs) == [0, 1]
+    assert dump(out / "results.sqlite") == _uninterrupted(config, tmp_path / "reference")
