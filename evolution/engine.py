@@ -739,6 +739,9 @@ class _OnlineRun(_Run):
         for _ in range(config.population_size):
             self.give_birth(0.0, random=True)
         self._commit_online(force=True)
+        # Tick k falls at k * interval, not a running sum, so float drift never delays a
+        # maturity or a birth by one tick (e.g. with a 0.1 s interval).
+        tick = 1
         next_tick = config.conception_interval
         while not self.done():
             self.update(next_tick)
@@ -748,7 +751,8 @@ class _OnlineRun(_Run):
             if self.births < config.births:
                 self.give_birth(next_tick)
             self.generation += 1
-            next_tick += config.conception_interval
+            tick += 1
+            next_tick = tick * config.conception_interval
             self._commit_online(force=self.done())
 
     def _commit_online(self, force: bool) -> None:
