@@ -46,8 +46,12 @@ def write_video(
     if len(shape) != 3 or shape[2] != 3:
         raise ValueError(f"frames must be RGB images (height, width, 3), got shape {shape}")
     for k, f in enumerate(frames):
-        if np.asarray(f).shape != shape:
-            raise ValueError(f"frame {k} has shape {np.asarray(f).shape}, frame 0 has {shape}")
+        a = np.asarray(f)
+        if a.shape != shape:
+            raise ValueError(f"frame {k} has shape {a.shape}, frame 0 has {shape}")
+        if a.dtype != np.uint8:
+            # A float image in [0, 1] cast to uint8 would come out black: refuse, do not guess.
+            raise ValueError(f"frame {k} must be uint8 RGB (0-255), got dtype {a.dtype}")
     if not fps > 0:
         raise ValueError(f"fps must be positive, got {fps}")
     suffix = out.suffix.lower()

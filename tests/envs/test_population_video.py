@@ -95,3 +95,9 @@ def test_record_video_of_a_run_with_a_birth(tmp_path: Path) -> None:
     with Image.open(out) as im:
         assert im.n_frames == 4 and im.size == (64, 48)
     assert env.agents == ["robot_0", "robot_1"]
+
+
+def test_float_frames_are_refused_rather_than_written_black(tmp_path: Path) -> None:
+    frames = [np.full((8, 8, 3), 0.5)] * 2
+    with pytest.raises(ValueError, match="uint8"):
+        write_video(frames, tmp_path / "v.gif", fps=10)
