@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import hashlib
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -145,3 +147,32 @@ def fake_evaluate_after_infancy(task: EvalTask) -> EvalOutcome:
     from evolution.evaluators import evaluate_after_infancy
 
     return evaluate_after_infancy(task, fake_evaluate)
+
+
+class CtrlCEvaluator:
+    """An in-process evaluator that raises KeyboardInterrupt (Ctrl-C) at its n-th evaluation.
+
+    ``function`` evaluates each task (the fake physics by default; pass
+    ``evolution.evaluators.evaluate_task`` for the real one, Training Center included).
+    """
+
+    workers = 1
+
+    def __init__(self, n: int, function: Callable[[EvalTask], EvalOutcome] = fake_evaluate) -> None:
+        self.left = n
+        self.function = function
+
+    def evaluate(self, tasks: list[EvalTask]) -> list[EvalOutcome]:
+        out = []
+        for task in tasks:
+            self.left -= 1
+            if self.left == 0:
+                raise KeyboardInterrupt
+            out.append(self.function(task))
+        return out
+
+    def run_jobs(self, fn: Any, jobs: list[Any], on_event: Any = None) -> list[Any]:
+        return [fn(job, self, on_event or (lambda e: None)) for job in jobs]
+
+    def close(self) -> None:
+        pass

@@ -16,12 +16,12 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from experiment_fakes import fake_evaluate
+from experiment_fakes import CtrlCEvaluator, fake_evaluate
 
 from evolution import evaluators
 from evolution.cli import ProgressBar, build_parser, main, resolve_config, shipped_configs
 from evolution.engine import ProgressEvent
-from evolution.evaluators import EvalOutcome, EvalTask, LocalEvaluator
+from evolution.evaluators import LocalEvaluator, evaluate_task
 from evolution.experiment import ConfigError, ExperimentConfig, preset
 from evolution.store import DB_NAME, Store
 
@@ -246,33 +246,9 @@ def test_run_then_report(fake_physics: None, tmp_path: Path,
     assert (report_dir / "summary.md").is_file()
 
 
-class _CtrlC:
-    """An in-process evaluator that raises KeyboardInterrupt at its n-th evaluation."""
-
-    workers = 1
-
-    def __init__(self, n: int) -> None:
-        self.left = n
-
-    def evaluate(self, tasks: list[EvalTask]) -> list[EvalOutcome]:
-        out = []
-        for task in tasks:
-            self.left -= 1
-            if self.left == 0:
-                raise KeyboardInterrupt
-            out.append(fake_evaluate(task))
-        return out
-
-    def run_jobs(self, fn: Any, jobs: list[Any], on_event: Any = None) -> list[Any]:
-        return [fn(job, self, on_event or (lambda e: None)) for job in jobs]
-
-    def close(self) -> None:
-        pass
-
-
 def test_ctrl_c_then_resume(monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
                             capsys: pytest.CaptureFixture[str]) -> None:
-    monkeypatch.setattr(evaluators, "make_evaluator", lambda *a, **k: _CtrlC(15 + 15 + 4))
+    monkeypatch.setattr(evaluators, "make_evaluator", lambda *a, **k: CtrlCEvaluator(15 + 15 + 4))
     argv = ["run", "scenario1", "--runs", "1", "--births", "45", "--out", str(tmp_path), *SMALL]
     assert main(argv) == 130
     err = capsys.readouterr().err
@@ -555,33 +531,6 @@ def test_run_help_names_the_learning_configs(capsys: pytest.CaptureFixture[str])
     assert "scenario1_learning" in out and "scenario3_learning" in out and "[learning]" in out
 
 
-class _CtrlCReal:
-    """An in-process evaluator on the real physics (Training Center included) that raises
-    KeyboardInterrupt at its n-th evaluation."""
-
-    workers = 1
-
-    def __init__(self, n: int) -> None:
-        self.left = n
-
-    def evaluate(self, tasks: list[EvalTask]) -> list[EvalOutcome]:
-        from evolution.evaluators import evaluate_task
-
-        out = []
-        for task in tasks:
-            self.left -= 1
-            if self.left == 0:
-                raise KeyboardInterrupt
-            out.append(evaluate_task(task))
-        return out
-
-    def run_jobs(self, fn: Any, jobs: list[Any], on_event: Any = None) -> list[Any]:
-        return [fn(job, self, on_event or (lambda e: None)) for job in jobs]
-
-    def close(self) -> None:
-        pass
-
-
 def test_learning_run_ctrl_c_then_resume_rebuilds_the_learner(
         monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     config = _tiny_learning(tmp_path)
@@ -589,7 +538,8 @@ def test_learning_run_ctrl_c_then_resume_rebuilds_the_learner(
     reference = _learning_dump(tmp_path / "reference" / "tiny_learning" / DB_NAME)
 
     real = evaluators.make_evaluator
-    monkeypatch.setattr(evaluators, "make_evaluator", lambda *a, **k: _CtrlCReal(2 + 1))
+    monkeypatch.setattr(evaluators, "make_evaluator",
+                        lambda *a, **k: CtrlCEvaluator(2 + 1, evaluate_task))
     assert main(["run", str(config), "--out", str(tmp_path / "killed")]) == 130
     killed = tmp_path / "killed" / "tiny_learning"
     with Store.open(killed / DB_NAME) as store:

@@ -7,11 +7,11 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from experiment_fakes import fake_evaluate, fake_world, small
+from experiment_fakes import CtrlCEvaluator, fake_evaluate, fake_world, small
 
 from evolution import experiment
 from evolution.engine import ProgressEvent
-from evolution.evaluators import EvalOutcome, EvalTask, LocalEvaluator
+from evolution.evaluators import LocalEvaluator
 from evolution.experiment import ExperimentConfig, preset
 from evolution.store import Store, StoreError
 
@@ -70,35 +70,12 @@ def test_offline_kill_and_resume_equals_uninterrupted(
     assert dump(out / "results.sqlite") == {**reference}
 
 
-class _Interrupting:
-    """An in-process evaluator that raises KeyboardInterrupt (Ctrl-C) at its n-th evaluation."""
-
-    def __init__(self, n: int) -> None:
-        self.left = n
-        self.workers = 1
-
-    def evaluate(self, tasks: list[EvalTask]) -> list[EvalOutcome]:
-        out = []
-        for task in tasks:
-            self.left -= 1
-            if self.left == 0:
-                raise KeyboardInterrupt
-            out.append(fake_evaluate(task))
-        return out
-
-    def run_jobs(self, fn: Any, jobs: list[Any], on_event: Any = None) -> list[Any]:
-        return [fn(job, self, on_event or (lambda e: None)) for job in jobs]
-
-    def close(self) -> None:
-        pass
-
-
 def test_ctrl_c_mid_generation_keeps_finished_generations(tmp_path: Path) -> None:
     config = small_preset("scenario1", births=75)
     reference = _uninterrupted(config, tmp_path / "ref")
     out = tmp_path / "killed"
     with pytest.raises(KeyboardInterrupt):
-        experiment.run(config, out, evaluator=_Interrupting(15 + 15 + 7))
+        experiment.run(config, out, evaluator=CtrlCEvaluator(15 + 15 + 7))
     with Store.open(out / "results.sqlite") as store:
         assert store.runs()[0].status == "interrupted"
         assert store.checkpoint(0).births == 30  # the half-done third generation is not stored
