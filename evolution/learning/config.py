@@ -27,9 +27,7 @@ inspection, or to pass as ``infancy=``: the same center is accepted);
 from __future__ import annotations
 
 import os
-import tomllib
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
 
 from evolution.learning.base import TrainingCenter
@@ -99,18 +97,7 @@ def load_learning_experiment(path: str | os.PathLike[str]) -> tuple[Any, Trainin
         ConfigError: unreadable or invalid TOML, or an invalid experiment or learning table
             (the message names the file).
     """
-    from evolution.experiment import ConfigError, ExperimentConfig
+    from evolution.experiment import ExperimentConfig
 
-    path = Path(path)
-    try:
-        with open(path, "rb") as f:
-            data = tomllib.load(f)
-    except OSError as error:
-        raise ConfigError(f"cannot read experiment config {path}: {error}") from error
-    except tomllib.TOMLDecodeError as error:
-        raise ConfigError(f"{path} is not valid TOML: {error}") from error
-    try:
-        config = ExperimentConfig.from_dict(data)
-    except (ValueError, TypeError) as error:
-        raise ConfigError(f"{path}: {error}") from error
+    config = ExperimentConfig.from_toml(path)  # keeps the [learning] table as config.learning
     return config, config.training_center()
