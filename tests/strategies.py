@@ -108,8 +108,9 @@ def robots(
     counter = iter(range(10**6))
 
     def new_id() -> str:
-        # Unique by the running number; the random suffix exercises JSON string escaping.
-        return f"n{next(counter)}{draw(st.text(max_size=3))}"
+        # Unique by the running number, which the colon ends ("n1" + "0" would equal "n10" + "");
+        # the random suffix exercises JSON string escaping.
+        return f"n{next(counter)}:{draw(st.text(max_size=3))}"
 
     def sensor_neurons(part: PartType) -> list[Neuron]:
         spec = PART_SPECS[part]
