@@ -19,9 +19,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from evolution import experiment
-from evolution.evaluators import EvalOutcome, EvalTask, LocalEvaluator, evaluate_task
-from evolution.experiment import preset
+from evolution import experiments
+from evolution.evaluation import EvalOutcome, EvalTask, LocalEvaluator
+from evolution.evaluation import evaluate_task
+from evolution.experiments import preset
 
 EXPERIMENTS = ("scenario1", "scenario2", "scenario3", "baseline_a", "baseline_b")
 STUDY_RUNS, STUDY_BIRTHS = 30, 3000
@@ -50,7 +51,7 @@ def main() -> None:
             events: list = []
             start = time.perf_counter()
             try:
-                experiment.run(config, Path(tmp) / "out", events.append, evaluator=evaluator)
+                experiments.run(config, Path(tmp) / "out", events.append, evaluator=evaluator)
             except ImportError as error:
                 print(f"{name:<12} unavailable: {error}")
                 continue

@@ -2,7 +2,7 @@
 
 Prints:
 
-1. CMA-ES candidate evaluations per second (brain-driven, ``evolution.evaluators.evaluate_task``)
+1. CMA-ES candidate evaluations per second (brain-driven, ``evolution.evaluation.pool.evaluate_task``)
    with 1 and 2 worker processes, and the simulated seconds per wall-clock second.
 2. Inborn vs learned fitness of a few random robots (CMA-ES and the random-search baseline, the
    same budget).
@@ -25,8 +25,9 @@ from pathlib import Path
 import numpy as np
 
 from evolution.config import EvolutionConfig
-from evolution.evaluators import EvalTask, LocalEvaluator, evaluate_task
-from evolution.experiment import ExperimentConfig, run
+from evolution.evaluation import EvalTask, LocalEvaluator
+from evolution.evaluation import evaluate_task
+from evolution.experiments import ExperimentConfig, run
 from evolution.learning import (
     CandidateEvaluation,
     CMAESLearner,

@@ -1,7 +1,24 @@
 """Evolution of modular robots: configuration, random robots, operators, selection, diversity.
 
-Pure Python over the robot descriptions of :mod:`revolve_env.body`; never imports pybullet.
+The package itself is the pure evolutionary library (pure Python over the robot descriptions of
+:mod:`revolve_env.body`; it never imports a physics engine). The application around it lives in
+its own subpackages, each importing only the layers below it:
+
+* :mod:`evolution.evaluation`: isolated evaluations and worker pools;
+* :mod:`evolution.learning`: infancy learning (the Training Center);
+* :mod:`evolution.experiments`: the scenarios, both engines, the results store;
+* :mod:`evolution.reporting`: tables, statistics and figures of stored results;
+* :mod:`evolution.cli`: the ``revolve`` command, a thin layer over the Python API.
+
+For convenience ``evolution.run``, ``evolution.resume``, ``evolution.report`` and the experiment
+types are served lazily (PEP 562) from those subpackages: importing :mod:`evolution` loads none
+of them.
 """
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
 
 from evolution.config import EvolutionConfig
 from evolution.diversity import diversity, pairwise_distances, tree_edit_distance
@@ -20,6 +37,7 @@ from evolution.operators import (
     reproduce,
     swap_subtrees,
 )
+from evolution.lifecycle import Lifecycle, LifecycleError, Stage
 from evolution.random_robot import (
     RandomRobotError,
     RandomRobotResult,
@@ -61,16 +79,31 @@ __all__ = [
     "swap_subtrees",
     "tournament",
     "tree_edit_distance",
+    "Lifecycle",
+    "LifecycleError",
+    "Stage",
 ]
-from evolution.evaluators import LocalEvaluator, RayEvaluator
-from evolution.experiment import ConfigError, ExperimentConfig, preset, resume, run
-from evolution.lifecycle import Lifecycle, LifecycleError, Stage
-from evolution.store import Store, StoreError
 
-__all__ += [
-    "ConfigError", "ExperimentConfig", "Lifecycle", "LifecycleError", "LocalEvaluator",
-    "RayEvaluator", "Stage", "Store", "StoreError", "preset", "resume", "run",
-]
-from evolution.reporting import report
+# The application's public names, served lazily so that the library never imports them.
+_LAZY = {
+    "ConfigError": "evolution.experiments",
+    "ExperimentConfig": "evolution.experiments",
+    "Store": "evolution.experiments",
+    "StoreError": "evolution.experiments",
+    "preset": "evolution.experiments",
+    "resume": "evolution.experiments",
+    "run": "evolution.experiments",
+    "LocalEvaluator": "evolution.evaluation",
+    "RayEvaluator": "evolution.evaluation",
+    "report": "evolution.reporting",
+}
 
-__all__ += ["report"]
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'evolution' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(list(globals()) + list(_LAZY))

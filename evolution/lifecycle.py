@@ -24,16 +24,17 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import TYPE_CHECKING
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from revolve_env.body.robot import Robot
+from revolve_env.body.robot import Robot
 
 __all__ = [
     "LEGAL_TRANSITIONS",
     "InfancyHook",
+    "LearningSummary",
+    "SummarizingInfancyHook",
     "Lifecycle",
     "LifecycleError",
     "LifecycleTiming",
@@ -62,10 +63,46 @@ LEGAL_TRANSITIONS: dict[Stage | None, frozenset[Stage]] = {
 }
 """For each stage (``None``: not yet conceived), the stages it may move to."""
 
-InfancyHook = Callable[["Robot", np.random.Generator], "Robot"]
+InfancyHook = Callable[[Robot, np.random.Generator], Robot]
 """A Training Center learner: takes the delivered robot and a generator, returns the robot with
 its learned brain (same body). Called once when infancy begins. Without a hook infancy only waits
 until the robot is fertile."""
+
+
+@dataclass(frozen=True, slots=True)
+class LearningSummary:
+    """What the Training Center's learner reported for one infant.
+
+    Attributes:
+        inborn_fitness: Fitness of the inborn controller as the learner measured it (its own
+            candidate evaluation, not the experiment's); ``None`` when unknown (a plain hook).
+            Metres.
+        learned_fitness: Fitness of the learned controller as the learner measured it; ``None``
+            when unknown. Metres.
+        evaluations: Evaluations (or training episodes) the learner ran; ``None`` when unknown.
+        sim_seconds: Simulated seconds the learner used in its own Training Center simulations;
+            ``None`` when unknown. Seconds.
+        failures: Learner evaluations that failed (blow-ups).
+    """
+
+    inborn_fitness: float | None = None
+    learned_fitness: float | None = None
+    evaluations: int | None = None
+    sim_seconds: float | None = None
+    failures: int = 0
+
+
+@runtime_checkable
+class SummarizingInfancyHook(Protocol):
+    """An infancy hook that also reports its learner's numbers (the
+    :class:`~evolution.learning.TrainingCenter` is one)."""
+
+    def __call__(self, robot: Robot, rng: np.random.Generator) -> Robot:
+        """The robot with its learned controller."""
+
+    def learn_with_summary(self, robot: Robot,
+                           rng: np.random.Generator) -> tuple[Robot, LearningSummary]:
+        """The robot with its learned controller, and what the learner measured."""
 
 
 class LifecycleError(ValueError):

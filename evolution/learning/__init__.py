@@ -9,7 +9,7 @@
 * :class:`TrainingCenter`: a learner + budget + Darwinian/Lamarckian inheritance, usable as the
   lifecycle's infancy hook.
 
-Engine integration (:mod:`evolution.engine`). Pass ``infancy=center`` to :func:`evolution.run`
+Engine integration (:mod:`evolution.experiments`). Pass ``infancy=center`` to :func:`evolution.run`
 (and the same center to :func:`evolution.resume`); both engines use it. Offline, the evaluator
 runs the infancy in the worker before the robot's evaluation; online, the engine runs it before
 the robot enters the shared world. The Training Center is a separate simulation: it does not
@@ -32,14 +32,11 @@ from evolution.learning.base import (
     Learner,
     LearnerError,
     LearningResult,
+    RobotPolicy,
     TrainingCenter,
     same_body,
 )
-from evolution.learning.config import (
-    LEARNERS,
-    load_learning_experiment,
-    training_center_from_dict,
-)
+from evolution.learning.config import LEARNERS, training_center_from_dict
 from evolution.learning.params import (
     CandidateEvaluation,
     CMAESLearner,
@@ -60,11 +57,11 @@ __all__ = [
     "LearningResult",
     "PolicyAgent",
     "RandomSearchLearner",
+    "RobotPolicy",
     "SB3Learner",
     "TrainingCenter",
     "evaluate_in_env",
     "evaluate_params",
-    "load_learning_experiment",
     "rollout_fitness",
     "same_body",
     "training_center_from_dict",

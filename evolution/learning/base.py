@@ -21,14 +21,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal, Protocol, runtime_checkable
+from typing import Any, Literal, Protocol, runtime_checkable
 
 import numpy as np
 
-from revolve_env.body.robot import Robot
+from numpy.typing import NDArray
 
-if TYPE_CHECKING:
-    from evolution.learning.sb3 import PolicyAgent
+from evolution.lifecycle import LearningSummary
+from revolve_env.body.robot import Robot
 
 __all__ = [
     "InfancyOutcome",
@@ -36,10 +36,22 @@ __all__ = [
     "Learner",
     "LearnerError",
     "LearningResult",
+    "RobotPolicy",
     "TrainingCenter",
     "check_budget",
     "same_body",
 ]
+
+
+class RobotPolicy(Protocol):
+    """A controller learned outside the genome (e.g. :class:`~evolution.learning.PolicyAgent`)."""
+
+    def reset(self) -> None:
+        """Start a new episode."""
+
+    def act(self, observation: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Normalised hinge targets in [-1, 1] for one observation of the robot's sensors."""
+
 
 Inheritance = Literal["darwinian", "lamarckian"]
 """What a robot passes to its children: its inborn genome, or the genome with learned params."""
@@ -77,7 +89,7 @@ class LearningResult:
     evaluations: int
     sim_seconds: float
     failures: int = 0
-    policy: PolicyAgent | None = None
+    policy: RobotPolicy | None = None
 
     @property
     def best_so_far(self) -> np.ndarray:
@@ -224,6 +236,18 @@ class TrainingCenter:
             return InfancyOutcome(robot, robot, None, str(error))
         return InfancyOutcome(result.robot, self.genome_for_children(robot, result.robot), result)
 
+    def learn_with_summary(self, robot: Robot,
+                           rng: np.random.Generator) -> tuple[Robot, LearningSummary]:
+        """The infancy hook with the learner's numbers, for the engine's learning records.
+
+        Raises:
+            LearnerError: learning failed; the caller keeps the inborn robot and records it.
+        """
+        result = self.run_learner(robot, rng)
+        return result.robot, LearningSummary(
+            _float_or_none(result.inborn_fitness), _float_or_none(result.best_fitness),
+            int(result.evaluations), float(result.sim_seconds), int(result.failures))
+
     def genome_for_children(self, inborn: Robot, learned: Robot) -> Robot:
         """The genome a robot passes on: ``learned`` (Lamarckian) or ``inborn`` (Darwinian)."""
         return learned if self.lamarckian else inborn
@@ -235,3 +259,10 @@ class TrainingCenter:
             LearnerError: learning failed; the caller keeps the inborn robot and records it.
         """
         return self.run_learner(robot, rng).robot
+
+
+def _float_or_none(value: float | None) -> float | None:
+    if value is None:
+        return None
+    value = float(value)
+    return value if math.isfinite(value) else None

@@ -1,7 +1,7 @@
 """Learning settings in experiment configs: the ``[learning]`` table.
 
 An experiment config with learning is an ordinary experiment TOML (see
-:class:`~evolution.experiment.ExperimentConfig`) plus a ``[learning]`` table::
+:class:`~evolution.experiments.config.ExperimentConfig`) plus a ``[learning]`` table::
 
     [learning]
     learner     = "cma-es"       # "cma-es", "random-search" or "sb3"
@@ -15,25 +15,25 @@ An experiment config with learning is an ordinary experiment TOML (see
     # sb3 only: algorithm = "PPO", action = "modulate", n_envs = 2, vec_env = "subproc",
     #           control_period = 0.0166667, algorithm_kwargs = { n_steps = 256 }
 
-:class:`~evolution.experiment.ExperimentConfig` keeps the table (``config.learning``): it is
+:class:`~evolution.experiments.config.ExperimentConfig` keeps the table (``config.learning``): it is
 stored with the results, :func:`evolution.run` builds the Training Center from it, and
 :func:`evolution.resume` (``revolve resume``) rebuilds the same one. ``revolve run FILE.toml`` and
 the shipped ``scenario1_learning`` / ``scenario3_learning`` configs go this way.
-:func:`load_learning_experiment` reads such a file and also returns the Training Center (for
-inspection, or to pass as ``infancy=``: the same center is accepted);
-:func:`training_center_from_dict` builds the center from the table alone.
+:meth:`ExperimentConfig.training_center` gives the center of a config (for inspection, or to
+pass as ``infancy=``: the same center is accepted); :func:`training_center_from_dict` builds the
+center from the table alone.
 """
 
 from __future__ import annotations
 
-import os
 from collections.abc import Mapping
 from typing import Any
 
 from evolution.learning.base import TrainingCenter
 from evolution.learning.params import CandidateEvaluation, CMAESLearner, RandomSearchLearner
+from evolution.learning.sb3 import SB3Learner
 
-__all__ = ["LEARNERS", "load_learning_experiment", "training_center_from_dict"]
+__all__ = ["LEARNERS", "training_center_from_dict"]
 
 LEARNERS = ("cma-es", "random-search", "sb3")
 """Names accepted by ``learner``."""
@@ -67,8 +67,6 @@ def training_center_from_dict(data: Mapping[str, Any]) -> TrainingCenter:
     timing: dict[str, Any] = {k: float(data[k]) for k in ("insertion", "seconds") if k in data}
     learner: Any
     if name == "sb3":
-        from evolution.learning.sb3 import SB3Learner
-
         kwargs = {k: data[k] for k in ("algorithm", "policy", "action", "n_envs", "vec_env",
                                        "control_period") if k in data}
         learner = SB3Learner(**kwargs, **timing,
@@ -83,21 +81,3 @@ def training_center_from_dict(data: Mapping[str, Any]) -> TrainingCenter:
                                           batch_size=int(data.get("popsize", 8)),
                                           evaluation=evaluation)
     return TrainingCenter(learner, float(data["budget"]), data.get("inheritance", "darwinian"))
-
-
-def load_learning_experiment(path: str | os.PathLike[str]) -> tuple[Any, TrainingCenter | None]:
-    """An experiment TOML with an optional ``[learning]`` table.
-
-    Returns:
-        The :class:`~evolution.experiment.ExperimentConfig` (with the table as
-        ``config.learning``) and its Training Center (``None`` without a ``[learning]`` table).
-        ``evolution.run(config, out_dir)`` learns with that center and stores the table.
-
-    Raises:
-        ConfigError: unreadable or invalid TOML, or an invalid experiment or learning table
-            (the message names the file).
-    """
-    from evolution.experiment import ExperimentConfig
-
-    config = ExperimentConfig.from_toml(path)  # keeps the [learning] table as config.learning
-    return config, config.training_center()

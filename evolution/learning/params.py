@@ -3,7 +3,7 @@
 Both search in *normalised* coordinates, ``x = (p - low) / (high - low)`` in ``[0, 1]`` per
 parameter (bounds from :func:`revolve_env.brain.param_bounds`), so one step size fits weights
 (-2..2), periods (0.25..4 s) and phases (0..1) alike. Candidates are evaluated with the robot's
-own network driving it (:func:`evolution.evaluators.evaluate_task`, i.e.
+own network driving it (:func:`evolution.evaluation.evaluate_task`, i.e.
 :func:`revolve_env.evaluate`), in worker processes when ``workers > 1``.
 
 Determinism: every candidate of one learning run is evaluated with the same seed (drawn once from
@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from evolution.evaluators import (
+from evolution.evaluation import (
     EvalOutcome,
     EvalTask,
     EvaluateFunction,
@@ -32,6 +32,7 @@ from evolution.evaluators import (
 )
 from evolution.learning.base import LearningResult, check_budget
 from revolve_env.body.robot import Robot
+from revolve_env.brain import get_params, param_bounds, set_params
 
 __all__ = [
     "CMAESLearner",
@@ -45,16 +46,15 @@ __all__ = [
 def evaluate_in_env(task: EvalTask) -> EvalOutcome:
     """Brain-driven evaluation through ``revolve_env/Locomotion-v0`` (``controller="brain"``).
 
-    Same task and outcome types as :func:`~evolution.evaluators.evaluate_task`; an alternative
+    Same task and outcome types as :func:`~evolution.evaluation.evaluate_task`; an alternative
     evaluation function for :class:`CandidateEvaluation` that goes through the Gym env (one
     episode: ``task.insertion`` then a ``task.seconds`` fitness window).
     """
     from gymnasium.spaces import Box
 
-    from revolve_env.body.serialize import from_json
-    from revolve_env.envs import LocomotionEnv
+    from revolve_env.envs import LocomotionEnv  # loads the physics engine: only when used
 
-    env = LocomotionEnv(from_json(task.genome), controller="brain", insertion_time=task.insertion,
+    env = LocomotionEnv(task.robot, controller="brain", insertion_time=task.insertion,
                         evaluation_time=task.seconds, fitness_window=task.seconds)
     try:
         env.reset(seed=task.seed)
@@ -80,7 +80,7 @@ class CandidateEvaluation:
         seconds: Fitness window. Seconds.
         workers: Processes evaluating candidates at once (1: in this process).
         function: Picklable ``EvalTask -> EvalOutcome`` (default: brain-driven
-            :func:`~evolution.evaluators.evaluate_task`).
+            :func:`~evolution.evaluation.evaluate_task`).
     """
 
     insertion: float = 1.0
@@ -116,11 +116,8 @@ def evaluate_params(
     Returns:
         The fitness of each candidate (metres) and the number of failed evaluations.
     """
-    from revolve_env.body.serialize import to_json
-    from revolve_env.brain import set_params
-
     tasks = [
-        EvalTask(i, to_json(set_params(robot, p), indent=None), evaluation.insertion,
+        EvalTask(i, set_params(robot, p), evaluation.insertion,
                  evaluation.seconds, seed)
         for i, p in enumerate(candidates)
     ]
@@ -145,8 +142,6 @@ class _Search:
 
     def __init__(self, robot: Robot, budget: float, rng: np.random.Generator,
                  evaluation: CandidateEvaluation) -> None:
-        from revolve_env.brain import get_params, param_bounds
-
         self.robot = robot
         self.evaluation = evaluation
         self.inborn = get_params(robot)
@@ -188,8 +183,6 @@ class _Search:
         return fitness
 
     def result(self) -> LearningResult:
-        from revolve_env.brain import set_params
-
         inborn = self.fitness[0] if self.fitness else math.nan
         best = self.best_fitness if self.fitness else math.nan
         return LearningResult(

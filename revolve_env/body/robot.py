@@ -20,10 +20,6 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from enum import Enum
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:  # validate imports this module; the type is only needed by the checker
-    from revolve_env.body.validate import Limits
 
 __all__ = [
     "ACTIVATION_PARAMS",
@@ -231,27 +227,6 @@ class Robot:
     def neuron_paths(self) -> dict[str, Path]:
         """Map each neuron id to the path of the part that carries it."""
         return {nr.id: p for p, n in self.walk() for nr in n.neurons}
-
-    def validate(self, limits: Limits | None = None) -> None:
-        """Check the robot; raise ``RobotError`` naming the node and rule (see ``body.validate``)."""
-        from revolve_env.body.validate import validate
-
-        validate(self, limits)
-
-    # -- JSON (see ``body.serialize`` and docs/robot-json-schema.md) ----------------------------
-    def to_json(self, *, indent: int | None = 1) -> str:
-        """This robot as JSON (schema ``revolve-env/robot``); see ``body.serialize.to_json``."""
-        from revolve_env.body.serialize import to_json
-
-        return to_json(self, indent=indent)
-
-    @classmethod
-    def from_json(cls, text: str | bytes, limits: Limits | None = None, *, check: bool = True
-                  ) -> Robot:
-        """Parse and validate a robot from JSON; see ``body.serialize.from_json``."""
-        from revolve_env.body.serialize import from_json
-
-        return from_json(text, limits, check=check)
 
     # -- functional updates ------------------------------------------------------------------
     def replace_node(self, path: Path, new: Node | None) -> Robot:

@@ -40,7 +40,7 @@ def test_json_round_trip_is_exact(robot: Robot) -> None:
     assert hash(back) == hash(robot)
     assert to_json(back) == text  # the writer is deterministic
     assert from_json(to_json(robot, indent=None)) == robot
-    assert Robot.from_json(robot.to_json()) == robot
+    assert from_json(to_json(robot)) == robot
 
 
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -224,7 +224,7 @@ def test_reading_validates_with_overridable_limits() -> None:
         from_json(text, Limits(max_parts=10))
     assert info.value.rule == "max-parts"
     assert from_json(text, Limits(max_parts=17)) == example("spider")
-    assert Robot.from_json(text, Limits(max_outputs=8)) == example("spider")
+    assert from_json(text, Limits(max_outputs=8)) == example("spider")
 
 
 def test_invalid_robot_is_refused_unless_check_is_off(tmp_path: Path) -> None:

@@ -196,7 +196,7 @@ def test_ring_of_three_bricks_fits_but_four_close_onto_the_core() -> None:
 def test_every_example_is_valid(name: str) -> None:
     robot = example(name)
     validate(robot)
-    robot.validate()
+    validate(robot)
     assert robot == EXAMPLES[name]()  # builders are pure
 
 

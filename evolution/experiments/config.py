@@ -1,16 +1,17 @@
-"""Experiment configuration and the Python API: ``run(config, out_dir)`` and ``resume(out_dir)``.
+"""Experiment configuration: :class:`ExperimentConfig`, and shipped configs by name.
 
-One engine runs every scenario; a scenario is an :class:`ExperimentConfig`:
+One engine runs every scenario; a scenario is an :class:`ExperimentConfig`. The shipped ones
+(:mod:`~evolution.experiments.registry`; 30 runs each unless named otherwise):
 
 ============ ======= ==================== ================ ===================
-preset        engine  population/offspring new robots       survivor selection
+name          engine  population/offspring new robots       survivor selection
 ============ ======= ==================== ================ ===================
 scenario1     offline 15 + 15              reproduction     fitness (15 fittest)
 scenario2     offline 15 + 1               reproduction     fitness
 scenario3     online  15 at start, 8..30   reproduction     online rule
 baseline_a    offline 15 + 15              random robots    fitness
 baseline_b    offline 15 + 15              reproduction     random
-quick         offline 15 + 15, 150 births  reproduction     fitness
+quick         offline 15 + 15, 150 births  reproduction     fitness (1 run)
 ============ ======= ==================== ================ ===================
 
 The baselines run on the offline (15+15) engine by default: it is the cheapest setup (isolated
@@ -23,30 +24,20 @@ uniformly).
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import os
-import tomllib
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 from evolution.config import EvolutionConfig
+from evolution.experiments.errors import ConfigError
+from evolution.experiments.registry import read_toml, shipped_config, shipped_configs
+from evolution.learning import TrainingCenter, training_center_from_dict
 
-__all__ = [
-    "PRESETS",
-    "ConfigError",
-    "ExperimentConfig",
-    "ExperimentSummary",
-    "ProgressCallback",
-    "preset",
-    "resume",
-    "run",
-]
-
-
-class ConfigError(ValueError):
-    """An experiment configuration that cannot be run (unknown key, value out of range, ...)."""
+__all__ = ["ConfigError", "ExperimentConfig", "load_config", "preset"]
 
 
 _CHOICES: dict[str, tuple[str, ...]] = {
@@ -226,7 +217,9 @@ class ExperimentConfig:
         base: dict[str, Any] = {}
         if "preset" in data:
             name = data.pop("preset")
-            base = preset(name).to_dict()
+            if not isinstance(name, str):
+                raise ConfigError(f"preset must be the name of a shipped config, got {name!r}")
+            base = cls.from_toml(shipped_config(name)).to_dict()
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(data) - known)
         if unknown:
@@ -265,13 +258,7 @@ class ExperimentConfig:
             ConfigError: unreadable or invalid TOML, or an invalid configuration (with the path).
         """
         path = Path(path)
-        try:
-            with open(path, "rb") as f:
-                data = tomllib.load(f)
-        except OSError as error:
-            raise ConfigError(f"cannot read experiment config {path}: {error}") from error
-        except tomllib.TOMLDecodeError as error:
-            raise ConfigError(f"{path} is not valid TOML: {error}") from error
+        data = read_toml(path)
         try:
             return cls.from_dict(data)
         except ConfigError as error:
@@ -281,7 +268,7 @@ class ExperimentConfig:
         """A copy with some fields changed (validated)."""
         return dataclasses.replace(self, **changes)
 
-    def training_center(self) -> Any:
+    def training_center(self) -> TrainingCenter | None:
         """The :class:`~evolution.learning.TrainingCenter` of :attr:`learning` (``None`` without).
 
         Raises:
@@ -289,8 +276,6 @@ class ExperimentConfig:
         """
         if self.learning is None:
             return None
-        from evolution.learning.config import training_center_from_dict
-
         try:
             return training_center_from_dict(self.learning)
         except (TypeError, ValueError) as error:
@@ -302,30 +287,57 @@ class ExperimentConfig:
         return self.insertion + self.evaluation_time
 
 
-def _scenario1() -> ExperimentConfig:
-    return ExperimentConfig(name="scenario1")
+def load_config(name_or_path: str | os.PathLike[str],
+                overrides: Mapping[str, Any] | None = None) -> ExperimentConfig:
+    """An experiment config from a shipped name or a TOML path, with some keys changed.
 
+    Args:
+        name_or_path: A shipped config name (``scenario1``, ..., ``quick``,
+            ``scenario1_learning``, ...; :mod:`~evolution.experiments.registry`) or a TOML file
+            (with an optional ``[learning]`` table).
+        overrides: Config keys to change (``evolution`` and ``learning`` as nested tables,
+            merged key by key into the config's).
 
-PRESETS: dict[str, Callable[[], ExperimentConfig]] = {
-    "scenario1": _scenario1,
-    "scenario2": lambda: ExperimentConfig(name="scenario2", offspring_size=1),
-    "scenario3": lambda: ExperimentConfig(name="scenario3", engine="online"),
-    "baseline_a": lambda: ExperimentConfig(name="baseline_a", new_robots="random"),
-    "baseline_b": lambda: ExperimentConfig(name="baseline_b", survivor_selection="random"),
-    "quick": lambda: ExperimentConfig(name="quick", births=150),
-}
-"""Named configurations: the paper's five experiments and a quick one."""
+    Raises:
+        ConfigError: unknown name, unreadable file, unknown key or value out of range.
+    """
+    path = Path(name_or_path)
+    if path.suffix == ".toml" or path.is_file():
+        if not path.is_file():
+            raise ConfigError(f"no such config file: {path}")
+        config = ExperimentConfig.from_toml(path)
+    elif str(name_or_path) in shipped_configs():
+        config = ExperimentConfig.from_toml(shipped_config(str(name_or_path)))
+    else:
+        raise ConfigError(
+            f"unknown scenario {str(name_or_path)!r}; known: {', '.join(sorted(shipped_configs()))} "
+            "(or give the path of a TOML config file)")
+    if not overrides:
+        return config
+    data = config.to_dict()
+    nested = ("evolution", "learning")
+    for table in nested:
+        value = overrides.get(table)
+        if value is None:
+            continue
+        if not isinstance(value, Mapping):
+            raise ConfigError(f"{table} is a table: set its keys as {table}.KEY=VALUE")
+        if table == "learning" and "learning" not in data and "learner" not in value:
+            raise ConfigError(
+                f"{name_or_path} has no [learning] table: give learning.learner and "
+                "learning.budget, or start from a config with one")
+        data[table] = {**data.get(table, {}), **value}
+    data.update({k: v for k, v in overrides.items() if k not in nested})
+    return ExperimentConfig.from_dict(data)
 
 
 def preset(name: str, **overrides: Any) -> ExperimentConfig:
-    """A named preset, optionally with some fields changed.
+    """A shipped config (the same file ``revolve run NAME`` reads), some fields changed.
 
     Raises:
-        ConfigError: unknown preset name (the known ones are listed) or invalid overrides.
+        ConfigError: unknown name (the known ones are listed) or invalid overrides.
     """
-    if name not in PRESETS:
-        raise ConfigError(f"unknown scenario {name!r}; known: {', '.join(PRESETS)}")
-    config = PRESETS[name]()
+    config = ExperimentConfig.from_toml(shipped_config(name))
     if overrides:
         known = {f.name for f in fields(ExperimentConfig)}
         unknown = sorted(set(overrides) - known)
@@ -335,185 +347,5 @@ def preset(name: str, **overrides: Any) -> ExperimentConfig:
     return config
 
 
-# --------------------------------------------------------------------------------------------
-# Python API
-
-
-@dataclass(frozen=True, slots=True)
-class ExperimentSummary:
-    """How an experiment's runs ended.
-
-    Attributes:
-        out_dir: The results directory.
-        db_path: Its database.
-        runs: One summary per run executed by this call, by run id.
-    """
-
-    out_dir: Path
-    db_path: Path
-    runs: tuple[Any, ...]
-
-
-ProgressCallback = Callable[[Any], None]
-"""Receives :class:`evolution.engine.ProgressEvent` after every commit point of every run."""
-
-
-def run(
-    config: ExperimentConfig | str | Mapping[str, Any],
-    out_dir: str | os.PathLike[str],
-    progress: ProgressCallback | None = None,
-    *,
-    evaluator: Any = None,
-    world_factory: Callable[..., Any] | None = None,
-    infancy: Callable[..., Any] | None = None,
-) -> ExperimentSummary:
-    """Run an experiment, writing its results to ``out_dir/results.sqlite``.
-
-    Args:
-        config: An :class:`ExperimentConfig`, a preset name (``"scenario1"``, ...), or a dict.
-        out_dir: Results directory; created if missing. It must not already hold results.
-        progress: Called with a :class:`~evolution.engine.ProgressEvent` after every commit
-            point (raising from it stops the run after that commit point; ``resume`` continues).
-        evaluator: An :mod:`evolution.evaluators` evaluator; default from ``config.evaluator``
-            and ``config.workers`` (closed at the end only if made here).
-        world_factory: Makes the online world of a run (default: the population environment).
-        infancy: The Training Center: an infancy hook, usually a
-            :class:`~evolution.learning.TrainingCenter` (both engines; see
-            :mod:`evolution.engine` for when it runs, how learning is recorded and what
-            Lamarckian inheritance changes). Default: the one ``config.learning`` describes
-            (stored with the results; :func:`resume` rebuilds it). A hook given here without
-            ``config.learning`` is not stored: pass the same one to :func:`resume`.
-
-    Returns:
-        The summary of every run.
-
-    Raises:
-        ConfigError: invalid configuration, or an ``infancy`` other than the Training Center
-            of ``config.learning``.
-        ValueError: an infancy hook the engine cannot honour
-            (:func:`evolution.engine.check_infancy`).
-        StoreError: ``out_dir`` already holds results (of this or another experiment).
-        KeyboardInterrupt: Ctrl-C; what finished is committed, ``resume(out_dir)`` continues.
-    """
-    from evolution.engine import check_infancy
-    from evolution.store import DB_NAME, Store, StoreError
-
-    config = _as_config(config)
-    infancy = _infancy_for(config, infancy)
-    check_infancy(infancy)
-    out = Path(out_dir)
-    db_path = out / DB_NAME
-    if db_path.exists():
-        try:
-            with Store.open(db_path) as existing:
-                same = existing.config == _json_roundtrip(config.to_dict())
-                name = existing.config.get("name", "?")
-        except StoreError as error:
-            raise StoreError(f"{out} already holds a results database that cannot be used: {error}") from error
-        if same:
-            raise StoreError(
-                f"{out} already holds results of this experiment; use resume({str(out)!r}) to "
-                "continue it, or choose another directory"
-            )
-        raise StoreError(
-            f"{out} holds results of another experiment ({name!r}); refusing to overwrite them, "
-            "choose another directory"
-        )
-    if out.exists() and not out.is_dir():
-        raise StoreError(f"{out} exists and is not a directory")
-    Store.create(db_path, config.to_dict(), config.seed).close()
-    return _execute(config, db_path, progress, evaluator, world_factory, infancy)
-
-
-def resume(
-    out_dir: str | os.PathLike[str],
-    progress: ProgressCallback | None = None,
-    *,
-    evaluator: Any = None,
-    world_factory: Callable[..., Any] | None = None,
-    infancy: Callable[..., Any] | None = None,
-) -> ExperimentSummary:
-    """Continue an interrupted experiment to the result an uninterrupted one would have given.
-
-    Finished runs are left alone; the others continue from their last commit point. With a
-    stored ``learning`` table the Training Center is rebuilt from it (``infancy`` may be given
-    only if it is the same one).
-
-    Raises:
-        StoreError: no usable results database in ``out_dir`` (missing, corrupt, newer schema).
-        ConfigError: the stored configuration is not valid for this package version, or
-            ``infancy`` differs from the stored learning table's Training Center.
-    """
-    from evolution.engine import check_infancy
-    from evolution.store import DB_NAME, Store
-
-    check_infancy(infancy)
-    db_path = Path(out_dir) / DB_NAME
-    with Store.open(db_path) as store:
-        config = ExperimentConfig.from_dict(store.config)
-    infancy = _infancy_for(config, infancy)
-    check_infancy(infancy)
-    return _execute(config, db_path, progress, evaluator, world_factory, infancy)
-
-
-def _execute(
-    config: ExperimentConfig,
-    db_path: Path,
-    progress: ProgressCallback | None,
-    evaluator: Any,
-    world_factory: Callable[..., Any] | None,
-    infancy: Callable[..., Any] | None,
-) -> ExperimentSummary:
-    from evolution.engine import RunJob, execute_run, run_seed
-    from evolution.evaluators import make_evaluator
-    from evolution.store import Store
-
-    with Store.open(db_path) as store:
-        # Registering is idempotent, so a run killed before all its runs were registered
-        # resumes with every one of them.
-        for run_id in range(config.runs):
-            store.add_run(run_id, run_seed(config.seed, run_id))
-        pending = [r.run_id for r in store.runs() if r.status != "finished"]
-    jobs = [RunJob(str(db_path), run_id, config, world_factory, infancy) for run_id in pending]
-    own = evaluator is None
-    if own:
-        evaluator = make_evaluator(config.evaluator, config.workers, config.ray_address)
-    try:
-        summaries = evaluator.run_jobs(execute_run, jobs, progress)
-    finally:
-        if own:
-            evaluator.close()
-    return ExperimentSummary(db_path.parent, db_path, tuple(summaries))
-
-
-def _infancy_for(config: ExperimentConfig, infancy: Callable[..., Any] | None) -> Any:
-    """The infancy hook of a run: ``config.learning``'s Training Center, or ``infancy``.
-
-    Raises:
-        ConfigError: both are given and differ (which one would the stored results describe?).
-    """
-    center = config.training_center()
-    if center is None:
-        return infancy
-    if infancy is not None and infancy != center:
-        raise ConfigError(
-            "the config has a learning table and infancy= gives another Training Center; give "
-            "one of them (the learning table is stored with the results, infancy= is not)"
-        )
-    return center
-
-
-def _as_config(config: ExperimentConfig | str | Mapping[str, Any]) -> ExperimentConfig:
-    if isinstance(config, ExperimentConfig):
-        return config
-    if isinstance(config, str):
-        return preset(config)
-    if isinstance(config, Mapping):
-        return ExperimentConfig.from_dict(config)
-    raise ConfigError(f"config must be an ExperimentConfig, a preset name or a dict, got {config!r}")
-
-
 def _json_roundtrip(data: dict[str, Any]) -> dict[str, Any]:
-    import json
-
-    return json.loads(json.dumps(data, sort_keys=True))
+    return dict(json.loads(json.dumps(data, sort_keys=True)))

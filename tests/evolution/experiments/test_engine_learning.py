@@ -23,10 +23,10 @@ from experiment_fakes import (
     param_distance_fitness,
 )
 
-from evolution import experiment
-from evolution.engine import ProgressEvent
-from evolution.evaluators import LocalEvaluator
-from evolution.experiment import ExperimentConfig
+from evolution import experiments
+from evolution.experiments import ProgressEvent
+from evolution.evaluation import LocalEvaluator
+from evolution.experiments import ExperimentConfig
 from evolution.learning import (
     CandidateEvaluation,
     CMAESLearner,
@@ -34,7 +34,7 @@ from evolution.learning import (
     RandomSearchLearner,
     TrainingCenter,
 )
-from evolution.store import Store
+from evolution.experiments.store import Store
 from revolve_env.body.robot import Layer, Robot
 from revolve_env.body.serialize import from_json
 from revolve_env.brain import get_params
@@ -120,7 +120,7 @@ def assert_every_infant_accounted_for(store: Store, records: list[Any], births: 
 @pytest.mark.parametrize("inheritance", ["lamarckian", "darwinian"])
 def test_offline_children_inherit_the_genome_the_rule_says(
         tmp_path: Path, center: Any, inheritance: str) -> None:
-    summary = experiment.run(offline_config(), tmp_path / "out", evaluator=SERIAL,
+    summary = experiments.run(offline_config(), tmp_path / "out", evaluator=SERIAL,
                              infancy=center(inheritance))
     assert summary.runs[0].births == 16
     with Store.open(summary.db_path) as store:
@@ -143,15 +143,15 @@ def test_offline_children_inherit_the_genome_the_rule_says(
 
 
 def test_offline_fitness_is_measured_on_the_learned_controller(tmp_path: Path) -> None:
-    experiment.run(offline_config(births=4), tmp_path / "out", evaluator=SERIAL,
+    experiments.run(offline_config(births=4), tmp_path / "out", evaluator=SERIAL,
                    infancy=cma("darwinian"))
     with Store.open(tmp_path / "out" / "results.sqlite") as store:
         learned = {r.robot_id: r.learned_genome for r in store.learning(0)}
         for robot in store.robots(0):
             genome = learned[robot.robot_id] or robot.genome
-            from evolution.evaluators import EvalTask, evaluation_seed
+            from evolution.evaluation import EvalTask, evaluation_seed
 
-            task = EvalTask(robot.robot_id, genome, 0.0, 1.0,
+            task = EvalTask(robot.robot_id, from_json(genome), 0.0, 1.0,
                             evaluation_seed(store.runs()[0].seed, robot.robot_id))
             assert robot.fitness == fake_evaluate(task).fitness
 
@@ -180,16 +180,16 @@ def dump(db: Path) -> dict[str, list[tuple[Any, ...]]]:
 def test_offline_kill_and_resume_with_lamarckian_learning_is_exact(tmp_path: Path) -> None:
     config = offline_config(births=24, runs=2)
     center = cma("lamarckian")
-    experiment.run(config, tmp_path / "ref", evaluator=SERIAL, infancy=center)
+    experiments.run(config, tmp_path / "ref", evaluator=SERIAL, infancy=center)
     out = tmp_path / "killed"
     with pytest.raises(Kill):
-        experiment.run(config, out, killer(8), evaluator=SERIAL, infancy=center)
+        experiments.run(config, out, killer(8), evaluator=SERIAL, infancy=center)
     with pytest.raises(Kill):
-        experiment.resume(out, killer(16), evaluator=SERIAL, infancy=center)
+        experiments.resume(out, killer(16), evaluator=SERIAL, infancy=center)
     with Store.open(out / "results.sqlite") as store:
         checkpoint = store.checkpoint(0)
         assert checkpoint is not None and checkpoint.engine_state.get("learned")
-    experiment.resume(out, evaluator=SERIAL, infancy=center)
+    experiments.resume(out, evaluator=SERIAL, infancy=center)
     reference = dump(tmp_path / "ref" / "results.sqlite")
     assert reference["learning"]
     assert dump(out / "results.sqlite") == reference
@@ -220,7 +220,7 @@ def online_config(**kw: Any) -> ExperimentConfig:
 
 def test_online_infants_learn_before_entering_the_world(tmp_path: Path) -> None:
     added: list[Robot] = []
-    summary = experiment.run(
+    summary = experiments.run(
         online_config(), tmp_path / "out", evaluator=SERIAL, infancy=random_search("lamarckian"),
         world_factory=lambda config, seed: RecordingWorld(config, seed, added))
     assert summary.runs[0].status == "finished" and summary.runs[0].births == 20
@@ -248,7 +248,7 @@ class _Crashing:
 
 def test_online_failing_learner_keeps_the_inborn_robot_and_the_run_goes_on(tmp_path: Path) -> None:
     added: list[Robot] = []
-    summary = experiment.run(
+    summary = experiments.run(
         online_config(), tmp_path / "out", evaluator=SERIAL,
         infancy=TrainingCenter(_Crashing(), 5.0, "lamarckian"),
         world_factory=lambda config, seed: RecordingWorld(config, seed, added))
@@ -264,9 +264,9 @@ def test_online_failing_learner_keeps_the_inborn_robot_and_the_run_goes_on(tmp_p
 def test_learning_changes_nothing_else_in_the_run(tmp_path: Path) -> None:
     """A learner that learns nothing leaves the run as it was without learning (the learner's
     generator is not the run's): same robots, same fitness."""
-    experiment.run(offline_config(), tmp_path / "plain", evaluator=SERIAL)
+    experiments.run(offline_config(), tmp_path / "plain", evaluator=SERIAL)
     nothing = TrainingCenter(RandomSearchLearner(evaluation=CANDIDATES), 0.5, "lamarckian")
-    experiment.run(offline_config(), tmp_path / "learning", evaluator=SERIAL, infancy=nothing)
+    experiments.run(offline_config(), tmp_path / "learning", evaluator=SERIAL, infancy=nothing)
     plain, learning = (dump(tmp_path / d / "results.sqlite") for d in ("plain", "learning"))
     assert [len(learning["learning"])] == [16]  # budget below one evaluation: nothing learned
     # Robots with nothing to learn are learner failures; everything else is the same.
@@ -279,7 +279,7 @@ def test_a_policy_learner_is_refused_before_anything_is_written(tmp_path: Path) 
     from evolution.learning import SB3Learner
 
     with pytest.raises(ValueError, match="SB3Learner trains a policy outside the genome"):
-        experiment.run(offline_config(), tmp_path / "out", evaluator=SERIAL,
+        experiments.run(offline_config(), tmp_path / "out", evaluator=SERIAL,
                        infancy=TrainingCenter(SB3Learner(), 10.0))
     assert not (tmp_path / "out").exists()
 
@@ -287,14 +287,14 @@ def test_a_policy_learner_is_refused_before_anything_is_written(tmp_path: Path) 
 def test_real_physics_run_with_learning_measures_the_learned_robot(tmp_path: Path) -> None:
     """The default evaluator with a Training Center: every candidate and every robot in the
     physics (short times); each robot's fitness is the evaluation of the controller it learned."""
-    from evolution.evaluators import EvalTask, evaluate_robot, evaluation_seed
+    from evolution.evaluation import EvalTask, evaluate_robot, evaluation_seed
 
     physics = CandidateEvaluation(insertion=0.25, seconds=0.5)
     center = TrainingCenter(RandomSearchLearner(sigma=0.3, batch_size=2, evaluation=physics),
                             3 * physics.cost, "lamarckian")
     config = offline_config(population_size=2, offspring_size=2, births=4, insertion=0.5,
                             evaluation_time=1.0, fertile_age=1.5, evolution=SMALL_ROBOTS)
-    summary = experiment.run(config, tmp_path / "out", evaluator=LocalEvaluator(1),
+    summary = experiments.run(config, tmp_path / "out", evaluator=LocalEvaluator(1),
                              infancy=center)
     with Store.open(summary.db_path) as store:
         records = store.learning(0)
@@ -304,7 +304,7 @@ def test_real_physics_run_with_learning_measures_the_learned_robot(tmp_path: Pat
         seed = store.runs()[0].seed
         for robot in store.robots(0):
             genome = learned.get(robot.robot_id) or robot.genome
-            outcome = evaluate_robot(EvalTask(robot.robot_id, genome, 0.5, 1.0,
+            outcome = evaluate_robot(EvalTask(robot.robot_id, from_json(genome), 0.5, 1.0,
                                               evaluation_seed(seed, robot.robot_id)))
             assert robot.fitness == outcome.fitness
 
@@ -316,13 +316,13 @@ def test_online_kill_and_resume_with_learning_replays_to_the_same_result(tmp_pat
     def world(c: ExperimentConfig, seed: int) -> RecordingWorld:
         return RecordingWorld(c, seed, [])
 
-    experiment.run(config, tmp_path / "ref", evaluator=SERIAL, infancy=center,
+    experiments.run(config, tmp_path / "ref", evaluator=SERIAL, infancy=center,
                    world_factory=world)
     out = tmp_path / "killed"
     with pytest.raises(Kill):
-        experiment.run(config, out, killer(14), evaluator=SERIAL, infancy=center,
+        experiments.run(config, out, killer(14), evaluator=SERIAL, infancy=center,
                        world_factory=world)
-    experiment.resume(out, evaluator=SERIAL, infancy=center, world_factory=world)
+    experiments.resume(out, evaluator=SERIAL, infancy=center, world_factory=world)
     reference = dump(tmp_path / "ref" / "results.sqlite")
     assert reference["learning"]
     assert dump(out / "results.sqlite") == reference

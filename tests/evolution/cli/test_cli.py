@@ -18,12 +18,14 @@ from typing import Any
 import pytest
 from experiment_fakes import CtrlCEvaluator, fake_evaluate
 
-from evolution import evaluators
-from evolution.cli import ProgressBar, build_parser, main, resolve_config, shipped_configs
-from evolution.engine import ProgressEvent
-from evolution.evaluators import LocalEvaluator, evaluate_task
-from evolution.experiment import ConfigError, ExperimentConfig, preset
-from evolution.store import DB_NAME, Store
+from evolution.experiments import api
+from evolution.cli import ProgressBar, build_parser, main
+from evolution.experiments import load_config as resolve_config, shipped_configs
+from evolution.experiments import ProgressEvent
+from evolution.evaluation import LocalEvaluator
+from evolution.evaluation import evaluate_task
+from evolution.experiments import ConfigError, ExperimentConfig, preset
+from evolution.experiments.store import DB_NAME, Store
 
 SUBCOMMANDS = ("run", "resume", "report", "show", "export", "demo")
 SMALL = ["--set", "evolution.initial_parts_mean=5", "--set", "evolution.initial_parts_sd=2",
@@ -33,7 +35,7 @@ SMALL = ["--set", "evolution.initial_parts_mean=5", "--set", "evolution.initial_
 @pytest.fixture
 def fake_physics(monkeypatch: pytest.MonkeyPatch) -> None:
     """Experiments started by the CLI evaluate robots with the fast stand-in."""
-    monkeypatch.setattr(evaluators, "make_evaluator",
+    monkeypatch.setattr(api, "make_evaluator",
                         lambda *a, **k: LocalEvaluator(workers=1, function=fake_evaluate))
 
 
@@ -72,7 +74,7 @@ def test_top_level_help_lists_the_subcommands(capsys: pytest.CaptureFixture[str]
 def test_console_script_points_at_main() -> None:
     import tomllib
 
-    pyproject = tomllib.loads((Path(__file__).parents[2] / "pyproject.toml").read_text())
+    pyproject = tomllib.loads((Path(__file__).parents[3] / "pyproject.toml").read_text())
     assert pyproject["project"]["scripts"]["revolve"] == "evolution.cli:main"
 
 
@@ -100,7 +102,7 @@ def test_shipped_configs_are_the_papers_five_experiments_quick_and_two_with_lear
 def test_resolve_config_from_name_path_and_overrides(tmp_path: Path) -> None:
     config = resolve_config("scenario2", {"births": 45, "evolution": {"max_parts": 20}})
     assert (config.offspring_size, config.births, config.evolution.max_parts) == (1, 45, 20)
-    assert config.evolution.p_swap_subtree == preset("scenario2").evolution.p_swap_subtree
+    assert config.evolution.p_swap_subtree == preset("scenario2", runs=1).evolution.p_swap_subtree
     path = tmp_path / "mine.toml"
     path.write_text('preset = "scenario3"\nname = "mine"\nbirths = 40\n')
     config = resolve_config(str(path))
@@ -146,10 +148,10 @@ def test_out_of_range_values(capsys: pytest.CaptureFixture[str], tmp_path: Path)
 
 def test_existing_results_are_never_overwritten(
         capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
-    with Store.create(tmp_path / "quick" / DB_NAME, preset("quick").to_dict(), 0):
+    with Store.create(tmp_path / "quick" / DB_NAME, preset("quick", runs=1).to_dict(), 0):
         pass
     other = tmp_path / "other" / "quick"
-    with Store.create(other / DB_NAME, preset("scenario2").to_dict(), 0):
+    with Store.create(other / DB_NAME, preset("scenario2", runs=1).to_dict(), 0):
         pass
     before = [(p, p.read_bytes()) for p in sorted(tmp_path.rglob("*")) if p.is_file()]
     assert "resume" in _error(capsys, ["run", "quick", "--out", str(tmp_path)])
@@ -161,7 +163,7 @@ def test_existing_results_are_never_overwritten(
 
 def test_existing_results_of_the_same_experiment_point_to_resume(
         capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
-    with Store.create(tmp_path / "quick" / DB_NAME, preset("quick").to_dict(), 0):
+    with Store.create(tmp_path / "quick" / DB_NAME, preset("quick", runs=1).to_dict(), 0):
         pass
     line = _error(capsys, ["run", "quick", "--out", str(tmp_path)])
     assert "already holds results of this experiment" in line and "resume" in line
@@ -182,7 +184,7 @@ def test_corrupt_and_newer_databases(capsys: pytest.CaptureFixture[str], tmp_pat
     for command in ("resume", "report"):
         assert "corrupt" in _error(capsys, [command, str(corrupt)])
     newer = tmp_path / "newer"
-    with Store.create(newer / DB_NAME, preset("quick").to_dict(), 0):
+    with Store.create(newer / DB_NAME, preset("quick", runs=1).to_dict(), 0):
         pass
     con = sqlite3.connect(newer / DB_NAME)
     con.execute("UPDATE meta SET value = '7' WHERE key = 'schema_version'")
@@ -192,7 +194,7 @@ def test_corrupt_and_newer_databases(capsys: pytest.CaptureFixture[str], tmp_pat
         assert "schema version 7, newer" in _error(capsys, [command, str(newer)])
     assert "corrupt" in _error(capsys, ["show", "--db", str(corrupt), "--best"])
     incomplete = tmp_path / "incomplete"
-    with Store.create(incomplete / DB_NAME, preset("quick").to_dict(), 0):
+    with Store.create(incomplete / DB_NAME, preset("quick", runs=1).to_dict(), 0):
         pass
     con = sqlite3.connect(incomplete / DB_NAME)
     con.execute("DROP TABLE robots")
@@ -248,7 +250,7 @@ def test_run_then_report(fake_physics: None, tmp_path: Path,
 
 def test_ctrl_c_then_resume(monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
                             capsys: pytest.CaptureFixture[str]) -> None:
-    monkeypatch.setattr(evaluators, "make_evaluator", lambda *a, **k: CtrlCEvaluator(15 + 15 + 4))
+    monkeypatch.setattr(api, "make_evaluator", lambda *a, **k: CtrlCEvaluator(15 + 15 + 4))
     argv = ["run", "scenario1", "--runs", "1", "--births", "45", "--out", str(tmp_path), *SMALL]
     assert main(argv) == 130
     err = capsys.readouterr().err
@@ -256,7 +258,7 @@ def test_ctrl_c_then_resume(monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
     db = tmp_path / "scenario1" / DB_NAME
     with Store.open(db) as store:
         assert store.checkpoint(0).births == 30  # two whole generations were committed
-    monkeypatch.setattr(evaluators, "make_evaluator",
+    monkeypatch.setattr(api, "make_evaluator",
                         lambda *a, **k: LocalEvaluator(workers=1, function=fake_evaluate))
     assert main(["resume", str(tmp_path)]) == 0
     with Store.open(db) as store:
@@ -416,6 +418,7 @@ def test_run_and_report_with_real_physics(tmp_path: Path) -> None:
 TINY_LEARNING = """\
 preset = "scenario1"
 name = "tiny_learning"
+runs = 1
 population_size = 2
 offspring_size = 2
 births = 4
@@ -537,15 +540,15 @@ def test_learning_run_ctrl_c_then_resume_rebuilds_the_learner(
     assert main(["run", str(config), "--out", str(tmp_path / "reference")]) == 0
     reference = _learning_dump(tmp_path / "reference" / "tiny_learning" / DB_NAME)
 
-    real = evaluators.make_evaluator
-    monkeypatch.setattr(evaluators, "make_evaluator",
+    real = api.make_evaluator
+    monkeypatch.setattr(api, "make_evaluator",
                         lambda *a, **k: CtrlCEvaluator(2 + 1, evaluate_task))
     assert main(["run", str(config), "--out", str(tmp_path / "killed")]) == 130
     killed = tmp_path / "killed" / "tiny_learning"
     with Store.open(killed / DB_NAME) as store:
         assert store.checkpoint(0).births == 2  # the initial population was committed
         assert {r.robot_id for r in store.learning(0)} <= {0, 1}
-    monkeypatch.setattr(evaluators, "make_evaluator", real)
+    monkeypatch.setattr(api, "make_evaluator", real)
     # `revolve resume` takes nothing but the folder: the learner comes from the stored table.
     assert main(["resume", str(killed)]) == 0
     resumed = _learning_dump(killed / DB_NAME)

@@ -1,4 +1,4 @@
-"""The paper's figures from :class:`~evolution.reporting.ExperimentData` (matplotlib, no display).
+"""The paper's figures from :class:`~evolution.reporting.data.ExperimentData` (matplotlib, no display).
 
 Figures are drawn on ``matplotlib.figure.Figure`` objects directly (no ``pyplot``), so nothing
 depends on a display or on the global backend: PNG is written by Agg, PDF by the PDF backend.
@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from evolution.reporting import ExperimentData, runs_on_grid
+from evolution.reporting.data import ExperimentData, runs_on_grid
 
 __all__ = [
     "FIGURES",

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from evolution.lifecycle import Stage, Transition
-from evolution.store import (
+from evolution.experiments.store import (
     SCHEMA_VERSION,
     Batch,
     Checkpoint,

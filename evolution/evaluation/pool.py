@@ -6,232 +6,24 @@ An evaluator does two things:
 * ``run_jobs(fn, jobs, on_event)``: run whole experiment runs side by side.
 
 :class:`LocalEvaluator` uses worker processes on this machine (``forkserver`` start method: a
-clean interpreter per worker, no inherited pybullet state). :class:`RayEvaluator` runs the same
+clean interpreter per worker, no inherited physics state). :class:`RayEvaluator` runs the same
 work as Ray tasks on a local Ray instance or an existing cluster (``pip install revolve-env[ray]``).
-
-Determinism: an evaluation is a pure function of the robot, the timing and its seed, and the seed
-is derived from the run's seed and the robot's id (:func:`evaluation_seed`), so results do not
-depend on the number of workers or on which worker ran what.
+Both run any picklable evaluation function (default :func:`~evolution.evaluation.evaluate_task`:
+the Training Center, then the robot alone at the origin).
 """
 
 from __future__ import annotations
 
-import math
 import multiprocessing
 import os
 import queue
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from dataclasses import dataclass, replace
 from typing import Any, Protocol, Self
 
-import numpy as np
+from evolution.evaluation.tasks import EvalOutcome, EvalTask, EvaluateFunction, evaluate_task
 
-from evolution.lifecycle import InfancyHook
-
-__all__ = [
-    "EvalOutcome",
-    "EvalTask",
-    "EvaluateFunction",
-    "Evaluator",
-    "InfancyReport",
-    "LearningSummary",
-    "LocalEvaluator",
-    "RayEvaluator",
-    "evaluate_after_infancy",
-    "evaluate_robot",
-    "evaluate_task",
-    "evaluation_seed",
-    "infancy_seed",
-    "make_evaluator",
-    "run_infancy",
-]
-
-
-@dataclass(frozen=True, slots=True)
-class EvalTask:
-    """One isolated evaluation.
-
-    Attributes:
-        robot_id: The robot's birth index (for messages).
-        genome: The robot as JSON.
-        insertion: Settling time before the fitness window. Seconds.
-        seconds: Fitness window. Seconds.
-        seed: Seed of the evaluation (:func:`evaluation_seed`).
-        infancy: Optional Training Center learner applied before the evaluation.
-    """
-
-    robot_id: int
-    genome: str
-    insertion: float
-    seconds: float
-    seed: int
-    infancy: InfancyHook | None = None
-
-
-@dataclass(frozen=True, slots=True)
-class LearningSummary:
-    """What the Training Center's learner reported for one infant.
-
-    Attributes:
-        inborn_fitness: Fitness of the inborn controller as the learner measured it (its own
-            candidate evaluation, not the experiment's); ``None`` when unknown (a plain hook).
-            Metres.
-        learned_fitness: Fitness of the learned controller as the learner measured it; ``None``
-            when unknown. Metres.
-        evaluations: Evaluations (or training episodes) the learner ran; ``None`` when unknown.
-        sim_seconds: Simulated seconds the learner used in its own Training Center simulations;
-            ``None`` when unknown. Seconds.
-        failures: Learner evaluations that failed (blow-ups).
-    """
-
-    inborn_fitness: float | None = None
-    learned_fitness: float | None = None
-    evaluations: int | None = None
-    sim_seconds: float | None = None
-    failures: int = 0
-
-
-@dataclass(frozen=True, slots=True)
-class EvalOutcome:
-    """What an evaluation gave.
-
-    Attributes:
-        fitness: ``v + 5 s`` over the window; ``None`` when the evaluation failed. Metres.
-        v: Path length over the window. Metres.
-        s: Straight-line displacement over the window. Metres.
-        failure: ``None``, or why the robot was lost (e.g. ``"blow-up: ..."``).
-        learner_failure: ``None``, or why the infancy hook failed (the robot was then evaluated
-            with its inherited brain).
-        learned_genome: The robot as JSON with the controller the infancy hook gave it, when
-            that differs from the inborn one; ``None`` otherwise (no hook, a failed hook, or
-            nothing learned). The evaluation measured this robot.
-        learning: The learner's own record, when a hook ran and did not fail.
-    """
-
-    fitness: float | None
-    v: float | None = None
-    s: float | None = None
-    failure: str | None = None
-    learner_failure: str | None = None
-    learned_genome: str | None = None
-    learning: LearningSummary | None = None
-
-
-EvaluateFunction = Callable[[EvalTask], EvalOutcome]
-"""A picklable (module-level) function evaluating one task."""
-
-
-def evaluation_seed(run_seed: int, robot_id: int) -> int:
-    """The seed of a robot's evaluation: a function of the run's seed and the robot's id only."""
-    return int(np.random.SeedSequence([run_seed, robot_id, 0x0E7A1]).generate_state(1)[0])
-
-
-def infancy_seed(evaluation_seed: int) -> np.random.SeedSequence:
-    """The seed of a robot's infancy learning, derived from its evaluation seed.
-
-    Both engines use it, so an infant learns the same way offline and online, and the engine's
-    own generator never depends on what a learner draws.
-    """
-    return np.random.SeedSequence([evaluation_seed, 1])
-
-
-@dataclass(frozen=True, slots=True)
-class InfancyReport:
-    """One call of an infancy hook (:func:`run_infancy`).
-
-    Attributes:
-        robot: The robot that lives on: the learned one, or the inborn one after a failure.
-        changed: True when ``robot``'s controller differs from the inborn one.
-        failure: ``None``, or the hook's error in one line (the inborn robot was kept).
-        learning: The learner's record (``None`` after a failure; without the numbers for a
-            plain hook that is not a :class:`~evolution.learning.TrainingCenter`).
-    """
-
-    robot: Any
-    changed: bool
-    failure: str | None = None
-    learning: LearningSummary | None = None
-
-
-def run_infancy(hook: InfancyHook, robot: Any, seed: int) -> InfancyReport:
-    """Call an infancy hook on a newborn, never raising for a failing learner.
-
-    A :class:`~evolution.learning.TrainingCenter` hook also gives its learner's numbers (inborn
-    and learned fitness, evaluations, simulated seconds). Any exception from the hook (a
-    :class:`~evolution.learning.LearnerError` or a plain hook's own error) keeps the inborn
-    robot and is returned as ``failure``, for the engine to record.
-
-    Args:
-        hook: The infancy hook.
-        robot: The inborn robot.
-        seed: The robot's evaluation seed (:func:`evaluation_seed`); the learner's generator is
-            seeded with :func:`infancy_seed`.
-    """
-    rng = np.random.default_rng(infancy_seed(seed))
-    from evolution.learning.base import TrainingCenter
-
-    try:
-        if isinstance(hook, TrainingCenter):
-            result = hook.run_learner(robot, rng)
-            learned = result.robot
-            summary = LearningSummary(
-                _float_or_none(result.inborn_fitness), _float_or_none(result.best_fitness),
-                int(result.evaluations), float(result.sim_seconds), int(result.failures))
-        else:
-            learned = hook(robot, rng)
-            summary = LearningSummary()
-    except Exception as error:  # noqa: BLE001 - a failing learner must not kill the run; recorded
-        return InfancyReport(robot, False, f"{type(error).__name__}: {error}")
-    return InfancyReport(learned, learned != robot, None, summary)
-
-
-def evaluate_after_infancy(task: EvalTask, evaluate: EvaluateFunction) -> EvalOutcome:
-    """Apply ``task.infancy`` (if any), then ``evaluate`` the robot that lives on.
-
-    ``evaluate`` receives the task with the learned genome and no hook; the outcome carries the
-    learned genome (when it changed), the learner's record and any learner failure. This is how
-    every evaluation function gets the Training Center: :func:`evaluate_task` is
-    ``evaluate_after_infancy(task, evaluate_robot)``.
-    """
-    if task.infancy is None:
-        return evaluate(task)
-    from revolve_env.body.serialize import from_json, to_json
-
-    report = run_infancy(task.infancy, from_json(task.genome), task.seed)
-    learned = to_json(report.robot, indent=None) if report.changed else None
-    outcome = evaluate(replace(task, genome=learned or task.genome, infancy=None))
-    return replace(outcome, learner_failure=report.failure, learned_genome=learned,
-                   learning=report.learning)
-
-
-def evaluate_robot(task: EvalTask) -> EvalOutcome:
-    """Evaluate ``task.genome`` alone at the origin with :func:`revolve_env.evaluate`
-    (its own network driving it; ``task.infancy`` is ignored here)."""
-    from revolve_env.body.serialize import from_json
-    from revolve_env.evaluation import evaluate
-
-    result = evaluate(from_json(task.genome), seconds=task.seconds, insertion=task.insertion,
-                      seed=task.seed)
-    if result.blow_up is not None:
-        return EvalOutcome(None, failure=f"blow-up: {result.blow_up}")
-    return EvalOutcome(float(result.fitness), float(result.v), float(result.s))
-
-
-def evaluate_task(task: EvalTask) -> EvalOutcome:
-    """The default evaluation: the Training Center (``task.infancy``, if any), then the robot
-    evaluated alone at the origin with :func:`revolve_env.evaluate`."""
-    return evaluate_after_infancy(task, evaluate_robot)
-
-
-def _float_or_none(value: Any) -> float | None:
-    if value is None:
-        return None
-    value = float(value)
-    return value if math.isfinite(value) else None
-
-
-# --------------------------------------------------------------------------------------------
+__all__ = ["Evaluator", "LocalEvaluator", "RayEvaluator", "make_evaluator"]
 
 
 class Evaluator(Protocol):
@@ -273,7 +65,8 @@ class LocalEvaluator:
 
     Args:
         workers: Processes; ``None`` or 0: all cores. 1 evaluates in this process.
-        function: The evaluation function (picklable; default :func:`evaluate_task`).
+        function: The evaluation function (picklable; default
+            :func:`~evolution.evaluation.evaluate_task`).
         start_method: ``"forkserver"`` (default where available) or ``"spawn"``.
     """
 
@@ -390,7 +183,7 @@ class RayEvaluator:
     Args:
         address: ``ray.init(address=...)``: ``None`` starts (or joins) a local instance,
             ``"auto"`` or ``"ray://host:port"`` an existing cluster.
-        function: The evaluation function (default :func:`evaluate_task`).
+        function: The evaluation function (default :func:`~evolution.evaluation.evaluate_task`).
         num_cpus: CPUs of a local instance started here (``None``: all).
         init_kwargs: Further keyword arguments for ``ray.init``.
 
@@ -464,7 +257,7 @@ class RayEvaluator:
 
 def make_evaluator(kind: str, workers: int = 0, address: str | None = None,
                    function: EvaluateFunction = evaluate_task) -> LocalEvaluator | RayEvaluator:
-    """The evaluator an :class:`~evolution.experiment.ExperimentConfig` asks for."""
+    """The evaluator an :class:`~evolution.experiments.config.ExperimentConfig` asks for."""
     if kind == "local":
         return LocalEvaluator(workers or None, function=function)
     if kind == "ray":

@@ -15,17 +15,16 @@ from pathlib import Path
 import pytest
 from experiment_fakes import fake_evaluate
 
-from evolution import experiment
-from evolution.evaluators import LocalEvaluator
-from evolution.experiment import ConfigError, ExperimentConfig, preset
+from evolution import experiments
+from evolution.evaluation import LocalEvaluator
+from evolution.experiments import ConfigError, ExperimentConfig, preset
 from evolution.learning import (
     CMAESLearner,
     RandomSearchLearner,
     TrainingCenter,
-    load_learning_experiment,
     training_center_from_dict,
 )
-from evolution.store import DB_NAME, Store
+from evolution.experiments.store import DB_NAME, Store
 
 SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
 TABLE = {"learner": "random-search", "budget": 6.0, "inheritance": "lamarckian", "popsize": 3,
@@ -34,7 +33,7 @@ TABLE = {"learner": "random-search", "budget": 6.0, "inheritance": "lamarckian",
 
 def tiny(**kw: object) -> ExperimentConfig:
     base = preset("scenario1", population_size=2, offspring_size=2, births=4, insertion=0.0,
-                  evaluation_time=1.0, fertile_age=1.0, diversity_interval=2)
+                  evaluation_time=1.0, fertile_age=1.0, diversity_interval=2, runs=1)
     return base.replace(**kw)
 
 
@@ -78,27 +77,27 @@ def test_toml_files_keep_the_table(tmp_path: Path) -> None:
                     'budget = 17.0\npopsize = 4\n')
     config = ExperimentConfig.from_toml(path)
     assert config.learning == {"learner": "cma-es", "budget": 17.0, "popsize": 4}
-    loaded, center = load_learning_experiment(path)
-    assert loaded == config and center == config.training_center()
+    center = config.training_center()
+    assert center is not None and center == ExperimentConfig.from_toml(path).training_center()
     assert isinstance(center.learner, CMAESLearner)
 
 
 def test_run_stores_the_table_and_resume_reads_it(tmp_path: Path) -> None:
     config = tiny(learning=TABLE)
-    experiment.run(config, tmp_path / "a", evaluator=SERIAL)
+    experiments.run(config, tmp_path / "a", evaluator=SERIAL)
     with Store.open(tmp_path / "a" / DB_NAME) as store:
         assert store.config["learning"] == TABLE
-    # The center of the table itself may also be given (load_learning_experiment's pair).
-    experiment.run(config, tmp_path / "b", evaluator=SERIAL, infancy=config.training_center())
-    experiment.resume(tmp_path / "b", evaluator=SERIAL, infancy=config.training_center())
+    # The center of the table itself may also be given (config.training_center()).
+    experiments.run(config, tmp_path / "b", evaluator=SERIAL, infancy=config.training_center())
+    experiments.resume(tmp_path / "b", evaluator=SERIAL, infancy=config.training_center())
 
 
 def test_another_training_center_next_to_a_table_is_refused(tmp_path: Path) -> None:
     config = tiny(learning=TABLE)
     other = TrainingCenter(RandomSearchLearner(batch_size=2), 6.0, "lamarckian")
     with pytest.raises(ConfigError, match="learning table and infancy="):
-        experiment.run(config, tmp_path / "x", evaluator=SERIAL, infancy=other)
+        experiments.run(config, tmp_path / "x", evaluator=SERIAL, infancy=other)
     assert not (tmp_path / "x").exists()
-    experiment.run(config.replace(births=2), tmp_path / "y", evaluator=SERIAL)
+    experiments.run(config.replace(births=2), tmp_path / "y", evaluator=SERIAL)
     with pytest.raises(ConfigError, match="learning table and infancy="):
-        experiment.resume(tmp_path / "y", evaluator=SERIAL, infancy=other)
+        experiments.resume(tmp_path / "y", evaluator=SERIAL, infancy=other)

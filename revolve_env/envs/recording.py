@@ -18,6 +18,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.body.robot import Robot
+from revolve_env.envs.locomotion import LocomotionEnv
+from revolve_env.envs.video import write_video
 
 __all__ = ["Video", "record_robot"]
 
@@ -85,9 +87,6 @@ def record_robot(
     Raises:
         ValueError: bad timing, or a robot the environment cannot drive (no hinge).
     """
-    from revolve_env.envs.locomotion import LocomotionEnv
-    from revolve_env.envs.video import write_video
-
     if not (math.isfinite(fps) and fps > 0):
         raise ValueError(f"fps must be a positive number, got {fps}")
     env = LocomotionEnv(robot, render_mode="rgb_array", insertion_time=insertion,

@@ -15,10 +15,17 @@ from typing import Any
 import numpy as np
 
 from evolution.config import EvolutionConfig
-from evolution.engine import AgentStatus
-from evolution.evaluators import EvalOutcome, EvalTask
-from evolution.experiment import ExperimentConfig
+from evolution.evaluation import EvalOutcome, EvalTask
+from evolution.experiments import AgentStatus, ExperimentConfig
+from evolution.evaluation import evaluate_after_infancy
 from revolve_env.body.robot import Robot
+from revolve_env.body.serialize import to_json
+from revolve_env.brain import get_params, param_bounds
+
+
+def genome_of(task: EvalTask) -> str:
+    """The task's robot as the store keeps it (compact JSON): what the fakes hash."""
+    return to_json(task.robot, indent=None)
 
 
 def speed_of(genome: str) -> float:
@@ -29,7 +36,7 @@ def speed_of(genome: str) -> float:
 
 def fake_evaluate(task: EvalTask) -> EvalOutcome:
     """Fitness of a straight walk at the genome's speed over the window, plus seeded noise."""
-    u = speed_of(task.genome)
+    u = speed_of(genome_of(task))
     noise = np.random.default_rng(task.seed).normal(0.0, 1e-3)
     v = u * task.seconds + abs(noise)
     return EvalOutcome(v + 5 * u * task.seconds, v, u * task.seconds)
@@ -37,7 +44,7 @@ def fake_evaluate(task: EvalTask) -> EvalOutcome:
 
 def fake_evaluate_with_losses(task: EvalTask) -> EvalOutcome:
     """As :func:`fake_evaluate`, but one robot in five blows up."""
-    if int(hashlib.sha256(task.genome.encode()).hexdigest()[:4], 16) % 5 == 0:
+    if int(hashlib.sha256(genome_of(task).encode()).hexdigest()[:4], 16) % 5 == 0:
         return EvalOutcome(None, failure="blow-up: core speed 12.0 m/s > 10.0")
     return fake_evaluate(task)
 
@@ -45,7 +52,7 @@ def fake_evaluate_with_losses(task: EvalTask) -> EvalOutcome:
 def fake_evaluate_with_nan(task: EvalTask) -> EvalOutcome:
     """As :func:`fake_evaluate`, but one robot in five gets a NaN fitness (a diverged
     evaluation that did not report itself as a blow-up)."""
-    if int(hashlib.sha256(task.genome.encode()).hexdigest()[:4], 16) % 5 == 0:
+    if int(hashlib.sha256(genome_of(task).encode()).hexdigest()[:4], 16) % 5 == 0:
         return EvalOutcome(math.nan, math.nan, math.nan)
     return fake_evaluate(task)
 
@@ -74,8 +81,7 @@ class FakeWorld:
     def add(self, robot: Robot, position: tuple[float, float]) -> str:
         agent = f"robot_{self._next}"
         self._next += 1
-        self.robots[agent] = (speed_of(robot.to_json(indent=None)) if hasattr(robot, "to_json")
-                              else speed_of(repr(robot)), self._time, position, 0.0)
+        self.robots[agent] = (speed_of(to_json(robot, indent=None)), self._time, position, 0.0)
         self.max_population = max(self.max_population, len(self.robots))
         return agent
 
@@ -131,10 +137,7 @@ def small(config: ExperimentConfig) -> ExperimentConfig:
 def param_distance_fitness(task: EvalTask) -> EvalOutcome:
     """Candidate fitness for learners: 10 minus the normalised distance of the controller
     parameters to the middle of their ranges (a smooth optimum every robot can approach)."""
-    from revolve_env.body.serialize import from_json
-    from revolve_env.brain import get_params, param_bounds
-
-    robot = from_json(task.genome, check=False)
+    robot = task.robot
     bounds = param_bounds(robot)
     span = np.where(bounds[:, 1] > bounds[:, 0], bounds[:, 1] - bounds[:, 0], 1.0)
     d = (get_params(robot) - bounds.mean(axis=1)) / span
@@ -144,8 +147,6 @@ def param_distance_fitness(task: EvalTask) -> EvalOutcome:
 def fake_evaluate_after_infancy(task: EvalTask) -> EvalOutcome:
     """The engine's Training Center call (``task.infancy``), then :func:`fake_evaluate` of the
     robot that lives on."""
-    from evolution.evaluators import evaluate_after_infancy
-
     return evaluate_after_infancy(task, fake_evaluate)
 
 
@@ -153,7 +154,7 @@ class CtrlCEvaluator:
     """An in-process evaluator that raises KeyboardInterrupt (Ctrl-C) at its n-th evaluation.
 
     ``function`` evaluates each task (the fake physics by default; pass
-    ``evolution.evaluators.evaluate_task`` for the real one, Training Center included).
+    ``evolution.evaluation.pool.evaluate_task`` for the real one, Training Center included).
     """
 
     workers = 1

@@ -20,14 +20,16 @@ from experiment_fakes import (
     small,
 )
 
-from evolution import experiment
-from evolution.evaluators import LocalEvaluator
-from evolution.experiment import ConfigError, ExperimentConfig, preset
+from evolution import experiments
+from evolution.evaluation import LocalEvaluator
+from evolution.experiments import ConfigError, ExperimentConfig, preset
 from evolution.lifecycle import Stage
-from evolution.store import Store
+from evolution.experiments.store import Store
 
 
 def small_preset(name: str, **kw: object) -> ExperimentConfig:
+    """A shipped config with small robots and, unless told otherwise, one run."""
+    kw.setdefault("runs", 1)
     return small(preset(name, **kw))
 
 
@@ -36,7 +38,7 @@ SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
 
 def _run(config: ExperimentConfig, tmp_path: Path, **kwargs: object) -> Store:
     events: list[object] = []
-    experiment.run(config, tmp_path / "out", events.append,
+    experiments.run(config, tmp_path / "out", events.append,
                    evaluator=kwargs.pop("evaluator", SERIAL), **kwargs)
     store = Store.open(tmp_path / "out" / "results.sqlite")
     store.events = events  # type: ignore[attr-defined]
@@ -193,16 +195,16 @@ def test_progress_reports_births_fitness_and_speed(tmp_path: Path) -> None:
 
 
 def test_presets_are_the_papers_experiments() -> None:
-    s1, s2, s3 = preset("scenario1"), preset("scenario2"), preset("scenario3")
+    s1, s2, s3 = preset("scenario1", runs=1), preset("scenario2", runs=1), preset("scenario3", runs=1)
     assert (s1.engine, s1.population_size, s1.offspring_size, s1.births) == ("offline", 15, 15, 3000)
     assert (s2.offspring_size, s3.engine, s3.min_alive, s3.max_alive) == (1, "online", 8, 30)
     assert (s1.tournament_size, s1.insertion, s1.evaluation_time, s1.fertile_age) == (4, 3.0, 12.0, 15.0)
-    assert preset("baseline_a").new_robots == "random"
-    assert preset("baseline_b").survivor_selection == "random"
+    assert preset("baseline_a", runs=1).new_robots == "random"
+    assert preset("baseline_b", runs=1).survivor_selection == "random"
 
 
 def test_config_round_trips_through_dict_and_toml(tmp_path: Path) -> None:
-    config = preset("scenario3", births=500, max_sim_time=600.0, seed=3)
+    config = preset("scenario3", births=500, max_sim_time=600.0, seed=3, runs=1)
     assert ExperimentConfig.from_dict(config.to_dict()) == config
     path = tmp_path / "exp.toml"
     path.write_text('preset = "scenario2"\nbirths = 100\nseed = 7\n[evolution]\nmax_parts = 20\n')

@@ -9,11 +9,11 @@ from typing import Any
 import pytest
 from experiment_fakes import CtrlCEvaluator, fake_evaluate, fake_world, small
 
-from evolution import experiment
-from evolution.engine import ProgressEvent
-from evolution.evaluators import LocalEvaluator
-from evolution.experiment import ExperimentConfig, preset
-from evolution.store import Store, StoreError
+from evolution import experiments
+from evolution.experiments import ProgressEvent
+from evolution.evaluation import LocalEvaluator
+from evolution.experiments import ExperimentConfig, preset
+from evolution.experiments.store import Store, StoreError
 
 
 def small_preset(name: str, **kw: object) -> ExperimentConfig:
@@ -46,7 +46,7 @@ def killer(after_births: int) -> Any:
 
 
 def _uninterrupted(config: ExperimentConfig, out: Path, **kw: Any) -> dict[str, list]:
-    experiment.run(config, out, evaluator=SERIAL, **kw)
+    experiments.run(config, out, evaluator=SERIAL, **kw)
     return dump(out / "results.sqlite")
 
 
@@ -61,12 +61,12 @@ def test_offline_kill_and_resume_equals_uninterrupted(
     reference = _uninterrupted(config, tmp_path / "ref")
     out = tmp_path / "killed"
     with pytest.raises(Kill):
-        experiment.run(config, out, killer(kills[0]), evaluator=SERIAL)
+        experiments.run(config, out, killer(kills[0]), evaluator=SERIAL)
     assert {r.status for r in Store.open(out / "results.sqlite").runs()} == {"interrupted", "pending"}
     for k in kills[1:]:
         with pytest.raises(Kill):
-            experiment.resume(out, killer(k), evaluator=SERIAL)
-    experiment.resume(out, evaluator=SERIAL)
+            experiments.resume(out, killer(k), evaluator=SERIAL)
+    experiments.resume(out, evaluator=SERIAL)
     assert dump(out / "results.sqlite") == {**reference}
 
 
@@ -75,12 +75,12 @@ def test_ctrl_c_mid_generation_keeps_finished_generations(tmp_path: Path) -> Non
     reference = _uninterrupted(config, tmp_path / "ref")
     out = tmp_path / "killed"
     with pytest.raises(KeyboardInterrupt):
-        experiment.run(config, out, evaluator=CtrlCEvaluator(15 + 15 + 7))
+        experiments.run(config, out, evaluator=CtrlCEvaluator(15 + 15 + 7))
     with Store.open(out / "results.sqlite") as store:
         assert store.runs()[0].status == "interrupted"
         assert store.checkpoint(0).births == 30  # the half-done third generation is not stored
         assert len(store.robots(0)) == 30
-    experiment.resume(out, evaluator=SERIAL)
+    experiments.resume(out, evaluator=SERIAL)
     assert dump(out / "results.sqlite") == reference
 
 
@@ -89,11 +89,11 @@ def test_online_kill_and_resume_replays_to_the_same_result(tmp_path: Path) -> No
     reference = _uninterrupted(config, tmp_path / "ref", world_factory=fake_world)
     out = tmp_path / "killed"
     with pytest.raises(Kill):
-        experiment.run(config, out, killer(33), evaluator=SERIAL, world_factory=fake_world)
+        experiments.run(config, out, killer(33), evaluator=SERIAL, world_factory=fake_world)
     with Store.open(out / "results.sqlite") as store:
         assert store.checkpoint(0).births == 35
     events: list[ProgressEvent] = []
-    experiment.resume(out, events.append, evaluator=SERIAL, world_factory=fake_world)
+    experiments.resume(out, events.append, evaluator=SERIAL, world_factory=fake_world)
     assert any(e.replaying for e in events) and events[-1].finished
     assert dump(out / "results.sqlite") == reference
 
@@ -102,43 +102,43 @@ def test_resume_refuses_a_tampered_online_run(tmp_path: Path) -> None:
     config = small_preset("scenario3", births=40, checkpoint_interval=5)
     out = tmp_path / "out"
     with pytest.raises(Kill):
-        experiment.run(config, out, killer(25), evaluator=SERIAL, world_factory=fake_world)
+        experiments.run(config, out, killer(25), evaluator=SERIAL, world_factory=fake_world)
     con = sqlite3.connect(out / "results.sqlite")
     con.execute("UPDATE robots SET genome = '{}' WHERE robot_id = 17")
     con.commit()
     con.close()
     with pytest.raises(StoreError, match="replay made a different robot 17"):
-        experiment.resume(out, evaluator=SERIAL, world_factory=fake_world)
+        experiments.resume(out, evaluator=SERIAL, world_factory=fake_world)
 
 
 def test_results_are_never_overwritten(tmp_path: Path) -> None:
     out = tmp_path / "out"
-    experiment.run(small_preset("scenario1", births=15), out, evaluator=SERIAL)
+    experiments.run(small_preset("scenario1", births=15), out, evaluator=SERIAL)
     before = dump(out / "results.sqlite")
     with pytest.raises(StoreError, match="already holds results of this experiment; use resume"):
-        experiment.run(small_preset("scenario1", births=15), out, evaluator=SERIAL)
+        experiments.run(small_preset("scenario1", births=15), out, evaluator=SERIAL)
     with pytest.raises(StoreError, match="results of another experiment \\('scenario1'\\)"):
-        experiment.run(small_preset("scenario1", births=30), out, evaluator=SERIAL)
+        experiments.run(small_preset("scenario1", births=30), out, evaluator=SERIAL)
     assert dump(out / "results.sqlite") == before
 
 
 def test_resume_errors(tmp_path: Path) -> None:
     with pytest.raises(StoreError, match="no results database"):
-        experiment.resume(tmp_path / "nothing-here")
+        experiments.resume(tmp_path / "nothing-here")
     bad = tmp_path / "corrupt"
     bad.mkdir()
     (bad / "results.sqlite").write_bytes(b"\x00garbage" * 1000)
     with pytest.raises(StoreError, match="corrupt"):
-        experiment.resume(bad)
+        experiments.resume(bad)
     with pytest.raises(StoreError, match="cannot be used"):
-        experiment.run(small_preset("scenario1", births=15), bad, evaluator=SERIAL)
+        experiments.run(small_preset("scenario1", births=15), bad, evaluator=SERIAL)
 
 
 def test_resuming_a_finished_experiment_changes_nothing(tmp_path: Path) -> None:
     out = tmp_path / "out"
-    experiment.run(small_preset("scenario2", births=20), out, evaluator=SERIAL)
+    experiments.run(small_preset("scenario2", births=20), out, evaluator=SERIAL)
     before = dump(out / "results.sqlite")
-    summary = experiment.resume(out, evaluator=SERIAL)
+    summary = experiments.resume(out, evaluator=SERIAL)
     assert summary.runs == ()
     assert dump(out / "results.sqlite") == before
 
@@ -149,6 +149,6 @@ def test_a_kill_before_all_runs_were_registered_resumes_every_run(tmp_path: Path
     out = tmp_path / "out"
     out.mkdir()
     Store.create(out / "results.sqlite", config.to_dict(), config.seed).close()  # then killed
-    summary = experiment.resume(out, evaluator=SERIAL)
+    summary = experiments.resume(out, evaluator=SERIAL)
     assert sorted(r.run_id for r in summary.runs) == [0, 1]
     assert dump(out / "results.sqlite") == _uninterrupted(config, tmp_path / "reference")

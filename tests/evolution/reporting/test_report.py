@@ -25,20 +25,18 @@ from experiment_fakes import (
 )
 from scipy.stats import mannwhitneyu
 
-from evolution.engine import ProgressEvent
-from evolution.evaluators import LocalEvaluator
-from evolution.experiment import preset, run
+from evolution.experiments import ProgressEvent
+from evolution.evaluation import LocalEvaluator
+from evolution.experiments import preset, run
 from evolution.learning import CandidateEvaluation, RandomSearchLearner, TrainingCenter
-from evolution.reporting import (
+from evolution.reporting import find_experiments, report, step_on_grid
+from evolution.reporting.tables import (
     MANN_WHITNEY_COLUMNS,
     SUMMARY_COLUMNS,
     TESTED_SAMPLES,
     _holm,
-    find_experiments,
-    report,
-    step_on_grid,
 )
-from evolution.store import DB_NAME, Store, StoreError
+from evolution.experiments.store import DB_NAME, Store, StoreError
 
 SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
 CANDIDATES = CandidateEvaluation(insertion=0.0, seconds=1.0, function=param_distance_fitness)

@@ -1,13 +1,13 @@
-"""The online engine's real world (evolution._online_world over PopulationEnv)."""
+"""The online engine's real world (evolution.experiments.online_world over PopulationEnv)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import evolution
-from evolution._online_world import PopulationWorld
-from evolution.experiment import preset
-from evolution.store import Store
+from evolution.experiments.online_world import PopulationWorld
+from evolution.experiments import preset
+from evolution.experiments.store import Store
 from revolve_env.body.examples import gecko, snake
 
 
@@ -15,7 +15,7 @@ def _tiny_online(**changes: object) -> evolution.ExperimentConfig:
     return preset(
         "scenario3", births=7, population_size=3, min_alive=2, max_alive=4,
         conception_interval=2.0, insertion=0.5, evaluation_time=2.0, fertile_age=2.5,
-        diversity_interval=0, workers=1, **changes,
+        diversity_interval=0, workers=1, runs=1, **changes,
     )
 
 

@@ -17,17 +17,36 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import shutil
 import sys
 import tempfile
 import time
 import tomllib
 from collections.abc import Callable, Sequence
-from importlib import resources
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any
 
-__all__ = ["CliError", "ProgressBar", "main", "resolve_config", "shipped_configs"]
+from evolution.cli.progress import ProgressBar, duration, metres
+from evolution.config import EvolutionConfig
+from evolution.evaluation import EvalTask, evaluate_robot
+from evolution.experiments import (
+    DB_NAME,
+    ExperimentConfig,
+    ExperimentSummary,
+    Store,
+    StoreError,
+    learning_names,
+    load_config,
+    resume,
+    run,
+    shipped_configs,
+)
+from evolution.reporting import report
+from revolve_env.body.examples import EXAMPLES, example, spider
+from revolve_env.body.export import bill_of_materials, to_sdf, to_urdf
+from revolve_env.body.robot import Robot
+from revolve_env.body.serialize import load
+
+__all__ = ["CliError", "build_parser", "main"]
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
@@ -41,25 +60,7 @@ class CliError(ValueError):
 # Configurations
 
 
-def shipped_configs() -> dict[str, Path]:
-    """The experiment configs shipped with the package by name: ``evolution/configs/*.toml``
-    (the paper's five experiments and ``quick``) and ``evolution/configs/learning/*.toml``
-    (scenarios with infancy learning, e.g. ``scenario1_learning``)."""
-    folder = resources.files("evolution") / "configs"
-    found: dict[str, Path] = {}
-    for sub in (folder, folder / "learning"):
-        if sub.is_dir():
-            found.update({Path(str(p)).stem: Path(str(p)) for p in sub.iterdir()
-                          if str(p).endswith(".toml")})
-    return found
-
-
-def _learning_names() -> list[str]:
-    """Shipped configs with a ``[learning]`` table."""
-    return sorted(name for name, path in shipped_configs().items() if path.parent.name == "learning")
-
-
-def _describe_learning(config: Any) -> str:
+def _describe_learning(config: ExperimentConfig) -> str:
     """One line on a config's infancy learning (empty without a ``[learning]`` table)."""
     if config.learning is None:
         return ""
@@ -93,181 +94,6 @@ def _parse_set(items: Sequence[str]) -> dict[str, Any]:
     return data
 
 
-def resolve_config(name_or_path: str, overrides: dict[str, Any] | None = None) -> Any:
-    """An :class:`~evolution.experiment.ExperimentConfig` from a shipped name or a TOML path.
-
-    Args:
-        name_or_path: A shipped config name (``scenario1``, ..., ``quick``,
-            ``scenario1_learning``, ...) or a TOML file (with an optional ``[learning]`` table).
-        overrides: Config keys to change (``evolution`` and ``learning`` as nested tables,
-            merged key by key into the config's).
-
-    Raises:
-        ConfigError: unknown name, unreadable file, unknown key or value out of range.
-    """
-    from evolution.experiment import ConfigError, ExperimentConfig
-
-    shipped = shipped_configs()
-    path = Path(name_or_path)
-    if path.suffix == ".toml" or path.is_file():
-        if not path.is_file():
-            raise ConfigError(f"no such config file: {path}")
-        config = ExperimentConfig.from_toml(path)
-    elif name_or_path in shipped:
-        config = ExperimentConfig.from_toml(shipped[name_or_path])
-    else:
-        raise ConfigError(
-            f"unknown scenario {name_or_path!r}; known: {', '.join(sorted(shipped))} "
-            "(or give the path of a TOML config file)")
-    if overrides:
-        data = config.to_dict()
-        nested = ("evolution", "learning")
-        for table in nested:
-            value = overrides.get(table)
-            if value is None:
-                continue
-            if not isinstance(value, dict):
-                raise ConfigError(f"{table} is a table: set its keys as {table}.KEY=VALUE")
-            if table == "learning" and "learning" not in data and "learner" not in value:
-                raise ConfigError(
-                    f"{name_or_path} has no [learning] table: give learning.learner and "
-                    "learning.budget, or start from a config with one")
-            data[table] = {**data.get(table, {}), **value}
-        data.update({k: v for k, v in overrides.items() if k not in nested})
-        config = ExperimentConfig.from_dict(data)
-    return config
-
-
-# --------------------------------------------------------------------------------------------
-# Progress
-
-
-def _duration(seconds: float) -> str:
-    if not math.isfinite(seconds):
-        return "?"
-    seconds = round(seconds)
-    h, rest = divmod(seconds, 3600)
-    m, s = divmod(rest, 60)
-    return f"{h}h{m:02d}m" if h else f"{m}m{s:02d}s"
-
-
-def _metres(value: float) -> str:
-    return "-" if not math.isfinite(value) else f"{value:.3f}"
-
-
-class ProgressBar:
-    """Progress of an experiment's runs, fed with :class:`~evolution.engine.ProgressEvent`.
-
-    On a terminal one line is redrawn in place (at most every ``redraw`` seconds); otherwise a
-    plain line is printed every ``interval`` seconds and when a run finishes.
-
-    Args:
-        targets: Births at which each run stops, by run id.
-        done: Births already committed by each run (resume), by run id.
-        stream: Where to draw (default stderr).
-        tty: Force terminal mode on or off (default: ``stream.isatty()``).
-        interval: Seconds between plain lines. Seconds.
-        redraw: Minimum seconds between terminal redraws. Seconds.
-        clock: Wall clock (tests). Seconds.
-    """
-
-    def __init__(
-        self,
-        targets: dict[int, int],
-        done: dict[int, int] | None = None,
-        stream: TextIO | None = None,
-        tty: bool | None = None,
-        interval: float = 10.0,
-        redraw: float = 0.2,
-        clock: Callable[[], float] = time.monotonic,
-    ) -> None:
-        self.targets = dict(targets)
-        self.births = {run: (done or {}).get(run, 0) for run in targets}
-        self.stream = stream if stream is not None else sys.stderr
-        self.tty = self.stream.isatty() if tty is None else tty
-        self.interval = interval
-        self.redraw = redraw
-        self.clock = clock
-        self.started = clock()
-        self.births_at_start = sum(self.births.values())
-        self.speeds: dict[int, float] = {}
-        self.finished: set[int] = set()
-        self.last_event: Any = None
-        self.last_draw = -math.inf
-        self.drawn = False
-
-    @property
-    def total(self) -> int:
-        """Births of all runs together at the end."""
-        return sum(self.targets.values())
-
-    @property
-    def done(self) -> int:
-        """Births committed so far, all runs together."""
-        return sum(self.births.values())
-
-    def eta(self) -> float:
-        """Estimated wall-clock seconds left (from the birth rate since this bar started)."""
-        elapsed = self.clock() - self.started
-        gained = self.done - self.births_at_start
-        if gained <= 0 or elapsed <= 0:
-            return math.inf
-        return (self.total - self.done) * elapsed / gained
-
-    def line(self, width: int = 20) -> str:
-        """The progress line (without line ending)."""
-        total = max(1, self.total)
-        fraction = min(1.0, self.done / total)
-        filled = round(fraction * width)
-        bar = "#" * filled + "-" * (width - filled)
-        text = f"[{bar}] {100 * fraction:3.0f}% births {self.done}/{self.total}"
-        if len(self.targets) > 1:
-            text += f" | runs done {len(self.finished)}/{len(self.targets)}"
-        event = self.last_event
-        if event is not None:
-            if event.replaying:
-                text += f" | run {event.run_id} replaying to its last commit point"
-            else:
-                who = f"run {event.run_id} " if len(self.targets) > 1 else ""
-                text += (f" | {who}best {_metres(event.best)} m mean {_metres(event.mean)} m"
-                         f" pop {event.population_size}")
-        speed = sum(v for v in self.speeds.values() if math.isfinite(v))
-        if self.speeds:
-            text += f" | sim {speed:.1f}x"
-        text += f" | ETA {_duration(self.eta())}"
-        return text
-
-    def __call__(self, event: Any) -> None:
-        """Take one progress event (called after every commit point of every run)."""
-        if event.run_id in self.targets:
-            self.births[event.run_id] = event.births
-        self.last_event = event
-        if not event.replaying and math.isfinite(event.sim_speed):
-            self.speeds[event.run_id] = event.sim_speed
-        if event.finished:
-            self.finished.add(event.run_id)
-            self.speeds.pop(event.run_id, None)
-        now = self.clock()
-        if self.tty:
-            if now - self.last_draw >= self.redraw or event.finished:
-                columns = shutil.get_terminal_size((100, 20)).columns
-                self.stream.write("\r" + self.line()[: columns - 1].ljust(columns - 1))
-                self.stream.flush()
-                self.last_draw = now
-                self.drawn = True
-        elif now - self.last_draw >= self.interval or event.finished:
-            self.stream.write(self.line() + "\n")
-            self.stream.flush()
-            self.last_draw = now
-
-    def close(self) -> None:
-        """End the terminal line (if one was drawn)."""
-        if self.tty and self.drawn:
-            self.stream.write("\n")
-            self.stream.flush()
-            self.drawn = False
-
-
 # --------------------------------------------------------------------------------------------
 # Subcommands
 
@@ -276,22 +102,20 @@ def _say(text: str) -> None:
     print(text, flush=True)
 
 
-def _print_runs(summary: Any) -> None:
+def _print_runs(summary: ExperimentSummary) -> None:
     for r in summary.runs:
         _say(f"run {r.run_id}: {r.status}, {r.births} births, {r.sim_time:.0f} s simulated, "
-             f"best {_metres(r.best)} m, mean {_metres(r.mean)} m, population {r.population_size}, "
-             f"{_duration(r.wall_time)}")
+             f"best {metres(r.best)} m, mean {metres(r.mean)} m, population {r.population_size}, "
+             f"{duration(r.wall_time)}")
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from evolution.experiment import run
-
     overrides = _parse_set(args.set or [])
     for key in ("runs", "births", "seed", "workers", "name"):
         value = getattr(args, key)
         if value is not None:
             overrides[key] = value
-    config = resolve_config(args.config, overrides)
+    config = load_config(args.config, overrides)
     if Path(config.name).name != config.name or config.name in (".", ".."):
         raise CliError(f"experiment name {config.name!r} cannot be a folder name inside --out")
     out = Path(args.out) / config.name
@@ -316,8 +140,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _experiment_dirs(root: Path) -> list[Path]:
-    from evolution.store import DB_NAME, StoreError
-
     if not root.exists():
         raise StoreError(f"no such results directory: {root}")
     if (root / DB_NAME).is_file():
@@ -329,9 +151,6 @@ def _experiment_dirs(root: Path) -> list[Path]:
 
 
 def _cmd_resume(args: argparse.Namespace) -> int:
-    from evolution.experiment import ExperimentConfig, resume
-    from evolution.store import DB_NAME, Store
-
     todo = []
     for folder in _experiment_dirs(Path(args.dir)):
         with Store.open(folder / DB_NAME) as store:
@@ -362,8 +181,6 @@ def _cmd_resume(args: argparse.Namespace) -> int:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from evolution.reporting import report
-
     formats = tuple(f.strip() for f in args.formats.split(",") if f.strip())
     result = report(args.dir, args.out, formats)
     _say(f"{len(result.experiments)} experiment(s): "
@@ -373,14 +190,9 @@ def _cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
-def _load_robot(args: argparse.Namespace) -> tuple[Any, str]:
+def _load_robot(args: argparse.Namespace) -> tuple[Robot, str]:
     """The robot named on the command line and a short name for it."""
-    from revolve_env.body.examples import EXAMPLES, example
-    from revolve_env.body.serialize import load
-
     if args.db is not None:
-        from evolution.store import DB_NAME, Store
-
         if args.robot is not None:
             raise CliError("give either a robot file/example or --db, not both")
         if (args.robot_id is None) == (not args.best):
@@ -418,7 +230,8 @@ def _load_robot(args: argparse.Namespace) -> tuple[Any, str]:
 
 
 def _cmd_show(args: argparse.Namespace) -> int:
-    from evolution.video import record_robot
+    # Imported here: it loads the physics engine, which the other commands never need.
+    from revolve_env.envs.recording import record_robot
 
     robot, name = _load_robot(args)
     out = Path(args.out) if args.out else Path(f"{name}.gif")
@@ -429,8 +242,6 @@ def _cmd_show(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from revolve_env.body.export import bill_of_materials, to_sdf, to_urdf
-
     robot, _ = _load_robot(args)
     if args.format == "urdf":
         text = to_urdf(robot)
@@ -451,15 +262,9 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    from evolution.config import EvolutionConfig
-    from evolution.evaluators import EvalTask, evaluate_task
-    from evolution.experiment import ExperimentConfig, run
-    from revolve_env.body.examples import spider
-    from revolve_env.body.serialize import to_json
-
     started = time.perf_counter()
     robot = spider()
-    outcome = evaluate_task(EvalTask(0, to_json(robot, indent=None), 3.0, args.seconds, 0))
+    outcome = evaluate_robot(EvalTask(0, robot, 3.0, args.seconds, 0))
     if outcome.fitness is None:
         raise CliError(f"the example spider could not be evaluated: {outcome.failure}")
     _say(f"example spider: fitness {outcome.fitness:.3f} m over {args.seconds:g} s "
@@ -480,8 +285,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         finally:
             bar.close()
         best = summary.runs[0].best
-        _say(f"best fitness after {summary.runs[0].births} births: {_metres(best)} m "
-             f"(population mean {_metres(summary.runs[0].mean)} m); "
+        _say(f"best fitness after {summary.runs[0].births} births: {metres(best)} m "
+             f"(population mean {metres(summary.runs[0].mean)} m); "
              f"{time.perf_counter() - started:.0f} s in all")
         if args.out:
             _say(f"results: {out}; try: revolve report {args.out}")
@@ -537,9 +342,9 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Start with `revolve demo`; then `revolve run quick` and `revolve report results`.",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    learning = _learning_names()
+    learning = learning_names()
     names = ", ".join(sorted(set(shipped_configs()) - set(learning)))
-    learning_names = ", ".join(learning)
+    learning_list = ", ".join(learning)
 
     p = sub.add_parser(
         "run", help="run an experiment",
@@ -548,13 +353,13 @@ def build_parser() -> argparse.ArgumentParser:
                     "never overwritten. Ctrl-C stops after the last commit point; continue with "
                     "`revolve resume OUT/<name>`.",
         epilog=f"shipped configs: {names}; with infancy learning (a [learning] table: "
-               f"learner, budget, inheritance, ...): {learning_names}. A TOML file may add a "
+               f"learner, budget, inheritance, ...): {learning_list}. A TOML file may add a "
                "[learning] table to any experiment; it is stored with the results and `revolve "
                "resume` learns the same way. Example: revolve run quick --runs 3 --out results; "
                "revolve run scenario1_learning --set learning.budget=35 --out results",
     )
     p.add_argument("config", metavar="CONFIG_OR_SCENARIO",
-                   help=f"a shipped config ({names}; {learning_names}) or the path of a TOML "
+                   help=f"a shipped config ({names}; {learning_list}) or the path of a TOML "
                         "config file")
     p.add_argument("--runs", type=_positive_int, help="independent repeats")
     p.add_argument("--births", type=_positive_int, help="stop each run after this many births")

@@ -14,13 +14,8 @@ import numpy as np
 import pytest
 
 from evolution.config import EvolutionConfig
-from evolution.evaluators import (
-    EvalOutcome,
-    EvalTask,
-    LocalEvaluator,
-    evaluate_after_infancy,
-    run_infancy,
-)
+from evolution.evaluation import EvalOutcome, EvalTask, LocalEvaluator
+from evolution.evaluation import evaluate_after_infancy, run_infancy
 from evolution.learning import (
     CandidateEvaluation,
     CMAESLearner,
@@ -49,7 +44,7 @@ def _target(robot: Robot) -> np.ndarray:
 
 def distance_fitness(task: EvalTask) -> EvalOutcome:
     """10 minus the normalised distance of the params to a fixed target (maximum 10 there)."""
-    robot = from_json(task.genome)
+    robot = task.robot
     bounds = param_bounds(robot)
     d = (get_params(robot) - _target(robot)) / (bounds[:, 1] - bounds[:, 0])
     return EvalOutcome(10.0 - float(np.linalg.norm(d)))
@@ -57,14 +52,14 @@ def distance_fitness(task: EvalTask) -> EvalOutcome:
 
 def inborn_is_best(task: EvalTask) -> EvalOutcome:
     """Peaks exactly at the gecko's inborn params: no candidate can beat them."""
-    robot = from_json(task.genome)
+    robot = task.robot
     d = get_params(robot) - get_params(EXAMPLES["gecko"]())
     return EvalOutcome(1.0 - float(np.abs(d).sum()))
 
 
 def blow_up_every_other(task: EvalTask) -> EvalOutcome:
     """A blow-up for every candidate whose first param is above the inborn one."""
-    robot = from_json(task.genome)
+    robot = task.robot
     if get_params(robot)[0] > get_params(EXAMPLES["gecko"]())[0]:
         return EvalOutcome(None, failure="blow-up: test")
     return distance_fitness(task)
@@ -205,7 +200,7 @@ def test_cma_es_improves_a_weak_inborn_gait_in_the_physics() -> None:
     # Measured: inborn 0.357 m, best 0.991 m over a 2 s window (seed 1).
     assert result.improvement > 0.3
     # The returned robot really walks that well (an independent re-evaluation, same seed).
-    task = EvalTask(0, to_json(result.robot), 0.25, 2.0, 0)
+    task = EvalTask(0, result.robot, 0.25, 2.0, 0)
     again = evaluate_in_env(task).fitness
     assert again is not None and again > result.inborn_fitness + 0.3
 
@@ -278,8 +273,8 @@ def _engine_evaluate(task: EvalTask) -> EvalOutcome:
 
 
 def test_a_raising_learner_is_recorded_in_the_store_and_the_run_goes_on(tmp_path) -> None:
-    from evolution.experiment import ExperimentConfig, run
-    from evolution.store import Store
+    from evolution.experiments import ExperimentConfig, run
+    from evolution.experiments.store import Store
 
     config = ExperimentConfig(name="learning-fails", population_size=3, offspring_size=3,
                               births=6, evaluation_time=1.0, insertion=0.0, fertile_age=1.0,
@@ -318,23 +313,19 @@ def test_lamarckian_children_inherit_learned_params_darwinian_ones_do_not(inheri
 # -- configs and the default evaluation ------------------------------------------------------------
 
 def test_the_default_candidate_evaluation_matches_the_env_path() -> None:
-    from evolution.evaluators import evaluate_task
+    from evolution.evaluation import evaluate_task
 
-    task = EvalTask(0, to_json(weak_gecko()), 0.25, 1.0, 0)
+    task = EvalTask(0, weak_gecko(), 0.25, 1.0, 0)
     assert CandidateEvaluation().function is evaluate_task
     assert evaluate_task(task).fitness == pytest.approx(evaluate_in_env(task).fitness, abs=1e-12)
 
 
 def test_shipped_learning_configs_add_learning_to_scenarios_1_and_3() -> None:
-    from pathlib import Path
+    from evolution.experiments import load_config, preset
 
-    import evolution
-    from evolution.experiment import preset
-    from evolution.learning import load_learning_experiment
-
-    folder = Path(evolution.__file__).parent / "configs" / "learning"
     for scenario, inheritance in (("scenario1", "darwinian"), ("scenario3", "lamarckian")):
-        config, center = load_learning_experiment(folder / f"{scenario}_learning.toml")
+        config = load_config(f"{scenario}_learning")
+        center = config.training_center()
         assert config.replace(name=scenario, learning=None) == preset(scenario)
         assert center is not None and center.inheritance == inheritance
         assert isinstance(center.learner, CMAESLearner) and center.budget == 119.0
@@ -343,8 +334,8 @@ def test_shipped_learning_configs_add_learning_to_scenarios_1_and_3() -> None:
 
 
 def test_learning_table_errors_name_the_problem(tmp_path) -> None:
-    from evolution.experiment import ConfigError
-    from evolution.learning import load_learning_experiment, training_center_from_dict
+    from evolution.experiments import ConfigError, ExperimentConfig
+    from evolution.learning import training_center_from_dict
 
     with pytest.raises(ValueError, match="learner must be one of"):
         training_center_from_dict({"learner": "hill-climb", "budget": 10.0})
@@ -355,7 +346,7 @@ def test_learning_table_errors_name_the_problem(tmp_path) -> None:
     bad = tmp_path / "bad.toml"
     bad.write_text('preset = "scenario1"\n[learning]\nlearner = "cma-es"\nbudget = -1.0\n')
     with pytest.raises(ConfigError, match="bad.toml.*budget"):
-        load_learning_experiment(bad)
+        ExperimentConfig.from_toml(bad)
     plain = tmp_path / "plain.toml"
     plain.write_text('preset = "quick"\n')
-    assert load_learning_experiment(plain)[1] is None
+    assert ExperimentConfig.from_toml(plain).training_center() is None

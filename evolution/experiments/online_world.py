@@ -1,7 +1,7 @@
 """The online world of the engine over the PettingZoo population environment (issue 4).
 
 Adapts :class:`revolve_env.envs.population.PopulationEnv` to
-:class:`evolution.engine.OnlineWorld`: robots are added with ``add_robot(robot, position,
+:class:`evolution.experiments.run.OnlineWorld`: robots are added with ``add_robot(robot, position,
 controlled_by="brain")`` (their own brains drive them, so ``step`` gets no actions), removed
 with ``remove_robot``, and the per-agent ``infos`` give the sliding-window fitness, the core
 position and the reason a robot was removed (blow-up). Imported lazily: ``evolution`` itself
@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from evolution.engine import AgentStatus
-from evolution.experiment import ExperimentConfig
+from evolution.experiments.config import ExperimentConfig
+from evolution.experiments.run import AgentStatus
 from revolve_env.body.robot import Robot
 
 

@@ -1,0 +1,9 @@
+"""The ``revolve`` command line: a thin layer over the Python API (:mod:`evolution.experiments`,
+:mod:`evolution.reporting`, :mod:`revolve_env`)."""
+
+from __future__ import annotations
+
+from evolution.cli.main import CliError, build_parser, main
+from evolution.cli.progress import ProgressBar
+
+__all__ = ["CliError", "ProgressBar", "build_parser", "main"]

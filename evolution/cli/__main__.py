@@ -1,0 +1,7 @@
+"""``python -m evolution.cli``: the ``revolve`` command."""
+
+import sys
+
+from evolution.cli.main import main
+
+sys.exit(main())

@@ -1,0 +1,183 @@
+"""What an isolated evaluation is: a task (robot, timing, seed), its outcome, and its seeds.
+
+:func:`evaluate_task` is the evaluation of the experiments: the Training Center first (the task's
+infancy hook, run by :func:`run_infancy`, which never fails the run), then the robot that lives
+on, evaluated alone at the origin (:func:`evaluate_robot`).
+
+Determinism: an evaluation is a pure function of the robot, the timing and its seed, and the seed
+is derived from the run's seed and the robot's id (:func:`evaluation_seed`), so results do not
+depend on the number of workers or on which worker ran what.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from evolution.lifecycle import InfancyHook, LearningSummary, SummarizingInfancyHook
+from revolve_env.body.robot import Robot
+
+__all__ = [
+    "EvalOutcome",
+    "EvalTask",
+    "EvaluateFunction",
+    "InfancyReport",
+    "LearningSummary",
+    "evaluate_after_infancy",
+    "evaluate_robot",
+    "evaluate_task",
+    "evaluation_seed",
+    "infancy_seed",
+    "run_infancy",
+]
+
+
+@dataclass(frozen=True, slots=True)
+class EvalTask:
+    """One isolated evaluation.
+
+    Attributes:
+        robot_id: The robot's birth index (for messages).
+        robot: The robot (its own network drives it).
+        insertion: Settling time before the fitness window. Seconds.
+        seconds: Fitness window. Seconds.
+        seed: Seed of the evaluation (:func:`evaluation_seed`).
+        infancy: Optional Training Center learner applied before the evaluation.
+    """
+
+    robot_id: int
+    robot: Robot
+    insertion: float
+    seconds: float
+    seed: int
+    infancy: InfancyHook | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class EvalOutcome:
+    """What an evaluation gave.
+
+    Attributes:
+        fitness: ``v + 5 s`` over the window; ``None`` when the evaluation failed. Metres.
+        v: Path length over the window. Metres.
+        s: Straight-line displacement over the window. Metres.
+        failure: ``None``, or why the robot was lost (e.g. ``"blow-up: ..."``).
+        learner_failure: ``None``, or why the infancy hook failed (the robot was then evaluated
+            with its inherited brain).
+        learned: The robot with the controller the infancy hook gave it, when that differs from
+            the inborn one; ``None`` otherwise (no hook, a failed hook, or nothing learned). The
+            evaluation measured this robot.
+        learning: The learner's own record, when a hook ran and did not fail.
+    """
+
+    fitness: float | None
+    v: float | None = None
+    s: float | None = None
+    failure: str | None = None
+    learner_failure: str | None = None
+    learned: Robot | None = None
+    learning: LearningSummary | None = None
+
+
+EvaluateFunction = Callable[[EvalTask], EvalOutcome]
+"""A picklable (module-level) function evaluating one task."""
+
+
+def evaluation_seed(run_seed: int, robot_id: int) -> int:
+    """The seed of a robot's evaluation: a function of the run's seed and the robot's id only."""
+    return int(np.random.SeedSequence([run_seed, robot_id, 0x0E7A1]).generate_state(1)[0])
+
+
+def infancy_seed(evaluation_seed: int) -> np.random.SeedSequence:
+    """The seed of a robot's infancy learning, derived from its evaluation seed.
+
+    Both engines use it, so an infant learns the same way offline and online, and the engine's
+    own generator never depends on what a learner draws.
+    """
+    return np.random.SeedSequence([evaluation_seed, 1])
+
+
+def evaluate_robot(task: EvalTask) -> EvalOutcome:
+    """Evaluate ``task.robot`` alone at the origin with :func:`revolve_env.evaluate`, its own
+    network driving it.
+
+    ``task.infancy`` is ignored here (:func:`evaluate_task` runs it first).
+    """
+    # Imported here: it loads the physics engine, which a process that only plans (the CLI, a
+    # Ray driver) never needs.
+    from revolve_env.evaluation import evaluate
+
+    result = evaluate(task.robot, seconds=task.seconds, insertion=task.insertion, seed=task.seed)
+    if result.blow_up is not None:
+        return EvalOutcome(None, failure=f"blow-up: {result.blow_up}")
+    return EvalOutcome(float(result.fitness), float(result.v), float(result.s))
+
+
+@dataclass(frozen=True, slots=True)
+class InfancyReport:
+    """One call of an infancy hook (:func:`run_infancy`).
+
+    Attributes:
+        robot: The robot that lives on: the learned one, or the inborn one after a failure.
+        changed: True when ``robot``'s controller differs from the inborn one.
+        failure: ``None``, or the hook's error in one line (the inborn robot was kept).
+        learning: The learner's record (``None`` after a failure; without the numbers for a
+            plain hook that is not a :class:`~evolution.learning.TrainingCenter`).
+    """
+
+    robot: Robot
+    changed: bool
+    failure: str | None = None
+    learning: LearningSummary | None = None
+
+
+def run_infancy(hook: InfancyHook, robot: Robot, seed: int) -> InfancyReport:
+    """Call an infancy hook on a newborn, never raising for a failing learner.
+
+    A hook with ``learn_with_summary`` (:class:`~evolution.lifecycle.SummarizingInfancyHook`,
+    e.g. :class:`~evolution.learning.TrainingCenter`) also gives its learner's numbers (inborn
+    and learned fitness, evaluations, simulated seconds). Any exception from the hook (a
+    :class:`~evolution.learning.LearnerError` or a plain hook's own error) keeps the inborn
+    robot and is returned as ``failure``, for the engine to record.
+
+    Args:
+        hook: The infancy hook.
+        robot: The inborn robot.
+        seed: The robot's evaluation seed (:func:`evaluation_seed`); the learner's generator is
+            seeded with :func:`infancy_seed`.
+    """
+    rng = np.random.default_rng(infancy_seed(seed))
+    try:
+        if isinstance(hook, SummarizingInfancyHook):
+            learned, summary = hook.learn_with_summary(robot, rng)
+        else:
+            learned = hook(robot, rng)
+            summary = LearningSummary()
+    except Exception as error:  # noqa: BLE001 - a failing learner must not kill the run; recorded
+        return InfancyReport(robot, False, f"{type(error).__name__}: {error}")
+    return InfancyReport(learned, learned != robot, None, summary)
+
+
+def evaluate_after_infancy(task: EvalTask, evaluate: EvaluateFunction) -> EvalOutcome:
+    """Apply ``task.infancy`` (if any), then ``evaluate`` the robot that lives on.
+
+    ``evaluate`` receives the task with the learned robot and no hook; the outcome carries the
+    learned robot (when it changed), the learner's record and any learner failure. This is how
+    every evaluation function gets the Training Center: :func:`evaluate_task` is
+    ``evaluate_after_infancy(task, evaluate_robot)``.
+    """
+    if task.infancy is None:
+        return evaluate(task)
+    report = run_infancy(task.infancy, task.robot, task.seed)
+    learned = report.robot if report.changed else None
+    outcome = evaluate(replace(task, robot=report.robot, infancy=None))
+    return replace(outcome, learner_failure=report.failure, learned=learned,
+                   learning=report.learning)
+
+
+def evaluate_task(task: EvalTask) -> EvalOutcome:
+    """The default evaluation: the Training Center (``task.infancy``, if any), then the robot
+    evaluated alone at the origin with :func:`revolve_env.evaluate`."""
+    return evaluate_after_infancy(task, evaluate_robot)

@@ -1,0 +1,54 @@
+"""The experiment application: the paper's scenarios run, stored and resumed.
+
+Modules, bottom up: :mod:`~evolution.experiments.errors`, :mod:`~evolution.experiments.registry`
+(the shipped TOML configs, the one scenario registry), :mod:`~evolution.experiments.config`
+(:class:`ExperimentConfig`), :mod:`~evolution.experiments.store` (SQLite results, exact resume),
+:mod:`~evolution.experiments.run` (what both engines share), :mod:`~evolution.experiments.offline`
+and :mod:`~evolution.experiments.online` (the engines), :mod:`~evolution.experiments.online_world`
+(the population env as the online world), :mod:`~evolution.experiments.engine` (one run) and
+:mod:`~evolution.experiments.api` (:func:`run` / :func:`resume` of a whole experiment).
+"""
+
+from __future__ import annotations
+
+from evolution.experiments.api import ExperimentSummary, ProgressCallback, resume, run
+from evolution.experiments.config import ConfigError, ExperimentConfig, load_config, preset
+from evolution.experiments.engine import default_world, execute_run
+from evolution.experiments.registry import learning_names, shipped_configs
+from evolution.experiments.run import (
+    AgentStatus,
+    OnlineWorld,
+    ProgressEvent,
+    ReplayError,
+    RunJob,
+    RunSummary,
+    WorldFactory,
+    run_seed,
+)
+from evolution.experiments.store import DB_NAME, Store, StoreError
+
+__all__ = [
+    "DB_NAME",
+    "AgentStatus",
+    "ConfigError",
+    "ExperimentConfig",
+    "ExperimentSummary",
+    "OnlineWorld",
+    "ProgressCallback",
+    "ProgressEvent",
+    "ReplayError",
+    "RunJob",
+    "RunSummary",
+    "Store",
+    "StoreError",
+    "WorldFactory",
+    "default_world",
+    "execute_run",
+    "learning_names",
+    "load_config",
+    "preset",
+    "resume",
+    "run",
+    "run_seed",
+    "shipped_configs",
+]

@@ -1,0 +1,200 @@
+"""The Python API of the experiments: ``run(config, out_dir)`` and ``resume(out_dir)``."""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from evolution.evaluation import Evaluator, make_evaluator
+from evolution.experiments.config import ConfigError, ExperimentConfig, load_config
+from evolution.experiments.engine import execute_run
+from evolution.experiments.run import (
+    ProgressEvent,
+    RunJob,
+    RunSummary,
+    WorldFactory,
+    check_infancy,
+    run_seed,
+)
+from evolution.experiments.store import DB_NAME, Store, StoreError
+from evolution.lifecycle import InfancyHook
+
+__all__ = ["ExperimentSummary", "ProgressCallback", "resume", "run"]
+
+
+@dataclass(frozen=True, slots=True)
+class ExperimentSummary:
+    """How an experiment's runs ended.
+
+    Attributes:
+        out_dir: The results directory.
+        db_path: Its database.
+        runs: One summary per run executed by this call, by run id.
+    """
+
+    out_dir: Path
+    db_path: Path
+    runs: tuple[RunSummary, ...]
+
+
+ProgressCallback = Callable[[ProgressEvent], None]
+"""Receives a :class:`~evolution.experiments.run.ProgressEvent` after every commit point of every
+run."""
+
+
+def run(
+    config: ExperimentConfig | str | os.PathLike[str] | Mapping[str, Any],
+    out_dir: str | os.PathLike[str],
+    progress: ProgressCallback | None = None,
+    *,
+    evaluator: Evaluator | None = None,
+    world_factory: WorldFactory | None = None,
+    infancy: InfancyHook | None = None,
+) -> ExperimentSummary:
+    """Run an experiment, writing its results to ``out_dir/results.sqlite``.
+
+    Args:
+        config: An :class:`ExperimentConfig`, a shipped config name (``"scenario1"``,
+            ``"scenario1_learning"``, ...: the same file ``revolve run NAME`` reads), the path of
+            a TOML config, or a dict.
+        out_dir: Results directory; created if missing. It must not already hold results.
+        progress: Called with a :class:`~evolution.experiments.engine.ProgressEvent` after every commit
+            point (raising from it stops the run after that commit point; ``resume`` continues).
+        evaluator: An :mod:`evolution.evaluation` evaluator; default from ``config.evaluator``
+            and ``config.workers`` (closed at the end only if made here).
+        world_factory: Makes the online world of a run (default: the population environment).
+        infancy: The Training Center: an infancy hook, usually a
+            :class:`~evolution.learning.TrainingCenter` (both engines; see
+            :mod:`evolution.experiments.engine` for when it runs, how learning is recorded and what
+            Lamarckian inheritance changes). Default: the one ``config.learning`` describes
+            (stored with the results; :func:`resume` rebuilds it). A hook given here without
+            ``config.learning`` is not stored: pass the same one to :func:`resume`.
+
+    Returns:
+        The summary of every run.
+
+    Raises:
+        ConfigError: invalid configuration, or an ``infancy`` other than the Training Center
+            of ``config.learning``.
+        ValueError: an infancy hook the engine cannot honour
+            (:func:`evolution.experiments.engine.check_infancy`).
+        StoreError: ``out_dir`` already holds results (of this or another experiment).
+        KeyboardInterrupt: Ctrl-C; what finished is committed, ``resume(out_dir)`` continues.
+    """
+    config = _as_config(config)
+    infancy = _infancy_for(config, infancy)
+    check_infancy(infancy)
+    out = Path(out_dir)
+    db_path = out / DB_NAME
+    if db_path.exists():
+        try:
+            with Store.open(db_path) as existing:
+                same = existing.config == _json_roundtrip(config.to_dict())
+                name = existing.config.get("name", "?")
+        except StoreError as error:
+            raise StoreError(f"{out} already holds a results database that cannot be used: {error}") from error
+        if same:
+            raise StoreError(
+                f"{out} already holds results of this experiment; use resume({str(out)!r}) to "
+                "continue it, or choose another directory"
+            )
+        raise StoreError(
+            f"{out} holds results of another experiment ({name!r}); refusing to overwrite them, "
+            "choose another directory"
+        )
+    if out.exists() and not out.is_dir():
+        raise StoreError(f"{out} exists and is not a directory")
+    Store.create(db_path, config.to_dict(), config.seed).close()
+    return _execute(config, db_path, progress, evaluator, world_factory, infancy)
+
+
+def resume(
+    out_dir: str | os.PathLike[str],
+    progress: ProgressCallback | None = None,
+    *,
+    evaluator: Evaluator | None = None,
+    world_factory: WorldFactory | None = None,
+    infancy: InfancyHook | None = None,
+) -> ExperimentSummary:
+    """Continue an interrupted experiment to the result an uninterrupted one would have given.
+
+    Finished runs are left alone; the others continue from their last commit point. With a
+    stored ``learning`` table the Training Center is rebuilt from it (``infancy`` may be given
+    only if it is the same one).
+
+    Raises:
+        StoreError: no usable results database in ``out_dir`` (missing, corrupt, newer schema).
+        ConfigError: the stored configuration is not valid for this package version, or
+            ``infancy`` differs from the stored learning table's Training Center.
+    """
+    check_infancy(infancy)
+    db_path = Path(out_dir) / DB_NAME
+    with Store.open(db_path) as store:
+        config = ExperimentConfig.from_dict(store.config)
+    infancy = _infancy_for(config, infancy)
+    check_infancy(infancy)
+    return _execute(config, db_path, progress, evaluator, world_factory, infancy)
+
+
+def _execute(
+    config: ExperimentConfig,
+    db_path: Path,
+    progress: ProgressCallback | None,
+    evaluator: Evaluator | None,
+    world_factory: WorldFactory | None,
+    infancy: InfancyHook | None,
+) -> ExperimentSummary:
+    with Store.open(db_path) as store:
+        # Registering is idempotent, so a run killed before all its runs were registered
+        # resumes with every one of them.
+        for run_id in range(config.runs):
+            store.add_run(run_id, run_seed(config.seed, run_id))
+        pending = [r.run_id for r in store.runs() if r.status != "finished"]
+    jobs = [RunJob(str(db_path), run_id, config, world_factory, infancy) for run_id in pending]
+    own = evaluator is None
+    if own:
+        evaluator = make_evaluator(config.evaluator, config.workers, config.ray_address)
+    try:
+        summaries = evaluator.run_jobs(execute_run, jobs, progress)
+    finally:
+        if own:
+            evaluator.close()
+    return ExperimentSummary(db_path.parent, db_path, tuple(summaries))
+
+
+def _infancy_for(config: ExperimentConfig, infancy: InfancyHook | None) -> InfancyHook | None:
+    """The infancy hook of a run: ``config.learning``'s Training Center, or ``infancy``.
+
+    Raises:
+        ConfigError: both are given and differ (which one would the stored results describe?).
+    """
+    center = config.training_center()
+    if center is None:
+        return infancy
+    if infancy is not None and infancy != center:
+        raise ConfigError(
+            "the config has a learning table and infancy= gives another Training Center; give "
+            "one of them (the learning table is stored with the results, infancy= is not)"
+        )
+    return center
+
+
+def _as_config(config: ExperimentConfig | str | os.PathLike[str] | Mapping[str, Any]
+               ) -> ExperimentConfig:
+    if isinstance(config, ExperimentConfig):
+        return config
+    if isinstance(config, (str, os.PathLike)):
+        return load_config(config)
+    if isinstance(config, Mapping):
+        return ExperimentConfig.from_dict(config)
+    raise ConfigError(f"config must be an ExperimentConfig, a shipped config name, a TOML "
+                      "path or a dict, "
+                      f"got {config!r}")
+
+
+def _json_roundtrip(data: dict[str, Any]) -> dict[str, Any]:
+    return dict(json.loads(json.dumps(data, sort_keys=True)))

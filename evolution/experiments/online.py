@@ -1,0 +1,155 @@
+"""The online engine: the whole population in one world, asynchronous births and deaths.
+
+``population_size`` random robots are born at time 0 at random free positions. Every
+``conception_interval`` seconds of simulated time: robots that died in the world (blow-ups) are
+recorded; survivor selection applies the online rule to the *mature* robots (infants have no full
+fitness window yet; the population never drops below ``min_alive`` through selection and is culled
+when it reaches ``max_alive``); then one robot is conceived from two mature parents chosen by
+tournament on their current sliding-window fitness and born at a random free position within
+``birth_radius`` of the origin. If blow-ups leave fewer than ``min_alive`` robots, extra robots
+are conceived at once. A commit point is every ``checkpoint_interval`` births.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from evolution.evaluation import evaluation_seed, run_infancy
+from evolution.experiments.run import Member, OnlineWorld, ProgressEvent, RunJob, RunState
+from evolution.experiments.store import FailureRecord, FitnessSample, Store
+from evolution.selection import online_survivors
+
+__all__ = ["OnlineRun"]
+
+
+class OnlineRun(RunState):
+    def __init__(self, job: RunJob, store: Store, emit: Callable[[ProgressEvent], None],
+                 world: OnlineWorld) -> None:
+        super().__init__(job, store, emit)
+        self.world = world
+        self.dead: list[Member] = []
+
+    def position(self, time_s: float) -> tuple[float, float]:
+        """A random point within ``birth_radius`` of the origin, away from other robots."""
+        config = self.config
+        occupied = np.array(list(self.world.positions().values()), dtype=float).reshape(-1, 2)
+        best, best_gap = (0.0, 0.0), -math.inf
+        for _ in range(100):
+            r = config.birth_radius * math.sqrt(self.rng.random())
+            a = 2 * math.pi * self.rng.random()
+            point = (r * math.cos(a), r * math.sin(a))
+            gap = (float(np.min(np.hypot(occupied[:, 0] - point[0], occupied[:, 1] - point[1])))
+                   if len(occupied) else math.inf)
+            if gap >= config.birth_clearance:
+                return point
+            if gap > best_gap:
+                best, best_gap = point, gap
+        self.batch.failures.append(FailureRecord(
+            self.births, time_s, "crowded",
+            f"no position {config.birth_clearance} m from the others; best gap {best_gap:.3f} m"))
+        return best
+
+    def give_birth(self, time_s: float, random: bool = False) -> None:
+        mature = [m for m in self.population if m.lifecycle.fertile]
+        robot, pa, pb, origin = self.conceive(mature, time_s, random)
+        position = self.position(time_s)
+        member, record = self.new_member(robot, (pa, pb), origin, time_s, time_s)
+        living = robot
+        if self.infancy is not None:
+            # The Training Center: a separate simulation before the robot enters the world.
+            report = run_infancy(self.infancy, robot, evaluation_seed(self.seed, member.robot_id))
+            living = report.robot
+            self.record_infancy(member, time_s, report.failure, report.learning,
+                                living if report.changed else None)
+        member.agent = self.world.add(living, position)
+        self.batch.robots.append(record)
+        self.population.append(member)
+
+    def update(self, now: float) -> None:
+        """Advance the world to ``now``, then age, sample and bury."""
+        statuses = self.world.advance_to(now)
+        self.sim_time = now
+        for m in list(self.population):
+            status = statuses.get(m.agent or "")
+            if status is None:
+                continue
+            m.fitness = status.fitness
+            if status.removed is not None:
+                cause = f"blow-up: {status.removed}"
+                self.batch.failures.append(FailureRecord(m.robot_id, now, "blow-up", status.removed))
+                self._bury(m, now, cause, remove=False)
+                continue
+            assert m.lifecycle.birth_time is not None
+            m.lifecycle.advance_to_age(now - m.lifecycle.birth_time)
+            self.batch.fitness.append(FitnessSample(m.robot_id, now, status.fitness,
+                                                    status.v, status.s))
+            self.batch.fitness_updates.append((m.robot_id, status.fitness))
+
+    def _bury(self, member: Member, now: float, cause: str, remove: bool = True) -> None:
+        if remove and member.agent is not None:
+            self.world.remove(member.agent)
+        self.kill(member, now, cause)
+        self.population.remove(member)
+        self.dead.append(member)
+
+    def select(self, now: float) -> None:
+        """The online survivor rule over the mature robots."""
+        config = self.config
+        mature = [m for m in self.population
+                  if m.lifecycle.fertile and m.fitness is not None and math.isfinite(m.fitness)]
+        spared = len(self.population) - len(mature)
+        if not mature:
+            return
+        fitness = np.array([m.fitness for m in mature], dtype=float)
+        # The bounds count every living robot; only the mature ones can be selected.
+        min_alive = max(0, config.min_alive - spared)
+        doomed_indices = online_survivors(
+            fitness,
+            min_alive=min_alive,
+            max_alive=max(min_alive, config.max_alive - spared),
+            threshold=config.death_threshold,
+            cull_fraction=config.cull_fraction,
+        )
+        doomed = [int(i) for i in doomed_indices]
+        if config.survivor_selection == "random" and doomed:
+            doomed = [int(i) for i in self.rng.choice(len(mature), size=len(doomed), replace=False)]
+        for i in sorted(doomed):
+            self._bury(mature[i], now, "survivor selection")
+
+    def engine_state(self) -> dict[str, Any]:
+        return {"alive": [m.robot_id for m in self.population]}
+
+    def run(self) -> None:
+        config = self.config
+        checkpoint = self.store.checkpoint(self.run_id)
+        if checkpoint is not None:
+            self.replay_until = checkpoint
+            self.stored_genomes = {r.robot_id: r.genome for r in self.store.robots(self.run_id)}
+        for _ in range(config.population_size):
+            self.give_birth(0.0, random=True)
+        self._commit_online(force=True)
+        # Tick k falls at k * interval, not a running sum, so float drift never delays a
+        # maturity or a birth by one tick (e.g. with a 0.1 s interval).
+        tick = 1
+        next_tick = config.conception_interval
+        while not self.done():
+            self.update(next_tick)
+            self.select(next_tick)
+            while len(self.population) < config.min_alive and self.births < config.births:
+                self.give_birth(next_tick)
+            if self.births < config.births:
+                self.give_birth(next_tick)
+            self.generation += 1
+            tick += 1
+            next_tick = tick * config.conception_interval
+            self._commit_online(force=self.done())
+
+    def _commit_online(self, force: bool) -> None:
+        if force or self.births - self.last_commit_births >= self.config.checkpoint_interval:
+            members = self.population + self.dead
+            self.dead = []
+            self.commit(self.engine_state(), members)

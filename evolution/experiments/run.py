@@ -1,0 +1,427 @@
+"""What both engines share: a run's state, its records, commit points and replay checks.
+
+A run is a loop of *commit points* (see :mod:`evolution.experiments.engine` for both engines).
+Between two commit points the engine conceives robots (two tournament parents, or at random),
+delivers them, lets them live, selects survivors, and collects every record in a
+:class:`~evolution.experiments.store.Batch`; at the commit point the batch and a checkpoint are
+written in one transaction. While an online run replays up to its last checkpoint
+(:attr:`RunState.replay_until`), every robot it makes is checked against the stored one and
+nothing is written.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+
+from evolution.diversity import diversity
+from evolution.evaluation import LearningSummary
+from evolution.experiments.config import ExperimentConfig
+from evolution.experiments.store import (
+    Batch,
+    Checkpoint,
+    FailureRecord,
+    LearningRecord,
+    RobotRecord,
+    Store,
+    StoreError,
+)
+from evolution.lifecycle import InfancyHook, Lifecycle, LifecycleTiming
+from evolution.operators import reproduce
+from evolution.random_robot import random_robot
+from evolution.selection import select_parents
+from revolve_env.body.robot import Robot
+from revolve_env.body.serialize import from_json, to_json
+
+__all__ = [
+    "AgentStatus",
+    "OnlineWorld",
+    "ProgressEvent",
+    "ReplayError",
+    "RunJob",
+    "RunSummary",
+    "WorldFactory",
+    "Member",
+    "RunState",
+    "StopRun",
+    "check_infancy",
+    "decode",
+    "genome",
+    "run_seed",
+]
+
+
+class ReplayError(StoreError):
+    """Replaying an online run did not reproduce the stored records (non-deterministic setup)."""
+
+
+def run_seed(experiment_seed: int, run_id: int) -> int:
+    """The seed of run ``run_id`` of an experiment."""
+    return int(np.random.SeedSequence([experiment_seed, run_id]).generate_state(1)[0])
+
+
+@dataclass(frozen=True, slots=True)
+class ProgressEvent:
+    """Where a run stands, sent to the progress callback after every commit point.
+
+    Attributes:
+        run_id: The run.
+        births: Robots born so far.
+        target_births: Births at which the run stops.
+        sim_time: Simulated time. Seconds.
+        best: Highest fitness in the population (``nan`` if none). Metres.
+        mean: Mean fitness of the population (``nan`` if none). Metres.
+        population_size: Robots alive (offline: the population).
+        sim_speed: Simulated seconds per wall-clock second since the run (re)started.
+        wall_time: Wall-clock seconds since the run (re)started.
+        replaying: True while an online run replays up to its last commit point.
+        finished: True on the last event of a run.
+    """
+
+    run_id: int
+    births: int
+    target_births: int
+    sim_time: float
+    best: float
+    mean: float
+    population_size: int
+    sim_speed: float
+    wall_time: float
+    replaying: bool = False
+    finished: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class RunSummary:
+    """How a run ended."""
+
+    run_id: int
+    seed: int
+    births: int
+    sim_time: float
+    best: float
+    mean: float
+    population_size: int
+    wall_time: float
+    status: str
+
+
+@dataclass(frozen=True, slots=True)
+class AgentStatus:
+    """One robot in the online world after the world advanced.
+
+    Attributes:
+        fitness: Sliding-window fitness ``v + 5 s``. Metres.
+        v: Path length over the window. Metres.
+        s: Straight displacement over the window. Metres.
+        position: Core position on the ground plane ``(x, y)``. Metres.
+        removed: ``None``, or why the world removed the robot (blow-up).
+    """
+
+    fitness: float
+    v: float | None
+    s: float | None
+    position: tuple[float, float]
+    removed: str | None = None
+
+
+class OnlineWorld(Protocol):
+    """What the online engine needs from a world holding the whole population."""
+
+    @property
+    def time(self) -> float:
+        """Simulated time. Seconds."""
+
+    def add(self, robot: Robot, position: tuple[float, float]) -> str:
+        """Drop a robot at ``position`` (metres); returns its agent id."""
+
+    def remove(self, agent: str) -> None:
+        """Take a robot out of the world."""
+
+    def advance_to(self, t: float) -> dict[str, AgentStatus]:
+        """Simulate until time ``t``; the status of every robot alive before the call
+        (``removed`` set for those the world removed)."""
+
+    def positions(self) -> dict[str, tuple[float, float]]:
+        """Ground-plane positions of the living robots. Metres."""
+
+    def close(self) -> None:
+        """Release the physics."""
+
+
+WorldFactory = Callable[[ExperimentConfig, int], OnlineWorld]
+"""Makes the online world of a run from the config and the run's seed (picklable)."""
+
+
+@dataclass(frozen=True, slots=True)
+class RunJob:
+    """Everything a worker needs to execute (or continue) one run."""
+
+    db_path: str
+    run_id: int
+    config: ExperimentConfig
+    world_factory: WorldFactory | None = None
+    infancy: InfancyHook | None = None
+    stop_after_commits: int | None = None
+
+
+@dataclass(slots=True)
+class Member:
+    """A living robot known to the engine.
+
+    ``robot`` is the genome the member passes to its children: the inborn one, or the learned
+    one (``learned``) under Lamarckian inheritance.
+    """
+
+    robot_id: int
+    robot: Robot
+    lifecycle: Lifecycle
+    fitness: float | None = None
+    agent: str | None = None
+    learned: bool = False
+
+
+class StopRun(Exception):
+    """Internal: stop after a number of commit points (used by tests and benchmarks)."""
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+def check_infancy(hook: InfancyHook | None) -> None:
+    """Refuse an infancy hook the engine cannot honour.
+
+    Raises:
+        TypeError: ``hook`` is not callable.
+        ValueError: its learner trains a policy outside the genome (stable-baselines3): the
+            engine's evaluators and world drive robots with their own networks, so the policy
+            would be silently ignored.
+    """
+    if hook is None:
+        return
+    if not callable(hook):
+        raise TypeError(f"infancy must be a callable hook(robot, rng) -> robot, got {hook!r}")
+    learner = getattr(hook, "learner", None)
+    if getattr(learner, "learns_policy", False):
+        raise ValueError(
+            f"{type(learner).__name__} trains a policy outside the genome, but the engine "
+            "evaluates robots on their own networks; use a controller-parameter learner "
+            "(CMA-ES, random search) in experiments"
+        )
+
+
+def genome(robot: Robot) -> str:
+    """A robot as the store keeps it (compact JSON)."""
+    return to_json(robot, indent=None)
+
+
+def decode(stored: str) -> Robot:
+    """A robot from its stored JSON."""
+    return from_json(stored)
+
+
+def _finite(values: Sequence[float | None]) -> np.ndarray:
+    return np.array([v for v in values if v is not None and math.isfinite(v)], dtype=float)
+
+
+class RunState:
+    """State and shared steps of one run (both engines)."""
+
+    def __init__(self, job: RunJob, store: Store, emit: Callable[[ProgressEvent], None]) -> None:
+        self.job = job
+        self.config = job.config
+        self.run_id = job.run_id
+        self.seed = run_seed(self.config.seed, self.run_id)
+        self.store = store
+        self.emit = emit
+        self.timing = LifecycleTiming(self.config.insertion, self.config.fertile_age)
+        self.rng = np.random.default_rng(self.seed)
+        self.births = 0
+        self.sim_time = 0.0
+        self.generation = 0
+        self.batch = Batch()
+        self.population: list[Member] = []
+        self.last_diversity_births: int | None = None
+        self.last_commit_births = 0
+        self.commits = 0
+        self.started = time.perf_counter()
+        self.sim_time_at_start = 0.0
+        self.replay_until: Checkpoint | None = None
+        self.stored_genomes: dict[int, str] = {}
+        check_infancy(job.infancy)
+        self.infancy = job.infancy
+        self.lamarckian = bool(getattr(job.infancy, "lamarckian", False))
+
+    # -- conception --------------------------------------------------------------------------
+
+    def choose_parents(self, candidates: Sequence[Member]) -> tuple[Member, Member]:
+        """Two distinct parents by tournament on fitness (the second among the others)."""
+        fitness = np.array([m.fitness for m in candidates], dtype=float)
+        a, b = select_parents(fitness, self.rng, self.config.tournament_size)
+        return candidates[a], candidates[b]
+
+    def conceive(
+        self, candidates: Sequence[Member], time_s: float, random: bool = False
+    ) -> tuple[Robot, int | None, int | None, str]:
+        """A new genome: random, or a child of two tournament parents among ``candidates``.
+
+        Failed crossovers are recorded and retried with new parents, up to
+        ``max_conception_attempts``; after that the robot is random (``"random-fallback"``).
+        """
+        config = self.config
+        if random or config.new_robots == "random":
+            return random_robot(self.rng, config.evolution), None, None, "random"
+        candidates = [m for m in candidates if m.fitness is not None and math.isfinite(m.fitness)]
+        if len(candidates) < 2:
+            self.batch.failures.append(FailureRecord(
+                self.births, time_s, "no-parents",
+                f"{len(candidates)} mature robot(s); conceived a random robot"))
+            return random_robot(self.rng, config.evolution), None, None, "random-fallback"
+        for _ in range(config.max_conception_attempts):
+            a, b = self.choose_parents(candidates)
+            result = reproduce(a.robot, b.robot, self.rng, config.evolution)
+            if result.child is not None:
+                return result.child, a.robot_id, b.robot_id, "reproduction"
+            self.batch.failures.append(FailureRecord(
+                self.births, time_s, "crossover",
+                f"parents {a.robot_id} and {b.robot_id}: {result.failure}"))
+        self.batch.failures.append(FailureRecord(
+            self.births, time_s, "conception",
+            f"{config.max_conception_attempts} parent pairs gave no child; random robot"))
+        return random_robot(self.rng, config.evolution), None, None, "random-fallback"
+
+    def new_member(self, robot: Robot, parents: tuple[int | None, int | None], origin: str,
+                   conceived: float, born: float) -> tuple[Member, RobotRecord]:
+        """Register a conceived and delivered robot; checks it against the store on replay."""
+        robot_id = self.births
+        self.births += 1
+        stored = genome(robot)
+        replaying = self.replay_until is not None and robot_id in self.stored_genomes
+        if replaying and self.stored_genomes[robot_id] != stored:
+            raise ReplayError(
+                f"run {self.run_id}: replay made a different robot {robot_id} than the stored "
+                "one; the simulation is not deterministic on this machine, cannot resume"
+            )
+        life = Lifecycle(robot_id, self.timing)
+        note = "random" if parents[0] is None else f"parents {parents[0]},{parents[1]}"
+        life.conceive(conceived, note if origin != "random-fallback" else "random (fallback)")
+        life.deliver(born)
+        record = RobotRecord(self.run_id, robot_id, stored, parents[0], parents[1], origin,
+                             self.generation, conceived, born)
+        return Member(robot_id, robot, life), record
+
+    # -- infancy -----------------------------------------------------------------------------
+
+    def record_infancy(self, member: Member, time_s: float, failure: str | None,
+                       learning: LearningSummary | None, learned: Robot | None) -> None:
+        """Record what the Training Center did for ``member`` (born at ``time_s``); under
+        Lamarckian inheritance the learned robot (``None``: nothing learned) becomes the genome
+        it passes on."""
+        if failure is not None:
+            self.batch.failures.append(FailureRecord(member.robot_id, time_s, "learner", failure))
+            return
+        if learning is None:
+            return
+        self.batch.learning.append(LearningRecord(
+            member.robot_id, time_s, "lamarckian" if self.lamarckian else "darwinian",
+            genome(learned) if learned is not None else None, learning.inborn_fitness,
+            learning.learned_fitness, learning.evaluations, learning.sim_seconds,
+            learning.failures))
+        if self.lamarckian and learned is not None:
+            member.robot = learned
+            member.learned = True
+
+    # -- deaths ------------------------------------------------------------------------------
+
+    def kill(self, member: Member, time_s: float, cause: str) -> None:
+        """Record a death (the member must be alive)."""
+        member.lifecycle.die(time_s, cause)
+        self.batch.deaths.append((member.robot_id, time_s, cause, member.fitness))
+
+    def flush_transitions(self, members: Sequence[Member]) -> None:
+        """Move the members' new lifecycle transitions into the batch."""
+        for m in members:
+            self.batch.transitions.extend(m.lifecycle.transitions)
+            m.lifecycle.transitions.clear()
+
+    # -- commit points -------------------------------------------------------------------------
+
+    def diversity_due(self) -> bool:
+        interval = self.config.diversity_interval
+        if interval == 0:
+            return False
+        if self.last_diversity_births is None:
+            return True
+        return self.births // interval > self.last_diversity_births // interval
+
+    def commit(self, engine_state: dict[str, Any], flushed: Sequence[Member]) -> None:
+        """Write the batch and the checkpoint (or, while replaying, check and drop them)."""
+        self.last_commit_births = self.births
+        self.flush_transitions(flushed)
+        self.batch.population = [(m.robot_id, m.fitness) for m in self.population]
+        if self.diversity_due():
+            self.batch.diversity = float(diversity([m.robot for m in self.population]))
+            self.last_diversity_births = self.births
+        engine_state = {**engine_state, "last_diversity_births": self.last_diversity_births}
+        checkpoint = Checkpoint(self.births, self.sim_time, self.generation,
+                                dict(self.rng.bit_generator.state), engine_state)
+        if self.replay_until is not None:
+            target = self.replay_until
+            if self.births < target.births:
+                self.batch.clear()
+                self._progress(replaying=True)
+                return
+            if self.births != target.births or _json_norm(checkpoint.rng_state) != _json_norm(target.rng_state):
+                raise ReplayError(
+                    f"run {self.run_id}: replay reached {self.births} births with a different "
+                    f"state than the checkpoint ({target.births} births); cannot resume exactly"
+                )
+            self.batch.clear()
+            self.replay_until = None
+            self.stored_genomes.clear()
+            self.started = time.perf_counter()
+            self.sim_time_at_start = self.sim_time
+            self._progress()
+            return
+        self.store.commit(self.run_id, self.batch, checkpoint)
+        self.commits += 1
+        self._progress()
+        if self.job.stop_after_commits is not None and self.commits >= self.job.stop_after_commits:
+            raise StopRun
+
+    def _stats(self) -> tuple[float, float]:
+        values = _finite([m.fitness for m in self.population])
+        if values.size == 0:
+            return math.nan, math.nan
+        return float(values.max()), float(values.mean())
+
+    def event(self, replaying: bool = False, finished: bool = False) -> ProgressEvent:
+        wall = time.perf_counter() - self.started
+        best, mean = self._stats()
+        speed = (self.sim_time - self.sim_time_at_start) / wall if wall > 0 else math.nan
+        return ProgressEvent(self.run_id, self.births, self.config.births, self.sim_time, best,
+                             mean, len(self.population), speed, wall, replaying, finished)
+
+    def _progress(self, replaying: bool = False) -> None:
+        self.emit(self.event(replaying=replaying))
+
+    def done(self) -> bool:
+        limit = self.config.max_sim_time
+        return self.births >= self.config.births or (limit is not None and self.sim_time >= limit)
+
+    def summary(self, status: str) -> RunSummary:
+        best, mean = self._stats()
+        return RunSummary(self.run_id, self.seed, self.births, self.sim_time, best, mean,
+                          len(self.population), time.perf_counter() - self.started, status)
+
+
+def _json_norm(value: object) -> object:
+    return json.loads(json.dumps(value, sort_keys=True))
+
+

@@ -1,0 +1,45 @@
+"""Reports over results directories: tables, statistics and figures of stored experiments.
+
+Modules: :mod:`~evolution.reporting.data` (stored experiments read back),
+:mod:`~evolution.reporting.tables` (summary table and significance tests),
+:mod:`~evolution.reporting.figures` (the paper's figures) and :mod:`~evolution.reporting.report`
+(:func:`report`, all of them written into one folder).
+"""
+
+from __future__ import annotations
+
+from evolution.reporting.data import (
+    PAPER_ORDER,
+    ExperimentData,
+    RunData,
+    find_experiments,
+    load_experiment,
+    runs_on_grid,
+    step_on_grid,
+)
+from evolution.reporting.report import REPORT_DIR, Report, report
+from evolution.reporting.tables import (
+    LEARNING_COLUMNS,
+    TESTED_SAMPLES,
+    mann_whitney_rows,
+    summary_rows,
+    write_tables,
+)
+
+__all__ = [
+    "LEARNING_COLUMNS",
+    "PAPER_ORDER",
+    "REPORT_DIR",
+    "TESTED_SAMPLES",
+    "ExperimentData",
+    "Report",
+    "RunData",
+    "find_experiments",
+    "load_experiment",
+    "mann_whitney_rows",
+    "report",
+    "runs_on_grid",
+    "step_on_grid",
+    "summary_rows",
+    "write_tables",
+]
