@@ -40,6 +40,10 @@ if LOCOMOTION_ID not in gymnasium.registry:
     # A string entry point: registering does not import pybullet. The env truncates itself at
     # insertion_time + evaluation_time (keyword arguments), so no fixed max_episode_steps.
     gymnasium.register(id=LOCOMOTION_ID, entry_point="revolve_env.envs.locomotion:LocomotionEnv")
+if "revolve_env/Locomotion-v1" not in gymnasium.registry:  # v0 with proprioception
+    gymnasium.register(id="revolve_env/Locomotion-v1",
+                       entry_point="revolve_env.envs.locomotion:LocomotionEnv",
+                       kwargs={"proprioception": True})
 
 # Names served lazily (PEP 562) because they import the physics engine.
 _LAZY = {
