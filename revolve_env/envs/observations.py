@@ -63,8 +63,8 @@ def uniform_sensor_bounds(n_inputs: int) -> tuple[NDArray[np.float64], NDArray[n
         ValueError: ``n_inputs`` is smaller than the core's six IMU values.
     """
     if n_inputs < IMU_VALUES:
-        raise ValueError(f"a uniform observation needs room for the core's {IMU_VALUES} IMU "
-                         f"values; the limits allow only {n_inputs} inputs")
+        raise ValueError(f"limits of {n_inputs} inputs leave no room for the core's "
+                         f"{IMU_VALUES} IMU values: no robot can be valid")
     rest = n_inputs - IMU_VALUES
     low = np.array([-ACCEL_RANGE] * 3 + [-GYRO_RANGE] * 3 + [0.0] * rest)
     high = np.array([ACCEL_RANGE] * 3 + [GYRO_RANGE] * 3 + [1.0] * rest)

@@ -150,3 +150,10 @@ def test_the_determinism_check_catches_an_unseeded_lifecycle() -> None:
 
     with pytest.raises(AssertionError, match="differ between two envs"):
         check_population_determinism(lambda: population_with_births(lifecycle=unseeded), steps=20)
+
+
+def test_limits_without_room_for_the_imu_are_refused() -> None:
+    from revolve_env.body.validate import Limits
+
+    with pytest.raises(ValueError, match="3 inputs leave no room for the core's 6 IMU values"):
+        population_env(limits=Limits(max_inputs=3))
