@@ -1,7 +1,7 @@
 """revolve-env: online and offline evolution of physically constructible modular robots.
 
-Importing the package registers the single-robot Gymnasium env ``revolve_env/Locomotion-v0``
-(``gymnasium.make("revolve_env/Locomotion-v0", robot=...)``). The physics engine is imported only
+Importing the package registers the single-robot Gymnasium envs ``revolve_env/Locomotion-v0``
+(``gymnasium.make("revolve_env/Locomotion-v0", robot=...)``) and ``-v1`` (with proprioception). The physics engine is imported only
 when something that needs it is used (``evaluate``, ``population_env``, the envs), so the pure
 layers (``revolve_env.body``, ``evolution``) never load it.
 """
