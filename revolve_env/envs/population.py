@@ -102,7 +102,8 @@ class _Member:
         self.n_trajectory += 1
 
 
-class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
+# pettingzoo ships no type information (no py.typed), so mypy sees ParallelEnv as Any.
+class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):  # type: ignore[misc]
     """A changing population of RoboGen robots in one world; reward is each robot's fitness gain.
 
     ## Agents
