@@ -1,7 +1,7 @@
 """revolve-env: online and offline evolution of physically constructible modular robots.
 
-Importing the package registers the single-robot Gymnasium env ``revolve_env/Locomotion-v0``
-(``gymnasium.make("revolve_env/Locomotion-v0", robot=...)``). The physics engine is imported only
+Importing the package registers the single-robot Gymnasium envs ``revolve_env/Locomotion-v0``
+(``gymnasium.make("revolve_env/Locomotion-v0", robot=...)``) and ``-v1`` (with proprioception). The physics engine is imported only
 when something that needs it is used (``evaluate``, ``population_env``, the envs), so the pure
 layers (``revolve_env.body``, ``evolution``) never load it.
 """
@@ -40,6 +40,10 @@ if LOCOMOTION_ID not in gymnasium.registry:
     # A string entry point: registering does not import pybullet. The env truncates itself at
     # insertion_time + evaluation_time (keyword arguments), so no fixed max_episode_steps.
     gymnasium.register(id=LOCOMOTION_ID, entry_point="revolve_env.envs.locomotion:LocomotionEnv")
+if "revolve_env/Locomotion-v1" not in gymnasium.registry:  # v0 with proprioception
+    gymnasium.register(id="revolve_env/Locomotion-v1",
+                       entry_point="revolve_env.envs.locomotion:LocomotionEnv",
+                       kwargs={"proprioception": True})
 
 # Names served lazily (PEP 562) because they import the physics engine.
 _LAZY = {

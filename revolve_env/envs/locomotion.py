@@ -1,4 +1,4 @@
-"""Single-robot locomotion task: ``revolve_env/Locomotion-v0``.
+"""Single-robot locomotion task: ``revolve_env/Locomotion-v0`` and ``-v1`` (with proprioception).
 
 One RoboGen robot on a flat plane; the episode is an insertion phase followed by an evaluation
 phase, and the return is the robot's locomotion fitness ``f = v + 5 s`` (:mod:`revolve_env.fitness`).
@@ -17,11 +17,11 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from revolve_env.body.parts import PART_SPECS
-from revolve_env.body.robot import Layer, PartType, Robot
+from revolve_env.body.robot import Layer, Robot
 from revolve_env.body.serialize import load
 from revolve_env.body.validate import Limits, validate
 from revolve_env.brain import BatchController
+from revolve_env.envs.observations import proprio_bounds, read_proprio, saturated_sensor_bounds
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
 from revolve_env.world import World, WorldConfig
 
@@ -31,11 +31,6 @@ __all__ = ["LocomotionEnv"]
 def _all_finite(a: NDArray[np.float64]) -> bool:
     """Whether every entry is finite (fast path: one reduction; exact on overflow)."""
     return math.isfinite(float(np.add.reduce(a, axis=None))) or bool(np.isfinite(a).all())
-
-# Full-scale ranges of the MPU-9150 IMU on RoboGen's core board (+-16 g, +-2000 deg/s): readings
-# saturate there, as the real sensor's do.
-_ACCEL_RANGE = 16 * 9.81  # metres per second squared
-_GYRO_RANGE = math.radians(2000.0)  # radians per second
 
 
 class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
@@ -75,6 +70,17 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     | touch sensor  | left half touching, right half touching   | 0    | 1   | binary         |
     | light sensor  | light intensity                           | 0    | 1   | dimensionless  |
 
+    With ``proprioception=True`` (``Locomotion-v1``) ``2 n`` values follow, for the ``n`` active
+    hinges in action order (``m = sensors + 2 n``):
+
+    | Index          | Observation                       | Min  | Max  | Unit                  |
+    |----------------|-----------------------------------|------|------|-----------------------|
+    | sensors + i    | angle of active hinge i           | -pi  | pi   | rad (0 = as built)    |
+    | sensors + n + i| angular velocity of active hinge i| -200 | 200  | rad/s                 |
+
+    (the velocity bound is ``world_config.max_angular_speed``: a faster hinge is a blow-up). The
+    robot's own network (``controller="brain"``) still reads RoboGen's sensors only.
+
     Readings saturate at the bounds (the IMU's full-scale range, as on the real board).
     ``sensor_noise`` adds Gaussian noise of that standard deviation to every value (then clipped
     to the bounds); ``actuator_noise`` adds Gaussian noise to every normalized hinge target.
@@ -94,6 +100,10 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     (the reward), ``time`` (seconds since reset), ``evaluating`` (past insertion), ``x_position``,
     ``y_position`` (core, metres) and ``blow_up`` (the reason string, or None).
 
+    ## Versions
+    * ``v0``: observations are RoboGen's sensors only.
+    * ``v1``: ``proprioception=True``: hinge angles and velocities follow the sensors.
+
     ## Arguments
     | Keyword            | Default   | Meaning                                                    |
     |--------------------|-----------|------------------------------------------------------------|
@@ -108,6 +118,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     | actuator_noise     | 0.0       | std of Gaussian noise on normalized targets                |
     | controller         | "agent"   | "agent": the action drives; "brain": the robot's network   |
     | action             | "targets" | "targets" or "modulate" (scale/offset the brain's outputs) |
+    | proprioception     | False     | observe hinge angles and velocities (True in ``-v1``)      |
     | world_config       | None      | a :class:`~revolve_env.world.WorldConfig` (physics)        |
     | limits             | None      | validation limits (:class:`~revolve_env.body.validate.Limits`) |
     """
@@ -128,6 +139,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         action: Literal["targets", "modulate"] = "targets",
         world_config: WorldConfig | None = None,
         limits: Limits | None = None,
+        proprioception: bool = False,
     ) -> None:
         if isinstance(robot, (str, os.PathLike)):
             robot = load(robot, limits)
@@ -165,6 +177,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self.actuator_noise = float(actuator_noise)
         self.controller = controller
         self.action_mode = action
+        self.proprioception = bool(proprioception)
         dt = self.config.control_period
         self.metadata = {**self.metadata, "render_fps": round(1.0 / dt)}  # one frame per step
         self._insertion_steps = round(self.insertion_time / dt)
@@ -174,9 +187,12 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
                              f"period ({dt} s)")
 
         self._n_outputs = len(robot.neurons_of(Layer.OUTPUT))
-        low, high = self._sensor_bounds(robot)
+        low, high = saturated_sensor_bounds(robot)
+        self._n_inputs = len(low)  # sensor values (the brain's inputs)
+        if self.proprioception:
+            p_low, p_high = proprio_bounds(self._n_outputs, self.config)
+            low, high = np.concatenate((low, p_low)), np.concatenate((high, p_high))
         self._obs_low, self._obs_high = low, high
-        self._n_inputs = len(low)
         if controller == "brain" and len(robot.neurons_of(Layer.INPUT)) != self._n_inputs:
             raise ValueError(f"the robot's network has {len(robot.neurons_of(Layer.INPUT))} input "
                              f"neurons but its body has {self._n_inputs} sensor values")
@@ -194,23 +210,8 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self._fitness = SlidingWindowFitness(self.fitness_window)
         self._terms = FitnessTerms(0.0, 0.0, 0.0)
         self._step_count = 0
-        self._obs = np.zeros(self._n_inputs)
+        self._obs = np.zeros(len(low))
         self._blow_up: str | None = None
-
-    # -- spaces ----------------------------------------------------------------------------------
-    @staticmethod
-    def _sensor_bounds(robot: Robot) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        low: list[float] = []
-        high: list[float] = []
-        for _, node in robot.walk():
-            n = PART_SPECS[node.type].n_inputs
-            if node.type == PartType.CORE:  # accelerometer, then gyroscope
-                low += [-_ACCEL_RANGE] * 3 + [-_GYRO_RANGE] * 3
-                high += [_ACCEL_RANGE] * 3 + [_GYRO_RANGE] * 3
-            else:  # touch (binary) and light (intensity) sensors read in [0, 1]
-                low += [0.0] * n
-                high += [1.0] * n
-        return np.array(low), np.array(high)
 
     # -- gymnasium API -----------------------------------------------------------------------------
     def reset(
@@ -293,7 +294,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         action = np.minimum(np.maximum(action, -1.0), 1.0)
         if self._brain is None:
             return action
-        self._brain_in[:] = self._obs
+        self._brain_in[:] = self._obs[: self._n_inputs]  # RoboGen's sensors only
         self._brain.step(self._brain_in, self._brain_out)
         if self.action_mode == "targets":
             return self._brain_out.copy()
@@ -303,8 +304,10 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     def _get_obs(self) -> NDArray[np.float64]:
         assert self._world is not None
         obs = self._world.read_sensors(self._handle)
+        if self.proprioception:
+            obs = np.concatenate((obs, read_proprio(self._world, self._handle)))
         if self._blow_up is not None or not _all_finite(obs):
-            return np.zeros(self._n_inputs)
+            return np.zeros(len(self._obs_low))
         if self.sensor_noise > 0:
             obs += self.np_random.normal(0.0, self.sensor_noise, obs.shape)
         return np.minimum(np.maximum(obs, self._obs_low, out=obs), self._obs_high, out=obs)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -26,12 +26,18 @@ from revolve_env.body.robot import Layer, PartType, Robot
 from revolve_env.body.validate import Limits, validate
 from revolve_env.brain import BatchController
 from revolve_env.brain.spec import NetworkSpec
+from revolve_env.envs.observations import proprio_bounds, read_proprio, uniform_sensor_bounds
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
 from revolve_env.world import World, WorldConfig
 
-__all__ = ["PopulationEnv", "footprint_radius", "population_env", "sensor_bounds"]
+__all__ = ["Lifecycle", "PopulationEnv", "SpaceMode", "footprint_radius", "population_env",
+           "sensor_bounds"]
 
 Controller = Literal["brain", "agent"]
+SpaceMode = Literal["exact", "uniform"]
+Lifecycle = Callable[["PopulationEnv", int], None]
+"""Called as ``lifecycle(env, k)`` inside step ``k`` (1, 2, ... since reset), before the physics;
+it may add and remove robots (see :class:`PopulationEnv`, Births and deaths inside a step)."""
 _NO_TERMS = FitnessTerms(0.0, 0.0, 0.0)
 
 
@@ -83,6 +89,9 @@ class _Member:
     blow_up: str | None = None
     in_slice: slice = field(default_factory=lambda: slice(0, 0))
     out_slice: slice = field(default_factory=lambda: slice(0, 0))
+    n_outputs: int = 0  # active hinges
+    padded: bool = False  # observed and driven through the uniform spaces
+    view: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))  # what the agent sees
 
     def record(self, position: NDArray[np.float64]) -> None:
         if self.n_trajectory == len(self.trajectory):
@@ -93,7 +102,8 @@ class _Member:
         self.n_trajectory += 1
 
 
-class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
+# pettingzoo ships no type information (no py.typed), so mypy sees ParallelEnv as Any.
+class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):  # type: ignore[misc]
     """A changing population of RoboGen robots in one world; reward is each robot's fitness gain.
 
     ## Agents
@@ -114,27 +124,92 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     With ``max_steps`` set, every living robot is truncated after that many steps (the episode
     ends); by default the episode never ends on its own.
 
+    ## Births and deaths inside a step
+    ``lifecycle(env, k)``, if given, is called inside step ``k`` (counting from 1 after
+    ``reset``) once the actions are checked and before the physics. It may call :meth:`add_robot`
+    and :meth:`remove_robot`: a robot it adds is simulated and reported in step ``k``; a robot it
+    removes is reported in step ``k`` as removed and its action, given for that step, is dropped.
+    This is how PettingZoo's own ``generated_agents_parallel_v0`` makes agents, and it is the
+    way to use births and deaths through ``parallel_to_aec`` and wrapper libraries, which learn
+    of agents only from what ``step`` reports (a robot removed between two steps would still get
+    an action from them, which is an error here). An error raised by ``lifecycle`` propagates; the
+    robots it added or removed before raising stay added or removed, nothing else changed.
+
+    ## The five dicts of a step
+    Keys: every agent alive before the step or born before the physics of the step (between
+    steps or by ``lifecycle``), plus every agent removed since the last step. Per agent:
+
+    | Dict         | Born (first report)          | Removed              | Blown up in this step  |
+    |--------------|------------------------------|----------------------|------------------------|
+    | observations | its observation after it     | its last observation | zeros                  |
+    | rewards      | fitness gain (0 inserting)   | 0.0                  | minus its fitness      |
+    | terminations | False (True if it blew up)   | True                 | True                   |
+    | truncations  | True only at ``max_steps``   | False                | False                  |
+    | infos        | ``age`` = one control period | ``death="removed"``, | ``death="blow_up"``,   |
+    |              | ``death=None``, its masks    | its last state       | reason in ``blow_up``  |
+
+    A living robot that is neither born nor dying is reported like the first column with its own
+    age. An agent is reported one last time in the step of its death, then never again.
+
     ## Control
     ``controlled_by="brain"``: the robot's own neural network (its ``Robot`` neurons) drives its
     hinges; all brain-controlled robots are stepped by one call of the compiled
-    :class:`~revolve_env.brain.BatchController`, fed with the robot's previous observation. Its
+    :class:`~revolve_env.brain.BatchController`, fed with the robot's previous sensor values. Its
     action, if given, is checked and ignored. ``controlled_by="agent"``: the action from the
     ``actions`` dict drives the hinges; an agent-controlled robot missing from ``actions`` keeps its
     previous targets (0 at birth).
 
+    ## Spaces: exact or uniform
+    Every agent of ``possible_agents`` (``robot_0 .. robot_<max_births - 1>``) has an observation
+    and an action space at any time, born or not, and ``observation_space(agent)`` /
+    ``action_space(agent)`` return the same object on every call.
+
+    * ``space_mode="uniform"``: every agent has spaces of the same shape, sized by ``limits``
+      (Table 1: 10 inputs, 10 outputs; hidden neurons are not observed), created on first request
+      and kept for the env's lifetime. A robot's values fill the first entries of each block and
+      the rest is padding (0 in observations, ignored in actions). Which entries are real is given
+      by :meth:`observation_mask` and :meth:`action_mask` and in ``infos[agent]["obs_mask"]`` and
+      ``["act_mask"]`` (read-only bool arrays; not ``"action_mask"``, which PettingZoo's samplers
+      would pass to ``Box.sample``). One shared policy can drive robots of any body this way.
+    * ``space_mode="exact"`` (default): a robot gets spaces of its own body's sizes at its birth,
+      for that episode (agent ids restart at ``robot_0`` after ``reset``). A future agent's body
+      is unknown, so an agent whose spaces are requested before its birth (PettingZoo's
+      converters and wrapper libraries walk ``possible_agents``) gets the uniform spaces instead,
+      keeps them for the env's lifetime, and is observed and driven as in uniform mode.
+
     ## Action Space (per agent)
-    ``Box(-1, 1, (n,), float32)`` with ``n`` the robot's active hinges in traversal order (its
-    output neuron order); ``n`` may be 0:
+    ``Box(-1, 1, (n,), float32)``: exact: ``n`` is the robot's number of active hinges (may be
+    0); uniform: ``n = limits.max_outputs`` and entries past the robot's hinges are ignored.
 
     | Index | Action                              | Min | Max | Unit                    |
     |-------|-------------------------------------|-----|-----|-------------------------|
     | i     | position target of active hinge i   | -1  | 1   | normalized (1 = 45 deg) |
 
+    Hinges are in traversal order (the robot's output neuron order).
+
     ## Observation Space (per agent)
-    ``Box(low, high, (m,), float64)``: the robot's sensor values in traversal order, as in
-    :class:`~revolve_env.envs.locomotion.LocomotionEnv`: core IMU (accelerometer m/s^2, gyroscope
-    rad/s; unbounded), touch sensors (two binary halves, [0, 1]), light sensors (intensity,
-    [0, 1]). The observation of a robot whose simulation blew up is all zeros.
+    ``Box(low, high, (m,), float64)``. Exact: the robot's ``s`` sensor values, then with
+    ``proprioception=True`` its ``n`` hinge angles and ``n`` hinge velocities (``m = s + 2 n``).
+    Uniform: blocks of ``limits.max_inputs`` sensor values, then with proprioception
+    ``limits.max_outputs`` angles and ``limits.max_outputs`` velocities, each block padded.
+
+    | Values                               | Min (exact / uniform) | Max           | Unit        |
+    |--------------------------------------|-----------------------|---------------|-------------|
+    | core accelerometer x, y, z (core     | -inf / -157           | inf / 157     | m/s^2       |
+    | frame, incl. the reaction to gravity)|                       |               |             |
+    | core gyroscope x, y, z (core frame)  | -inf / -34.9          | inf / 34.9    | rad/s       |
+    | touch sensor: left, right half       | 0                     | 1             | binary      |
+    | light sensor: intensity              | 0                     | 1             | 1           |
+    | angle of active hinge i (opt-in)     | -pi                   | pi            | rad         |
+    | velocity of active hinge i (opt-in)  | -200                  | 200           | rad/s       |
+
+    Sensors are in traversal order (the robot's input neuron order); the core comes first, so
+    the first six values are always its IMU. Uniform observations saturate the IMU at its full
+    scale (16 g, 2000 deg/s, as :class:`~revolve_env.envs.locomotion.LocomotionEnv` does) so that
+    the bounds are finite; exact ones keep the raw readings. Hinge angles saturate at +-pi and
+    velocities at ``world_config.max_angular_speed`` (faster is a blow-up). A robot's own network
+    reads its raw sensor values only, never the hinge values. The observation of a robot whose
+    simulation blew up is all zeros.
 
     ## Rewards
     ``reward = fitness(t) - fitness(t - control_period)`` with the sliding-window fitness
@@ -159,6 +234,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     | controlled_by  | ``"brain"`` or ``"agent"``                                            |
     | blow_up        | reason string, or None                                                |
     | death          | None while alive; ``"removed"`` or ``"blow_up"`` in the last report   |
+    | obs_mask       | bool per observation entry: True where it holds the robot's value     |
+    | act_mask       | bool per action entry: True where it drives one of the robot's hinges |
 
     ## Birth placement
     :meth:`add_robot` drops a robot (lowest point ``world_config.drop_height`` above the ground)
@@ -197,6 +274,14 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     |                     |          | None: world_config's (1/60 s by default)                    |
     | world_config        | None     | a :class:`~revolve_env.world.WorldConfig` (physics)         |
     | limits              | None     | validation limits (:class:`~revolve_env.body.validate.Limits`) |
+    |                     |          | and the sizes of the uniform spaces (None: Table 1)         |
+    | space_mode          | "exact"  | "exact" or "uniform" (see Spaces)                           |
+    | proprioception      | False    | observe hinge angles and velocities                         |
+    | lifecycle           | None     | births and deaths inside a step (see above)                 |
+
+    Bad input raises before anything changes, naming the agent: an action for an agent not alive
+    (never born, removed, blown up) is a ``KeyError``; an action of the wrong shape (the uniform
+    shape in uniform mode) or with NaN or infinity is a ``ValueError``.
     """
 
     metadata: dict[str, Any] = {  # noqa: RUF012 (PettingZoo's convention; copied per instance)
@@ -222,6 +307,9 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         control_period: float | None = None,
         world_config: WorldConfig | None = None,
         limits: Limits | None = None,
+        space_mode: SpaceMode = "exact",
+        proprioception: bool = False,
+        lifecycle: Lifecycle | None = None,
     ) -> None:
         if not (isinstance(max_births, int) and max_births >= 1):
             raise ValueError(f"max_births must be an integer >= 1, got {max_births!r}")
@@ -244,6 +332,11 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             raise ValueError(f"trajectory_stride must be >= 1, got {trajectory_stride}")
         if max_steps is not None and max_steps < 1:
             raise ValueError(f"max_steps must be >= 1 or None, got {max_steps}")
+        if space_mode not in ("exact", "uniform"):
+            raise ValueError(f"space_mode must be 'exact' or 'uniform', got {space_mode!r}")
+        if lifecycle is not None and not callable(lifecycle):
+            raise TypeError(f"lifecycle must be callable as lifecycle(env, step), got "
+                            f"{type(lifecycle).__name__}")
 
         config = world_config if world_config is not None else WorldConfig()
         if control_period is not None:  # replace() validates it against the timestep
@@ -263,17 +356,34 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self.trajectory_stride = int(trajectory_stride)
         self.max_steps = max_steps
         self.limits = limits
+        self.space_mode: SpaceMode = space_mode
+        self.proprioception = bool(proprioception)
+        self.lifecycle = lifecycle
+        # The uniform layout: sensor block, then (with proprioception) angle and velocity blocks.
+        sizes = limits if limits is not None else Limits()
+        self._u_inputs, self._u_outputs = sizes.max_inputs, sizes.max_outputs
+        u_low, u_high = uniform_sensor_bounds(self._u_inputs)
+        if self.proprioception:
+            p_low, p_high = proprio_bounds(self._u_outputs, config)
+            u_low, u_high = np.concatenate((u_low, p_low)), np.concatenate((u_high, p_high))
+        self._u_low, self._u_high = u_low, u_high
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.config.control_period)}
         dt = self.config.control_period
         self._insertion_steps = round(self.insertion_time / dt)
         self._maturity_steps = round(self.maturity_age / dt)
 
         self.possible_agents: list[str] = [f"robot_{n}" for n in range(max_births)]
+        self._possible = frozenset(self.possible_agents)
         self.agents: list[str] = []
         self._members: dict[str, _Member] = {}
         self._dead: list[tuple[_Member, str]] = []  # removed since the last step: (member, death)
+        # Exact spaces of the robots born in this episode (their body's sizes).
         self._obs_spaces: dict[str, spaces.Box] = {}
         self._act_spaces: dict[str, spaces.Box] = {}
+        # Uniform spaces handed out, for the env's lifetime (they fit any body).
+        self._uniform_spaces: dict[str, tuple[spaces.Box, spaces.Box]] = {}
+        # Masks (observation, action) of every robot born in this episode, alive or dead.
+        self._masks: dict[str, tuple[NDArray[np.bool_], NDArray[np.bool_]]] = {}
         self._births = 0
         self._steps = 0
         self._world: World | None = None
@@ -286,18 +396,60 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
 
     # -- spaces ----------------------------------------------------------------------------------
     def observation_space(self, agent: str) -> spaces.Box:
-        """The observation space of a robot born in this episode (the same object every call)."""
-        try:
-            return self._obs_spaces[agent]
-        except KeyError:
-            raise KeyError(self._unknown(agent)) from None
+        """The observation space of any agent of ``possible_agents`` (the same object every call).
+
+        See the class doc (Spaces) for exact and uniform spaces.
+
+        Raises:
+            KeyError: ``agent`` is not one of ``possible_agents``.
+        """
+        space = self._obs_spaces.get(agent)
+        return space if space is not None else self._uniform(agent)[0]
 
     def action_space(self, agent: str) -> spaces.Box:
-        """The action space of a robot born in this episode (the same object every call)."""
+        """The action space of any agent of ``possible_agents`` (the same object every call).
+
+        Raises:
+            KeyError: ``agent`` is not one of ``possible_agents``.
+        """
+        space = self._act_spaces.get(agent)
+        return space if space is not None else self._uniform(agent)[1]
+
+    def _uniform(self, agent: str) -> tuple[spaces.Box, spaces.Box]:
+        """The agent's uniform spaces, made on first request and kept for the env's lifetime."""
+        pair = self._uniform_spaces.get(agent)
+        if pair is None:
+            if agent not in self._possible:
+                raise KeyError(self._unknown(agent))
+            pair = (spaces.Box(self._u_low, self._u_high, dtype=np.float64),
+                    spaces.Box(-1.0, 1.0, (self._u_outputs,), dtype=np.float32))
+            self._uniform_spaces[agent] = pair
+        return pair
+
+    def observation_mask(self, agent: str) -> NDArray[np.bool_]:
+        """Which entries of the agent's observations carry its values (True) and which are padding.
+
+        All True for exact spaces. Read-only; known from the agent's birth on, also once it died
+        (until ``reset``).
+
+        Raises:
+            KeyError: naming the agent when it is unknown or not yet born in this episode.
+        """
+        return self._mask(agent, "observation_mask")[0]
+
+    def action_mask(self, agent: str) -> NDArray[np.bool_]:
+        """Which entries of the agent's actions drive a hinge (True); the others are ignored.
+
+        Raises:
+            KeyError: naming the agent when it is unknown or not yet born in this episode.
+        """
+        return self._mask(agent, "action_mask")[1]
+
+    def _mask(self, agent: str, what: str) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
         try:
-            return self._act_spaces[agent]
+            return self._masks[agent]
         except KeyError:
-            raise KeyError(self._unknown(agent)) from None
+            raise KeyError(f"{what}: {self._unknown(agent)}") from None
 
     def _unknown(self, agent: str) -> str:
         if agent in self.possible_agents:
@@ -311,6 +463,11 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         if self._np_random is None:
             self._np_random, self._np_random_seed = seeding.np_random()
         return self._np_random
+
+    @property
+    def births(self) -> int:
+        """Robots born since ``reset`` (the next one is ``robot_<births>``)."""
+        return self._births
 
     @property
     def time(self) -> float:
@@ -337,8 +494,9 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             self.agents, world.core_positions([self._members[a].handle for a in self.agents]))}
 
     def observe(self, agent: str) -> NDArray[np.float64]:
-        """The current observation of a living robot (a copy), as the next :meth:`step` feeds
-        its brain: the sensor values read at its birth, or after the last step.
+        """The current observation of a living robot (a copy, in its observation space): made at
+        its birth, or after the last step (its sensor part is what the next :meth:`step` feeds
+        its brain).
 
         A robot added between two steps gets its first observation here, before it is ever
         reported by :meth:`step` (an agent-controlled policy needs one to choose its first
@@ -347,7 +505,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         Raises:
             KeyError: naming the agent when it is unknown, not yet born, or dead.
         """
-        return self._member(agent, "observe").obs.copy()
+        return self._member(agent, "observe").view.copy()
 
     def agent_info(self, agent: str) -> dict[str, Any]:
         """The current info of a living robot (as :meth:`step` reports it)."""
@@ -358,7 +516,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             return self._members[agent]
         except KeyError:
             pass
-        if agent in self._obs_spaces:
+        if agent in self._masks:  # born in this episode
             raise KeyError(f"{what}: agent {agent!r} is dead (removed or blown up)")
         raise KeyError(f"{what}: {self._unknown(agent)}")
 
@@ -381,6 +539,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self._dead = []
         self._obs_spaces = {}
         self._act_spaces = {}
+        self._masks = {}
         self._births = 0
         self._steps = 0
 
@@ -406,7 +565,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             else:
                 raise TypeError(f"initial robot {k}: expected a Robot or a mapping, got "
                                 f"{type(entry).__name__}")
-        obs = {a: self._members[a].obs.copy() for a in self.agents}
+        obs = {a: self._members[a].view.copy() for a in self.agents}
         infos = {a: self._get_info(self._members[a], None) for a in self.agents}
         return obs, infos
 
@@ -421,6 +580,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         Raises:
             KeyError: an action for an agent that is not alive (never born, removed, blown up).
             ValueError: an action of the wrong shape, or with NaN or infinity.
+            Nothing changes then (all actions are checked before ``lifecycle`` and the physics).
         """
         world = self._world
         if world is None or self._brain is None:
@@ -430,13 +590,21 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         for agent, action in actions.items():
             member = self._member(agent, "action")
             a = np.asarray(action, dtype=np.float64)
-            shape = self._act_spaces[agent].shape
+            n = member.n_outputs
+            shape = (self._u_outputs,) if member.padded else (n,)
             if a.shape != shape:
-                raise ValueError(f"action for {agent!r} must have shape {shape}, got {a.shape}")
+                layout = (f" (the uniform action space: its first {n} entries drive its {n} "
+                          "active hinges, the rest are ignored)" if member.padded else "")
+                raise ValueError(f"action for {agent!r} must have shape {shape}{layout}, got "
+                                 f"{a.shape}")
             if not np.all(np.isfinite(a)):
                 raise ValueError(f"action for {agent!r} contains NaN or infinity: {a}")
             if member.controlled_by == "agent":
-                checked.append((member, a))
+                checked.append((member, a[:n] if member.padded else a))
+        if self.lifecycle is not None:
+            self.lifecycle(self, self._steps + 1)
+            # Robots it removed leave with this step's death report; their actions are dropped.
+            checked = [(m, a) for m, a in checked if m.agent in self._members]
 
         for member, a in checked:
             world.set_targets(member.handle, a)  # clips to [-1, 1]
@@ -457,7 +625,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         infos: dict[str, dict[str, Any]] = {}
         for member, death in self._dead:
             gone = member.agent
-            obs[gone] = member.obs.copy()
+            obs[gone] = member.view.copy()
             rewards[gone] = 0.0
             terminations[gone] = True
             truncations[gone] = False
@@ -473,11 +641,13 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             m.blow_up = world.blow_up(m.handle)
             if m.blow_up is not None:
                 m.obs = np.zeros_like(m.obs)
+                m.view = np.zeros_like(m.view)
                 m.terms = _NO_TERMS
                 blown.append(m)
             else:
                 # No clipping needed: touch and light sensors read in [0, 1] by construction.
                 m.obs = world.read_sensors(m.handle)
+                m.view = self._view(m)
                 position = world.core_position(m.handle)
                 m.position = position
                 if m.age_steps % self.trajectory_stride == 0:
@@ -485,7 +655,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
                 if m.age_steps >= self._insertion_steps:
                     m.fitness.add(self.time, position)
                     m.terms = m.fitness.terms()
-            obs[agent] = m.obs.copy()
+            obs[agent] = m.view.copy()
             rewards[agent] = m.terms.fitness - previous
             terminations[agent] = m.blow_up is not None
             truncations[agent] = truncate and m.blow_up is None
@@ -589,6 +759,9 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             raise ValueError(f"add_robot ({agent}): position must be (x, y), got {position!r}")
         low, high = sensor_bounds(robot)
         n_outputs = len(robot.neurons_of(Layer.OUTPUT))
+        # A future agent's body is unknown: one whose spaces were handed out before its birth
+        # keeps the uniform ones (exact mode), as every agent does in uniform mode.
+        padded = self.space_mode == "uniform" or agent in self._uniform_spaces
         spec: NetworkSpec | None = None
         if controlled_by == "brain":
             try:
@@ -621,16 +794,30 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             birth_step=self._steps, birth_position=xy, yaw=heading, radius=radius,
             obs=np.zeros(len(low)),
             position=world.core_position(handle), fitness=SlidingWindowFitness(self.fitness_window),
+            n_outputs=n_outputs, padded=padded,
         )
         member.obs = world.read_sensors(handle)
+        member.view = self._view(member)
         member.record(member.position)
         if self._insertion_steps == 0:
             member.fitness.add(self.time, member.position)
         self._births += 1
         self._members[agent] = member
         self.agents.append(agent)
-        self._obs_spaces[agent] = spaces.Box(low, high, dtype=np.float64)
-        self._act_spaces[agent] = spaces.Box(-1.0, 1.0, (n_outputs,), dtype=np.float32)
+        if padded:
+            ones = np.ones(2 * n_outputs) if self.proprioception else None
+            obs_mask = self._padded(np.ones(len(low)), n_outputs, ones) > 0
+            act_mask = np.arange(self._u_outputs) < n_outputs
+        else:
+            if self.proprioception:
+                p_low, p_high = proprio_bounds(n_outputs, self.config)
+                low, high = np.concatenate((low, p_low)), np.concatenate((high, p_high))
+            self._obs_spaces[agent] = spaces.Box(low, high, dtype=np.float64)
+            self._act_spaces[agent] = spaces.Box(-1.0, 1.0, (n_outputs,), dtype=np.float32)
+            obs_mask, act_mask = np.ones(len(low), bool), np.ones(n_outputs, bool)
+        obs_mask.flags.writeable = False
+        act_mask.flags.writeable = False
+        self._masks[agent] = (obs_mask, act_mask)
         if brain is not None:
             self._relayout_brains()
         return agent
@@ -695,6 +882,30 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         )
 
     # -- private ---------------------------------------------------------------------------------
+    def _view(self, m: _Member) -> NDArray[np.float64]:
+        """What the agent observes now: its sensor values (and hinge values), in its space."""
+        if not m.padded:
+            if not self.proprioception:
+                return m.obs
+            return np.concatenate((m.obs, read_proprio(self.world, m.handle)))
+        proprio = read_proprio(self.world, m.handle) if self.proprioception else None
+        return self._padded(m.obs, m.n_outputs, proprio)
+
+    def _padded(self, sensors: NDArray[np.float64], n_hinges: int,
+                proprio: NDArray[np.float64] | None) -> NDArray[np.float64]:
+        """Sensor values (and angles then velocities of ``n_hinges``) laid out uniformly.
+
+        The IMU saturates at the uniform bounds (finite, unlike the raw readings).
+        """
+        out = np.zeros(len(self._u_low))
+        k = len(sensors)
+        out[:k] = np.minimum(np.maximum(sensors, self._u_low[:k]), self._u_high[:k])
+        if proprio is not None:
+            u_in, u_out = self._u_inputs, self._u_outputs
+            out[u_in:u_in + n_hinges] = proprio[:n_hinges]
+            out[u_in + u_out:u_in + u_out + n_hinges] = proprio[n_hinges:]
+        return out
+
     def _get_info(self, m: _Member, death: str | None) -> dict[str, Any]:
         dt = self.config.control_period
         trajectory = m.trajectory[: m.n_trajectory]
@@ -712,6 +923,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             "controlled_by": m.controlled_by,
             "blow_up": m.blow_up,
             "death": death,
+            "obs_mask": self._masks[m.agent][0],
+            "act_mask": self._masks[m.agent][1],
         }
 
 

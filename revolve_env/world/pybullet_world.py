@@ -471,6 +471,11 @@ class World:
         state = self._state(handle)
         return state.joint_pos[state.active_joints].copy()
 
+    def joint_velocities(self, handle: int) -> NDArray[np.float64]:
+        """Angular velocities of the active hinges, in controller output order. Rad/s."""
+        state = self._state(handle)
+        return state.joint_vel[state.active_joints].copy()
+
     # -- sensors ------------------------------------------------------------------------------
     def read_sensors(self, handle: int) -> NDArray[np.float64]:
         """All sensor values of a robot, in controller input order (float64, shape (n_inputs,)).

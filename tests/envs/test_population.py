@@ -78,8 +78,10 @@ def test_spaces_are_cached_per_agent_and_follow_the_body() -> None:
     env.remove_robot(a)
     env.step({})
     assert env.action_space(a) is space  # a dead agent keeps its space for the episode
-    with pytest.raises(KeyError, match="not been born"):
-        env.observation_space("robot_7")
+    # PettingZoo's contract: an agent not yet born has spaces too (uniform, its body is unknown).
+    assert env.observation_space("robot_7") is env.observation_space("robot_7")
+    with pytest.raises(KeyError, match="unknown agent 'robot_7000'"):
+        env.observation_space("robot_7000")
 
 
 def _posed_boxes(robot: Robot, xy: np.ndarray, yaw: float, part: int) -> list[PlacedBox]:
