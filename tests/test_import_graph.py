@@ -171,4 +171,4 @@ def test_the_checker_sees_a_circle_and_an_upward_import() -> None:
     finally:
         GRAPH.clear()
         GRAPH.update(saved)
-    assert layer("evolution.cli.main") > layer("evolution.experiments.api") > layer("evolution")
+    assert layer("evolution.cli.commands") > layer("evolution.experiments.api") > layer("evolution")

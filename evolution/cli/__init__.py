@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from evolution.cli.main import CliError, build_parser, main
+from evolution.cli.commands import CliError, build_parser, main
 from evolution.cli.progress import ProgressBar
 
 __all__ = ["CliError", "ProgressBar", "build_parser", "main"]

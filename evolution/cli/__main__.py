@@ -2,6 +2,6 @@
 
 import sys
 
-from evolution.cli.main import main
+from evolution.cli.commands import main
 
 sys.exit(main())

@@ -23,6 +23,7 @@ import numpy as np
 from evolution.diversity import diversity
 from evolution.evaluation import LearningSummary
 from evolution.experiments.config import ExperimentConfig
+from evolution.experiments.errors import ConfigError
 from evolution.experiments.store import (
     Batch,
     Checkpoint,
@@ -199,7 +200,7 @@ def check_infancy(hook: InfancyHook | None) -> None:
 
     Raises:
         TypeError: ``hook`` is not callable.
-        ValueError: its learner trains a policy outside the genome (stable-baselines3): the
+        ConfigError: its learner trains a policy outside the genome (stable-baselines3): the
             engine's evaluators and world drive robots with their own networks, so the policy
             would be silently ignored.
     """
@@ -209,7 +210,7 @@ def check_infancy(hook: InfancyHook | None) -> None:
         raise TypeError(f"infancy must be a callable hook(robot, rng) -> robot, got {hook!r}")
     learner = getattr(hook, "learner", None)
     if getattr(learner, "learns_policy", False):
-        raise ValueError(
+        raise ConfigError(
             f"{type(learner).__name__} trains a policy outside the genome, but the engine "
             "evaluates robots on their own networks; use a controller-parameter learner "
             "(CMA-ES, random search) in experiments"

@@ -554,3 +554,35 @@ def test_learning_run_ctrl_c_then_resume_rebuilds_the_learner(
     resumed = _learning_dump(killed / DB_NAME)
     assert {r[1] for r in resumed["learning"]} | {r[1] for r in resumed["failures"]} >= {2, 3}
     assert resumed == reference
+
+
+def test_internal_errors_show_their_traceback_and_say_it_is_a_bug(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from evolution.cli import commands as cli_main
+    from evolution.experiments import ReplayError
+
+    def broken(*args: object, **kwargs: object) -> None:
+        raise KeyError("an internal slip")
+
+    monkeypatch.setattr(cli_main, "run", broken)
+    assert main(["run", "quick", "--births", "15", "--out", str(tmp_path)]) == 1
+    err = capsys.readouterr().err
+    assert "Traceback" in err and "KeyError" in err and "this is a bug" in err
+
+    def replay(*args: object, **kwargs: object) -> None:
+        raise ReplayError("replay made a different robot 3")
+
+    monkeypatch.setattr(cli_main, "run", replay)
+    assert main(["run", "quick", "--births", "15", "--out", str(tmp_path / "b")]) == 1
+    err = capsys.readouterr().err
+    assert "Traceback" in err and "ReplayError" in err and "this is a bug" in err
+    # Bad input stays one line.
+    assert main(["run", "scenario4"]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+def test_report_refuses_an_empty_format_list(tmp_path: Path, capsys: pytest.CaptureFixture[str]
+                                             ) -> None:
+    assert main(["report", str(tmp_path), "--formats", ","]) == 2
+    assert "--formats" in capsys.readouterr().err

@@ -8,8 +8,11 @@ overwritten: running into a directory that holds results is an error (use ``revo
 
 Errors in the input (unknown scenario or config key, out-of-range value, a directory holding
 other results, a corrupt or newer database, a bad robot file) print one line to stderr and exit
-with status 2. Ctrl-C stops after the last commit point (status 130); ``revolve resume``
-continues from there.
+with status 2. Any other error is a bug: its traceback is shown with a line saying so (status 1).
+Ctrl-C stops after the last commit point (status 130); ``revolve resume`` continues from there.
+
+The modules that load a physics engine (``revolve_env.envs``) are imported by the commands that
+simulate, so the other commands start without one.
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ import sys
 import tempfile
 import time
 import tomllib
+import traceback
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -30,8 +34,10 @@ from evolution.config import EvolutionConfig
 from evolution.evaluation import EvalTask, evaluate_robot
 from evolution.experiments import (
     DB_NAME,
+    ConfigError,
     ExperimentConfig,
     ExperimentSummary,
+    ReplayError,
     Store,
     StoreError,
     learning_names,
@@ -40,16 +46,22 @@ from evolution.experiments import (
     run,
     shipped_configs,
 )
+from evolution.random_robot import RandomRobotError
 from evolution.reporting import report
 from revolve_env.body.examples import EXAMPLES, example, spider
 from revolve_env.body.export import bill_of_materials, to_sdf, to_urdf
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import load
+from revolve_env.body.validate import RobotError
 
 __all__ = ["CliError", "build_parser", "main"]
 
+EXIT_BUG = 1
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
+
+
+FIGURE_FORMATS = ("png", "pdf", "svg")
 
 
 class CliError(ValueError):
@@ -182,6 +194,9 @@ def _cmd_resume(args: argparse.Namespace) -> int:
 
 def _cmd_report(args: argparse.Namespace) -> int:
     formats = tuple(f.strip() for f in args.formats.split(",") if f.strip())
+    if not formats or any(f not in FIGURE_FORMATS for f in formats):
+        raise CliError(f"--formats takes a comma-separated list of {', '.join(FIGURE_FORMATS)}; "
+                       f"got {args.formats!r}")
     result = report(args.dir, args.out, formats)
     _say(f"{len(result.experiments)} experiment(s): "
          + ", ".join(f"{e.label} ({len(e.runs)} runs)" for e in result.experiments))
@@ -235,7 +250,11 @@ def _cmd_show(args: argparse.Namespace) -> int:
 
     robot, name = _load_robot(args)
     out = Path(args.out) if args.out else Path(f"{name}.gif")
-    video = record_robot(robot, out, seconds=args.seconds, insertion=args.insertion, fps=args.fps)
+    try:
+        video = record_robot(robot, out, seconds=args.seconds, insertion=args.insertion,
+                             fps=args.fps)
+    except ValueError as error:  # bad timing, a robot without hinges, a blow-up: the input
+        raise CliError(f"cannot show {name}: {error}") from None
     _say(f"{video.path}: {video.frames} frames, {video.seconds:.1f} s simulated, fitness "
          f"{video.fitness:.3f} m, {video.distance:.3f} m from the start")
     return 0
@@ -443,8 +462,20 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+INPUT_ERRORS: tuple[type[Exception], ...] = (
+    ConfigError, StoreError, RobotError, CliError, RandomRobotError, OSError,
+)
+"""Bad input: reported on one line (exit status 2). :class:`ReplayError` is a
+:class:`StoreError` but means a bug (a non-deterministic simulation), so it is not among them."""
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``revolve``; returns the exit status."""
+    """Entry point of ``revolve``; returns the exit status.
+
+    Errors in the input (configuration, results database, robot file, command line) print one
+    line and return 2; an internal error (a bug, e.g. a replay that does not reproduce the
+    stored run) shows its traceback, says that it is a bug, and returns 1.
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
@@ -452,8 +483,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("revolve: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
-    except (ValueError, OSError) as error:
-        # ConfigError, StoreError, RobotError and CliError are ValueErrors: bad input.
+    except ReplayError:
+        return _bug(args.command)
+    except INPUT_ERRORS as error:
         message = str(error).splitlines()[0] if str(error) else type(error).__name__
         print(f"revolve {args.command}: error: {message}", file=sys.stderr)
         return EXIT_USAGE
@@ -461,6 +493,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"revolve {args.command}: error: {error} (a dependency of revolve-env is missing: "
               "reinstall it with pip)", file=sys.stderr)
         return EXIT_USAGE
+    except Exception:  # noqa: BLE001 - every other error is a bug: show it whole
+        return _bug(args.command)
+
+
+def _bug(command: str) -> int:
+    traceback.print_exc()
+    print(f"revolve {command}: internal error: this is a bug in revolve-env, not a problem with "
+          "your input; please report it with the traceback above (finished work is saved)",
+          file=sys.stderr)
+    return EXIT_BUG
 
 
 if __name__ == "__main__":
