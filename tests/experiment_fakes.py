@@ -16,7 +16,7 @@ import numpy as np
 
 from evolution.config import EvolutionConfig
 from evolution.evaluation import EvalOutcome, EvalTask
-from evolution.experiments import AgentStatus, ExperimentConfig
+from evolution.experiments import AgentStatus, Birth, ExperimentConfig
 from evolution.evaluation import evaluate_after_infancy
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import to_json
@@ -78,12 +78,13 @@ class FakeWorld:
     def time(self) -> float:
         return self._time
 
-    def add(self, robot: Robot, position: tuple[float, float]) -> str:
+    def add(self, robot: Robot) -> Birth:
         agent = f"robot_{self._next}"
+        position = (0.0, float(self._next))  # a row of lanes: never crowded
         self._next += 1
         self.robots[agent] = (speed_of(to_json(robot, indent=None)), self._time, position, 0.0)
         self.max_population = max(self.max_population, len(self.robots))
-        return agent
+        return Birth(agent, position, True)
 
     def remove(self, agent: str) -> None:
         del self.robots[agent]
@@ -101,10 +102,6 @@ class FakeWorld:
             out[agent] = AgentStatus(6 * u * walked, u * walked, u * walked,
                                      (pos[0] + u * (t - born), pos[1]), removed)
         return out
-
-    def positions(self) -> dict[str, tuple[float, float]]:
-        return {a: (p[0] + u * (self._time - born), p[1])
-                for a, (u, born, p, _) in self.robots.items()}
 
     def close(self) -> None:
         self.closed = True

@@ -17,6 +17,7 @@ from evolution.experiments.engine import default_world, execute_run
 from evolution.experiments.registry import learning_names, shipped_configs
 from evolution.experiments.run import (
     AgentStatus,
+    Birth,
     OnlineWorld,
     ProgressEvent,
     ReplayError,
@@ -24,12 +25,14 @@ from evolution.experiments.run import (
     RunSummary,
     WorldFactory,
     run_seed,
+    world_seed,
 )
 from evolution.experiments.store import DB_NAME, Store, StoreError
 
 __all__ = [
     "DB_NAME",
     "AgentStatus",
+    "Birth",
     "ConfigError",
     "ExperimentConfig",
     "ExperimentSummary",
@@ -50,5 +53,6 @@ __all__ = [
     "resume",
     "run",
     "run_seed",
+    "world_seed",
     "shipped_configs",
 ]

@@ -67,7 +67,8 @@ class ExperimentConfig:
         fertile_age: Age at which a robot is mature. Seconds.
         conception_interval: Online: a robot is conceived every this many seconds.
         birth_radius: Online: newborns appear within this distance of the origin. Metres.
-        birth_clearance: Online: minimum distance from a newborn to another robot. Metres.
+        birth_clearance: Online: gap kept between a newborn's footprint and every living
+            robot's (:mod:`revolve_env.envs.placement`, the population env's rule). Metres.
         min_alive: Online: survivor selection never goes below this many robots.
         max_alive: Online: at this many robots the least fit are culled.
         death_threshold: Online: robots below this fraction of the mean fitness die.
@@ -101,7 +102,7 @@ class ExperimentConfig:
     fertile_age: float = 15.0
     conception_interval: float = 15.0
     birth_radius: float = 2.0
-    birth_clearance: float = 0.5
+    birth_clearance: float = 0.02
     min_alive: int = 8
     max_alive: int = 30
     death_threshold: float = 0.7

@@ -85,6 +85,7 @@ from evolution.experiments.run import (
     RunSummary,
     StopRun,
     run_seed,
+    world_seed,
 )
 from evolution.experiments.store import Store
 
@@ -107,7 +108,7 @@ def execute_run(job: RunJob, evaluator: Evaluator,
             run = OfflineRun(job, store, emit, evaluator)
         else:
             factory = job.world_factory or default_world
-            world = factory(job.config, run_seed(job.config.seed, job.run_id))
+            world = factory(job.config, world_seed(run_seed(job.config.seed, job.run_id)))
             run = OnlineRun(job, store, emit, world)
         try:
             run.run()

@@ -6,7 +6,10 @@ recorded; survivor selection applies the online rule to the *mature* robots (inf
 fitness window yet; the population never drops below ``min_alive`` through selection and is culled
 when it reaches ``max_alive``); then one robot is conceived from two mature parents chosen by
 tournament on their current sliding-window fitness and born at a random free position within
-``birth_radius`` of the origin. If blow-ups leave fewer than ``min_alive`` robots, extra robots
+``birth_radius`` of the origin (the population env's placement rule,
+:func:`revolve_env.envs.placement.place`: when the disc is crowded the newborn goes to the
+nearest free spot outside it, recorded as a ``crowded`` event; a birth never stops a run). If
+blow-ups leave fewer than ``min_alive`` robots, extra robots
 are conceived at once. A commit point is every ``checkpoint_interval`` births.
 """
 
@@ -33,30 +36,9 @@ class OnlineRun(RunState):
         self.world = world
         self.dead: list[Member] = []
 
-    def position(self, time_s: float) -> tuple[float, float]:
-        """A random point within ``birth_radius`` of the origin, away from other robots."""
-        config = self.config
-        occupied = np.array(list(self.world.positions().values()), dtype=float).reshape(-1, 2)
-        best, best_gap = (0.0, 0.0), -math.inf
-        for _ in range(100):
-            r = config.birth_radius * math.sqrt(self.rng.random())
-            a = 2 * math.pi * self.rng.random()
-            point = (r * math.cos(a), r * math.sin(a))
-            gap = (float(np.min(np.hypot(occupied[:, 0] - point[0], occupied[:, 1] - point[1])))
-                   if len(occupied) else math.inf)
-            if gap >= config.birth_clearance:
-                return point
-            if gap > best_gap:
-                best, best_gap = point, gap
-        self.batch.failures.append(FailureRecord(
-            self.births, time_s, "crowded",
-            f"no position {config.birth_clearance} m from the others; best gap {best_gap:.3f} m"))
-        return best
-
     def give_birth(self, time_s: float, random: bool = False) -> None:
         mature = [m for m in self.population if m.lifecycle.fertile]
         robot, pa, pb, origin = self.conceive(mature, time_s, random)
-        position = self.position(time_s)
         member, record = self.new_member(robot, (pa, pb), origin, time_s, time_s)
         living = robot
         if self.infancy is not None:
@@ -65,7 +47,13 @@ class OnlineRun(RunState):
             living = report.robot
             self.record_infancy(member, time_s, report.failure, report.learning,
                                 living if report.changed else None)
-        member.agent = self.world.add(living, position)
+        birth = self.world.add(living)
+        member.agent = birth.agent
+        if not birth.inside:
+            x, y = birth.position
+            self.batch.failures.append(FailureRecord(
+                member.robot_id, time_s, "crowded",
+                f"the birth disc was full; born at the nearest free spot ({x:.3f}, {y:.3f}) m"))
         self.batch.robots.append(record)
         self.population.append(member)
 

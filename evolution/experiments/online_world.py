@@ -10,26 +10,38 @@ never imports the physics.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from evolution.experiments.config import ExperimentConfig
-from evolution.experiments.run import AgentStatus
+from evolution.experiments.run import AgentStatus, Birth
 from revolve_env.body.robot import Robot
+
+if TYPE_CHECKING:
+    from revolve_env.envs.population import PopulationEnv
+
+__all__ = ["PopulationWorld"]
 
 
 class PopulationWorld:
-    """One population environment holding a run's whole population."""
+    """One population environment holding a run's whole population.
+
+    Args:
+        config: The experiment (timing, birth disc, robot limits).
+        seed: Seeds the env's generator (birth positions and headings); the engine spawns it
+            from the run's seed sequence, independent of the engine's own generator.
+    """
 
     def __init__(self, config: ExperimentConfig, seed: int) -> None:
+        # Imported here: it loads the physics engine, which offline runs never need.
         from revolve_env.envs.population import PopulationEnv
 
         # The run's own robots only (no default initial robots); the engine never adds more
         # robots than ``config.births``.
-        self._env: Any = PopulationEnv(max_births=max(config.births, 1), initial_robots=(),
-                                       insertion_time=config.insertion,
-                                       maturity_age=config.fertile_age,
-                                       fitness_window=config.evaluation_time,
-                                       birth_radius=config.birth_radius)
+        self._env: PopulationEnv = PopulationEnv(
+            max_births=max(config.births, 1), initial_robots=(), insertion_time=config.insertion,
+            maturity_age=config.fertile_age, fitness_window=config.evaluation_time,
+            birth_radius=config.birth_radius, birth_clearance=config.birth_clearance,
+            limits=config.evolution.limits)
         self._env.reset(seed=seed)
         self._last: dict[str, dict[str, Any]] = {}
 
@@ -38,21 +50,21 @@ class PopulationWorld:
         """Simulated time. Seconds."""
         return float(self._env.time)
 
-    def add(self, robot: Robot, position: tuple[float, float]) -> str:
-        try:
-            agent = str(self._env.add_robot(robot, position, controlled_by="brain"))
-        except ValueError:
-            # The env's footprint check is stricter than the engine's centre distance: let the
-            # env place the robot (its own seeded generator keeps the run deterministic).
-            agent = str(self._env.add_robot(robot, None, controlled_by="brain"))
-        self._last[agent] = {"position": position, "fitness": 0.0}
-        return agent
+    def add(self, robot: Robot) -> Birth:
+        """Drop a brain-driven robot where the env's placement rule puts it."""
+        agent = self._env.add_robot(robot, None, controlled_by="brain")
+        info = self._env.agent_info(agent)
+        x, y = info["birth_position"]
+        self._last[agent] = {"position": (x, y), "fitness": 0.0}
+        return Birth(agent, (float(x), float(y)), bool(info["born_inside_disc"]))
 
     def remove(self, agent: str) -> None:
+        """Take a robot out of the world."""
         self._env.remove_robot(agent)
         self._last.pop(agent, None)
 
     def advance_to(self, t: float) -> dict[str, AgentStatus]:
+        """Simulate until time ``t``; the status of every robot alive before the call."""
         before = set(self._env.agents)
         removed: dict[str, str] = {}
         # Half a control period of tolerance: ticks land on whole control steps.
@@ -78,10 +90,6 @@ class PopulationWorld:
                 self._last.pop(agent, None)
         return out
 
-    def positions(self) -> dict[str, tuple[float, float]]:
-        alive = set(self._env.agents)
-        return {a: tuple(i.get("position", (0.0, 0.0)))[:2]  # type: ignore[misc]
-                for a, i in self._last.items() if a in alive}
-
     def close(self) -> None:
+        """Release the physics."""
         self._env.close()

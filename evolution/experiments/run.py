@@ -42,6 +42,7 @@ from revolve_env.body.serialize import from_json, to_json
 
 __all__ = [
     "AgentStatus",
+    "Birth",
     "OnlineWorld",
     "ProgressEvent",
     "ReplayError",
@@ -55,6 +56,7 @@ __all__ = [
     "decode",
     "genome",
     "run_seed",
+    "world_seed",
 ]
 
 
@@ -63,8 +65,23 @@ class ReplayError(StoreError):
 
 
 def run_seed(experiment_seed: int, run_id: int) -> int:
-    """The seed of run ``run_id`` of an experiment."""
+    """The seed of run ``run_id`` of an experiment.
+
+    The engine's generator is ``default_rng(run_seed)``, i.e. ``SeedSequence(run_seed)``; the
+    online world's is spawned from that same sequence (:func:`world_seed`), so the two streams
+    are independent.
+    """
     return int(np.random.SeedSequence([experiment_seed, run_id]).generate_state(1)[0])
+
+
+def world_seed(run_seed: int) -> int:
+    """The seed of a run's online world: the first child spawned from ``SeedSequence(run_seed)``.
+
+    Before, the world was seeded with ``run_seed`` itself, so its generator drew the very numbers
+    the engine's did.
+    """
+    child = np.random.SeedSequence(run_seed).spawn(1)[0]
+    return int(child.generate_state(1)[0])
 
 
 @dataclass(frozen=True, slots=True)
@@ -132,6 +149,21 @@ class AgentStatus:
     removed: str | None = None
 
 
+@dataclass(frozen=True, slots=True)
+class Birth:
+    """Where the online world placed a newborn.
+
+    Attributes:
+        agent: Its agent id in the world.
+        position: Core ``(x, y)`` where it was placed. Metres.
+        inside: False when the birth disc was crowded and it went outside.
+    """
+
+    agent: str
+    position: tuple[float, float]
+    inside: bool
+
+
 class OnlineWorld(Protocol):
     """What the online engine needs from a world holding the whole population."""
 
@@ -139,8 +171,8 @@ class OnlineWorld(Protocol):
     def time(self) -> float:
         """Simulated time. Seconds."""
 
-    def add(self, robot: Robot, position: tuple[float, float]) -> str:
-        """Drop a robot at ``position`` (metres); returns its agent id."""
+    def add(self, robot: Robot) -> Birth:
+        """Place a robot by the population env's rule and drop it in; where it went."""
 
     def remove(self, agent: str) -> None:
         """Take a robot out of the world."""
@@ -149,15 +181,12 @@ class OnlineWorld(Protocol):
         """Simulate until time ``t``; the status of every robot alive before the call
         (``removed`` set for those the world removed)."""
 
-    def positions(self) -> dict[str, tuple[float, float]]:
-        """Ground-plane positions of the living robots. Metres."""
-
     def close(self) -> None:
         """Release the physics."""
 
 
 WorldFactory = Callable[[ExperimentConfig, int], OnlineWorld]
-"""Makes the online world of a run from the config and the run's seed (picklable)."""
+"""Makes the online world of a run from the config and a seed (:func:`world_seed`; picklable)."""
 
 
 @dataclass(frozen=True, slots=True)

@@ -20,13 +20,13 @@ from numpy.typing import ArrayLike, NDArray
 from pettingzoo import ParallelEnv
 
 from revolve_env.body.examples import EXAMPLES
-from revolve_env.body.geometry import assemble
 from revolve_env.body.parts import PART_SPECS
 from revolve_env.body.robot import Layer, PartType, Robot
 from revolve_env.body.validate import Limits, validate
 from revolve_env.brain import BatchController
 from revolve_env.brain.spec import NetworkSpec
 from revolve_env.envs.observations import proprio_bounds, read_proprio, uniform_sensor_bounds
+from revolve_env.envs.placement import Disc, clash, footprint_radius, place
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
 from revolve_env.world import World, WorldConfig
 
@@ -56,16 +56,6 @@ def sensor_bounds(robot: Robot) -> tuple[NDArray[np.float64], NDArray[np.float64
     return np.array(low), np.array(high)
 
 
-def footprint_radius(robot: Robot) -> float:
-    """Radius of the smallest vertical cylinder about the core holding the assembled robot.
-
-    Whatever the robot's heading, its horizontal footprint at assembly lies within this distance
-    of its core centre. Metres.
-    """
-    lower, upper = assemble(robot).bounds()
-    return float(math.hypot(max(-lower[0], upper[0]), max(-lower[1], upper[1])))
-
-
 @dataclass(eq=False)
 class _Member:
     """A living robot (private, mutable bookkeeping)."""
@@ -77,6 +67,7 @@ class _Member:
     brain: int | None  # BatchController handle (brain-controlled robots)
     birth_step: int
     birth_position: tuple[float, float]
+    born_inside: bool  # placed in the birth disc (False: the disc was crowded)
     yaw: float
     radius: float  # footprint radius, metres
     obs: NDArray[np.float64]
@@ -223,6 +214,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     |----------------|-----------------------------------------------------------------------|
     | age            | seconds since birth                                                   |
     | birth_time     | simulated time of birth. Seconds                                      |
+    | birth_position | core ``(x, y)`` where the robot was placed. Metres                    |
+    | born_inside_disc | False when a crowded birth disc put it outside (see placement)      |
     | inserting      | ``age < insertion_time`` (the fitness is not yet sampled)             |
     | is_mature      | ``age >= maturity_age``                                               |
     | fitness        | ``v + 5 s`` over the window. Metres                                   |
@@ -242,9 +235,12 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     at the given ``(x, y)``, or at a uniformly random position within ``birth_radius`` of the
     origin, with a random heading. A robot occupies a disc of radius :func:`footprint_radius`
     about its core; a new robot's disc must keep ``birth_clearance`` from every living robot's
-    disc (about its current core position). Random placement gives up after
-    ``max_placement_tries`` draws with a ``ValueError``; a given position that overlaps is a
-    ``ValueError`` too. Draws come from the generator seeded by ``reset(seed=...)``.
+    disc (about its current core position). The rule is :func:`revolve_env.envs.placement.place`,
+    which the evolution engine's online world uses too: after ``max_placement_tries`` random
+    draws in a crowded birth disc, the robot goes to the nearest free position outside it, and
+    ``infos[agent]["born_inside_disc"]`` is False; a birth never fails for lack of room. A given
+    position that overlaps is a ``ValueError``. Draws come from the generator seeded by
+    ``reset(seed=...)``.
 
     ## Reset
     ``reset(seed, options)`` builds a fresh world and adds the initial robots:
@@ -267,7 +263,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     | fitness_window      | 12.0     | sliding window of the fitness. Seconds                      |
     | birth_radius        | 2.0      | random births lie within this distance of the origin. m     |
     | birth_clearance     | 0.02     | gap kept between footprints at birth. Metres                |
-    | max_placement_tries | 200      | random draws before a birth gives up                        |
+    | max_placement_tries | 200      | random draws in the birth disc before placing outside it    |
     | trajectory_stride   | 1        | control periods between trajectory samples                  |
     | max_steps           | None     | truncate every robot after this many steps (None: never)    |
     | control_period      | None     | time per env step. Seconds (a multiple of the timestep);    |
@@ -773,8 +769,11 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
                                  f"neurons but the body has {len(low)} sensor values")
         radius = footprint_radius(robot)
         rng = self.np_random
+        inside = True
         if position is None:
-            xy = self._free_position(agent, radius, rng)
+            placement = place(self._discs(), radius, self.birth_radius, self.birth_clearance, rng,
+                              self.max_placement_tries)
+            xy, inside = placement.position, placement.inside
         else:
             xy = (float(position[0]), float(position[1]))
             if not (math.isfinite(xy[0]) and math.isfinite(xy[1])):
@@ -791,7 +790,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         brain = self._brain.add(spec) if spec is not None else None
         member = _Member(
             agent=agent, robot=robot, controlled_by=controlled_by, handle=handle, brain=brain,
-            birth_step=self._steps, birth_position=xy, yaw=heading, radius=radius,
+            birth_step=self._steps, birth_position=xy, born_inside=inside, yaw=heading,
+            radius=radius,
             obs=np.zeros(len(low)),
             position=world.core_position(handle), fitness=SlidingWindowFitness(self.fitness_window),
             n_outputs=n_outputs, padded=padded,
@@ -855,31 +855,20 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self._brain_in = np.zeros(brain.n_inputs)
         self._brain_out = np.zeros(brain.n_outputs)
 
-    def _clash(self, xy: tuple[float, float], radius: float) -> str | None:
-        """The first living robot whose footprint is too close to a disc at ``xy``, else None."""
+    def _discs(self) -> list[Disc]:
+        """The living robots' footprints (in agent order)."""
         if not self._members:
-            return None
+            return []
         assert self._world is not None
         members = list(self._members.values())
-        centres = self._world.core_positions([m.handle for m in members])[:, :2]
-        reach = np.array([m.radius for m in members]) + radius + self.birth_clearance
-        gaps = np.hypot(centres[:, 0] - xy[0], centres[:, 1] - xy[1]) - reach
-        k = int(np.argmin(gaps))
-        return members[k].agent if gaps[k] < 0 else None
+        centres = self._world.core_positions([m.handle for m in members])
+        return [Disc(float(c[0]), float(c[1]), m.radius) for c, m in zip(centres, members,
+                                                                          strict=True)]
 
-    def _free_position(self, agent: str, radius: float,
-                       rng: np.random.Generator) -> tuple[float, float]:
-        for _ in range(self.max_placement_tries):
-            r = self.birth_radius * math.sqrt(float(rng.random()))
-            angle = float(rng.uniform(0.0, 2.0 * math.pi))
-            xy = (r * math.cos(angle), r * math.sin(angle))
-            if self._clash(xy, radius) is None:
-                return xy
-        raise ValueError(
-            f"add_robot ({agent}): no free position within {self.birth_radius} m of the origin "
-            f"for a robot of footprint radius {radius:.3f} m after {self.max_placement_tries} "
-            f"tries ({len(self._members)} robots alive); raise birth_radius or remove robots"
-        )
+    def _clash(self, xy: tuple[float, float], radius: float) -> str | None:
+        """The first living robot whose footprint is too close to a disc at ``xy``, else None."""
+        k = clash(self._discs(), xy, radius, self.birth_clearance)
+        return None if k is None else list(self._members)[k]
 
     # -- private ---------------------------------------------------------------------------------
     def _view(self, m: _Member) -> NDArray[np.float64]:
@@ -913,6 +902,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         return {
             "age": m.age_steps * dt,
             "birth_time": m.birth_step * dt,
+            "birth_position": m.birth_position,
+            "born_inside_disc": m.born_inside,
             "inserting": m.age_steps < self._insertion_steps,
             "is_mature": m.age_steps >= self._maturity_steps,
             "fitness": m.terms.fitness,

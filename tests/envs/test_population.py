@@ -116,8 +116,6 @@ def test_bad_births_change_nothing() -> None:
     bodies, agents = env.world.body_count(), list(env.agents)
     with pytest.raises(ValueError, match="overlaps robot_0"):
         env.add_robot(gecko(), (0.1, 0.0))
-    with pytest.raises(ValueError, match="no free position within 0.3 m"):
-        env.add_robot(spider())
     bad = Robot(Node(PartType.BRICK))
     with pytest.raises(ValueError, match="robot_1.*invalid robot.*root") as err:
         env.add_robot(bad, (5.0, 5.0))
@@ -286,6 +284,21 @@ def test_max_steps_truncates_everyone() -> None:
         assert trunc == {a: False}
     _, _, term, trunc, _ = env.step({})
     assert trunc == {a: True} and term == {a: False} and env.agents == []
+
+
+def test_a_crowded_birth_disc_places_the_newborn_outside_it() -> None:
+    """A birth never fails for lack of room: the nearest free spot outside the disc is used,
+    clear of every robot, and the info says so."""
+    env = small_env(birth_radius=0.3, max_placement_tries=20)
+    env.reset(seed=0)
+    first = env.add_robot(spider(), (0.0, 0.0))
+    second = env.add_robot(spider())
+    _, _, _, _, infos = env.step({})
+    assert infos[first]["born_inside_disc"] and not infos[second]["born_inside_disc"]
+    x, y = infos[second]["birth_position"]
+    assert math.hypot(x, y) > 0.3
+    assert math.hypot(x, y) >= 2 * footprint_radius(spider()) + env.birth_clearance - 1e-9
+    env.close()
 
 
 def test_footprint_radius_covers_the_robot() -> None:

@@ -24,7 +24,7 @@ from experiment_fakes import (
 )
 
 from evolution import experiments
-from evolution.experiments import ProgressEvent
+from evolution.experiments import Birth, ProgressEvent
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import ExperimentConfig
 from evolution.learning import (
@@ -204,9 +204,9 @@ class RecordingWorld(FakeWorld):
         super().__init__(config, seed)
         self.added = added
 
-    def add(self, robot: Robot, position: tuple[float, float]) -> str:
+    def add(self, robot: Robot) -> Birth:
         self.added.append(robot)
-        return super().add(robot, position)
+        return super().add(robot)
 
 
 def online_config(**kw: Any) -> ExperimentConfig:

@@ -12,29 +12,43 @@ from revolve_env.body.examples import gecko, snake
 
 
 def _tiny_online(**changes: object) -> evolution.ExperimentConfig:
-    return preset(
-        "scenario3", births=7, population_size=3, min_alive=2, max_alive=4,
-        conception_interval=2.0, insertion=0.5, evaluation_time=2.0, fertile_age=2.5,
-        diversity_interval=0, workers=1, runs=1, **changes,
-    )
+    values: dict[str, object] = dict(
+        births=7, population_size=3, min_alive=2, max_alive=4, conception_interval=2.0,
+        insertion=0.5, evaluation_time=2.0, fertile_age=2.5, diversity_interval=0, workers=1,
+        runs=1)
+    values.update(changes)
+    return preset("scenario3", **values)
 
 
 def test_the_world_holds_only_the_runs_robots() -> None:
     world = PopulationWorld(_tiny_online(), seed=0)
     try:
-        assert world.positions() == {}
         assert world._env.agents == []  # no default example robots join the population
-        a = world.add(gecko(), (0.0, 0.0))
-        b = world.add(snake(), (1.0, 0.0))
+        a = world.add(gecko()).agent
+        birth = world.add(snake())
+        b = birth.agent
+        # The position recorded is the one the env used (the shared placement rule).
+        assert birth.inside and world._env.agent_info(b)["birth_position"] == birth.position
         statuses = world.advance_to(0.5)
         assert set(statuses) == {a, b}
         assert sorted(world._env.agents) == sorted([a, b])
         world.remove(a)
         assert set(world.advance_to(1.0)) == {b}
-        assert set(world.positions()) == {b}
         assert set(world._last) == {b}  # nothing kept of the removed robot
     finally:
         world.close()
+
+
+def test_a_crowded_birth_disc_never_stops_an_online_run(tmp_path: Path) -> None:
+    """Large immobile robots fill a tiny birth disc: later newborns go outside it, the event is
+    stored, and the run reaches its births."""
+    config = _tiny_online(birth_radius=0.05, births=6, population_size=2, min_alive=2,
+                          max_alive=6, death_threshold=0.0)
+    summary = evolution.run(config, tmp_path / "crowded")
+    assert [r.births for r in summary.runs] == [6]
+    with Store.open(tmp_path / "crowded" / "results.sqlite") as store:
+        crowded = store.failures(0, "crowded")
+        assert crowded and all("nearest free spot" in f.detail for f in crowded)
 
 
 def test_a_tiny_online_run_with_real_physics_finishes_with_exact_births(tmp_path: Path) -> None:
