@@ -145,19 +145,24 @@ def test_lone_surrogates_are_refused_on_reading(edit: Any, where: str) -> None:
         assert info.value.rule == "json-text" and f"{where}: " in _one_line(info.value)
 
 
-def test_saving_a_name_with_a_lone_surrogate_fails_cleanly_and_keeps_the_file(
+def test_a_name_with_a_lone_surrogate_is_refused_at_construction() -> None:
+    with pytest.raises(RobotError) as info:
+        replace(example("spider"), name="x\ud800")
+    assert info.value.rule == "json-text" and "\\ud800" in _one_line(info.value)
+    assert replace(example("spider"), name="caf\u00e9 \U0001f577").name.endswith("\U0001f577")
+
+
+def test_saving_an_id_with_a_lone_surrogate_fails_cleanly_and_keeps_the_file(
     tmp_path: Path,
 ) -> None:
     path = tmp_path / "spider.json"
     save(example("spider"), path)
     before = path.read_bytes()
-    bad = replace(example("spider"), name="x\ud800")
+    bad = replace(example("spider"), connections=(Connection("\ud800", "b", 1.0),))
     with pytest.raises(RobotError) as info:
         save(bad, path)
     assert info.value.rule == "json-text"
     assert path.read_bytes() == before
-    with pytest.raises(RobotError):
-        to_json(replace(example("spider"), connections=(Connection("\ud800", "b", 1.0),)))
 
 
 # --- sizes and types -----------------------------------------------------------------------------
