@@ -21,7 +21,7 @@ never a traceback from deeper down: a document larger than :data:`MAX_JSON_BYTES
 any recursive reader would raise ``RecursionError`` at about 1,000 levels), bytes or a file that
 are not UTF-8 (``json-encoding``), and text that UTF-8 cannot hold, such as a name or id with a
 lone surrogate (``"\\ud800"`` escapes; rule ``json-text``), refused on reading so that a robot once
-loaded can always be saved. :func:`load` puts the file name at the start of the message.
+loaded can always be saved.
 """
 
 from __future__ import annotations
@@ -430,7 +430,7 @@ def load(path: str | os.PathLike[str], limits: Limits | None = None, *, check: b
     """Read a robot from a UTF-8 JSON file (see :func:`from_json`).
 
     Raises:
-        RobotError: as :func:`from_json`, with the file name at the start of the message; also
+        RobotError: as :func:`from_json`, with the file name in a note (``__notes__``); also
             for a file that is not UTF-8 (rule ``json-encoding``) or larger than
             :data:`MAX_JSON_BYTES` (``json-size``, refused before it is read).
         OSError: the file cannot be read.
@@ -449,6 +449,7 @@ def load(path: str | os.PathLike[str], limits: Limits | None = None, *, check: b
                              f"cannot be decoded ({exc.reason})", rule="json-encoding") from None
         return from_json(text, limits, check=check)
     except RobotError as exc:
-        # The file goes into the one line that a command-line tool prints.
-        exc.args = (f"{name}: {exc.args[0]}", *exc.args[1:])
+        # A note, not the message: `revolve show/export` put the file at the start of their
+        # one-line error themselves.
+        exc.add_note(f"while reading {name}")
         raise

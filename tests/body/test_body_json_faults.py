@@ -40,6 +40,11 @@ def _one_line(exc: BaseException) -> str:
     return text
 
 
+def _names_file(exc: BaseException, path: Path) -> bool:
+    """The file is in a note, which ``revolve show/export`` print before the one-line message."""
+    return any(str(path) in note for note in getattr(exc, "__notes__", []))
+
+
 def _chain_text(depth: int) -> str:
     """A core with ``depth`` bricks in a chain below it, as JSON built without recursion."""
     head = '{"schema": "revolve-env/robot", "version": 1, "body": {"type": "core"'
@@ -74,7 +79,7 @@ def test_deeply_nested_bodies_are_refused_through_json_load_and_dict(depth: int,
     path.write_text(text, encoding="utf-8")
     with pytest.raises(RobotError) as info:
         load(path)
-    assert info.value.rule == "json-depth" and _one_line(info.value).startswith(f"{path}: ")
+    assert info.value.rule == "json-depth" and _names_file(info.value, path)
     # Parsed data handed to from_dict never went through the text check.
     data: dict[str, Any] = {"type": "brick"}
     for _ in range(depth - 1):
@@ -122,7 +127,7 @@ def test_files_and_bytes_that_are_not_utf8_are_refused(raw: bytes, tmp_path: Pat
     with pytest.raises(RobotError) as info:
         load(path)
     assert info.value.rule == "json-encoding"
-    assert _one_line(info.value).startswith(f"{path}: ") and "offset" in str(info.value)
+    assert _names_file(info.value, path) and "offset" in _one_line(info.value)
 
 
 def test_utf16_bytes_are_read_as_json_allows() -> None:
@@ -172,7 +177,7 @@ def test_huge_files_are_refused_before_they_are_read(tmp_path: Path) -> None:
         f.truncate(4 * MAX_JSON_BYTES)  # sparse: costs no disk
     with pytest.raises(RobotError) as info:
         load(path)
-    assert info.value.rule == "json-size" and _one_line(info.value).startswith(f"{path}: ")
+    assert info.value.rule == "json-size" and _names_file(info.value, path)
     with pytest.raises(RobotError) as info:
         from_json(" " * (MAX_JSON_BYTES + 1))
     assert info.value.rule == "json-size"
@@ -293,7 +298,8 @@ def test_only_robot_errors_escape_from_load(raw: bytes,
     try:
         robot = load(path)
     except RobotError as exc:
-        assert _one_line(exc).startswith(f"{path}: ")
+        _one_line(exc)
+        assert _names_file(exc, path)
     else:
         save(robot, path)
         assert load(path) == robot
