@@ -251,8 +251,10 @@ class _Reader:
                             "json-unknown-value", path) from None
 
     def node(self, value: object, where: str, path: Path) -> Node:
-        # from_dict takes parsed data that no depth check has seen; recursion stops here first.
-        if 2 * len(path) + 3 > MAX_JSON_DEPTH:  # as written by to_json; named briefly: the full path would be huge
+        # from_dict takes parsed data that no depth check has seen, so recursion stops here
+        # first: at the depth to_json would write (2 levels a part), named briefly (not by the
+        # full JSON path, which would be hundreds of "children[0]" long).
+        if 2 * len(path) + 3 > MAX_JSON_DEPTH:
             raise self.fail("body", f"parts nested {len(path)} deep, deeper than "
                             f"{MAX_JSON_DEPTH} levels of JSON allow", "json-depth")
         d = self.obj(value, where, _CHILD_KEYS if path else _NODE_KEYS, path)
