@@ -169,6 +169,7 @@ void BatchController::pack() {
     gain_.assign(rows, 0.0);
     bias_.assign(rows, 0.0);
     row_.assign(rows + 1, 0);
+    lin_rows_.clear();
     sig_rows_.clear();
     osc_rows_.clear();
     osc_net_.clear();
@@ -201,6 +202,7 @@ void BatchController::pack() {
             const double* p = net.params.data() + i * kParamColumns;
             bias_[r] = p[0];
             gain_[r] = p[1];
+            if (net.kinds[static_cast<std::size_t>(i)] == kLinear) lin_rows_.push_back(static_cast<std::int32_t>(r));
             if (net.kinds[static_cast<std::size_t>(i)] == kSigmoid) sig_rows_.push_back(static_cast<std::int32_t>(r));
             if (net.kinds[static_cast<std::size_t>(i)] == kOscillator) {
                 osc_rows_.push_back(static_cast<std::int32_t>(r));
@@ -259,6 +261,13 @@ void BatchController::step(const double* inputs, double* outputs) noexcept {
         double a = 0.0;
         for (std::int64_t e = row[r]; e < row[r + 1]; ++e) a += w[e] * x[col[e]];
         next[r] = gain_[r] * (a - bias_[r]);
+    }
+
+    // Linear neurons saturate at [0, 1], the range of a motor command (see the header for why).
+    // NaN passes through, as np.clip.
+    for (const std::int32_t r : lin_rows_) {
+        const double v = next[r];
+        next[r] = v < 0.0 ? 0.0 : (v > 1.0 ? 1.0 : v);
     }
 
     // Sigmoids: one vectorised exp over all of them.

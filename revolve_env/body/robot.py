@@ -190,12 +190,26 @@ class Robot:
     Attributes:
         body: Root node; must be a core.
         connections: Weighted connections between neurons carried by the body's nodes.
-        name: Free text, for people (not used by any algorithm).
+        name: Free text, for people (not used by any algorithm). Text that UTF-8 cannot
+            encode (a lone surrogate) raises RobotError at construction.
     """
 
     body: Node
     connections: tuple[Connection, ...] = ()
     name: str = field(default="", compare=True)
+
+    def __post_init__(self) -> None:
+        # A name that UTF-8 cannot hold (a lone surrogate, e.g. from a "\ud800" JSON escape)
+        # could never be saved: refuse it here rather than let save() fail later.
+        if isinstance(self.name, str) and not self.name.isascii():
+            try:
+                self.name.encode("utf-8")
+            except UnicodeEncodeError as exc:
+                from revolve_env.body.validate import RobotError  # validate imports this module
+
+                raise RobotError(f"name holds text that UTF-8 cannot encode ({exc.reason} "
+                                 f"{self.name[exc.start]!a} at character {exc.start})",
+                                 rule="json-text") from None
 
     # -- traversal --------------------------------------------------------------------------
     def walk(self) -> Iterator[tuple[Path, Node]]:

@@ -14,6 +14,14 @@ Floats are written with Python's shortest round-trip representation, so
 types, unknown part types, NaN or infinite numbers and unknown schema versions are errors naming
 the JSON path of the problem (e.g. ``body.children[2].type``; a repeated key is named by key), and
 the result is validated (limits included) before it is returned. Every error raised here is a :class:`~revolve_env.body.validate.RobotError`.
+
+Hostile or damaged input gets the same one-line :class:`~revolve_env.body.validate.RobotError`,
+never a traceback from deeper down: a document larger than :data:`MAX_JSON_BYTES` (rule
+``json-size``), nested deeper than :data:`MAX_JSON_DEPTH` (``json-depth``; the standard parser and
+any recursive reader would raise ``RecursionError`` at about 1,000 levels), bytes or a file that
+are not UTF-8 (``json-encoding``), and text that UTF-8 cannot hold, such as a name or id with a
+lone surrogate (``"\\ud800"`` escapes; rule ``json-text``), refused on reading so that a robot once
+loaded can always be saved.
 """
 
 from __future__ import annotations
@@ -21,8 +29,10 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 from collections.abc import Mapping
 from dataclasses import fields
+from itertools import accumulate
 from typing import Any, TypeVar
 
 from revolve_env.body.robot import (
@@ -38,6 +48,8 @@ from revolve_env.body.robot import (
 from revolve_env.body.validate import Limits, RobotError, validate
 
 __all__ = [
+    "MAX_JSON_BYTES",
+    "MAX_JSON_DEPTH",
     "SCHEMA",
     "SCHEMA_VERSION",
     "from_dict",
@@ -53,6 +65,18 @@ SCHEMA = "revolve-env/robot"
 
 SCHEMA_VERSION = 1
 """Version written by this code; files with a higher version are refused."""
+
+MAX_JSON_BYTES = 8 * 1024 * 1024
+"""Largest robot document read, in bytes of UTF-8 (characters for a ``str``). A 30-part robot
+with a full brain takes some 30 KB, so this refuses only damaged or hostile files, before they
+are parsed."""
+
+MAX_JSON_DEPTH = 200
+"""Deepest nesting of arrays and objects read or written. Each part below the core adds two
+levels (its parent's ``children`` array and its own object), so this allows a chain of 98 parts,
+three times the default ``Limits.max_parts``. The bound is what the rest of the library can take:
+the parser, the reader, and the robot's own (recursive) equality and hashing would reach Python's
+recursion limit at a chain of some 190 parts."""
 
 _NEURON_FLOATS = ("bias", "gain", "period", "phase_offset", "amplitude")
 _NEURON_DEFAULTS = {f.name: f.default for f in fields(Neuron) if f.name in _NEURON_FLOATS}
@@ -108,21 +132,62 @@ def to_json(robot: Robot, *, indent: int | None = 1) -> str:
         indent: Passed to :func:`json.dumps`; None gives a single line.
 
     Raises:
-        RobotError: if a number is NaN or infinite (JSON cannot hold it).
+        RobotError: if a number is NaN or infinite (JSON cannot hold it), a string holds text
+            that UTF-8 cannot encode (a lone surrogate), or the parts are nested deeper than
+            :data:`MAX_JSON_DEPTH` allows.
     """
+    depth = _tree_depth(robot.body)
+    if 2 * depth + 3 > MAX_JSON_DEPTH:  # the document's depth; to_dict and dumps recurse
+        raise RobotError(f"parts nested {depth} deep, deeper than {MAX_JSON_DEPTH} levels of "
+                         "JSON allow", rule="json-depth")
     try:
-        return json.dumps(to_dict(robot), indent=indent, allow_nan=False, ensure_ascii=False)
+        text = json.dumps(to_dict(robot), indent=indent, allow_nan=False, ensure_ascii=False)
     except ValueError as exc:
         raise RobotError(f"cannot be written as JSON: {exc}", rule="json-number") from exc
     except TypeError as exc:  # e.g. a NumPy integer where the schema holds a plain int
         raise RobotError(f"cannot be written as JSON: {exc}", rule="json-type") from exc
+    bad = _first_unencodable(text)
+    if bad is not None:
+        raise RobotError(f"cannot be written as UTF-8 JSON: {bad}", rule="json-text")
+    return text
 
 
 def save(robot: Robot, path: str | os.PathLike[str]) -> None:
-    """Write the robot's JSON to ``path`` (UTF-8)."""
-    with open(path, "w", encoding="utf-8") as f:
-        f.write(to_json(robot))
-        f.write("\n")
+    """Write the robot's JSON to ``path`` (UTF-8).
+
+    The document is made before the file is opened, so a robot that cannot be written (see
+    :func:`to_json`) leaves an existing file untouched.
+
+    Raises:
+        RobotError: as :func:`to_json`.
+    """
+    data = (to_json(robot) + "\n").encode("utf-8")
+    with open(path, "wb") as f:
+        f.write(data)
+
+
+def _tree_depth(body: Node) -> int:
+    """Parts on the longest path below the core (0 for a lone core), without recursion."""
+    deepest = 0
+    stack = [(body, 0)]
+    while stack:
+        node, depth = stack.pop()
+        deepest = max(deepest, depth)
+        stack.extend((child, depth + 1) for _, child in node.children)
+    return deepest
+
+
+_SURROGATE = re.compile("[\ud800-\udfff]")
+
+
+def _first_unencodable(text: str) -> str | None:
+    """Where ``text`` holds a lone surrogate (UTF-8 cannot encode it), or None if it has none."""
+    if text.isascii():
+        return None
+    m = _SURROGATE.search(text)
+    if m is None:
+        return None
+    return f"lone surrogate {m.group()!a} at character {m.start()}"
 
 
 # --- reading -----------------------------------------------------------------------------------
@@ -170,6 +235,9 @@ class _Reader:
     def string(self, value: object, where: str, path: Path | None = None) -> str:
         if not isinstance(value, str):
             raise self.fail(where, f"expected a string, got {_kind(value)}", "json-type", path)
+        bad = _first_unencodable(value)
+        if bad is not None:  # accepted here, it would make save() fail later
+            raise self.fail(where, f"text that UTF-8 cannot hold ({bad})", "json-text", path)
         return value
 
     def enum(self, enum: type[_E], value: object, where: str, path: Path | None) -> _E:
@@ -183,6 +251,12 @@ class _Reader:
                             "json-unknown-value", path) from None
 
     def node(self, value: object, where: str, path: Path) -> Node:
+        # from_dict takes parsed data that no depth check has seen, so recursion stops here
+        # first: at the depth to_json would write (2 levels a part), named briefly (not by the
+        # full JSON path, which would be hundreds of "children[0]" long).
+        if 2 * len(path) + 3 > MAX_JSON_DEPTH:
+            raise self.fail("body", f"parts nested {len(path)} deep, deeper than "
+                            f"{MAX_JSON_DEPTH} levels of JSON allow", "json-depth")
         d = self.obj(value, where, _CHILD_KEYS if path else _NODE_KEYS, path)
         part = self.enum(PartType, d["type"], f"{where}.type", path)
         orientation = self.integer(d.get("orientation", 0), f"{where}.orientation", path)
@@ -293,18 +367,58 @@ def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return d
 
 
+_STRING = re.compile(r'"(?:[^"\\]|\\.)*"', re.DOTALL)
+_NOT_BRACKET = re.compile(r"[^\[\]{}]+")
+_NESTING = {"[": 1, "{": 1, "]": -1, "}": -1}
+
+
+def _nesting_depth(text: str) -> int:
+    """Deepest nesting of arrays and objects in ``text`` (strings skipped), without recursion.
+
+    Unbalanced or malformed text gives some number; the parser reports the syntax error after.
+    """
+    brackets = _NOT_BRACKET.sub("", _STRING.sub("", text))
+    return max(accumulate(map(_NESTING.__getitem__, brackets)), default=0)
+
+
+def _decode(text: str | bytes) -> str:
+    """``text`` as ``str``: bytes are decoded as JSON allows (UTF-8, or UTF-16/32 by their
+    byte pattern), strictly."""
+    if isinstance(text, str):
+        return text
+    if len(text) > MAX_JSON_BYTES:
+        raise RobotError(f"document of {len(text)} bytes is larger than the {MAX_JSON_BYTES} "
+                         "bytes a robot can take", rule="json-size")
+    try:
+        return bytes(text).decode(json.detect_encoding(text))
+    except UnicodeDecodeError as exc:
+        raise RobotError(f"not UTF-8 text: byte {exc.object[exc.start]:#04x} at offset "
+                         f"{exc.start} cannot be decoded ({exc.reason})",
+                         rule="json-encoding") from None
+
+
 def from_json(text: str | bytes, limits: Limits | None = None, *, check: bool = True) -> Robot:
     """Parse and validate a robot written by :func:`to_json` (or by hand, following the schema).
 
     Args:
-        text: The JSON document.
+        text: The JSON document (``bytes`` are decoded as UTF-8, or UTF-16/32 as JSON allows).
         limits: Limits used by validation (default :class:`Limits`).
         check: Validate the result (default).
 
     Raises:
         RobotError: for malformed JSON (rule ``json-syntax``), a document that does not follow the
-            schema (rules ``json-*``, naming the JSON path) or an invalid robot (validation rules).
+            schema (rules ``json-*``, naming the JSON path), one too large (``json-size``) or too
+            deeply nested (``json-depth``), bytes that do not decode (``json-encoding``), text
+            that UTF-8 cannot hold (``json-text``) or an invalid robot (validation rules).
     """
+    text = _decode(text)
+    if len(text) > MAX_JSON_BYTES:
+        raise RobotError(f"document of {len(text)} characters is larger than the "
+                         f"{MAX_JSON_BYTES} a robot can take", rule="json-size")
+    depth = _nesting_depth(text)
+    if depth > MAX_JSON_DEPTH:
+        raise RobotError(f"arrays and objects nested {depth} levels deep (at most "
+                         f"{MAX_JSON_DEPTH})", rule="json-depth")
     try:
         data = json.loads(text, parse_constant=_reject_constant, object_pairs_hook=_unique_keys)
     except _StrictJSONError as exc:
@@ -315,11 +429,29 @@ def from_json(text: str | bytes, limits: Limits | None = None, *, check: bool = 
 
 
 def load(path: str | os.PathLike[str], limits: Limits | None = None, *, check: bool = True) -> Robot:
-    """Read a robot from a JSON file (see :func:`from_json`)."""
-    with open(path, encoding="utf-8") as f:
-        text = f.read()
+    """Read a robot from a UTF-8 JSON file (see :func:`from_json`).
+
+    Raises:
+        RobotError: as :func:`from_json`, with the file name in a note (``__notes__``); also
+            for a file that is not UTF-8 (rule ``json-encoding``) or larger than
+            :data:`MAX_JSON_BYTES` (``json-size``, refused before it is read).
+        OSError: the file cannot be read.
+    """
+    name = os.fspath(path)
     try:
+        with open(path, "rb") as f:
+            raw = f.read(MAX_JSON_BYTES + 1)  # never more, whatever the file's size
+        if len(raw) > MAX_JSON_BYTES:
+            raise RobotError(f"file is larger than the {MAX_JSON_BYTES} bytes a robot can take",
+                             rule="json-size")
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise RobotError(f"not UTF-8 text: byte {raw[exc.start]:#04x} at offset {exc.start} "
+                             f"cannot be decoded ({exc.reason})", rule="json-encoding") from None
         return from_json(text, limits, check=check)
     except RobotError as exc:
-        exc.add_note(f"while reading {os.fspath(path)}")
+        # A note, not the message: `revolve show/export` put the file at the start of their
+        # one-line error themselves.
+        exc.add_note(f"while reading {name}")
         raise

@@ -5,7 +5,7 @@ sensor values; every other neuron ``i`` computes ``a_i = sum_j w_ji * x_j`` over
 connections, where ``x_j`` is the current tick's value for an input neuron and the previous tick's
 value for any other neuron (recurrent connections included); then
 
-* linear: ``gain * (a - bias)``
+* linear: ``clip(gain * (a - bias), 0, 1)``
 * sigmoid: ``1 / (1 + exp(-gain * (a - bias)))``
 * oscillator: ``0.5 - amplitude/2 + amplitude * (sin(2 pi / period * (t - period * phase_offset))
   + 1) / 2``, inputs ignored, ``t`` the network's own time (0 on the first tick after add or
@@ -13,6 +13,19 @@ value for any other neuron (recurrent connections included); then
 
 All neurons start at 0. Each output value ``o`` becomes a normalised hinge target
 ``clip(2 o - 1, -1, 1)`` (the world multiplies it by the servo's range).
+
+Why linear neurons saturate at [0, 1]: RoboGen's own network (``src/brain/NeuralNetwork.c`` in
+lis-epfl/robogen) leaves its linear ("SIMPLE") neurons unbounded; what keeps its robots' commands
+bounded is the motor, whose ``ServoMotor::setPosition`` and ``setVelocity``
+(``src/model/motors/ServoMotor.cpp``) clamp the command to [0, 1] before mapping it to an angle or a
+speed, while its sigmoid and oscillator neurons lie in [0, 1] by their formulas. An unbounded
+linear neuron in a recurrent loop with ``gain * weight > 1`` grows without limit (here to inf and
+then NaN, which the world reports as a blow-up). So the motor's [0, 1] clamp is applied to the
+value of every linear neuron as well: every non-input value then lies in [0, 1] (oscillator
+amplitudes are at most 1), and with finite sensor values and weights whose sums stay finite
+(any weights within ``WEIGHT_BOUNDS``) no network can diverge. An output's hinge target is the same as with the clamp at the motor alone; only what other
+neurons read from a linear neuron changes. NaN (a NaN sensor value) passes through, as in
+``np.clip``.
 
 The compiled :class:`~revolve_env.brain.controller.BatchController` computes the same thing with
 the same floating-point operations in the same order (its exp and sin differ from NumPy's by at
@@ -148,6 +161,9 @@ class ReferenceBatchController(RegistryViews):
         t = lay.time[lay.osc_net]
         amp = lay.osc_amp
         osc = 0.5 - amp / 2.0 + amp * (np.sin(lay.osc_omega * (t - lay.osc_shift)) + 1.0) / 2.0
+        # Linear neurons saturate at [0, 1] (module docstring). minimum/maximum rather than
+        # np.clip: the same values (NaN passes through), less overhead per tick.
+        np.minimum(np.maximum(lin, 0.0, out=lin), 1.0, out=lin)
         s[lay.lin_idx] = lin
         s[lay.sig_idx] = sig
         s[lay.osc_idx] = osc

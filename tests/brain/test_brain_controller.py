@@ -40,7 +40,11 @@ def sensor_values(rng: np.random.Generator, ticks: int, n: int) -> np.ndarray:
 
 @pytest.mark.parametrize("cls", CONTROLLERS)
 def test_hand_computed_ticks(cls: type) -> None:
-    """small_robot(): m = sigmoid(2 (0.5 ax - m_prev - 0.1)); lin = 1.5 (1.5 osc_prev + 0.5)."""
+    """small_robot(): m = sigmoid(2 (0.5 ax - m_prev - 0.1)); lin = clip(1.5 (1.5 osc_prev + 0.5), 0, 1).
+
+    From the second tick on, ``lin`` would exceed 1 (up to 2.4) without the clip: the linear
+    neuron's saturation is part of the hand computation.
+    """
     ctrl = cls(0.1)
     h = ctrl.add(small_robot())
     out = np.zeros(1)
@@ -51,7 +55,7 @@ def test_hand_computed_ticks(cls: type) -> None:
         ctrl.step(np.array([ax]), out)
         m, lin, osc = (
             1.0 / (1.0 + math.exp(-2.0 * (0.5 * ax - 1.0 * m - 0.1))),
-            1.5 * (1.5 * osc + 0.5),
+            min(max(1.5 * (1.5 * osc + 0.5), 0.0), 1.0),
             0.5 - 0.25 + 0.5 * (math.sin(2 * math.pi / 2.0 * (t - 2.0 * 0.25)) + 1) / 2,
         )
         assert out[0] == pytest.approx(2 * m - 1, abs=1e-12)
@@ -77,6 +81,73 @@ def test_outputs_are_clipped_targets(cls: type) -> None:
     np.testing.assert_array_equal(out, [1.0, 0.0])
     ctrl.step(np.array([-5.0]), out)
     np.testing.assert_array_equal(out, [-1.0, 0.0])
+
+
+@pytest.mark.parametrize("cls", CONTROLLERS)
+def test_recurrent_linear_loop_saturates_instead_of_diverging(cls: type) -> None:
+    """A linear self-loop with gain x weight = 8 > 1 (it used to double-and-more every tick until
+    inf, then NaN) stays in [0, 1]: 1 when driven up, 0 when driven down, never non-finite."""
+    core = Node(
+        PartType.CORE,
+        neurons=(
+            Neuron("in", Layer.INPUT, Activation.INPUT),
+            Neuron("loop", Layer.OUTPUT, Activation.LINEAR, bias=0.0, gain=4.0),
+            Neuron("echo", Layer.HIDDEN, Activation.LINEAR, bias=-0.5, gain=4.0),
+        ),
+    )
+    conns = (Connection("in", "loop", 1.0), Connection("loop", "loop", 2.0),
+             Connection("echo", "echo", 2.0), Connection("loop", "echo", -2.0))
+    ctrl = cls(DT)
+    h = ctrl.add(Robot(core, conns))
+    out = np.zeros(1)
+    for _ in range(2000):  # unclamped, 8**2000 overflows within a few hundred ticks
+        ctrl.step(np.array([1.0]), out)
+    state = ctrl.get_state(h)
+    assert out[0] == 1.0 and state[1] == 1.0
+    assert 0.0 <= state[2] <= 1.0
+    for _ in range(2000):  # -3 + 2 x 1 < 0: the latch lets go and stays at 0
+        ctrl.step(np.array([-3.0]), out)
+    assert np.isfinite(ctrl.get_state(h)).all()
+    assert out[0] == -1.0
+
+
+@pytest.mark.parametrize("cls", CONTROLLERS)
+def test_nan_sensor_values_still_show_in_the_outputs(cls: type) -> None:
+    """The clamp hides no NaN: a NaN sensor value reaches the hinge target (the world then
+    reports a blow-up), in both controllers alike."""
+    core = Node(
+        PartType.CORE,
+        neurons=(
+            Neuron("in", Layer.INPUT, Activation.INPUT),
+            Neuron("lin", Layer.OUTPUT, Activation.LINEAR, gain=1.0),
+        ),
+    )
+    ctrl = cls(DT)
+    ctrl.add(Robot(core, (Connection("in", "lin", 1.0),)))
+    out = np.zeros(1)
+    ctrl.step(np.array([np.nan]), out)
+    assert np.isnan(out[0])
+
+
+@given(robots(), st.integers(0, 2**32 - 1), st.sampled_from([1.0, 1e3, 1e150]))
+@settings(max_examples=40, deadline=None)
+def test_every_value_stays_in_unit_interval_and_matches_reference(
+    robot: Robot, seed: int, scale: float
+) -> None:
+    """Any network within the parameter bounds, fed sensor values up to ``scale`` in size, keeps
+    every non-input neuron in [0, 1] (linear ones by their clamp, the others by their formulas)
+    and every output finite, identically in the compiled controller and the reference."""
+    ticks = 150
+    fast, ref = BatchController(DT), ReferenceBatchController(DT)
+    hf, hr = fast.add(robot), ref.add(robot)
+    x = scale * sensor_values(np.random.default_rng(seed), ticks, fast.n_inputs)
+    yf, yr = run(fast, x), run(ref, x)
+    np.testing.assert_allclose(yf, yr, rtol=TOL["rtol"], atol=TOL["atol"])
+    assert np.isfinite(yf).all()
+    n_in = fast.n_inputs
+    for ctrl, h in ((fast, hf), (ref, hr)):
+        values = ctrl.get_state(h)[n_in:]
+        assert ((values >= 0.0) & (values <= 1.0)).all(), values
 
 
 @given(robots(), st.integers(0, 2**32 - 1))

@@ -67,8 +67,8 @@ def test_fixed_size_and_tight_io_limits_are_respected() -> None:
 
 def test_impossible_request_raises_a_clear_error() -> None:
     # 30 parts, and an attempt ends at its first discarded (overlapping) placement: with this
-    # seed both attempts hit an overlap before reaching 30 parts.
+    # seed all 10 attempts (the fewest a config allows) hit an overlap before reaching 30 parts.
     config = EvolutionConfig(min_parts=30, initial_parts_mean=30, initial_parts_sd=0,
-                             max_placement_attempts=1, max_random_robot_retries=2)
-    with pytest.raises(RandomRobotError, match="2 attempts"):
-        random_robot(np.random.default_rng(6), config)
+                             max_placement_attempts=1, max_random_robot_retries=10)
+    with pytest.raises(RandomRobotError, match="10 attempts"):
+        random_robot(np.random.default_rng(1137), config)

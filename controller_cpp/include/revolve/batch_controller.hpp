@@ -4,10 +4,21 @@
 // buffered): each tick the input neurons take the sensor values; every other neuron sums
 // w * value over its incoming connections, reading the current tick's value of input neurons and
 // the previous tick's value of all others, then applies its activation:
-//   linear      gain * (a - bias)
+//   linear      clip(gain * (a - bias), 0, 1)
 //   sigmoid     1 / (1 + exp(-gain * (a - bias)))
 //   oscillator  0.5 - amp/2 + amp * (sin(2 pi / period * (t - period * phase)) + 1) / 2
 // Output o becomes the normalised hinge target clip(2 o - 1, -1, 1).
+//
+// Why linear neurons saturate: RoboGen (lis-epfl/robogen, src/brain/NeuralNetwork.c) leaves its
+// linear ("SIMPLE") neurons unbounded and bounds only what a motor receives: ServoMotor::setPosition
+// and ::setVelocity (src/model/motors/ServoMotor.cpp) clamp the command to [0, 1] before mapping it
+// to an angle or speed; its sigmoid and oscillator neurons lie in [0, 1] by their formulas. Here
+// that [0, 1] clamp is applied to every linear neuron's value too, so each non-input value lies in
+// [0, 1] (oscillator amplitudes are at most 1), a recurrent loop of linear neurons with
+// gain * weight > 1 saturates instead of growing to infinity, and the outputs stay finite for
+// finite sensor values and weights within bounds (sums that do not overflow). An output's hinge target is unchanged by the clamp (the motor
+// clamp gave the same target); only what other neurons read from a linear neuron changes.
+// NaN passes through the clamp (as np.clip), so a NaN sensor value still shows downstream.
 //
 // Neuron order in a network (spec order): inputs, outputs, hidden. Connections are summed per
 // destination in their original order starting from 0, as the NumPy reference does; exp and sin
@@ -116,6 +127,7 @@ class BatchController {
     std::vector<std::int32_t> col_;        // state index of each entry's source
     std::vector<double> w_;                // weight of each entry
     std::vector<double> gain_, bias_;      // per row (linear and sigmoid rows)
+    std::vector<std::int32_t> lin_rows_;   // rows with a linear activation (clamped to [0, 1])
     std::vector<std::int32_t> sig_rows_;   // rows with a sigmoid
     std::vector<double> sig_buf_;          // scratch for the vectorised exp
     std::vector<std::int32_t> osc_rows_, osc_net_;
