@@ -21,6 +21,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from enum import Enum
 
+from revolve_env.body.errors import RobotError
+
 __all__ = [
     "ACTIVATION_PARAMS",
     "NEURON_PARAM_BOUNDS",
@@ -205,8 +207,6 @@ class Robot:
             try:
                 self.name.encode("utf-8")
             except UnicodeEncodeError as exc:
-                from revolve_env.body.validate import RobotError  # validate imports this module
-
                 raise RobotError(f"name holds text that UTF-8 cannot encode ({exc.reason} "
                                  f"{self.name[exc.start]!a} at character {exc.start})",
                                  rule="json-text") from None

@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from revolve_env.body.errors import RobotError
+from revolve_env.body.errors import format_path as _fmt
 from revolve_env.body.geometry import assemble, overlapping_boxes
 from revolve_env.body.parts import PART_SPECS
 from revolve_env.body.robot import (
@@ -57,25 +59,6 @@ class Limits:
             raise ValueError(
                 f"Limits.overlap_tolerance must be in [0, 0.01) m, got {self.overlap_tolerance!r}"
             )
-
-
-class RobotError(ValueError):
-    """A robot description breaks a rule.
-
-    Attributes:
-        path: Path of the offending node (``()`` is the core; None for robot-wide rules).
-        rule: Short machine-readable name of the broken rule.
-    """
-
-    def __init__(self, message: str, *, path: Path | None = None, rule: str) -> None:
-        where = "robot" if path is None else f"part at {_fmt(path)}"
-        super().__init__(f"{where}: {message} [{rule}]")
-        self.path = path
-        self.rule = rule
-
-
-def _fmt(path: Path) -> str:
-    return "core" if not path else "core/" + "/".join(str(s) for s in path)
 
 
 def _finite(x: object) -> bool:
