@@ -20,8 +20,7 @@ import time
 from pathlib import Path
 
 from evolution import experiments
-from evolution.evaluation import EvalOutcome, EvalTask, LocalEvaluator
-from evolution.evaluation import evaluate_task
+from evolution.evaluation import EvalOutcome, EvalTask, LocalEvaluator, evaluate_task
 from evolution.experiments import preset
 
 EXPERIMENTS = ("scenario1", "scenario2", "scenario3", "baseline_a", "baseline_b")

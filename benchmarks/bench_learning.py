@@ -25,8 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from evolution.config import EvolutionConfig
-from evolution.evaluation import EvalTask, LocalEvaluator
-from evolution.evaluation import evaluate_task
+from evolution.evaluation import EvalTask, LocalEvaluator, evaluate_task
 from evolution.experiments import ExperimentConfig, run
 from evolution.learning import (
     CandidateEvaluation,

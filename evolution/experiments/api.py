@@ -155,14 +155,12 @@ def _execute(
             store.add_run(run_id, run_seed(config.seed, run_id))
         pending = [r.run_id for r in store.runs() if r.status != "finished"]
     jobs = [RunJob(str(db_path), run_id, config, world_factory, infancy) for run_id in pending]
-    own = evaluator is None
-    if own:
-        evaluator = make_evaluator(config.evaluator, config.workers, config.ray_address)
+    used = evaluator or make_evaluator(config.evaluator, config.workers, config.ray_address)
     try:
-        summaries = evaluator.run_jobs(execute_run, jobs, progress)
+        summaries = used.run_jobs(execute_run, jobs, progress)
     finally:
-        if own:
-            evaluator.close()
+        if evaluator is None:
+            used.close()
     return ExperimentSummary(db_path.parent, db_path, tuple(summaries))
 
 

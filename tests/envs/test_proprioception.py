@@ -130,5 +130,5 @@ def test_population_uniform_layout_places_hinge_values_in_their_blocks() -> None
     mask = env.observation_mask("robot_0")
     np.testing.assert_array_equal(np.flatnonzero(mask), [0, 1, 2, 3, 4, 5, 10, 11, 12, 20, 21, 22])
     assert env.observation_space("robot_0").contains(o)
-    assert HINGE_ANGLE_LIMIT == env.observation_space("robot_0").high[10]
+    assert env.observation_space("robot_0").high[10] == HINGE_ANGLE_LIMIT
     env.close()

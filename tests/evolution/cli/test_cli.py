@@ -18,13 +18,17 @@ from typing import Any
 import pytest
 from experiment_fakes import CtrlCEvaluator, fake_evaluate
 
-from evolution.experiments import api
 from evolution.cli import ProgressBar, build_parser, main
-from evolution.experiments import load_config as resolve_config, shipped_configs
-from evolution.experiments import ProgressEvent
-from evolution.evaluation import LocalEvaluator
-from evolution.evaluation import evaluate_task
-from evolution.experiments import ConfigError, ExperimentConfig, preset
+from evolution.evaluation import LocalEvaluator, evaluate_task
+from evolution.experiments import (
+    ConfigError,
+    ExperimentConfig,
+    ProgressEvent,
+    api,
+    preset,
+    shipped_configs,
+)
+from evolution.experiments import load_config as resolve_config
 from evolution.experiments.store import DB_NAME, Store
 
 SUBCOMMANDS = ("run", "resume", "report", "show", "export", "demo")

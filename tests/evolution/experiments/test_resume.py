@@ -10,9 +10,8 @@ import pytest
 from experiment_fakes import CtrlCEvaluator, fake_evaluate, fake_world, small
 
 from evolution import experiments
-from evolution.experiments import ProgressEvent
 from evolution.evaluation import LocalEvaluator
-from evolution.experiments import ExperimentConfig, preset
+from evolution.experiments import ExperimentConfig, ProgressEvent, preset
 from evolution.experiments.store import Store, StoreError
 
 

@@ -23,8 +23,8 @@ from experiment_fakes import (
 from evolution import experiments
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import ConfigError, ExperimentConfig, preset
-from evolution.lifecycle import Stage
 from evolution.experiments.store import Store
+from evolution.lifecycle import Stage
 
 
 def small_preset(name: str, **kw: object) -> ExperimentConfig:

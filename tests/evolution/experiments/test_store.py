@@ -9,7 +9,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from evolution.lifecycle import Stage, Transition
 from evolution.experiments.store import (
     SCHEMA_VERSION,
     Batch,
@@ -21,6 +20,7 @@ from evolution.experiments.store import (
     Store,
     StoreError,
 )
+from evolution.lifecycle import Stage, Transition
 
 TABLES = {"meta", "runs", "checkpoints", "robots", "fitness", "transitions", "population",
           "diversity", "failures", "learning"}

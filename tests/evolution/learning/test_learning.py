@@ -14,8 +14,13 @@ import numpy as np
 import pytest
 
 from evolution.config import EvolutionConfig
-from evolution.evaluation import EvalOutcome, EvalTask, LocalEvaluator
-from evolution.evaluation import evaluate_after_infancy, run_infancy
+from evolution.evaluation import (
+    EvalOutcome,
+    EvalTask,
+    LocalEvaluator,
+    evaluate_after_infancy,
+    run_infancy,
+)
 from evolution.learning import (
     CandidateEvaluation,
     CMAESLearner,
@@ -28,7 +33,6 @@ from evolution.learning import (
 from evolution.operators import mutate
 from revolve_env.body.examples import EXAMPLES
 from revolve_env.body.robot import Robot
-from revolve_env.body.serialize import from_json, to_json
 from revolve_env.brain import get_params, param_bounds, param_names, set_params
 
 # -- synthetic fitness (module level: picklable) --------------------------------------------------

@@ -25,9 +25,9 @@ from experiment_fakes import (
 )
 from scipy.stats import mannwhitneyu
 
-from evolution.experiments import ProgressEvent
 from evolution.evaluation import LocalEvaluator
-from evolution.experiments import preset, run
+from evolution.experiments import ProgressEvent, preset, run
+from evolution.experiments.store import DB_NAME, Store, StoreError
 from evolution.learning import CandidateEvaluation, RandomSearchLearner, TrainingCenter
 from evolution.reporting import find_experiments, report, step_on_grid
 from evolution.reporting.tables import (
@@ -36,7 +36,6 @@ from evolution.reporting.tables import (
     TESTED_SAMPLES,
     _holm,
 )
-from evolution.experiments.store import DB_NAME, Store, StoreError
 
 SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
 CANDIDATES = CandidateEvaluation(insertion=0.0, seconds=1.0, function=param_distance_fitness)
