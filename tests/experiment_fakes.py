@@ -15,9 +15,8 @@ from typing import Any
 import numpy as np
 
 from evolution.config import EvolutionConfig
-from evolution.evaluation import EvalOutcome, EvalTask
+from evolution.evaluation import EvalOutcome, EvalTask, evaluate_after_infancy
 from evolution.experiments import AgentStatus, Birth, ExperimentConfig
-from evolution.evaluation import evaluate_after_infancy
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import to_json
 from revolve_env.brain import get_params, param_bounds
@@ -129,7 +128,7 @@ def small(config: ExperimentConfig) -> ExperimentConfig:
     return config.replace(evolution=SMALL_ROBOTS)
 
 
-# -- infancy learning without physics ---------------------------------------------------------------
+# -- infancy learning without physics --------------------------------------------------------------
 
 def param_distance_fitness(task: EvalTask) -> EvalOutcome:
     """Candidate fitness for learners: 10 minus the normalised distance of the controller

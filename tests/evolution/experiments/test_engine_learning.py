@@ -24,9 +24,9 @@ from experiment_fakes import (
 )
 
 from evolution import experiments
-from evolution.experiments import Birth, ProgressEvent
 from evolution.evaluation import LocalEvaluator
-from evolution.experiments import ExperimentConfig
+from evolution.experiments import Birth, ExperimentConfig, ProgressEvent
+from evolution.experiments.store import Store
 from evolution.learning import (
     CandidateEvaluation,
     CMAESLearner,
@@ -34,7 +34,6 @@ from evolution.learning import (
     RandomSearchLearner,
     TrainingCenter,
 )
-from evolution.experiments.store import Store
 from revolve_env.body.robot import Layer, Robot
 from revolve_env.body.serialize import from_json
 from revolve_env.brain import get_params
@@ -236,7 +235,8 @@ def test_online_infants_learn_before_entering_the_world(tmp_path: Path) -> None:
         for r in records:
             birth = store.robot(0, r.robot_id).birth_time
             assert r.time == birth
-            mature = [t.time for t in store.transitions(0, r.robot_id) if t.target.value == "maturity"]
+            mature = [t.time for t in store.transitions(0, r.robot_id)
+                      if t.target.value == "maturity"]
             assert mature in ([], [birth + 5.0])
         assert check_inheritance(store, lamarckian=True) > 0
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import evolution
-from evolution.experiments.online_world import PopulationWorld
 from evolution.experiments import preset
+from evolution.experiments.online_world import PopulationWorld
 from evolution.experiments.store import Store
 from revolve_env.body.examples import gecko, snake
 

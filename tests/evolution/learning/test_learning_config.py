@@ -18,13 +18,13 @@ from experiment_fakes import fake_evaluate
 from evolution import experiments
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import ConfigError, ExperimentConfig, preset
+from evolution.experiments.store import DB_NAME, Store
 from evolution.learning import (
     CMAESLearner,
     RandomSearchLearner,
     TrainingCenter,
     training_center_from_dict,
 )
-from evolution.experiments.store import DB_NAME, Store
 
 SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
 TABLE = {"learner": "random-search", "budget": 6.0, "inheritance": "lamarckian", "popsize": 3,
