@@ -153,12 +153,12 @@ def world_tick_breakdown(n_robots: int = 30, ticks: int = 120) -> TickBreakdown:
         spent = np.zeros(4)
         for _ in range(ticks):
             t0 = time.perf_counter()
-            for h, sl in zip(handles, in_slices):
+            for h, sl in zip(handles, in_slices, strict=True):
                 inputs[sl] = world.read_sensors(h)
             t1 = time.perf_counter()
             brain.step(inputs, outputs)
             t2 = time.perf_counter()
-            for h, sl in zip(handles, out_slices):
+            for h, sl in zip(handles, out_slices, strict=True):
                 world.set_targets(h, outputs[sl])
             t3 = time.perf_counter()
             world.step(1)

@@ -62,9 +62,10 @@ def main() -> None:
         rate_2_cores = rate * 2 / cores if config.engine == "offline" else rate * 2
         hours = STUDY_RUNS * STUDY_BIRTHS / rate_2_cores / 60
         total_hours += hours
-        print(f"{name:<12} {args.births:>6} {wall:>8.1f} {rate:>11.1f} {speed:>12.1f} {hours:>18.1f}")
-    print(f"\nfull study ({len(args.only)} experiments x {STUDY_RUNS} runs x {STUDY_BIRTHS} births, "
-          f"2 cores): {total_hours:.0f} h = {total_hours / 24:.1f} days")
+        print(f"{name:<12} {args.births:>6} {wall:>8.1f} {rate:>11.1f} {speed:>12.1f} "
+              f"{hours:>18.1f}")
+    print(f"\nfull study ({len(args.only)} experiments x {STUDY_RUNS} runs x "
+          f"{STUDY_BIRTHS} births, 2 cores): {total_hours:.0f} h = {total_hours / 24:.1f} days")
 
 
 if __name__ == "__main__":

@@ -2,8 +2,9 @@
 
 Prints:
 
-1. CMA-ES candidate evaluations per second (brain-driven, ``evolution.evaluation.pool.evaluate_task``)
-   with 1 and 2 worker processes, and the simulated seconds per wall-clock second.
+1. CMA-ES candidate evaluations per second (brain-driven,
+   ``evolution.evaluation.pool.evaluate_task``) with 1 and 2 worker processes, and the simulated
+   seconds per wall-clock second.
 2. Inborn vs learned fitness of a few random robots (CMA-ES and the random-search baseline, the
    same budget).
 3. A small offline evolution (scenario 1 shape, scaled down) with and without infancy learning:
@@ -96,7 +97,8 @@ def main() -> None:
         eps, speed = evaluations_per_second(workers, n, 3.0)
         print(f"workers={workers}: {eps:6.2f} evaluations/s, {speed:6.1f} simulated s per wall s")
 
-    print("\n== 2. inborn vs learned fitness of random robots (budget: 13 evaluations of 0.5 s + 4 s)")
+    print("\n== 2. inborn vs learned fitness of random robots "
+          "(budget: 13 evaluations of 0.5 s + 4 s)")
     evaluation = CandidateEvaluation(insertion=0.5, seconds=4.0)
     budget = 13 * evaluation.cost
     robots = random_robots(3 if quick else 6, seed=1)

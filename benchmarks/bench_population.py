@@ -45,8 +45,8 @@ def make_env(n: int, layout: str, seed: int = 0) -> PopulationEnv:
     else:
         area = sum(math.pi * (footprint_radius(r) + 0.02) ** 2 for r in robots)
         radius = math.sqrt(area / math.pi / 0.45)  # about 45 % of the disc covered
-        env = PopulationEnv(insertion_time=0.0, initial_robots=robots, birth_radius=radius, birth_clearance=0.0,
-                            max_placement_tries=5000)
+        env = PopulationEnv(insertion_time=0.0, initial_robots=robots, birth_radius=radius,
+                            birth_clearance=0.0, max_placement_tries=5000)
     env.reset(seed=seed)
     return env
 

@@ -128,7 +128,7 @@ def small(config: ExperimentConfig) -> ExperimentConfig:
     return config.replace(evolution=SMALL_ROBOTS)
 
 
-# -- infancy learning without physics ---------------------------------------------------------------
+# -- infancy learning without physics --------------------------------------------------------------
 
 def param_distance_fitness(task: EvalTask) -> EvalOutcome:
     """Candidate fitness for learners: 10 minus the normalised distance of the controller

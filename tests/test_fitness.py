@@ -1,4 +1,4 @@
-"""Fitness f = v + 5 s on hand-computed trajectories, and the online window equals the offline one."""
+"""Fitness f = v + 5 s on hand-computed trajectories; the online window equals the offline one."""
 
 from __future__ import annotations
 
@@ -76,7 +76,8 @@ def test_bad_input_is_named() -> None:
     ),
     window=st.floats(0.1, 5.0),
 )
-def test_online_window_equals_offline(steps: list[tuple[float, float, float]], window: float) -> None:
+def test_online_window_equals_offline(
+        steps: list[tuple[float, float, float]], window: float) -> None:
     online = SlidingWindowFitness(window=window, capacity=4)
     t, pos = [], []
     now = 0.0
@@ -100,7 +101,7 @@ def test_long_life_stays_exact() -> None:
     online = SlidingWindowFitness(window=12.0)
     t = np.arange(0, 1200 * 60 + 1) / 60.0
     pos = np.stack([np.cos(t), np.sin(t)], axis=1)
-    for ti, p in zip(t, pos):
+    for ti, p in zip(t, pos, strict=True):
         online.add(ti, p)
     expected = window_fitness(t, pos, window=12.0)
     got = online.terms()

@@ -47,10 +47,10 @@ def test_json_round_trip_is_exact(robot: Robot) -> None:
 @given(robots(max_parts=4))
 def test_floats_survive_bit_for_bit(robot: Robot) -> None:
     back = from_json(to_json(robot))
-    for (_, a), (_, b) in zip(robot.walk(), back.walk()):
+    for (_, a), (_, b) in zip(robot.walk(), back.walk(), strict=True):
         assert [p.hex() for p in a.params] == [p.hex() for p in b.params]
         assert [c.hex() for c in a.color] == [c.hex() for c in b.color]
-        for na, nb in zip(a.neurons, b.neurons):
+        for na, nb in zip(a.neurons, b.neurons, strict=True):
             assert [getattr(na, k).hex() for k in ("bias", "gain", "period")] == \
                    [getattr(nb, k).hex() for k in ("bias", "gain", "period")]
     assert [c.weight.hex() for c in robot.connections] == [c.weight.hex() for c in back.connections]

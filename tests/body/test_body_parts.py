@@ -14,9 +14,10 @@ from revolve_env.body.robot import PartType
 
 MM, G = 1e-3, 1e-3
 
-# Masses straight from the RoboGen sources (grams): CoreComponentModel.cpp (CORE_MASS, BRICK_MASS),
-# ActiveHingeModel.cpp (2 x MASS_SLOT 7 + MASS_FRAME 1.2 + MASS_SERVO 9), HingeModel.cpp
-# (2 x MASS_SLOT 2 + 2 x MASS_FRAME 1), TouchSensorModel.cpp (3 boxes x 3), LightSensorModel.cpp (2).
+# Masses straight from the RoboGen sources (grams): CoreComponentModel.cpp (CORE_MASS,
+# BRICK_MASS), ActiveHingeModel.cpp (2 x MASS_SLOT 7 + MASS_FRAME 1.2 + MASS_SERVO 9),
+# HingeModel.cpp (2 x MASS_SLOT 2 + 2 x MASS_FRAME 1), TouchSensorModel.cpp (3 boxes x 3),
+# LightSensorModel.cpp (2).
 SOURCE_MASS_G = {
     PartType.CORE: 55.4,
     PartType.BRICK: 14.9,

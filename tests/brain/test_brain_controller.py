@@ -40,7 +40,8 @@ def sensor_values(rng: np.random.Generator, ticks: int, n: int) -> np.ndarray:
 
 @pytest.mark.parametrize("cls", CONTROLLERS)
 def test_hand_computed_ticks(cls: type) -> None:
-    """small_robot(): m = sigmoid(2 (0.5 ax - m_prev - 0.1)); lin = clip(1.5 (1.5 osc_prev + 0.5), 0, 1).
+    """small_robot(): m = sigmoid(2 (0.5 ax - m_prev - 0.1));
+    lin = clip(1.5 (1.5 osc_prev + 0.5), 0, 1).
 
     From the second tick on, ``lin`` would exceed 1 (up to 2.4) without the clip: the linear
     neuron's saturation is part of the hand computation.
@@ -171,7 +172,7 @@ def test_batch_equals_each_alone(batch: list[Robot], seed: int) -> None:
         handles = [together.add(r) for r in batch]
         x = sensor_values(np.random.default_rng(seed), ticks, together.n_inputs)
         y = run(together, x)
-        for h, r in zip(handles, batch):
+        for h, r in zip(handles, batch, strict=True):
             alone = cls(DT)
             alone.add(r)
             np.testing.assert_array_equal(
@@ -352,7 +353,8 @@ def test_unknown_handles_and_bad_params(cls: type) -> None:
     p[0] = np.inf
     with pytest.raises(ValueError, match="inf"):
         ctrl.set_params(h, p)
-    np.testing.assert_array_equal(ctrl.get_params(h), NetworkSpec.from_robot(small_robot()).params())
+    np.testing.assert_array_equal(
+        ctrl.get_params(h), NetworkSpec.from_robot(small_robot()).params())
     with pytest.raises(ValueError, match="dt"):
         cls(0.0)
     with pytest.raises(TypeError):
@@ -401,7 +403,8 @@ def test_vectorised_exp_is_within_two_ulp_of_numpy() -> None:
     rng = np.random.default_rng(3)
     x = np.concatenate([
         rng.uniform(-40, 40, 200_000), rng.uniform(-745.5, 710, 200_000),
-        [0.0, -0.0, 1e-300, 709.78, 709.79, -745.0, -745.2, 1000.0, -1000.0, np.inf, -np.inf, np.nan],
+        [0.0, -0.0, 1e-300, 709.78, 709.79, -745.0, -745.2, 1000.0, -1000.0,
+         np.inf, -np.inf, np.nan],
     ])
     out = np.empty_like(x)
     _controller.exp_into(x, out)

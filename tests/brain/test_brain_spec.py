@@ -23,7 +23,7 @@ from revolve_env.body.robot import (
 from revolve_env.brain import NetworkSpec, get_params, param_bounds, param_names, set_params
 from revolve_env.brain.spec import KIND_INPUT
 
-I, O, H = Layer.INPUT, Layer.OUTPUT, Layer.HIDDEN
+IN, OUT, HID = Layer.INPUT, Layer.OUTPUT, Layer.HIDDEN
 
 
 def small_robot() -> Robot:
@@ -31,13 +31,16 @@ def small_robot() -> Robot:
     hinge = Node(
         PartType.ACTIVE_HINGE,
         neurons=(
-            Neuron("m", O, Activation.SIGMOID, bias=0.1, gain=2.0),
-            Neuron("osc", H, Activation.OSCILLATOR, period=2.0, phase_offset=0.25, amplitude=0.5),
+            Neuron("m", OUT, Activation.SIGMOID, bias=0.1, gain=2.0),
+            Neuron("osc", HID, Activation.OSCILLATOR, period=2.0, phase_offset=0.25, amplitude=0.5),
         ),
     )
     core = Node(
         PartType.CORE,
-        neurons=(Neuron("lin", H, Activation.LINEAR, bias=-0.5, gain=1.5), Neuron("ax", I, Activation.INPUT)),
+        neurons=(
+            Neuron("lin", HID, Activation.LINEAR, bias=-0.5, gain=1.5),
+            Neuron("ax", IN, Activation.INPUT),
+        ),
         children=((0, hinge),),
     )
     return Robot(
@@ -115,8 +118,8 @@ def test_params_round_trip_through_robot(robot: Robot, seed: int) -> None:
 def test_spec_io_order_matches_robot_layers(robot: Robot) -> None:
     spec = NetworkSpec.from_robot(robot)
     k, m = spec.n_inputs, spec.n_outputs
-    assert list(spec.ids[:k]) == [n.id for n in robot.neurons_of(I)]
-    assert list(spec.ids[k : k + m]) == [n.id for n in robot.neurons_of(O)]
+    assert list(spec.ids[:k]) == [n.id for n in robot.neurons_of(IN)]
+    assert list(spec.ids[k : k + m]) == [n.id for n in robot.neurons_of(OUT)]
     assert (spec.kinds[:k] == KIND_INPUT).all() and (spec.kinds[k:] != KIND_INPUT).all()
     assert (spec.dst >= k).all()
 
@@ -130,16 +133,19 @@ def _with_core_neuron(r: Robot, **changes: object) -> Robot:
 @pytest.mark.parametrize(
     ("robot", "message"),
     [
-        (replace(small_robot(), connections=(Connection("ax", "ghost", 1.0),)), "missing neuron 'ghost'"),
-        (replace(small_robot(), connections=(Connection("nope", "m", 1.0),)), "missing neuron 'nope'"),
-        (replace(small_robot(), connections=(Connection("m", "ax", 1.0),)), "ends in an input neuron"),
+        (replace(small_robot(), connections=(Connection("ax", "ghost", 1.0),)),
+         "missing neuron 'ghost'"),
+        (replace(small_robot(), connections=(Connection("nope", "m", 1.0),)),
+         "missing neuron 'nope'"),
+        (replace(small_robot(), connections=(Connection("m", "ax", 1.0),)),
+         "ends in an input neuron"),
         (replace(small_robot(), connections=(Connection("ax", "m", math.nan),)), "weight nan"),
         (replace(small_robot(), connections=(Connection("ax", "m", math.inf),)), "weight inf"),
         (_with_core_neuron(small_robot(), bias=math.nan), "'lin' has bias = nan"),
         (_with_core_neuron(small_robot(), id="ax"), "duplicate neuron id 'ax'"),
         (_with_core_neuron(small_robot(), activation=Activation.INPUT), "'lin'"),
         (_with_core_neuron(small_robot(), activation=Activation.OSCILLATOR, period=0.0), "period"),
-        (_with_core_neuron(small_robot(), layer=I), "'lin'"),
+        (_with_core_neuron(small_robot(), layer=IN), "'lin'"),
     ],
 )
 def test_invalid_networks_are_rejected_with_a_clear_message(robot: Robot, message: str) -> None:
@@ -172,7 +178,8 @@ def test_params_with_nan_or_bad_period_are_rejected() -> None:
         ({"dst": [2**32 + 1]}, "destination index out of range"),
     ],
 )
-def test_from_arrays_rejects_values_that_a_narrowing_cast_would_wrap(change: dict, message: str) -> None:
+def test_from_arrays_rejects_values_that_a_narrowing_cast_would_wrap(
+        change: dict, message: str) -> None:
     arrays = {"ids": ["a", "b"], "kinds": [0, 1], "neuron_params": np.zeros((2, 5)), "src": [0],
               "dst": [1], "weight": [1.0], "n_inputs": 1, "n_outputs": 1}
     NetworkSpec.from_arrays(**arrays)  # valid as given

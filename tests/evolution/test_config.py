@@ -17,7 +17,8 @@ from revolve_env.body.validate import Limits
 
 def test_defaults_are_the_papers_table_1() -> None:
     c = EvolutionConfig()
-    assert (c.max_parts, c.min_parts, c.max_inputs, c.max_outputs, c.max_hidden) == (30, 3, 10, 10, 10)
+    assert ((c.max_parts, c.min_parts, c.max_inputs, c.max_outputs, c.max_hidden)
+            == (30, 3, 10, 10, 10))
     assert (c.initial_parts_mean, c.initial_parts_sd) == (12.0, 5.0)
     assert (c.p_remove_subtree, c.p_duplicate_subtree, c.p_swap_subtree) == (0.05, 0.1, 0.05)
     assert (c.p_remove_hidden_neuron, c.p_remove_connection) == (0.05, 0.05)

@@ -244,7 +244,8 @@ def test_duplicate_copies_internal_connections_under_fresh_ids() -> None:
 def test_duplicate_respects_limits() -> None:
     # At max parts nothing may be copied; one below only single parts may be.
     robot = chain(3)
-    assert not duplicate_subtree(robot, np.random.default_rng(0), EvolutionConfig(max_parts=4)).applied
+    assert not duplicate_subtree(
+        robot, np.random.default_rng(0), EvolutionConfig(max_parts=4)).applied
     config = EvolutionConfig(max_parts=5)
     for seed in range(10):
         out = duplicate_subtree(robot, np.random.default_rng(seed), config)

@@ -469,7 +469,8 @@ def test_learning_config_runs_stores_its_table_and_is_reported(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "results"
     assert main(["run", str(_tiny_learning(tmp_path)), "--out", str(out)]) == 0
-    assert "infancy learning: random-search, 1.5 s per infant, lamarckian" in capsys.readouterr().out
+    assert ("infancy learning: random-search, 1.5 s per infant, lamarckian"
+            in capsys.readouterr().out)
     with Store.open(out / "tiny_learning" / DB_NAME) as store:
         table = store.config["learning"]
         assert table == {"learner": "random-search", "budget": 1.5, "inheritance": "lamarckian",
@@ -494,7 +495,8 @@ def test_learning_config_runs_stores_its_table_and_is_reported(
     inborn = [r.inborn_fitness for r in records]
     learned = [r.learned_fitness for r in records]
     assert float(row["inborn_fitness_mean"]) == pytest.approx(sum(inborn) / len(inborn), rel=1e-5)
-    assert float(row["learned_fitness_mean"]) == pytest.approx(sum(learned) / len(learned), rel=1e-5)
+    assert float(row["learned_fitness_mean"]) == pytest.approx(
+        sum(learned) / len(learned), rel=1e-5)
     assert "learned_fitness_mean" in (out / "report" / "summary.md").read_text()
 
 
@@ -561,7 +563,8 @@ def test_learning_run_ctrl_c_then_resume_rebuilds_the_learner(
 
 
 def test_internal_errors_show_their_traceback_and_say_it_is_a_bug(
-        monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
     from evolution.cli import commands as cli_main
     from evolution.experiments import ReplayError
 

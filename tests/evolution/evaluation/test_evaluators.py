@@ -53,7 +53,8 @@ def test_runs_side_by_side_in_processes_equal_runs_one_by_one(tmp_path: Path) ->
         summary = experiments.run(config, tmp_path / "pool", events.append, evaluator=pool)
     assert [s.run_id for s in summary.runs] == [0, 1, 2]
     assert {e.run_id for e in events} == {0, 1, 2}  # progress forwarded from the workers
-    assert dump(tmp_path / "serial" / "results.sqlite") == dump(tmp_path / "pool" / "results.sqlite")
+    assert (dump(tmp_path / "serial" / "results.sqlite")
+            == dump(tmp_path / "pool" / "results.sqlite"))
 
 
 def test_local_evaluator_keeps_task_order() -> None:

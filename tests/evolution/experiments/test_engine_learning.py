@@ -235,7 +235,8 @@ def test_online_infants_learn_before_entering_the_world(tmp_path: Path) -> None:
         for r in records:
             birth = store.robot(0, r.robot_id).birth_time
             assert r.time == birth
-            mature = [t.time for t in store.transitions(0, r.robot_id) if t.target.value == "maturity"]
+            mature = [t.time for t in store.transitions(0, r.robot_id)
+                      if t.target.value == "maturity"]
             assert mature in ([], [birth + 5.0])
         assert check_inheritance(store, lamarckian=True) > 0
 

@@ -61,7 +61,8 @@ def test_offline_kill_and_resume_equals_uninterrupted(
     out = tmp_path / "killed"
     with pytest.raises(Kill):
         experiments.run(config, out, killer(kills[0]), evaluator=SERIAL)
-    assert {r.status for r in Store.open(out / "results.sqlite").runs()} == {"interrupted", "pending"}
+    assert ({r.status for r in Store.open(out / "results.sqlite").runs()}
+            == {"interrupted", "pending"})
     for k in kills[1:]:
         with pytest.raises(Kill):
             experiments.resume(out, killer(k), evaluator=SERIAL)

@@ -65,7 +65,8 @@ def _check_lifecycles(store: Store, run_id: int = 0) -> None:
 @pytest.mark.parametrize("offspring, births", [(15, 60), (1, 40), (15, 52)])
 def test_offline_keeps_the_population_and_counts_births_exactly(
         tmp_path: Path, offspring: int, births: int) -> None:
-    config = small_preset("scenario1", offspring_size=offspring, births=births, diversity_interval=5)
+    config = small_preset("scenario1", offspring_size=offspring, births=births,
+                          diversity_interval=5)
     store = _run(config, tmp_path)
     robots = store.robots(0)
     assert [r.robot_id for r in robots] == list(range(births))
@@ -195,10 +196,13 @@ def test_progress_reports_births_fitness_and_speed(tmp_path: Path) -> None:
 
 
 def test_presets_are_the_papers_experiments() -> None:
-    s1, s2, s3 = preset("scenario1", runs=1), preset("scenario2", runs=1), preset("scenario3", runs=1)
-    assert (s1.engine, s1.population_size, s1.offspring_size, s1.births) == ("offline", 15, 15, 3000)
+    s1, s2, s3 = (preset("scenario1", runs=1), preset("scenario2", runs=1),
+                  preset("scenario3", runs=1))
+    assert ((s1.engine, s1.population_size, s1.offspring_size, s1.births)
+            == ("offline", 15, 15, 3000))
     assert (s2.offspring_size, s3.engine, s3.min_alive, s3.max_alive) == (1, "online", 8, 30)
-    assert (s1.tournament_size, s1.insertion, s1.evaluation_time, s1.fertile_age) == (4, 3.0, 12.0, 15.0)
+    assert ((s1.tournament_size, s1.insertion, s1.evaluation_time, s1.fertile_age)
+            == (4, 3.0, 12.0, 15.0))
     assert preset("baseline_a", runs=1).new_robots == "random"
     assert preset("baseline_b", runs=1).survivor_selection == "random"
 
@@ -209,7 +213,8 @@ def test_config_round_trips_through_dict_and_toml(tmp_path: Path) -> None:
     path = tmp_path / "exp.toml"
     path.write_text('preset = "scenario2"\nbirths = 100\nseed = 7\n[evolution]\nmax_parts = 20\n')
     loaded = ExperimentConfig.from_toml(path)
-    assert (loaded.name, loaded.offspring_size, loaded.births, loaded.seed) == ("scenario2", 1, 100, 7)
+    assert ((loaded.name, loaded.offspring_size, loaded.births, loaded.seed)
+            == ("scenario2", 1, 100, 7))
     assert loaded.evolution.max_parts == 20
 
 

@@ -31,7 +31,8 @@ def _checkpoint(births: int, t: float) -> Checkpoint:
     return Checkpoint(births, t, births, rng.bit_generator.state, {"population": [[0, 1.5]]})
 
 
-def _robot(robot_id: int, t: float, parents: tuple[int | None, int | None] = (None, None)) -> RobotRecord:
+def _robot(robot_id: int, t: float,
+           parents: tuple[int | None, int | None] = (None, None)) -> RobotRecord:
     return RobotRecord(0, robot_id, f'{{"id": {robot_id}}}', parents[0], parents[1],
                        "random" if parents[0] is None else "reproduction", 0, t, t)
 
@@ -74,7 +75,8 @@ def test_commit_writes_everything_and_queries_read_it(store: Store) -> None:
     assert store.robot(0, 1).fitness == 3.0
     assert [r.robot_id for r in store.robots(0)] == [0, 1, 2]
     assert [s.fitness for s in store.fitness_samples(0, robot_id=0)] == [1.0]
-    assert [t.target for t in store.transitions(0, robot_id=0)] == [Stage.CONCEPTION, Stage.DELIVERY]
+    assert ([t.target for t in store.transitions(0, robot_id=0)]
+            == [Stage.CONCEPTION, Stage.DELIVERY])
     assert store.failures(0, kind="blow-up")[0].detail == "too fast"
     series = store.fitness_over_births(0)
     assert series.births.tolist() == [3] and series.mean.tolist() == [2.0]

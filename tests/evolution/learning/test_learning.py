@@ -76,7 +76,8 @@ def weak_gecko() -> Robot:
     """The example gecko with every oscillator amplitude cut to 20 %: a poor inborn gait."""
     g = EXAMPLES["gecko"]()
     p = get_params(g)
-    scaled = [v * 0.2 if n.startswith("amplitude") else v for n, v in zip(param_names(g), p)]
+    scaled = [v * 0.2 if n.startswith("amplitude") else v
+              for n, v in zip(param_names(g), p, strict=True)]
     return set_params(g, np.array(scaled))
 
 
@@ -135,7 +136,8 @@ def test_learning_is_reproducible_from_the_generator_state() -> None:
 
 
 def draws_from_global_numpy(task: EvalTask) -> EvalOutcome:
-    """:func:`distance_fitness`, after drawing from NumPy's global generator (as a library might)."""
+    """:func:`distance_fitness`, after drawing from NumPy's global generator (as a library
+    might)."""
     np.random.random()
     return distance_fitness(task)
 
@@ -165,8 +167,8 @@ def test_blown_up_candidates_score_zero_and_are_counted() -> None:
 
 def test_budget_shorter_than_one_evaluation_only_reports_nothing_learned() -> None:
     robot = EXAMPLES["gecko"]()
-    result = CMAESLearner(evaluation=CandidateEvaluation(1.0, 6.0, function=distance_fitness)).learn(
-        robot, 5.0, np.random.default_rng(0))
+    learner = CMAESLearner(evaluation=CandidateEvaluation(1.0, 6.0, function=distance_fitness))
+    result = learner.learn(robot, 5.0, np.random.default_rng(0))
     assert result.evaluations == 0 and result.sim_seconds == 0.0
     assert math.isnan(result.best_fitness) and result.robot == robot
 
@@ -174,7 +176,8 @@ def test_budget_shorter_than_one_evaluation_only_reports_nothing_learned() -> No
 @pytest.mark.parametrize("budget", [0.0, -1.0, math.nan, math.inf])
 def test_bad_budget_is_refused(budget: float) -> None:
     with pytest.raises(ValueError, match="budget"):
-        CMAESLearner(evaluation=SYNTHETIC).learn(EXAMPLES["gecko"](), budget, np.random.default_rng(0))
+        CMAESLearner(evaluation=SYNTHETIC).learn(
+            EXAMPLES["gecko"](), budget, np.random.default_rng(0))
     with pytest.raises(ValueError, match="budget"):
         TrainingCenter(CMAESLearner(), budget)
 
@@ -248,7 +251,7 @@ class _Shifted:
     def learn(self, robot: Robot, budget: float, rng: np.random.Generator) -> LearningResult:
         p = get_params(robot)
         learned = np.array([v + 0.05 if n.startswith("phase_offset") else v
-                            for n, v in zip(param_names(robot), p)])
+                            for n, v in zip(param_names(robot), p, strict=True)])
         return LearningResult(set_params(robot, learned), learned, (0.0, 1.0), 0.0, 1.0, 2, budget)
 
 

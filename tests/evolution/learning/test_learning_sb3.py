@@ -53,7 +53,8 @@ def drive_in_population(agent: PolicyAgent | None, robot: Robot, insertion: floa
 
 
 @pytest.mark.parametrize("name", ["gecko", "sensor_crawler"])
-def test_zero_modulation_agent_drives_exactly_like_the_brain_in_the_population_env(name: str) -> None:
+def test_zero_modulation_agent_drives_exactly_like_the_brain_in_the_population_env(
+        name: str) -> None:
     robot = EXAMPLES[name]()
     n = len(robot.neurons_of(Layer.OUTPUT))
     agent = PolicyAgent(ZeroPolicy(2 * n), robot, "modulate", DT)

@@ -124,7 +124,8 @@ def test_learning_columns_are_the_stored_learning_records(results: Path, tmp_pat
     assert learned["learning_gain_mean"] == pytest.approx(
         np.mean([r.learned_fitness - r.inborn_fitness for r in records]))
     plain = rows["scenario1"]
-    assert (plain["learning"], plain["infants_learned"], plain["learner_failures"]) == ("none", 0, 0)
+    assert ((plain["learning"], plain["infants_learned"], plain["learner_failures"])
+            == ("none", 0, 0))
     assert math.isnan(plain["inborn_fitness_mean"])
     result = report(root, formats=("png",))
     assert root / "report" / "learning_gain.png" in result.figures
@@ -132,7 +133,8 @@ def test_learning_columns_are_the_stored_learning_records(results: Path, tmp_pat
         assert tuple(next(csv.reader(f))) == SUMMARY_COLUMNS + LEARNING_COLUMNS
 
 
-def test_report_only_reads_the_databases(results: Path, written: tuple[Path, dict[str, str]]) -> None:
+def test_report_only_reads_the_databases(
+        results: Path, written: tuple[Path, dict[str, str]]) -> None:
     _, before = written
     assert {name: _digest(results / name / DB_NAME) for name in NAMES} == before
 
