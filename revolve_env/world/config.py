@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass
 
 from revolve_env.body.parts import SERVO
+from revolve_env.world.backend import ENGINES
 
 __all__ = ["WorldConfig"]
 
@@ -20,6 +21,10 @@ class WorldConfig:
     sensor readings and the blow-up check are refreshed once per control period.
 
     Attributes:
+        engine: The physics engine, one of :data:`~revolve_env.world.backend.ENGINES`:
+            ``"pybullet"`` (the reference) or ``"mujoco"`` (faster; see
+            :mod:`revolve_env.world.mujoco_backend` for its integrator and contact settings).
+            Every rule above the engine (servo law, sensors, blow-up policy) is the same for both.
         timestep: Physics step. Seconds.
         control_period: Control step; a whole multiple of ``timestep``. Seconds.
         gravity: Magnitude of gravity, pointing down (-z). Metres per second squared.
@@ -43,6 +48,7 @@ class WorldConfig:
             faster, which is what lets the online world run faster than real time on one core.
     """
 
+    engine: str = "pybullet"
     timestep: float = 1.0 / 240.0
     control_period: float = 1.0 / 60.0
     gravity: float = 9.81
@@ -59,6 +65,9 @@ class WorldConfig:
     solver_iterations: int = 20
 
     def __post_init__(self) -> None:
+        if self.engine not in ENGINES:
+            raise ValueError(f"unknown physics engine {self.engine!r}: choose one of "
+                             f"{', '.join(ENGINES)}")
         if not (self.timestep > 0 and math.isfinite(self.timestep)):
             raise ValueError(f"timestep must be a positive number of seconds, got {self.timestep}")
         ratio = self.control_period / self.timestep
