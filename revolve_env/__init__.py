@@ -46,6 +46,7 @@ _LAZY = {
     "evaluate": ("revolve_env.evaluation", "evaluate"),
     "EvaluationResult": ("revolve_env.evaluation", "EvaluationResult"),
     "World": ("revolve_env.world", "World"),
+    "ENGINES": ("revolve_env.world", "ENGINES"),
     "WorldConfig": ("revolve_env.world", "WorldConfig"),
     "LocomotionEnv": ("revolve_env.envs.locomotion", "LocomotionEnv"),
     "PopulationEnv": ("revolve_env.envs.population", "PopulationEnv"),
@@ -66,6 +67,7 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
+    "ENGINES",
     "EXAMPLES",
     "LOCOMOTION_ID",
     "Activation",

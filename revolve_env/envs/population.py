@@ -27,7 +27,7 @@ from revolve_env.body.validate import Limits, validate
 from revolve_env.brain import BatchController
 from revolve_env.brain.spec import NetworkSpec
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
-from revolve_env.world import World, WorldConfig
+from revolve_env.world import World, WorldConfig, require_engine
 
 __all__ = ["PopulationEnv", "footprint_radius", "population_env", "sensor_bounds"]
 
@@ -197,6 +197,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     |                     |          | None: world_config's (1/60 s by default)                    |
     | world_config        | None     | a :class:`~revolve_env.world.WorldConfig` (physics)         |
     | limits              | None     | validation limits (:class:`~revolve_env.body.validate.Limits`) |
+    | engine              | None     | "pybullet" or "mujoco"; None: world_config's (pybullet)     |
     """
 
     metadata: dict[str, Any] = {  # noqa: RUF012 (PettingZoo's convention; copied per instance)
@@ -222,6 +223,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         control_period: float | None = None,
         world_config: WorldConfig | None = None,
         limits: Limits | None = None,
+        engine: str | None = None,
     ) -> None:
         if not (isinstance(max_births, int) and max_births >= 1):
             raise ValueError(f"max_births must be an integer >= 1, got {max_births!r}")
@@ -248,6 +250,9 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         config = world_config if world_config is not None else WorldConfig()
         if control_period is not None:  # replace() validates it against the timestep
             config = dataclasses.replace(config, control_period=control_period)
+        if engine is not None:  # replace() validates the name
+            config = dataclasses.replace(config, engine=engine)
+        require_engine(config.engine)  # a missing package fails here, not at reset()
         self.config = config
         self.max_births = max_births
         self.initial_robots = None if initial_robots is None else list(initial_robots)

@@ -65,7 +65,7 @@ class PybulletBackend:
         ):
             # pybullet's GUI would hang or abort the process without a display: refuse instead.
             raise RuntimeError("cannot open pybullet's GUI: no display (DISPLAY is not set)")
-        self._cid = pb.connect(pb.GUI if gui else pb.DIRECT)
+        self._cid: int = pb.connect(pb.GUI if gui else pb.DIRECT)
         if self._cid < 0:
             raise RuntimeError(
                 "could not connect to a pybullet physics server"

@@ -363,7 +363,8 @@ class World:
     # -- state --------------------------------------------------------------------------------
     def core_position(self, handle: int) -> NDArray[np.float64]:
         """Position of the core's centre. Metres, shape (3,)."""
-        return self._now.core_pos[self._state(handle).row].copy()
+        pos: NDArray[np.float64] = self._now.core_pos[self._state(handle).row].copy()
+        return pos
 
     def core_positions(self, handles: tuple[int, ...] | list[int] | None = None
                        ) -> NDArray[np.float64]:
@@ -376,7 +377,8 @@ class World:
 
     def core_rotation(self, handle: int) -> NDArray[np.float64]:
         """Rotation from the core frame to the world frame, shape (3, 3)."""
-        return self._now.core_rot[self._state(handle).row].copy()
+        rot: NDArray[np.float64] = self._now.core_rot[self._state(handle).row].copy()
+        return rot
 
     def core_velocity(self, handle: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Linear velocity of the core's centre (m/s) and angular velocity (rad/s), world frame."""
