@@ -4,6 +4,7 @@ contained blow-ups; the ``engine=`` parameter everywhere."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -182,7 +183,8 @@ def test_same_inputs_same_trajectory_and_reset_replays() -> None:
         np.testing.assert_array_equal(run(world), first)
 
 
-def test_a_diverging_robot_is_flagged_and_contained() -> None:
+def test_a_diverging_robot_is_flagged_and_contained(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)  # MuJoCo logs its NaN warning to ./MUJOCO_LOG.TXT
     def run(poison: bool) -> tuple[np.ndarray, str | None]:
         with World(MJ) as world:
             bad = world.add_robot(spider())
