@@ -13,11 +13,14 @@ keeps each side's best CPU time, so both see the same load of a shared machine:
    NaNs counted per engine.
 4. ``memory``: resident memory of one world after 300 and after ``--births`` births (10 alive,
    each living 0.1 s), each engine in a fresh subprocess.
-5. ``study``: the paper's full study (5 experiments x 30 runs x 3000 births, 15 simulated s per
+5. ``robust``: ``--robust-robots`` random robots evaluated in MuJoCo alone: crashes, NaN fitness
+   and blow-ups counted; and ``--crowd-minutes`` simulated minutes of the ``--robots`` crowd,
+   packed 0.6 m apart, in MuJoCo: blow-ups counted.
+6. ``study``: the paper's full study (5 experiments x 30 runs x 3000 births, 15 simulated s per
    robot) on 2 cores, from the crowd's CPU seconds per robot-second.
 
 Usage: ``python benchmarks/bench_engines.py [--seconds 3] [--robots 30] [--rank-robots 40]
-[--births 3000] [--repeats 2]``.
+[--births 3000] [--repeats 2] [--robust-robots 2000] [--crowd-minutes 5]``.
 """
 
 from __future__ import annotations
@@ -184,6 +187,49 @@ def rank(n: int) -> None:
           f"({cpu['pybullet'] / cpu['mujoco']:.2f}x)")
 
 
+# -- 5. robustness ----------------------------------------------------------------------------
+def robust(n: int) -> None:
+    robots = random_robots(n, seed=4)
+    crashes = nans = blown = 0
+    cpu = time.process_time()
+    reasons: dict[str, int] = {}
+    for robot in robots:
+        try:
+            r = evaluate(robot, engine="mujoco")
+        except Exception as e:  # noqa: BLE001 (counted: the point is that there are none)
+            crashes += 1
+            print(f"  crash: {type(e).__name__}: {e}")
+            continue
+        nans += not math.isfinite(r.fitness)
+        if r.blow_up is not None:
+            blown += 1
+            kind = r.blow_up.split(" at t=")[0].split(" ")[0:2]
+            reasons[" ".join(kind)] = reasons.get(" ".join(kind), 0) + 1
+    print(f"{n} random robots in MuJoCo (3 + 12 s each, {time.process_time() - cpu:.0f} CPU s): "
+          f"{crashes} crashes, {nans} NaN fitness, {blown} blow-ups flagged {reasons}")
+
+
+def crowded_hour(n: int, minutes: float) -> None:
+    robots = random_robots(n, seed=5)
+    side = math.ceil(math.sqrt(n))
+    initial = [{"robot": r, "position": (0.6 * (i % side), 0.6 * (i // side))}
+               for i, r in enumerate(robots)]
+    env = population_env(engine="mujoco", initial_robots=initial, max_births=n,
+                         birth_clearance=0.0)
+    env.reset(seed=0)
+    ticks = round(minutes * 60 / env.config.control_period)
+    cpu = time.process_time()
+    blown: list[str] = []
+    for _ in range(ticks):
+        _, _, terminations, _, infos = env.step({})
+        blown += [f"{a}: {infos[a]['blow_up']}" for a, t in terminations.items() if t]
+    cpu = time.process_time() - cpu
+    env.close()
+    print(f"{n} random robots packed 0.6 m apart, {minutes:g} simulated min in MuJoCo "
+          f"({cpu:.0f} CPU s, {minutes * 60 / cpu:.1f}x real time): {len(blown)} blow-ups "
+          + "; ".join(blown[:3]))
+
+
 # -- 4. memory ---------------------------------------------------------------------------------
 def rss_mb() -> float:
     with open("/proc/self/statm") as f:
@@ -226,6 +272,8 @@ def main() -> None:
     parser.add_argument("--robots", type=int, default=30)
     parser.add_argument("--rank-robots", type=int, default=40)
     parser.add_argument("--births", type=int, default=3000)
+    parser.add_argument("--robust-robots", type=int, default=2000)
+    parser.add_argument("--crowd-minutes", type=float, default=5.0)
     parser.add_argument("--memory-child", nargs=2, metavar=("ENGINE", "BIRTHS"),
                         help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -242,6 +290,8 @@ def main() -> None:
           f"{robot_seconds * per_pb / 2 / 3600:.1f} h (physics and env only: no reproduction)")
     rank(args.rank_robots)
     memory(args.births)
+    robust(args.robust_robots)
+    crowded_hour(args.robots, args.crowd_minutes)
 
 
 if __name__ == "__main__":

@@ -81,7 +81,7 @@ def _all_finite(a: NDArray[np.float64]) -> bool:
     return math.isfinite(float(np.add.reduce(a, axis=None))) or bool(np.isfinite(a).all())
 
 
-@dataclass
+@dataclass(eq=False)  # identity: the arrays below have no truth value
 class _Robot:
     """One robot's spec elements and its place in the compiled model (private)."""
 
@@ -281,7 +281,7 @@ class MujocoBackend:
         except ValueError as e:
             del self._robots[key]
             self._unbuild(robot)
-            raise ValueError(f"MuJoCo cannot build this robot: {e}") from None
+            raise ValueError("MuJoCo cannot build this robot: " + " ".join(str(e).split())) from None
         self._next_key += 1
         return key
 

@@ -187,12 +187,12 @@ def test_a_diverging_robot_is_flagged_and_contained(tmp_path: Path, monkeypatch:
     monkeypatch.chdir(tmp_path)  # MuJoCo logs its NaN warning to ./MUJOCO_LOG.TXT
     def run(poison: bool) -> tuple[np.ndarray, str | None]:
         with World(MJ) as world:
-            bad = world.add_robot(spider())
             calm = world.add_robot(spider(), position=(1.0, 0.0))
+            bad = world.add_robot(spider())
             path = []
             for i in range(20):
-                if i == 10 and poison:
-                    world.backend._data.qvel[6] = np.nan  # type: ignore[attr-defined]
+                if i == 10 and poison:  # a hinge of the second robot
+                    world.backend._data.qvel[14 + 6] = np.nan  # type: ignore[attr-defined]
                 _drive(world, [calm], i)
                 world.step()
                 path.append(world.core_position(calm))
@@ -204,6 +204,29 @@ def test_a_diverging_robot_is_flagged_and_contained(tmp_path: Path, monkeypatch:
     assert none is None
     assert reason is not None and "non-finite" in reason
     np.testing.assert_array_equal(contained, clean)  # the neighbour never noticed
+
+
+def test_a_robot_mujoco_refuses_is_a_clear_error_and_changes_nothing(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import dataclasses
+
+    import revolve_env.world.world as world_module
+
+    model = build_model(snake())
+    root = dataclasses.replace(model.links[0], box_half_extents=-model.links[0].box_half_extents)
+    bad = dataclasses.replace(model, links=(root, *model.links[1:]))
+    with World(MJ) as world:
+        keep = world.add_robot(spider())
+        world.step(3)
+        before = world.core_position(keep)
+        monkeypatch.setattr(world_module, "build_model", lambda robot: bad)
+        with pytest.raises(ValueError, match="MuJoCo cannot build this robot: .*size"):
+            world.add_robot(snake(), position=(1.0, 0.0))
+        assert world.handles == (keep,) and world.body_count() == 2
+        np.testing.assert_array_equal(world.core_position(keep), before)
+        world.step(3)
+        assert world.blow_up(keep) is None
 
 
 def test_the_walkers_walk_on_their_own_brains() -> None:
