@@ -14,8 +14,8 @@ keeps each side's best CPU time, so both see the same load of a shared machine:
 4. ``memory``: resident memory of one world after 300 and after ``--births`` births (10 alive,
    each living 0.1 s), each engine in a fresh subprocess.
 5. ``robust``: ``--robust-robots`` random robots evaluated in MuJoCo alone: crashes, NaN fitness
-   and blow-ups counted; and ``--crowd-minutes`` simulated minutes of the ``--robots`` crowd,
-   packed 0.6 m apart, in MuJoCo: blow-ups counted.
+   and blow-ups counted; and ``--crowd-minutes`` simulated minutes of ``--robots`` random
+   robots dropped within 2 m of the origin with no clearance, in MuJoCo: blow-ups counted.
 6. ``study``: the paper's full study (5 experiments x 30 runs x 3000 births, 15 simulated s per
    robot) on 2 cores, from the crowd's CPU seconds per robot-second.
 
@@ -71,7 +71,7 @@ def env_cpu(robot: Robot, engine: str, seconds: float) -> float:
     env = gym.make(LOCOMOTION_ID, robot=robot, engine=engine, controller="brain",
                    insertion_time=0.0, evaluation_time=seconds)
     env.reset(seed=0)
-    action = np.zeros(env.action_space.shape, dtype=np.float32)
+    action = np.zeros(env.action_space.shape or (0,), dtype=np.float32)
     cpu = time.process_time()
     done = False
     while not done:
@@ -130,7 +130,7 @@ def crowd(n: int, seconds: float, repeats: int) -> tuple[float, float]:
                for i, r in enumerate(robots)]
 
     def make(engine: str) -> PopulationEnv:
-        env = population_env(engine=engine, initial_robots=initial, max_births=n,
+        env: PopulationEnv = population_env(engine=engine, initial_robots=initial, max_births=n,
                              insertion_time=0.0)
         env.reset(seed=0)
         for _ in range(30):  # let them land
@@ -211,11 +211,8 @@ def robust(n: int) -> None:
 
 def crowded_hour(n: int, minutes: float) -> None:
     robots = random_robots(n, seed=5)
-    side = math.ceil(math.sqrt(n))
-    initial = [{"robot": r, "position": (0.6 * (i % side), 0.6 * (i // side))}
-               for i, r in enumerate(robots)]
-    env = population_env(engine="mujoco", initial_robots=initial, max_births=n,
-                         birth_clearance=0.0)
+    env = population_env(engine="mujoco", initial_robots=robots, max_births=n, birth_radius=2.0,
+                         birth_clearance=0.0, max_placement_tries=10_000)
     env.reset(seed=0)
     ticks = round(minutes * 60 / env.config.control_period)
     cpu = time.process_time()
@@ -225,7 +222,8 @@ def crowded_hour(n: int, minutes: float) -> None:
         blown += [f"{a}: {infos[a]['blow_up']}" for a, t in terminations.items() if t]
     cpu = time.process_time() - cpu
     env.close()
-    print(f"{n} random robots packed 0.6 m apart, {minutes:g} simulated min in MuJoCo "
+    print(f"{n} random robots in a 2 m disc (footprints touching), {minutes:g} simulated min in "
+          f"MuJoCo "
           f"({cpu:.0f} CPU s, {minutes * 60 / cpu:.1f}x real time): {len(blown)} blow-ups "
           + "; ".join(blown[:3]))
 
