@@ -290,3 +290,14 @@ def test_unknown_engine_and_missing_package_are_one_clear_error(
 def test_no_gui_window_is_a_clear_error() -> None:
     with pytest.raises(RuntimeError, match="no GUI window"):
         World(MJ, gui=True)
+
+
+def test_render_gives_a_picture_or_says_why_not() -> None:
+    with World(MJ) as world:
+        world.add_robot(spider())
+        try:
+            image = world.render(64, 48)
+        except RuntimeError as e:  # no OpenGL context here (MUJOCO_GL=egl or osmesa needed)
+            assert "MuJoCo cannot render here" in str(e)
+        else:
+            assert image.shape == (48, 64, 3) and image.dtype == np.uint8 and image.std() > 0
