@@ -93,6 +93,7 @@ class World:
         self._now = _empty_states()
         self._prev_vel = np.zeros((0, 3))
         self._active_index = np.zeros(0, dtype=np.intp)
+        self._imu: NDArray[np.float64] | None = None  # every robot's IMU, computed on demand
 
     def reset(self) -> None:
         """Remove every robot and restart the simulation from time 0 with the same engine.
@@ -224,6 +225,7 @@ class World:
         self._relayout()
         # Survivors keep the velocity of the last period for their IMU; the newborn is at rest.
         self._prev_vel = np.concatenate((previous, self._now.core_vel[state.row:state.row + 1]))
+        self._imu = None
         state.blow_up = self._check_blow_up(state)
         return handle
 
@@ -238,6 +240,7 @@ class World:
         previous = self._prev_vel[keep]
         self._relayout()
         self._prev_vel = previous
+        self._imu = None
 
     def _relayout(self) -> None:
         """Rows and hinge offsets of every robot, and a fresh read (after a birth or death)."""
@@ -251,6 +254,7 @@ class World:
         self._active_index = np.concatenate(active) if active else np.zeros(0, dtype=np.intp)
         self._now = self._backend.read() if self._robots else _empty_states()
         self._prev_vel = self._now.core_vel.copy()
+        self._imu = None
 
     # -- control ------------------------------------------------------------------------------
     def set_targets(self, handle: int, targets: ArrayLike) -> None:
@@ -295,6 +299,7 @@ class World:
             if self._robots:
                 self._prev_vel = self._now.core_vel
                 self._now = backend.read()
+                self._imu = None
                 self._check_blow_ups()
 
     # -- blow-ups -----------------------------------------------------------------------------
@@ -391,6 +396,18 @@ class World:
         return self._now.joint_pos[state.joint_start + state.active_local]
 
     # -- sensors ------------------------------------------------------------------------------
+    def _imus(self) -> NDArray[np.float64]:
+        """The core IMU of every robot, (n, 6): accelerometer then gyroscope, core frame."""
+        if self._imu is None:
+            c = self.config
+            s = self._now
+            accel = (s.core_vel - self._prev_vel) * (1.0 / c.control_period)
+            accel[:, 2] += c.gravity
+            # rows: R^T a, R^T w (a stacked matmul: the same bits as one robot's)
+            self._imu = (np.concatenate((accel, s.core_angvel), axis=1).reshape(-1, 2, 3)
+                         @ s.core_rot).reshape(-1, 6)
+        return self._imu
+
     def read_sensors(self, handle: int) -> NDArray[np.float64]:
         """All sensor values of a robot, in controller input order (float64, shape (n_inputs,)).
 
@@ -422,10 +439,7 @@ class World:
         k = 0
         for kind, sensor in model.sensors:
             if kind == "imu":
-                accel = (s.core_vel[r] - self._prev_vel[r]) * (1.0 / c.control_period)
-                accel[2] += c.gravity
-                out[k:k + 6] = (np.concatenate((accel, s.core_angvel[r])).reshape(2, 3)
-                                @ core_rot).reshape(6)  # rows: R^T a, R^T w
+                out[k:k + 6] = self._imus()[r]
                 k += 6
             elif kind == "touch":
                 assert isinstance(sensor, TouchSensorModel)
@@ -440,7 +454,7 @@ class World:
                 where = pos + rot @ sensor.position
                 facing = rot @ sensor.direction
                 to_light = light - where
-                d = float(np.linalg.norm(to_light))
+                d = math.sqrt(float(to_light.dot(to_light)))  # np.linalg.norm's own formula
                 cos_a = float(facing @ to_light) / d if d > 0 else 1.0
                 out[k] = max(0.0, cos_a) / (1.0 + (d / c.light_range) ** 2)
                 k += 1
