@@ -42,7 +42,9 @@ class WorldConfig:
         max_linear_speed: A core faster than this means the simulation blew up. Metres per second.
         max_angular_speed: A core or joint spinning faster than this means the simulation blew up.
             Radians per second.
-        solver_iterations: Constraint solver iterations per physics step. 20 rather than
+        solver_iterations: pybullet's constraint solver iterations per physics step (the MuJoCo
+            backend's Newton solver stops on its own tolerance: 2-3 iterations per step in a
+            30-robot world; CG, elliptic cones or a looser tolerance were slower). 20 rather than
             pybullet's 50: the example gaits keep their fitness (spider 10.2 vs 9.9, gecko 8.9
             vs 8.9, snake 10.0 vs 10.7 over 12 s) while a 30-robot world steps about 1.4x
             faster, which is what lets the online world run faster than real time on one core.

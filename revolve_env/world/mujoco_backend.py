@@ -25,6 +25,10 @@ fitness ``v + 5 s`` in metres; pybullet gives spider 10.2, gecko 8.9, snake 10.0
   With kv = 0.2 and armature 1e-4 the examples score spider 11.4, gecko 7.4, snake 4.6 (straight
   displacement 1.77, 1.07, 0.52 m), a commanded hinge reaches 0.86x its top speed within one
   control period and settles on its target with no error.
+* Solver: Newton (MuJoCo's default) converges in 2-3 iterations per step. For 30 random robots
+  in one world (about 170 contacts) a physics step took 0.30 ms; CG 0.48 ms, an elliptic cone
+  0.36-0.40 ms, tolerance 1e-5 or 5 iterations no faster. Making and solving the constraints
+  is about 70 % of a step, collision detection 11 %.
 * Contacts: MuJoCo's default soft contacts (solref 0.02 s, pyramidal cone, Newton solver),
   condim 3 (sliding friction only, as in pybullet), the ground's friction on robot-ground
   contacts (``config.friction``) and 1.0 between robots, as in the pybullet backend. A robot
