@@ -1,9 +1,10 @@
 """revolve-env: online and offline evolution of physically constructible modular robots.
 
 Importing the package registers the single-robot Gymnasium env ``revolve_env/Locomotion-v0``
-(``gymnasium.make("revolve_env/Locomotion-v0", robot=...)``). The physics engine is imported only
-when something that needs it is used (``evaluate``, ``population_env``, the envs), so the pure
-layers (``revolve_env.body``, ``evolution``) never load it.
+(``gymnasium.make("revolve_env/Locomotion-v0", robot=...)``). The physics engine (pybullet or
+MuJoCo, chosen by ``engine=`` / ``WorldConfig.engine``) is imported only when a world is made
+(``evaluate``, ``population_env``, the envs), so the pure layers (``revolve_env.body``,
+``evolution``) never load it.
 """
 
 from __future__ import annotations
