@@ -51,6 +51,8 @@ fitness ``v + 5 s`` in metres; pybullet gives spider 10.2, gecko 8.9, snake 10.0
 from __future__ import annotations
 
 import math
+import os
+import sys
 from dataclasses import dataclass, field
 
 import mujoco
@@ -136,6 +138,7 @@ class MujocoBackend:
         self._next_key = 0
         self._closed = False
         self._renderer: mujoco.Renderer | None = None
+        self._render_error: str | None = None
         self._new_scene()
 
     # -- scene ----------------------------------------------------------------------------------
@@ -442,11 +445,22 @@ class MujocoBackend:
         if r is None or r.width != width or r.height != height:
             if r is not None:
                 r.close()
+            if self._render_error is None and sys.platform.startswith("linux") and (
+                os.environ.get("MUJOCO_GL", "glfw") == "glfw"
+                and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+            ):
+                # MuJoCo's default GLFW context needs a display; a failed context creation
+                # followed by a second attempt aborts the whole process: never try.
+                self._render_error = "no display for MuJoCo's default GLFW context"
+            if self._render_error is not None:
+                raise RuntimeError(f"MuJoCo cannot render here ({self._render_error}); set "
+                                   "MUJOCO_GL=egl or osmesa with that library installed")
             try:
                 self._model.vis.global_.offwidth = max(width, self._model.vis.global_.offwidth)
                 self._model.vis.global_.offheight = max(height, self._model.vis.global_.offheight)
                 r = mujoco.Renderer(self._model, height, width)
             except Exception as e:  # noqa: BLE001 (no GL context: EGL/OSMesa/GLFW all missing)
+                self._render_error = str(e)  # never retried: a second failure aborts
                 raise RuntimeError(f"MuJoCo cannot render here ({e}); set MUJOCO_GL=egl or "
                                    "osmesa with that library installed") from None
             self._renderer = r

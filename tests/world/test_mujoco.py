@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -301,3 +302,17 @@ def test_render_gives_a_picture_or_says_why_not() -> None:
             assert "MuJoCo cannot render here" in str(e)
         else:
             assert image.shape == (48, 64, 3) and image.dtype == np.uint8 and image.std() > 0
+
+
+def test_locomotion_env_conformance_on_mujoco() -> None:
+    from gymnasium.utils.env_checker import check_env
+
+    from revolve_env import LOCOMOTION_ID
+    from revolve_env.envs.checks import check_determinism
+
+    kwargs: dict[str, Any] = {"robot": example("gecko"), "engine": "mujoco", "evaluation_time": 0.5,
+              "insertion_time": 0.1}
+    env = gym.make(LOCOMOTION_ID, **kwargs)
+    check_env(env.unwrapped, skip_render_check=True)  # rendering needs an OpenGL context
+    env.close()
+    check_determinism(LOCOMOTION_ID, **kwargs)
