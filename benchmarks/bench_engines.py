@@ -16,8 +16,10 @@ keeps each side's best CPU time, so both see the same load of a shared machine:
 5. ``robust``: ``--robust-robots`` random robots evaluated in MuJoCo alone: crashes, NaN fitness
    and blow-ups counted; and ``--crowd-minutes`` simulated minutes of ``--robots`` random
    robots dropped within 2 m of the origin with no clearance, in MuJoCo: blow-ups counted.
-6. ``study``: the paper's full study (5 experiments x 30 runs x 3000 births, 15 simulated s per
-   robot) on 2 cores, from the crowd's CPU seconds per robot-second.
+6. ``study``: the paper's full study (5 experiments x 30 runs x 3000 births) on 2 cores with
+   MuJoCo: ``--pybullet-study-hours`` (what ``bench_experiments.py`` measured with pybullet)
+   divided by the measured speed-ups, offline (``evaluate``, from ``rank``) and online (the
+   crowd).
 
 Usage: ``python benchmarks/bench_engines.py [--seconds 3] [--robots 30] [--rank-robots 40]
 [--births 3000] [--repeats 2] [--robust-robots 2000] [--crowd-minutes 5]``.
@@ -165,7 +167,8 @@ def crowd(n: int, seconds: float, repeats: int) -> tuple[float, float]:
 
 
 # -- 3. same science ---------------------------------------------------------------------------
-def rank(n: int) -> None:
+def rank(n: int) -> float:
+    """Returns pybullet's evaluate() CPU time over MuJoCo's."""
     robots = random_robots(n, seed=2)
     fitness: dict[str, list[float]] = {e: [] for e in ENGINES}
     blow_ups = {e: 0 for e in ENGINES}
@@ -185,6 +188,7 @@ def rank(n: int) -> None:
           f"{int(np.isnan(a).sum())} / {int(np.isnan(b).sum())}; evaluate() CPU MuJoCo "
           f"{cpu['mujoco']:.1f} s, pybullet {cpu['pybullet']:.1f} s "
           f"({cpu['pybullet'] / cpu['mujoco']:.2f}x)")
+    return cpu["pybullet"] / cpu["mujoco"]
 
 
 # -- 5. robustness ----------------------------------------------------------------------------
@@ -270,6 +274,8 @@ def main() -> None:
     parser.add_argument("--robots", type=int, default=30)
     parser.add_argument("--rank-robots", type=int, default=40)
     parser.add_argument("--births", type=int, default=3000)
+    parser.add_argument("--pybullet-study-hours", type=float, default=60.0,
+                        help="the study's time with pybullet, from bench_experiments.py")
     parser.add_argument("--robust-robots", type=int, default=2000)
     parser.add_argument("--crowd-minutes", type=float, default=5.0)
     parser.add_argument("--memory-child", nargs=2, metavar=("ENGINE", "BIRTHS"),
@@ -282,11 +288,13 @@ def main() -> None:
           f"1/{round(1 / WorldConfig().control_period)} s")
     single(args.seconds, args.repeats)
     per_mj, per_pb = crowd(args.robots, args.seconds, args.repeats)
-    robot_seconds = 5 * 30 * 3000 * 15.0
-    print(f"paper's study (5 x 30 runs x 3000 births x 15 s) on 2 cores, at the crowd's cost: "
-          f"MuJoCo {robot_seconds * per_mj / 2 / 3600:.1f} h, pybullet "
-          f"{robot_seconds * per_pb / 2 / 3600:.1f} h (physics and env only: no reproduction)")
-    rank(args.rank_robots)
+    offline = rank(args.rank_robots)
+    online = per_pb / per_mj
+    hours = args.pybullet_study_hours
+    print(f"paper's study on 2 cores: {hours:g} h with pybullet (bench_experiments.py) -> "
+          f"{hours / max(offline, online):.0f}-{hours / min(offline, online):.0f} h with MuJoCo "
+          f"(speed-ups {offline:.2f}x offline, {online:.2f}x online; the rest of a run, "
+          f"reproduction and storage, assumed negligible)")
     memory(args.births)
     robust(args.robust_robots)
     crowded_hour(args.robots, args.crowd_minutes)
