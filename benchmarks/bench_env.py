@@ -90,8 +90,10 @@ def raw_rate(robot: Robot, seconds: float, physics_only: bool = False) -> Rate:
     ticks = int(round(seconds / dt))
     with World(config) as world:  # only to build the identical multibody and ground
         h = world.add_robot(robot)
-        state = world._robots[h]  # the bare client and body below: no World code in the loop
-        cid, body, joints = world._cid, state.body, state.active_joints
+        # the bare client and body below: no World code in the loop
+        backend = world.backend
+        state = backend._bodies[world._robots[h].key]  # type: ignore[attr-defined]
+        cid, body, joints = backend.client_id, state.body, state.active_joints  # type: ignore[attr-defined]
         actions = _actions(len(joints), ticks, dt) * math.radians(config.range_deg)
         k = config.servo_gain / dt
         forces = [config.max_torque] * len(joints)

@@ -83,8 +83,9 @@ def bench_world(env: PopulationEnv, steps: int) -> tuple[float, float]:
 
 def bench_raw(env: PopulationEnv, steps: int) -> tuple[float, float]:
     world = env.world
-    cid = world._cid  # the benchmark reaches into the World to drive pybullet directly
-    states = [world._robots[env._members[a].handle] for a in env.agents]
+    cid = world.backend.client_id  # type: ignore[attr-defined]  # drive pybullet directly
+    states = [world.backend._bodies[world._robots[env._members[a].handle].key]  # type: ignore[attr-defined]
+              for a in env.agents]
     c = env.config
     dt = c.control_period
 

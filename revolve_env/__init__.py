@@ -1,8 +1,9 @@
 """revolve-env: online and offline evolution of physically constructible modular robots.
 
 Importing the package registers the single-robot Gymnasium envs ``revolve_env/Locomotion-v0``
-(``gymnasium.make("revolve_env/Locomotion-v0", robot=...)``) and ``-v1`` (with proprioception). The physics engine is imported only
-when something that needs it is used (``evaluate``, ``population_env``, the envs), so the pure
+(``gymnasium.make("revolve_env/Locomotion-v0", robot=...)``) and ``-v1`` (with proprioception).
+The physics engine (pybullet or MuJoCo, chosen by ``engine=`` / ``WorldConfig.engine``) is
+imported only when a world is made (``evaluate``, ``population_env``, the envs), so the pure
 layers (``revolve_env.body``, ``evolution``) never load it.
 """
 
@@ -50,6 +51,7 @@ _LAZY = {
     "evaluate": ("revolve_env.evaluation", "evaluate"),
     "EvaluationResult": ("revolve_env.evaluation", "EvaluationResult"),
     "World": ("revolve_env.world", "World"),
+    "ENGINES": ("revolve_env.world", "ENGINES"),
     "WorldConfig": ("revolve_env.world", "WorldConfig"),
     "LocomotionEnv": ("revolve_env.envs.locomotion", "LocomotionEnv"),
     "PopulationEnv": ("revolve_env.envs.population", "PopulationEnv"),
@@ -70,6 +72,7 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
+    "ENGINES",
     "EXAMPLES",
     "LOCOMOTION_ID",
     "Activation",

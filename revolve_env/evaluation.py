@@ -6,6 +6,7 @@ function (a submodule of the same name would replace it once imported).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -51,6 +52,7 @@ def evaluate(
     actuator_noise: float = 0.0,
     config: WorldConfig | None = None,
     limits: Limits | None = None,
+    engine: str | None = None,
 ) -> EvaluationResult:
     """Run ``robot`` on its own controller in a fresh world and measure its fitness.
 
@@ -68,11 +70,14 @@ def evaluate(
         actuator_noise: Standard deviation of Gaussian noise on every normalized hinge target.
         config: Physics settings; ``WorldConfig()`` by default.
         limits: Validation limits.
+        engine: Physics engine (``"pybullet"`` or ``"mujoco"``); None keeps ``config.engine``
+            (pybullet by default).
 
     Raises:
         RobotError: the robot is invalid (before any physics runs).
-        ValueError: a bad timing or noise argument, or a network whose inputs do not match
-            the body's sensors.
+        ValueError: a bad timing or noise argument, an unknown engine, or a network whose inputs
+            do not match the body's sensors.
+        EngineUnavailableError: the engine's package is not installed.
     """
     validate(robot, limits)
     for name, value in (("seconds", seconds), ("insertion", insertion),
@@ -80,6 +85,8 @@ def evaluate(
         if not (math.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value}")
     cfg = config if config is not None else WorldConfig()
+    if engine is not None:  # replace() validates the name
+        cfg = dataclasses.replace(cfg, engine=engine)
     dt = cfg.control_period
     insertion_ticks = round(insertion / dt)
     evaluation_ticks = round(seconds / dt)

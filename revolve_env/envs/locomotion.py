@@ -23,7 +23,7 @@ from revolve_env.body.validate import Limits, validate
 from revolve_env.brain import BatchController
 from revolve_env.envs.observations import proprio_bounds, read_proprio, saturated_sensor_bounds
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
-from revolve_env.world import World, WorldConfig
+from revolve_env.world import World, WorldConfig, require_engine
 
 __all__ = ["LocomotionEnv"]
 
@@ -121,6 +121,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     | proprioception     | False     | observe hinge angles and velocities (True in ``-v1``)      |
     | world_config       | None      | a :class:`~revolve_env.world.WorldConfig` (physics)        |
     | limits             | None      | validation limits (:class:`~revolve_env.body.validate.Limits`) |
+    | engine             | None      | "pybullet" or "mujoco"; None: ``world_config``'s (pybullet) |
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 60}  # noqa: RUF012 (gymnasium API)
@@ -140,6 +141,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         world_config: WorldConfig | None = None,
         limits: Limits | None = None,
         proprioception: bool = False,
+        engine: str | None = None,
     ) -> None:
         if isinstance(robot, (str, os.PathLike)):
             robot = load(robot, limits)
@@ -167,6 +169,9 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         config = world_config if world_config is not None else WorldConfig()
         if control_period is not None:  # replace() validates it against the timestep
             config = dataclasses.replace(config, control_period=control_period)
+        if engine is not None:  # replace() validates the name
+            config = dataclasses.replace(config, engine=engine)
+        require_engine(config.engine)  # a missing package fails here, not at reset()
         self.config = config
         self.robot = robot
         self.render_mode = render_mode

@@ -28,7 +28,7 @@ from revolve_env.brain.spec import NetworkSpec
 from revolve_env.envs.observations import proprio_bounds, read_proprio, uniform_sensor_bounds
 from revolve_env.envs.placement import Disc, clash, footprint_radius, place
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
-from revolve_env.world import World, WorldConfig
+from revolve_env.world import World, WorldConfig, require_engine
 
 __all__ = ["Lifecycle", "PopulationEnv", "SpaceMode", "footprint_radius", "population_env",
            "sensor_bounds"]
@@ -274,6 +274,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     | space_mode          | "exact"  | "exact" or "uniform" (see Spaces)                           |
     | proprioception      | False    | observe hinge angles and velocities                         |
     | lifecycle           | None     | births and deaths inside a step (see above)                 |
+    | engine              | None     | "pybullet" or "mujoco"; None: world_config's (pybullet)     |
 
     Bad input raises before anything changes, naming the agent: an action for an agent not alive
     (never born, removed, blown up) is a ``KeyError``; an action of the wrong shape (the uniform
@@ -306,6 +307,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         space_mode: SpaceMode = "exact",
         proprioception: bool = False,
         lifecycle: Lifecycle | None = None,
+        engine: str | None = None,
     ) -> None:
         if not (isinstance(max_births, int) and max_births >= 1):
             raise ValueError(f"max_births must be an integer >= 1, got {max_births!r}")
@@ -337,6 +339,9 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         config = world_config if world_config is not None else WorldConfig()
         if control_period is not None:  # replace() validates it against the timestep
             config = dataclasses.replace(config, control_period=control_period)
+        if engine is not None:  # replace() validates the name
+            config = dataclasses.replace(config, engine=engine)
+        require_engine(config.engine)  # a missing package fails here, not at reset()
         self.config = config
         self.max_births = max_births
         self.initial_robots = None if initial_robots is None else list(initial_robots)

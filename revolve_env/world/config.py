@@ -7,7 +7,16 @@ from dataclasses import dataclass
 
 from revolve_env.body.parts import SERVO
 
-__all__ = ["WorldConfig"]
+__all__ = ["ENGINES", "WorldConfig"]
+
+#: Engine name -> (backend module, class, the pip package it needs); the backends are imported
+#: lazily by :func:`revolve_env.world.backend.make_backend`.
+_REGISTRY: dict[str, tuple[str, str, str]] = {
+    "pybullet": ("revolve_env.world.pybullet_backend", "PybulletBackend", "pybullet"),
+    "mujoco": ("revolve_env.world.mujoco_backend", "MujocoBackend", "mujoco"),
+}
+#: Names accepted by ``WorldConfig(engine=...)`` and every ``engine=`` keyword.
+ENGINES: tuple[str, ...] = tuple(_REGISTRY)
 
 
 @dataclass(frozen=True, slots=True)
@@ -20,6 +29,10 @@ class WorldConfig:
     sensor readings and the blow-up check are refreshed once per control period.
 
     Attributes:
+        engine: The physics engine, one of :data:`~revolve_env.world.backend.ENGINES`:
+            ``"pybullet"`` (the reference) or ``"mujoco"`` (faster; see
+            :mod:`revolve_env.world.mujoco_backend` for its integrator and contact settings).
+            Every rule above the engine (servo law, sensors, blow-up policy) is the same for both.
         timestep: Physics step. Seconds.
         control_period: Control step; a whole multiple of ``timestep``. Seconds.
         gravity: Magnitude of gravity, pointing down (-z). Metres per second squared.
@@ -37,12 +50,15 @@ class WorldConfig:
         max_linear_speed: A core faster than this means the simulation blew up. Metres per second.
         max_angular_speed: A core or joint spinning faster than this means the simulation blew up.
             Radians per second.
-        solver_iterations: Constraint solver iterations per physics step. 20 rather than
+        solver_iterations: pybullet's constraint solver iterations per physics step (the MuJoCo
+            backend's Newton solver stops on its own tolerance: 2-3 iterations per step in a
+            30-robot world; CG, elliptic cones or a looser tolerance were slower). 20 rather than
             pybullet's 50: the example gaits keep their fitness (spider 10.2 vs 9.9, gecko 8.9
             vs 8.9, snake 10.0 vs 10.7 over 12 s) while a 30-robot world steps about 1.4x
             faster, which is what lets the online world run faster than real time on one core.
     """
 
+    engine: str = "pybullet"
     timestep: float = 1.0 / 240.0
     control_period: float = 1.0 / 60.0
     gravity: float = 9.81
@@ -59,6 +75,9 @@ class WorldConfig:
     solver_iterations: int = 20
 
     def __post_init__(self) -> None:
+        if self.engine not in ENGINES:
+            raise ValueError(f"unknown physics engine {self.engine!r}: choose one of "
+                             f"{', '.join(ENGINES)}")
         if not (self.timestep > 0 and math.isfinite(self.timestep)):
             raise ValueError(f"timestep must be a positive number of seconds, got {self.timestep}")
         ratio = self.control_period / self.timestep

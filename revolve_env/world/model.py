@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from revolve_env.body.geometry import Assembly, assemble
+from revolve_env.body.geometry import Assembly, PlacedBox, assemble
 from revolve_env.body.parts import PART_SPECS, SLOT_THICKNESS
 from revolve_env.body.robot import PartType, Robot
 
@@ -124,7 +124,8 @@ def _box_inertia(size: Vec3, mass: float) -> Vec3:
 
 
 def _link(
-    parent: int, origin: Vec3, boxes: list, colors: list, joint_axis: Vec3, active: bool,
+    parent: int, origin: Vec3, boxes: list[PlacedBox], colors: list[tuple[float, float, float]],
+    joint_axis: Vec3, active: bool,
     fixed: bool,
 ) -> LinkModel:
     masses = np.array([b.mass for b in boxes])

@@ -191,7 +191,7 @@ def test_blow_up_is_reported_not_raised() -> None:
 
 def test_closed_world_refuses_work_and_disconnects() -> None:
     world = World()
-    cid = world._cid
+    cid = world.backend.client_id  # type: ignore[attr-defined]
     world.close()
     assert not pb.isConnected(physicsClientId=cid)
     with pytest.raises(RuntimeError, match="closed"):

@@ -1,0 +1,165 @@
+"""The physics-backend interface under :class:`~revolve_env.world.World`, and the engine registry.
+
+A backend is the only place that talks to a physics engine. It knows nothing of servos, sensors,
+targets or blow-ups: :class:`~revolve_env.world.World` owns those rules and drives a backend
+through a handful of batched primitives (one call per control period for all robots):
+
+* :meth:`PhysicsBackend.add` / :meth:`PhysicsBackend.remove` a robot model,
+* :meth:`PhysicsBackend.set_joint_velocities` of every active hinge (torque-limited),
+* :meth:`PhysicsBackend.step`,
+* :meth:`PhysicsBackend.read`: the core poses, velocities and hinge states of all robots as
+  arrays (:class:`BodyStates`),
+* :meth:`PhysicsBackend.link_poses` and :meth:`PhysicsBackend.contacts` for the sensors,
+* :meth:`PhysicsBackend.render`.
+
+Engines are chosen by name (``WorldConfig.engine``): :data:`ENGINES` lists them and
+:func:`make_backend` imports the chosen one lazily, so a missing optional engine only matters
+to whoever selects it.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from revolve_env.world.config import _REGISTRY, ENGINES, WorldConfig
+from revolve_env.world.model import RobotModel
+
+__all__ = ["ENGINES", "BodyStates", "EngineUnavailableError", "PhysicsBackend", "make_backend",
+           "require_engine"]
+
+
+
+class EngineUnavailableError(ImportError):
+    """The selected physics engine's Python package cannot be imported."""
+
+
+@dataclass(frozen=True, slots=True)
+class BodyStates:
+    """The state of every robot of a backend, rows in insertion order (read-only snapshot).
+
+    Attributes:
+        core_pos: (n, 3) core centres (root link frame origins), world frame. Metres.
+        core_rot: (n, 3, 3) rotations from the root link (core) frame to the world frame.
+        core_vel: (n, 3) linear velocities of the core centres, world frame. Metres per second.
+        core_angvel: (n, 3) angular velocities of the cores, world frame. Radians per second.
+        joint_pos: Angles of every hinge (active and passive) of every robot: each robot's hinges
+            in model link order (link ``j + 1`` is hinge ``j``), robots one after the other.
+            Radians.
+        joint_vel: Hinge speeds, laid out like ``joint_pos``. Radians per second.
+        diverged: (n,) robots whose state the engine found non-finite and restored (an engine
+            that does not contain a divergence leaves NaN in the arrays instead and reports
+            False).
+    """
+
+    core_pos: NDArray[np.float64]
+    core_rot: NDArray[np.float64]
+    core_vel: NDArray[np.float64]
+    core_angvel: NDArray[np.float64]
+    joint_pos: NDArray[np.float64]
+    joint_vel: NDArray[np.float64]
+    diverged: NDArray[np.bool_]
+
+
+class PhysicsBackend(Protocol):
+    """What :class:`~revolve_env.world.World` needs from a physics engine.
+
+    A backend owns its engine handle (one per backend, released by :meth:`close`). Robots are
+    identified by the ``key`` :meth:`add` returns; "all robots" always means the robots present,
+    in insertion order. Hinges have no joint limits; robots collide with the ground and with each
+    other, never with themselves.
+    """
+
+    def add(self, model: RobotModel, position: tuple[float, float, float], yaw: float) -> int:
+        """Build a robot with its root link frame at ``position`` (metres) turned by ``yaw``
+        (radians) about the vertical, at rest; return its key. Hinges start free (no torque)."""
+        ...
+
+    def remove(self, key: int) -> None:
+        """Delete a robot; every other robot's state is kept exactly."""
+        ...
+
+    def set_joint_velocities(self, velocities: NDArray[np.float64], max_torque: float) -> None:
+        """Drive every active hinge of every robot towards a velocity (radians per second) with a
+        torque limit (newton metres), until the next call. ``velocities`` holds each robot's active
+        hinges in controller output order, robots one after the other."""
+        ...
+
+    def step(self, substeps: int) -> None:
+        """Advance ``substeps`` physics steps of ``config.timestep``."""
+        ...
+
+    def read(self) -> BodyStates:
+        """The state of every robot (see :class:`BodyStates`)."""
+        ...
+
+    def link_poses(self, key: int, links: list[int]) -> list[tuple[NDArray[np.float64],
+                                                                   NDArray[np.float64]]]:
+        """World position (metres) and rotation (3x3) of the frames of some links of a robot."""
+        ...
+
+    def contacts(self, key: int) -> frozenset[int]:
+        """Model link indices of a robot that touch anything now."""
+        ...
+
+    def total_mass(self, key: int) -> float:
+        """Mass of a robot as the engine holds it. Kilograms."""
+        ...
+
+    def body_count(self) -> int:
+        """Number of robots plus the ground (for leak checks)."""
+        ...
+
+    def reset(self) -> None:
+        """Remove every robot and restart from time 0, like a new backend."""
+        ...
+
+    def render(self, width: int, height: int, target: tuple[float, float, float],
+               distance: float, yaw_deg: float, pitch_deg: float) -> NDArray[np.uint8]:
+        """An RGB picture (height, width, 3) from a camera looking at ``target``."""
+        ...
+
+    def look_at(self, target: tuple[float, float, float], distance: float) -> None:
+        """Point an interactive window's camera at ``target`` (no effect without one)."""
+        ...
+
+    def close(self) -> None:
+        """Release the engine (idempotent)."""
+        ...
+
+
+def require_engine(engine: str) -> None:
+    """Check that ``engine`` is a known engine whose package imports.
+
+    Raises:
+        ValueError: unknown engine name.
+        EngineUnavailableError: its package is not installed.
+    """
+    if engine not in _REGISTRY:
+        raise ValueError(f"unknown physics engine {engine!r}: choose one of {', '.join(ENGINES)}")
+    package = _REGISTRY[engine][2]
+    try:
+        importlib.import_module(package)
+    except ImportError as e:
+        raise EngineUnavailableError(
+            f"engine {engine!r} needs the {package!r} package, which cannot be imported ({e}); "
+            f"install it with: pip install {package}"
+        ) from None
+
+
+def make_backend(config: WorldConfig, *, gui: bool = False) -> PhysicsBackend:
+    """A fresh backend of ``config.engine`` built from ``config``.
+
+    Raises:
+        ValueError: unknown engine name.
+        EngineUnavailableError: its package is not installed.
+        RuntimeError: the engine could not start (e.g. a GUI without a display).
+    """
+    require_engine(config.engine)
+    module, cls, _ = _REGISTRY[config.engine]
+    backend: PhysicsBackend = getattr(importlib.import_module(module), cls)(config, gui=gui)
+    return backend

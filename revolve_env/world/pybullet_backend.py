@@ -1,0 +1,309 @@
+"""The pybullet backend (the only module of the package that imports pybullet).
+
+One :class:`PybulletBackend` owns one pybullet client and passes ``physicsClientId`` on every
+call; it never touches pybullet's implicit client 0. Each robot becomes one multibody built
+directly (no URDF) from a :class:`~revolve_env.world.model.RobotModel`: one link per rigid body,
+compound box collision shapes, exact masses, centres of mass and principal inertias, and revolute
+joints (no limits) at the hinge anchors. Hinges are driven with pybullet's velocity motors (a
+constraint that reaches the commanded speed within the torque limit).
+
+pybullet has no batched calls: :meth:`PybulletBackend.read` and
+:meth:`PybulletBackend.set_joint_velocities` loop over the bodies inside the backend, three engine
+calls per robot and control period.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as pb
+from numpy.typing import NDArray
+
+from revolve_env.world._rotations import matrix_to_quat, quat_to_matrix
+from revolve_env.world.backend import BodyStates
+from revolve_env.world.config import WorldConfig
+from revolve_env.world.model import RobotModel
+
+__all__ = ["PybulletBackend"]
+
+_ROBOT_FRICTION = 1.0  # pybullet multiplies the two bodies' coefficients; the ground sets the value
+
+
+@dataclass
+class _Body:
+    """One robot's multibody (private)."""
+
+    body: int
+    model: RobotModel
+    shapes: list[int]
+    active_joints: list[int]  # pybullet joint indices of the active hinges, output order
+    all_joints: list[int]  # every hinge (joint j = link j + 1 of the model)
+
+
+class PybulletBackend:
+    """A pybullet client holding a ground plane and any number of robots (see the module doc)."""
+
+    def __init__(self, config: WorldConfig, *, gui: bool = False) -> None:
+        """Connect a fresh physics client and build the ground.
+
+        Args:
+            config: Physics settings (timestep, gravity, friction, solver iterations).
+            gui: Open pybullet's window (one per process) instead of a headless client.
+
+        Raises:
+            RuntimeError: no physics server could be started, or a GUI was asked for without a
+                display or while another GUI is open.
+        """
+        self.config = config
+        self._gui = gui
+        if gui and sys.platform.startswith("linux") and not (
+            os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+        ):
+            # pybullet's GUI would hang or abort the process without a display: refuse instead.
+            raise RuntimeError("cannot open pybullet's GUI: no display (DISPLAY is not set)")
+        self._cid: int = pb.connect(pb.GUI if gui else pb.DIRECT)
+        if self._cid < 0:
+            raise RuntimeError(
+                "could not connect to a pybullet physics server"
+                + (" (pybullet allows one GUI per process)" if gui else "")
+            )
+        self._closed = False
+        self._bodies: dict[int, _Body] = {}
+        self._next_key = 0
+        self._setup()
+
+    def _setup(self) -> None:
+        """Physics settings and the ground (on a fresh or freshly reset client)."""
+        cid = self._cid
+        c = self.config
+        pb.setPhysicsEngineParameter(
+            fixedTimeStep=c.timestep, numSubSteps=0, numSolverIterations=c.solver_iterations,
+            deterministicOverlappingPairs=1, physicsClientId=cid,
+        )
+        pb.setGravity(0.0, 0.0, -c.gravity, physicsClientId=cid)
+        if self._gui:
+            pb.configureDebugVisualizer(pb.COV_ENABLE_GUI, 0, physicsClientId=cid)
+        plane = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=cid)
+        self._ground = pb.createMultiBody(0.0, plane, physicsClientId=cid)
+        pb.changeDynamics(self._ground, -1, lateralFriction=c.friction, restitution=0.0,
+                          physicsClientId=cid)
+        pb.changeVisualShape(self._ground, -1, rgbaColor=(0.85, 0.85, 0.8, 1.0),
+                             physicsClientId=cid)
+
+    @property
+    def client_id(self) -> int:
+        """The pybullet client this backend owns (for benchmarks that drive it directly)."""
+        return self._cid
+
+    def body_id(self, key: int) -> int:
+        """The pybullet multibody of a robot (for benchmarks that drive it directly)."""
+        return self._bodies[key].body
+
+    def reset(self) -> None:
+        pb.resetSimulation(physicsClientId=self._cid)
+        self._bodies.clear()
+        self._setup()
+
+    def close(self) -> None:
+        if not self._closed:
+            self._closed = True
+            try:
+                pb.disconnect(physicsClientId=self._cid)
+            except pb.error:  # already gone (e.g. the GUI window was closed)
+                pass
+
+    def __del__(self) -> None:
+        # Never raise from __del__: at interpreter shutdown pybullet may already be unloaded.
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001, S110
+            pass
+
+    # -- robots -------------------------------------------------------------------------------
+    def add(self, model: RobotModel, position: tuple[float, float, float], yaw: float) -> int:
+        cid = self._cid
+        shapes: list[int] = []
+
+        def collision(link: int) -> int:
+            lk = model.links[link]
+            s = pb.createCollisionShapeArray(
+                shapeTypes=[pb.GEOM_BOX] * len(lk.box_centers),
+                halfExtents=lk.box_half_extents.tolist(),
+                collisionFramePositions=lk.box_centers.tolist(),
+                collisionFrameOrientations=[matrix_to_quat(r) for r in lk.box_rotations],
+                physicsClientId=cid,
+            )
+            shapes.append(s)
+            return int(s)
+
+        def visual(link: int) -> int:
+            lk = model.links[link]
+            return int(pb.createVisualShapeArray(
+                shapeTypes=[pb.GEOM_BOX] * len(lk.box_centers),
+                halfExtents=lk.box_half_extents.tolist(),
+                visualFramePositions=lk.box_centers.tolist(),
+                visualFrameOrientations=[matrix_to_quat(r) for r in lk.box_rotations],
+                physicsClientId=cid,
+            ))
+
+        root = model.links[0]
+        others = model.links[1:]
+        base_rot = np.array([[math.cos(yaw), -math.sin(yaw), 0], [math.sin(yaw), math.cos(yaw), 0],
+                             [0, 0, 1.0]])
+        body = pb.createMultiBody(
+            baseMass=root.mass,
+            baseCollisionShapeIndex=collision(0),
+            baseVisualShapeIndex=visual(0),
+            basePosition=position,
+            baseOrientation=matrix_to_quat(base_rot),
+            baseInertialFramePosition=root.com.tolist(),
+            baseInertialFrameOrientation=matrix_to_quat(root.inertia_axes),
+            linkMasses=[lk.mass for lk in others],
+            linkCollisionShapeIndices=[collision(i + 1) for i in range(len(others))],
+            linkVisualShapeIndices=[visual(i + 1) for i in range(len(others))],
+            linkPositions=[(lk.origin - model.links[lk.parent].origin).tolist() for lk in others],
+            linkOrientations=[(0.0, 0.0, 0.0, 1.0)] * len(others),
+            linkInertialFramePositions=[lk.com.tolist() for lk in others],
+            linkInertialFrameOrientations=[matrix_to_quat(lk.inertia_axes) for lk in others],
+            linkParentIndices=[lk.parent for lk in others],  # 0 = base, k = link k-1 = body k
+            linkJointTypes=[pb.JOINT_FIXED if lk.fixed else pb.JOINT_REVOLUTE for lk in others],
+            linkJointAxis=[lk.joint_axis.tolist() for lk in others],
+            physicsClientId=cid,
+        )
+        for i, lk in enumerate(model.links):
+            link = i - 1
+            pb.changeDynamics(
+                body, link, lateralFriction=_ROBOT_FRICTION, restitution=0.0,
+                localInertiaDiagonal=lk.inertia_diagonal.tolist(), physicsClientId=cid,
+            )
+            for shape, color in enumerate(lk.box_colors):  # each box in its part's colour
+                pb.changeVisualShape(body, link, shapeIndex=shape, rgbaColor=(*color, 1.0),
+                                     physicsClientId=cid)
+        # The hinges: joints 0..n-1 (the welded touch halves come after them), so a joint index
+        # is also its position in the robot's joint states.
+        all_joints = [i for i, lk in enumerate(others) if not lk.fixed]
+        if all_joints:
+            # Free every joint first (pybullet motorizes joints by default); servos are re-driven
+            # every control period.
+            pb.setJointMotorControlArray(
+                body, all_joints, pb.VELOCITY_CONTROL, targetVelocities=[0.0] * len(all_joints),
+                forces=[0.0] * len(all_joints), physicsClientId=cid,
+            )
+        key = self._next_key
+        self._next_key += 1
+        self._bodies[key] = _Body(body=body, model=model, shapes=shapes,
+                                  active_joints=[i - 1 for i in model.active_links],
+                                  all_joints=all_joints)
+        return key
+
+    def remove(self, key: int) -> None:
+        """Delete a robot's multibody.
+
+        Its collision and visual shapes stay allocated in the engine: pybullet 3.2 refuses to
+        remove a shape once a body has used it ("Don't remove collision shape: it is used"), even
+        after that body is gone, and has no call to remove visual shapes. The cost, measured with
+        the 17-part spider, is about 150 KB of memory per robot ever added (some 0.45 GB over the
+        paper's 3000 births in one online world).
+        """
+        pb.removeBody(self._bodies.pop(key).body, physicsClientId=self._cid)
+
+    # -- stepping -------------------------------------------------------------------------------
+    def set_joint_velocities(self, velocities: NDArray[np.float64], max_torque: float) -> None:
+        cid = self._cid
+        start = 0
+        for b in self._bodies.values():
+            n = len(b.active_joints)
+            if n:
+                pb.setJointMotorControlArray(
+                    b.body, b.active_joints, pb.VELOCITY_CONTROL,
+                    targetVelocities=velocities[start:start + n].tolist(),
+                    forces=[max_torque] * n, physicsClientId=cid,
+                )
+                start += n
+
+    def step(self, substeps: int) -> None:
+        cid = self._cid
+        for _ in range(substeps):
+            pb.stepSimulation(physicsClientId=cid)
+
+    def read(self) -> BodyStates:
+        cid = self._cid
+        n = len(self._bodies)
+        pos = np.empty((n, 3))
+        rots = np.empty((n, 3, 3))
+        vel = np.empty((n, 3))
+        angvel = np.empty((n, 3))
+        jp: list[NDArray[np.float64]] = []
+        jv: list[NDArray[np.float64]] = []
+        for i, b in enumerate(self._bodies.values()):
+            com, orn = pb.getBasePositionAndOrientation(b.body, physicsClientId=cid)
+            v_com, w = pb.getBaseVelocity(b.body, physicsClientId=cid)
+            root = b.model.links[0]
+            # pybullet's base frame is the root's inertial frame: move to the link frame.
+            rot = quat_to_matrix(orn) @ root.inertia_axes.T  # world <- root link frame
+            ox, oy, oz = (-rot @ root.com).tolist()  # core centre minus centre of mass, world
+            wx, wy, wz = w
+            rots[i] = rot
+            pos[i] = (com[0] + ox, com[1] + oy, com[2] + oz)
+            vel[i] = (v_com[0] + wy * oz - wz * oy, v_com[1] + wz * ox - wx * oz,
+                      v_com[2] + wx * oy - wy * ox)
+            angvel[i] = w
+            if b.all_joints:
+                js = np.array([j[:2] for j in pb.getJointStates(b.body, b.all_joints,
+                                                                 physicsClientId=cid)])
+                jp.append(js[:, 0])
+                jv.append(js[:, 1])
+        empty = np.zeros(0)
+        return BodyStates(
+            core_pos=pos, core_rot=rots, core_vel=vel, core_angvel=angvel,
+            joint_pos=np.concatenate(jp) if jp else empty,
+            joint_vel=np.concatenate(jv) if jv else empty,
+            diverged=np.zeros(n, dtype=bool),
+        )
+
+    # -- sensors --------------------------------------------------------------------------------
+    def link_poses(self, key: int, links: list[int]) -> list[tuple[NDArray[np.float64],
+                                                                   NDArray[np.float64]]]:
+        b = self._bodies[key]
+        states = pb.getLinkStates(b.body, [i - 1 for i in links], computeForwardKinematics=1,
+                                  physicsClientId=self._cid)
+        return [(np.asarray(s[4]), quat_to_matrix(s[5])) for s in states]
+
+    def contacts(self, key: int) -> frozenset[int]:
+        b = self._bodies[key]
+        return frozenset(c[3] + 1 for c in pb.getContactPoints(bodyA=b.body,
+                                                               physicsClientId=self._cid))
+
+    def total_mass(self, key: int) -> float:
+        b = self._bodies[key]
+        return float(sum(
+            pb.getDynamicsInfo(b.body, link, physicsClientId=self._cid)[0]
+            for link in range(-1, len(b.model.links) - 1)
+        ))
+
+    def body_count(self) -> int:
+        return int(pb.getNumBodies(physicsClientId=self._cid))
+
+    # -- rendering ------------------------------------------------------------------------------
+    def render(self, width: int, height: int, target: tuple[float, float, float],
+               distance: float, yaw_deg: float, pitch_deg: float) -> NDArray[np.uint8]:
+        cid = self._cid
+        view = pb.computeViewMatrixFromYawPitchRoll(
+            cameraTargetPosition=list(target), distance=distance, yaw=yaw_deg, pitch=pitch_deg,
+            roll=0.0, upAxisIndex=2, physicsClientId=cid,
+        )
+        proj = pb.computeProjectionMatrixFOV(fov=60.0, aspect=width / height, nearVal=0.01,
+                                             farVal=100.0, physicsClientId=cid)
+        renderer = pb.ER_BULLET_HARDWARE_OPENGL if self._gui else pb.ER_TINY_RENDERER
+        _, _, rgba, _, _ = pb.getCameraImage(width, height, view, proj, renderer=renderer,
+                                             physicsClientId=cid)
+        return np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
+
+    def look_at(self, target: tuple[float, float, float], distance: float) -> None:
+        if self._gui:
+            pb.resetDebugVisualizerCamera(distance, 45.0, -30.0, list(target),
+                                          physicsClientId=self._cid)

@@ -1,0 +1,47 @@
+"""Each physics engine is imported by its own backend module and nowhere else."""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+OWNERS = {
+    "pybullet": "revolve_env/world/pybullet_backend.py",
+    "mujoco": "revolve_env/world/mujoco_backend.py",
+}
+
+
+def _imported(path: Path) -> set[str]:
+    names: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            names |= {alias.name.split(".")[0] for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names.add(node.module.split(".")[0])
+    return names
+
+
+@pytest.mark.parametrize("engine", sorted(OWNERS))
+def test_only_its_backend_imports_an_engine(engine: str) -> None:
+    importers = sorted(
+        str(p.relative_to(ROOT)) for package in ("revolve_env", "evolution")
+        for p in (ROOT / package).rglob("*.py") if engine in _imported(p)
+    )
+    assert importers == [OWNERS[engine]]
+
+
+def test_a_world_loads_only_the_engine_it_uses() -> None:
+    code = (
+        "import sys\n"
+        "from revolve_env.world import World, WorldConfig\n"
+        "loaded = {m for m in ('pybullet', 'mujoco') if m in sys.modules}\n"
+        "assert not loaded, loaded\n"
+        "World(WorldConfig(engine='pybullet')).close()\n"
+        "assert 'pybullet' in sys.modules and 'mujoco' not in sys.modules\n"
+    )
+    subprocess.run([sys.executable, "-c", code], cwd=ROOT, check=True, capture_output=True)
