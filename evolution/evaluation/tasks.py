@@ -45,6 +45,7 @@ class EvalTask:
         seconds: Fitness window. Seconds.
         seed: Seed of the evaluation (:func:`evaluation_seed`).
         infancy: Optional Training Center learner applied before the evaluation.
+        engine: The physics engine (``"pybullet"`` or ``"mujoco"``).
     """
 
     robot_id: int
@@ -53,6 +54,7 @@ class EvalTask:
     seconds: float
     seed: int
     infancy: InfancyHook | None = None
+    engine: str = "pybullet"
 
 
 @dataclass(frozen=True, slots=True)
@@ -109,7 +111,8 @@ def evaluate_robot(task: EvalTask) -> EvalOutcome:
     # Ray driver) never needs.
     from revolve_env.evaluation import evaluate
 
-    result = evaluate(task.robot, seconds=task.seconds, insertion=task.insertion, seed=task.seed)
+    result = evaluate(task.robot, seconds=task.seconds, insertion=task.insertion, seed=task.seed,
+                      engine=task.engine)
     if result.blow_up is not None:
         return EvalOutcome(None, failure=f"blow-up: {result.blow_up}")
     return EvalOutcome(float(result.fitness), float(result.v), float(result.s))

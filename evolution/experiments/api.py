@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import revolve_env
 from evolution.evaluation import Evaluator, make_evaluator
 from evolution.experiments.config import ConfigError, ExperimentConfig, load_config
 from evolution.experiments.engine import execute_run
@@ -148,6 +149,8 @@ def _execute(
     world_factory: WorldFactory | None,
     infancy: InfancyHook | None,
 ) -> ExperimentSummary:
+    # A missing engine package is an input error before anything runs (EngineUnavailableError).
+    revolve_env.require_engine(config.world.engine)
     with Store.open(db_path) as store:
         # Registering is idempotent, so a run killed before all its runs were registered
         # resumes with every one of them.

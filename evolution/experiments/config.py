@@ -32,12 +32,35 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+import revolve_env
 from evolution.config import EvolutionConfig
 from evolution.experiments.errors import ConfigError
 from evolution.experiments.registry import read_toml, shipped_config, shipped_configs
 from evolution.learning import TrainingCenter, training_center_from_dict
 
-__all__ = ["ConfigError", "ExperimentConfig", "load_config", "preset"]
+__all__ = ["ConfigError", "ExperimentConfig", "WorldSettings", "load_config", "preset"]
+
+_NESTED = ("evolution", "learning", "world")
+"""Config keys that are tables, merged key by key by presets and overrides."""
+
+
+@dataclass(frozen=True, slots=True)
+class WorldSettings:
+    """The ``[world]`` table: the physics every evaluation and online world of a run uses.
+
+    Attributes:
+        engine: The physics engine: ``"pybullet"`` or ``"mujoco"``
+            (:data:`revolve_env.ENGINES`). Stored with the results, so ``resume``
+            and ``report`` know it; the engine's package must import when the run starts.
+    """
+
+    engine: str = "pybullet"
+
+    def __post_init__(self) -> None:
+        engines: tuple[str, ...] = revolve_env.ENGINES
+        if self.engine not in engines:
+            raise ConfigError(f"world.engine must be one of {', '.join(map(repr, engines))}, "
+                              f"got {self.engine!r}")
 
 
 _CHOICES: dict[str, tuple[str, ...]] = {
@@ -83,6 +106,7 @@ class ExperimentConfig:
         evaluator: ``"local"`` processes or ``"ray"``.
         ray_address: Ray cluster address (``None``: start or join a local one).
         evolution: Random robot and reproduction parameters.
+        world: The ``[world]`` table (:class:`WorldSettings`): the physics engine.
         learning: The ``[learning]`` table (:mod:`evolution.learning.config`): infancy learning
             in a Training Center that :func:`run` and :func:`resume` build from it; ``None``: no
             learning. Stored with the results, so a resumed run learns the same way.
@@ -117,6 +141,7 @@ class ExperimentConfig:
     ray_address: str | None = None
     evolution: EvolutionConfig = field(default_factory=EvolutionConfig)
     learning: Mapping[str, Any] | None = field(default=None, hash=False)
+    world: WorldSettings = field(default_factory=WorldSettings)
 
     def __post_init__(self) -> None:
         for key, choices in _CHOICES.items():
@@ -181,6 +206,8 @@ class ExperimentConfig:
             )
         if self.ray_address is not None and not isinstance(self.ray_address, str):
             raise ConfigError(f"ray_address must be a string, got {self.ray_address!r}")
+        if not isinstance(self.world, WorldSettings):
+            raise ConfigError(f"world must be a WorldSettings, got {type(self.world).__name__}")
         if not isinstance(self.evolution, EvolutionConfig):
             raise ConfigError(f"evolution must be an EvolutionConfig, got {type(self.evolution).__name__}")
         if not isinstance(self.name, str) or not self.name:
@@ -199,7 +226,7 @@ class ExperimentConfig:
         data: dict[str, Any] = {}
         for f in fields(self):
             value = getattr(self, f.name)
-            if f.name == "evolution":
+            if f.name in ("evolution", "world"):
                 value = {g.name: getattr(value, g.name) for g in fields(value)}
             elif f.name == "learning" and value is not None:
                 value = _json_roundtrip(dict(value))
@@ -244,10 +271,18 @@ class ExperimentConfig:
             evolution_config = EvolutionConfig(**evolution)
         except (TypeError, ValueError) as error:
             raise ConfigError(f"evolution: {error}") from error
+        world = dict(base.pop("world", {}))
+        world_data = data.pop("world", {})
+        if not isinstance(world_data, Mapping):
+            raise ConfigError(f"world must be a table (engine = ...), got {world_data!r}")
+        world.update(world_data)
+        unknown = sorted(set(world) - {f.name for f in fields(WorldSettings)})
+        if unknown:
+            raise ConfigError(f"unknown world config key(s): {', '.join(unknown)}; known: engine")
+        world_settings = WorldSettings(**world)
         merged = {**base, **data}
-        # TOML has no integers-as-floats distinction problem, but accept 12 for 12.0.
         try:
-            return cls(**merged, evolution=evolution_config)
+            return cls(**merged, evolution=evolution_config, world=world_settings)
         except TypeError as error:
             raise ConfigError(str(error)) from error
 
@@ -278,7 +313,7 @@ class ExperimentConfig:
         if self.learning is None:
             return None
         try:
-            return training_center_from_dict(self.learning)
+            return training_center_from_dict(self.learning, engine=self.world.engine)
         except (TypeError, ValueError) as error:
             raise ConfigError(f"learning: {error}") from error
 
@@ -316,7 +351,7 @@ def load_config(name_or_path: str | os.PathLike[str],
     if not overrides:
         return config
     data = config.to_dict()
-    nested = ("evolution", "learning")
+    nested = _NESTED
     for table in nested:
         value = overrides.get(table)
         if value is None:

@@ -19,7 +19,14 @@ import numpy as np
 
 from evolution.evaluation import EvalOutcome, EvalTask, Evaluator, evaluation_seed
 from evolution.experiments.run import Member, ProgressEvent, RunJob, RunState, decode
-from evolution.experiments.store import Checkpoint, FailureRecord, FitnessSample, RobotRecord, Store, StoreError
+from evolution.experiments.store import (
+    Checkpoint,
+    FailureRecord,
+    FitnessSample,
+    RobotRecord,
+    Store,
+    StoreError,
+)
 from evolution.lifecycle import Lifecycle, Stage
 from evolution.selection import mu_plus_lambda, random_survivors
 
@@ -86,8 +93,9 @@ class OfflineRun(RunState):
         self.batch.robots.extend(records)
         tasks = [
             EvalTask(m.robot_id, m.robot, config.insertion, config.evaluation_time,
-                     evaluation_seed(self.seed, m.robot_id), self.job.infancy)
-            for m, rec in zip(members, records)
+                     evaluation_seed(self.seed, m.robot_id), self.job.infancy,
+                     engine=config.world.engine)
+            for m in members
         ]
         outcomes = self.evaluator.evaluate(tasks)
         for record, member, outcome in zip(records, members, outcomes, strict=True):

@@ -41,7 +41,7 @@ class PopulationWorld:
             max_births=max(config.births, 1), initial_robots=(), insertion_time=config.insertion,
             maturity_age=config.fertile_age, fitness_window=config.evaluation_time,
             birth_radius=config.birth_radius, birth_clearance=config.birth_clearance,
-            limits=config.evolution.limits)
+            limits=config.evolution.limits, engine=config.world.engine)
         self._env.reset(seed=seed)
         self._last: dict[str, dict[str, Any]] = {}
 

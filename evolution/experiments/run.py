@@ -179,7 +179,8 @@ class OnlineWorld(Protocol):
 
     def advance_to(self, t: float) -> dict[str, AgentStatus]:
         """Simulate until time ``t``; the status of every robot alive before the call
-        (``removed`` set for those the world removed)."""
+        (``removed`` set for those the world removed).
+        """
 
     def close(self) -> None:
         """Release the physics."""
@@ -352,7 +353,8 @@ class RunState:
                        learning: LearningSummary | None, learned: Robot | None) -> None:
         """Record what the Training Center did for ``member`` (born at ``time_s``); under
         Lamarckian inheritance the learned robot (``None``: nothing learned) becomes the genome
-        it passes on."""
+        it passes on.
+        """
         if failure is not None:
             self.batch.failures.append(FailureRecord(member.robot_id, time_s, "learner", failure))
             return

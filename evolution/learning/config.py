@@ -47,8 +47,11 @@ _KEYS = {
 }
 
 
-def training_center_from_dict(data: Mapping[str, Any]) -> TrainingCenter:
+def training_center_from_dict(data: Mapping[str, Any], engine: str = "pybullet") -> TrainingCenter:
     """The Training Center a ``[learning]`` table describes (keys: module docstring).
+
+    ``engine`` is the physics engine the learner simulates in (an experiment's
+    ``world.engine``: infants learn in the engine their run lives in).
 
     Raises:
         ValueError: unknown learner or key (named, with the known ones), a missing budget, or a
@@ -69,10 +72,11 @@ def training_center_from_dict(data: Mapping[str, Any]) -> TrainingCenter:
     if name == "sb3":
         kwargs = {k: data[k] for k in ("algorithm", "policy", "action", "n_envs", "vec_env",
                                        "control_period") if k in data}
-        learner = SB3Learner(**kwargs, **timing,
+        learner = SB3Learner(**kwargs, **timing, engine=engine,
                              algorithm_kwargs=dict(data.get("algorithm_kwargs", {})))
     else:
-        evaluation = CandidateEvaluation(**timing, workers=int(data.get("workers", 1)))
+        evaluation = CandidateEvaluation(**timing, workers=int(data.get("workers", 1)),
+                                         engine=engine)
         if name == "cma-es":
             learner = CMAESLearner(sigma0=float(data.get("sigma", 0.15)),
                                    popsize=data.get("popsize", 8), evaluation=evaluation)

@@ -81,12 +81,15 @@ class CandidateEvaluation:
         workers: Processes evaluating candidates at once (1: in this process).
         function: Picklable ``EvalTask -> EvalOutcome`` (default: brain-driven
             :func:`~evolution.evaluation.evaluate_task`).
+        engine: The physics engine of the candidates' evaluations (``"pybullet"``,
+            ``"mujoco"``).
     """
 
     insertion: float = 1.0
     seconds: float = 6.0
     workers: int = 1
     function: EvaluateFunction = field(default=evaluate_task)
+    engine: str = "pybullet"
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.insertion) and self.insertion >= 0):
@@ -118,7 +121,7 @@ def evaluate_params(
     """
     tasks = [
         EvalTask(i, set_params(robot, p), evaluation.insertion,
-                 evaluation.seconds, seed)
+                 evaluation.seconds, seed, engine=evaluation.engine)
         for i, p in enumerate(candidates)
     ]
     own = evaluator is None

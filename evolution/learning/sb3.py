@@ -58,7 +58,7 @@ def _algorithm_class(algorithm: type | str) -> type:
 
 
 def _make_env(robot: Robot, action: ActionMode, insertion: float, seconds: float,
-              control_period: float) -> Any:
+              control_period: float, engine: str = "pybullet") -> Any:
     """The infant's single-robot env (module level, so that worker processes can build it)."""
     from revolve_env.envs import LocomotionEnv
 
@@ -70,6 +70,7 @@ def _make_env(robot: Robot, action: ActionMode, insertion: float, seconds: float
         control_period=control_period,
         controller="brain" if action == "modulate" else "agent",
         action=action,
+        engine=engine,
     )
 
 
@@ -148,16 +149,16 @@ class PolicyAgent:
 
 
 def rollout_fitness(agent: PolicyAgent | None, robot: Robot, insertion: float, seconds: float,
-                    control_period: float, seed: int) -> float:
+                    control_period: float, seed: int, engine: str = "pybullet") -> float:
     """Fitness of one episode of ``robot`` driven by ``agent`` (``None``: by its own network).
 
     The agent drives the single-robot env with ``controller="agent"``: the same path as an
     agent-controlled robot in the population env. Metres; 0 after a blow-up.
     """
     if agent is None:
-        env = _make_env(robot, "modulate", insertion, seconds, control_period)
+        env = _make_env(robot, "modulate", insertion, seconds, control_period, engine)
     else:
-        env = _make_env(robot, "targets", insertion, seconds, control_period)
+        env = _make_env(robot, "targets", insertion, seconds, control_period, engine)
         agent.reset()
     try:
         obs, info = env.reset(seed=seed)
@@ -186,6 +187,7 @@ class SB3Learner:
         insertion: Settling time of each training episode. Seconds.
         seconds: Scored part of each training episode (and the fitness window). Seconds.
         control_period: Time per env step. Seconds (a multiple of the physics timestep).
+        engine: The physics engine of the training envs (``"pybullet"`` or ``"mujoco"``).
         algorithm_kwargs: Extra keyword arguments of the algorithm (``n_steps``, ...).
     """
 
@@ -197,6 +199,7 @@ class SB3Learner:
     insertion: float = 0.5
     seconds: float = 4.0
     control_period: float = 1.0 / 60.0
+    engine: str = "pybullet"
     algorithm_kwargs: Mapping[str, Any] = field(default_factory=dict)
 
     learns_policy = True  # class constant: the controller is the policy, not the genome's network
@@ -234,7 +237,7 @@ class SB3Learner:
                              f"({self.n_envs} envs)")
         seed = int(rng.integers(0, 2**31 - 1))
         factory = partial(_make_env, robot, self.action, self.insertion, self.seconds,
-                          self.control_period)
+                          self.control_period, self.engine)
         cls = SubprocVecEnv if self.vec_env == "subproc" and self.n_envs > 1 else DummyVecEnv
         kwargs = {"start_method": "forkserver"} if cls is SubprocVecEnv else None
         venv = make_vec_env(factory, n_envs=self.n_envs, seed=seed, vec_env_cls=cls,
@@ -264,9 +267,9 @@ class SB3Learner:
         agent = PolicyAgent(model.policy, robot, self.action, self.control_period)
         eval_seed = int(rng.integers(0, 2**31 - 1))
         inborn = rollout_fitness(None, robot, self.insertion, self.seconds, self.control_period,
-                                 eval_seed)
+                                 eval_seed, self.engine)
         trained = rollout_fitness(agent, robot, self.insertion, self.seconds, self.control_period,
-                                  eval_seed)
+                                  eval_seed, self.engine)
         agent.reset()
         return LearningResult(
             robot=robot,

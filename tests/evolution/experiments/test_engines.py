@@ -1,0 +1,90 @@
+"""Experiments on either physics engine: ``world.engine`` selects it, is stored with the results,
+and a killed MuJoCo run resumes to the uninterrupted run's numbers (real physics, tiny runs)."""
+
+from __future__ import annotations
+
+import sqlite3
+from pathlib import Path
+from typing import Any
+
+import pytest
+from experiment_fakes import small
+
+from evolution import experiments
+from evolution.evaluation import LocalEvaluator
+from evolution.experiments import ConfigError, ExperimentConfig, ProgressEvent, load_config
+from evolution.experiments.store import Store
+from evolution.reporting import report
+
+pytest.importorskip("mujoco", reason="the mujoco package is not installed")
+
+TABLES = ("runs", "checkpoints", "robots", "fitness", "transitions", "population", "diversity",
+          "failures", "learning")
+
+
+def dump(db: Path) -> dict[str, list[tuple[Any, ...]]]:
+    con = sqlite3.connect(db)
+    try:
+        return {t: sorted(con.execute(f"SELECT * FROM {t}").fetchall(), key=repr) for t in TABLES}
+    finally:
+        con.close()
+
+
+class Kill(Exception):
+    pass
+
+
+def kill_after(births: int) -> Any:
+    def progress(event: ProgressEvent) -> None:
+        if event.births >= births and not event.replaying:
+            raise Kill(f"killed at {event.births} births")
+    return progress
+
+
+def tiny(name: str, **changes: Any) -> ExperimentConfig:
+    values: dict[str, Any] = dict(
+        runs=1, births=8, population_size=3, offspring_size=3, insertion=0.5,
+        evaluation_time=1.0, fertile_age=1.5, diversity_interval=0, workers=1)
+    if name == "scenario3":
+        values.update(min_alive=2, max_alive=5, conception_interval=1.0, fertile_age=1.5,
+                      checkpoint_interval=2)
+    values.update(changes)
+    return small(load_config(name, {"world": {"engine": "mujoco"}, **values}))
+
+
+def test_world_engine_is_one_config_key_stored_with_the_results(tmp_path: Path) -> None:
+    config = load_config("quick", {"world": {"engine": "mujoco"}})
+    assert config.world.engine == "mujoco" and config.to_dict()["world"] == {"engine": "mujoco"}
+    assert ExperimentConfig.from_dict(config.to_dict()) == config
+    assert load_config("quick").world.engine == "pybullet"
+    with pytest.raises(ConfigError, match="world.engine must be one of"):
+        load_config("quick", {"world": {"engine": "ode"}})
+    with pytest.raises(ConfigError, match="unknown world config key"):
+        load_config("quick", {"world": {"gravity": 1.0}})
+
+
+@pytest.mark.parametrize("name", ["scenario1", "scenario3"])
+def test_a_killed_mujoco_run_resumes_to_the_same_numbers(tmp_path: Path, name: str) -> None:
+    config = tiny(name)
+    serial = LocalEvaluator(1)
+    experiments.run(config, tmp_path / "ref", evaluator=serial)
+    with Store.open(tmp_path / "ref" / "results.sqlite") as store:
+        assert store.config["world"] == {"engine": "mujoco"}
+    with pytest.raises(Kill):
+        experiments.run(config, tmp_path / "killed", kill_after(3), evaluator=serial)
+    experiments.resume(tmp_path / "killed", evaluator=serial)
+    assert dump(tmp_path / "killed" / "results.sqlite") == dump(tmp_path / "ref" / "results.sqlite")
+    written = report(tmp_path, formats=("png",))
+    assert len(written.experiments) == 2 and all(p.is_file() for p in written.figures)
+
+
+def test_the_engines_give_different_but_valid_runs(tmp_path: Path) -> None:
+    """The same seed on both engines: both runs finish with finite fitness; the numbers differ
+    (different physics), so the engine really is the one the config names."""
+    mujoco = tiny("scenario1")
+    pybullet = small(mujoco.replace(world=type(mujoco.world)(engine="pybullet")))
+    experiments.run(mujoco, tmp_path / "mujoco", evaluator=LocalEvaluator(1))
+    experiments.run(pybullet, tmp_path / "pybullet", evaluator=LocalEvaluator(1))
+    a = dump(tmp_path / "mujoco" / "results.sqlite")["fitness"]
+    b = dump(tmp_path / "pybullet" / "results.sqlite")["fitness"]
+    assert a and b and a != b
