@@ -82,8 +82,11 @@ def _describe_learning(config: ExperimentConfig) -> str:
 
 
 def _parse_set(items: Sequence[str]) -> dict[str, Any]:
-    """``KEY=VALUE`` overrides (VALUE read as TOML, else as a string; ``evolution.KEY`` and
-    ``learning.KEY`` nest)."""
+    """``KEY=VALUE`` overrides as nested config data.
+
+    VALUE is read as TOML, else as a string; ``evolution.KEY``, ``learning.KEY`` and
+    ``world.KEY`` nest.
+    """
     data: dict[str, Any] = {}
     for item in items:
         key, sep, value = item.partition("=")
@@ -317,8 +320,10 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _number(kind: type[int | float], low: float, strict: bool) -> Callable[[str], Any]:
-    """An argparse type: ``kind`` parsed from text, finite, above ``low`` (or at least, if not
-    ``strict``)."""
+    """An argparse type: ``kind`` parsed from text, finite, above ``low``.
+
+    With ``strict`` false, ``low`` itself is allowed.
+    """
     noun = "an integer" if kind is int else "a number"
 
     def parse(text: str) -> int | float:

@@ -63,8 +63,9 @@ def run(
             ``"scenario1_learning"``, ...: the same file ``revolve run NAME`` reads), the path of
             a TOML config, or a dict.
         out_dir: Results directory; created if missing. It must not already hold results.
-        progress: Called with a :class:`~evolution.experiments.engine.ProgressEvent` after every commit
-            point (raising from it stops the run after that commit point; ``resume`` continues).
+        progress: Called with a :class:`~evolution.experiments.ProgressEvent` after every
+            commit point (raising from it stops the run after that commit point; ``resume``
+            continues).
         evaluator: An :mod:`evolution.evaluation` evaluator; default from ``config.evaluator``
             and ``config.workers`` (closed at the end only if made here).
         world_factory: Makes the online world of a run (default: the population environment).
@@ -97,7 +98,9 @@ def run(
                 same = existing.config == _json_roundtrip(config.to_dict())
                 name = existing.config.get("name", "?")
         except StoreError as error:
-            raise StoreError(f"{out} already holds a results database that cannot be used: {error}") from error
+            raise StoreError(
+                f"{out} already holds a results database that cannot be used: {error}"
+            ) from error
         if same:
             raise StoreError(
                 f"{out} already holds results of this experiment; use resume({str(out)!r}) to "

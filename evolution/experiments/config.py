@@ -169,7 +169,8 @@ class ExperimentConfig:
         }
         for key, (bound, strict) in floats.items():
             value = getattr(self, key)
-            if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+            if (not isinstance(value, (int, float)) or isinstance(value, bool)
+                    or not math.isfinite(value)):
                 raise ConfigError(f"{key} must be a finite number, got {value!r}")
             if value < bound or (strict and value == bound):
                 raise ConfigError(f"{key} must be {'>' if strict else '>='} {bound}, got {value}")
@@ -180,7 +181,8 @@ class ExperimentConfig:
             isinstance(self.max_sim_time, (int, float)) and self.max_sim_time > 0
             and math.isfinite(self.max_sim_time)
         ):
-            raise ConfigError(f"max_sim_time must be a positive number of seconds, got {self.max_sim_time!r}")
+            raise ConfigError("max_sim_time must be a positive number of seconds, got "
+                              f"{self.max_sim_time!r}")
         if self.fertile_age < self.insertion:
             raise ConfigError(
                 f"fertile_age ({self.fertile_age} s) must be >= insertion ({self.insertion} s)"
@@ -188,10 +190,12 @@ class ExperimentConfig:
         if self.engine == "offline" and self.fertile_age > self.insertion + self.evaluation_time:
             raise ConfigError(
                 "offline robots are mature once evaluated: fertile_age must be <= insertion + "
-                f"evaluation_time ({self.insertion + self.evaluation_time} s), got {self.fertile_age}"
+                f"evaluation_time ({self.insertion + self.evaluation_time} s), "
+                f"got {self.fertile_age}"
             )
         if self.min_alive > self.max_alive:
-            raise ConfigError(f"min_alive ({self.min_alive}) must be <= max_alive ({self.max_alive})")
+            raise ConfigError(
+                f"min_alive ({self.min_alive}) must be <= max_alive ({self.max_alive})")
         if self.engine == "online" and not self.min_alive <= self.population_size <= self.max_alive:
             raise ConfigError(
                 f"online population_size ({self.population_size}) must lie within "
@@ -209,7 +213,8 @@ class ExperimentConfig:
         if not isinstance(self.world, WorldSettings):
             raise ConfigError(f"world must be a WorldSettings, got {type(self.world).__name__}")
         if not isinstance(self.evolution, EvolutionConfig):
-            raise ConfigError(f"evolution must be an EvolutionConfig, got {type(self.evolution).__name__}")
+            raise ConfigError(
+                f"evolution must be an EvolutionConfig, got {type(self.evolution).__name__}")
         if not isinstance(self.name, str) or not self.name:
             raise ConfigError(f"name must be a non-empty string, got {self.name!r}")
         if self.learning is not None:
@@ -346,8 +351,8 @@ def load_config(name_or_path: str | os.PathLike[str],
         config = ExperimentConfig.from_toml(shipped_config(str(name_or_path)))
     else:
         raise ConfigError(
-            f"unknown scenario {str(name_or_path)!r}; known: {', '.join(sorted(shipped_configs()))} "
-            "(or give the path of a TOML config file)")
+            f"unknown scenario {str(name_or_path)!r}; known: "
+            f"{', '.join(sorted(shipped_configs()))} (or give the path of a TOML config file)")
     if not overrides:
         return config
     data = config.to_dict()

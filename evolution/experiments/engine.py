@@ -9,8 +9,8 @@ experiments).
 A run is a loop of *commit points*. Between two commit points the engine conceives robots
 (two tournament parents, or at random), delivers them, lets them live (evaluated alone, offline,
 or together in one world, online), selects survivors, and collects every record in a
-:class:`~evolution.experiments.store.Batch`; at the commit point the batch and a checkpoint are written in
-one transaction.
+:class:`~evolution.experiments.store.Batch`; at the commit point the batch and a checkpoint
+are written in one transaction.
 
 Offline (``engine = "offline"``)
     Generation 0 is ``population_size`` random robots. Each later generation conceives
@@ -70,6 +70,7 @@ Infancy learning (the Training Center, ``RunJob.infancy``)
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable
 
 from evolution.evaluation import Evaluator
@@ -121,10 +122,8 @@ def execute_run(job: RunJob, evaluator: Evaluator,
     except BaseException:
         # Best effort: the original error, re-raised below, matters more than a failed status
         # update (whatever its type: a closed or broken database).
-        try:
+        with contextlib.suppress(Exception):
             store.set_status(job.run_id, "interrupted")
-        except Exception:  # noqa: BLE001, S110
-            pass
         raise
     finally:
         if world is not None:

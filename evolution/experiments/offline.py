@@ -34,12 +34,15 @@ __all__ = ["OfflineRun"]
 
 
 class OfflineRun(RunState):
+    """One offline run: generations evaluated by ``evaluator``, (mu + lambda) survivors."""
+
     def __init__(self, job: RunJob, store: Store, emit: Callable[[ProgressEvent], None],
                  evaluator: Evaluator) -> None:
         super().__init__(job, store, emit)
         self.evaluator = evaluator
 
     def restore(self, checkpoint: Checkpoint) -> None:
+        """Continue from a checkpoint: clock, generator and population from the store."""
         self.births = checkpoint.births
         self.sim_time = checkpoint.sim_time
         self.sim_time_at_start = checkpoint.sim_time
@@ -70,6 +73,7 @@ class OfflineRun(RunState):
                                            learned=robot_id in learned_ids))
 
     def engine_state(self) -> dict[str, Any]:
+        """What a checkpoint needs beyond the generator: the population and who learned."""
         state: dict[str, Any] = {"population": [[m.robot_id, m.fitness] for m in self.population]}
         learned = [m.robot_id for m in self.population if m.learned]
         if learned:
@@ -126,6 +130,7 @@ class OfflineRun(RunState):
         self.batch.fitness_updates.append((member.robot_id, member.fitness))
 
     def select(self, pool: list[Member]) -> list[Member]:
+        """Survivor selection over parents + children; the others die."""
         mu = self.config.population_size
         if len(pool) <= mu:
             return pool
@@ -141,6 +146,7 @@ class OfflineRun(RunState):
         return survivors
 
     def run(self) -> None:
+        """Run (or continue) to the end, committing every generation."""
         config = self.config
         checkpoint = self.store.checkpoint(self.run_id)
         if checkpoint is not None:

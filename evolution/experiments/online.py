@@ -30,6 +30,8 @@ __all__ = ["OnlineRun"]
 
 
 class OnlineRun(RunState):
+    """One online run: the whole population in ``world``, a birth every conception interval."""
+
     def __init__(self, job: RunJob, store: Store, emit: Callable[[ProgressEvent], None],
                  world: OnlineWorld) -> None:
         super().__init__(job, store, emit)
@@ -37,6 +39,7 @@ class OnlineRun(RunState):
         self.dead: list[Member] = []
 
     def give_birth(self, time_s: float, random: bool = False) -> None:
+        """Conceive a robot (from two mature parents, or at random), train it, and deliver it."""
         mature = [m for m in self.population if m.lifecycle.fertile]
         robot, pa, pb, origin = self.conceive(mature, time_s, random)
         member, record = self.new_member(robot, (pa, pb), origin, time_s, time_s)
@@ -68,7 +71,8 @@ class OnlineRun(RunState):
             m.fitness = status.fitness
             if status.removed is not None:
                 cause = f"blow-up: {status.removed}"
-                self.batch.failures.append(FailureRecord(m.robot_id, now, "blow-up", status.removed))
+                self.batch.failures.append(
+                    FailureRecord(m.robot_id, now, "blow-up", status.removed))
                 self._bury(m, now, cause, remove=False)
                 continue
             assert m.lifecycle.birth_time is not None
@@ -109,9 +113,11 @@ class OnlineRun(RunState):
             self._bury(mature[i], now, "survivor selection")
 
     def engine_state(self) -> dict[str, Any]:
+        """What a checkpoint records beyond the generator: the living robots."""
         return {"alive": [m.robot_id for m in self.population]}
 
     def run(self) -> None:
+        """Run to the end (replaying up to the last checkpoint on resume)."""
         config = self.config
         checkpoint = self.store.checkpoint(self.run_id)
         if checkpoint is not None:

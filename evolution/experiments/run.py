@@ -178,8 +178,11 @@ class OnlineWorld(Protocol):
         """Take a robot out of the world."""
 
     def advance_to(self, t: float) -> dict[str, AgentStatus]:
-        """Simulate until time ``t``; the status of every robot alive before the call
-        (``removed`` set for those the world removed).
+        """Simulate until time ``t``.
+
+        Returns:
+            The status of every robot alive before the call (``removed`` set for those the
+            world removed).
         """
 
     def close(self) -> None:
@@ -351,9 +354,10 @@ class RunState:
 
     def record_infancy(self, member: Member, time_s: float, failure: str | None,
                        learning: LearningSummary | None, learned: Robot | None) -> None:
-        """Record what the Training Center did for ``member`` (born at ``time_s``); under
-        Lamarckian inheritance the learned robot (``None``: nothing learned) becomes the genome
-        it passes on.
+        """Record what the Training Center did for ``member`` (born at ``time_s``).
+
+        Under Lamarckian inheritance the learned robot (``None``: nothing learned) becomes the
+        genome it passes on.
         """
         if failure is not None:
             self.batch.failures.append(FailureRecord(member.robot_id, time_s, "learner", failure))
@@ -385,6 +389,7 @@ class RunState:
     # -- commit points -------------------------------------------------------------------------
 
     def diversity_due(self) -> bool:
+        """True when this commit point should measure the population's diversity."""
         interval = self.config.diversity_interval
         if interval == 0:
             return False
@@ -409,7 +414,8 @@ class RunState:
                 self.batch.clear()
                 self._progress(replaying=True)
                 return
-            if self.births != target.births or _json_norm(checkpoint.rng_state) != _json_norm(target.rng_state):
+            same_rng = _json_norm(checkpoint.rng_state) == _json_norm(target.rng_state)
+            if self.births != target.births or not same_rng:
                 raise ReplayError(
                     f"run {self.run_id}: replay reached {self.births} births with a different "
                     f"state than the checkpoint ({target.births} births); cannot resume exactly"
@@ -434,6 +440,7 @@ class RunState:
         return float(values.max()), float(values.mean())
 
     def event(self, replaying: bool = False, finished: bool = False) -> ProgressEvent:
+        """Where the run stands now."""
         wall = time.perf_counter() - self.started
         best, mean = self._stats()
         speed = (self.sim_time - self.sim_time_at_start) / wall if wall > 0 else math.nan
@@ -444,10 +451,12 @@ class RunState:
         self.emit(self.event(replaying=replaying))
 
     def done(self) -> bool:
+        """True once the run reached its births or its simulated-time limit."""
         limit = self.config.max_sim_time
         return self.births >= self.config.births or (limit is not None and self.sim_time >= limit)
 
     def summary(self, status: str) -> RunSummary:
+        """How the run ended (``status``: ``finished`` or ``interrupted``)."""
         best, mean = self._stats()
         return RunSummary(self.run_id, self.seed, self.births, self.sim_time, best, mean,
                           len(self.population), time.perf_counter() - self.started, status)
