@@ -30,6 +30,8 @@ from numpy.typing import NDArray
 from revolve_env.body.robot import PartType
 
 __all__ = [
+    "IMU_ACCEL_RANGE",
+    "IMU_GYRO_RANGE",
     "PART_SPECS",
     "SERVO",
     "Box",
@@ -154,6 +156,13 @@ class ServoSpec:
 
 
 SERVO = ServoSpec()
+
+# Full-scale ranges of the MPU-9150 IMU on RoboGen's core board (+-16 g, +-2000 deg/s): its
+# readings saturate there, in every engine and every env.
+IMU_ACCEL_RANGE = 16 * 9.81
+"""Accelerometer full scale of the core's IMU. Metres per second squared."""
+IMU_GYRO_RANGE = math.radians(2000.0)
+"""Gyroscope full scale of the core's IMU. Radians per second."""
 
 
 @dataclass(frozen=True, slots=True)

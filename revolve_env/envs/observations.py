@@ -12,7 +12,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from revolve_env.body.parts import PART_SPECS
+from revolve_env.body.parts import IMU_ACCEL_RANGE, IMU_GYRO_RANGE, PART_SPECS
 from revolve_env.body.robot import PartType, Robot
 from revolve_env.world import World, WorldConfig
 
@@ -21,11 +21,10 @@ __all__ = [
     "read_proprio", "saturated_sensor_bounds", "uniform_sensor_bounds",
 ]
 
-# Full-scale ranges of the MPU-9150 IMU on RoboGen's core board (+-16 g, +-2000 deg/s): readings
-# saturate there, as the real sensor's do.
-ACCEL_RANGE = 16 * 9.81
+# The IMU's full-scale ranges; the world saturates its readings there (one home: body/parts.py).
+ACCEL_RANGE = IMU_ACCEL_RANGE
 """Accelerometer full scale. Metres per second squared."""
-GYRO_RANGE = math.radians(2000.0)
+GYRO_RANGE = IMU_GYRO_RANGE
 """Gyroscope full scale. Radians per second."""
 IMU_VALUES = PART_SPECS[PartType.CORE].n_inputs
 """Sensor values of the core (accelerometer x, y, z, gyroscope x, y, z): always the first ones."""

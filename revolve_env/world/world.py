@@ -16,6 +16,7 @@ from typing import Self
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from revolve_env.body.parts import IMU_ACCEL_RANGE, IMU_GYRO_RANGE
 from revolve_env.body.robot import Robot
 from revolve_env.world.backend import BodyStates, PhysicsBackend, make_backend
 from revolve_env.world.config import WorldConfig
@@ -419,6 +420,8 @@ class World:
         * Core IMU (6 values): accelerometer x, y, z (m/s^2, specific force in the core frame: a
           robot at rest reads +g along the up axis) and gyroscope x, y, z (rad/s, core frame).
           The acceleration is the change of the core's velocity over the last control period.
+          Readings saturate at the sensor's full scale, +-16 g and +-2000 deg/s
+          (:data:`~revolve_env.body.parts.IMU_ACCEL_RANGE`, ``IMU_GYRO_RANGE``).
         * Touch sensor (2 values): 1.0 if the left/right half touches anything, else 0.0.
         * Light sensor (1 value): ``max(0, cos a) / (1 + (d / light_range)^2)`` in [0, 1], with
           ``d`` the distance to the light and ``a`` the angle between the sensor's facing and the
@@ -444,7 +447,10 @@ class World:
         k = 0
         for kind, sensor in model.sensors:
             if kind == "imu":
-                out[k:k + 6] = self._imus()[r]
+                # The real sensor saturates at full scale (NaN passes: a blow-up stays visible).
+                imu = self._imus()[r]
+                out[k:k + 3] = np.minimum(np.maximum(imu[:3], -IMU_ACCEL_RANGE), IMU_ACCEL_RANGE)
+                out[k + 3:k + 6] = np.minimum(np.maximum(imu[3:], -IMU_GYRO_RANGE), IMU_GYRO_RANGE)
                 k += 6
             elif kind == "touch":
                 assert isinstance(sensor, TouchSensorModel)

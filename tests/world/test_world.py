@@ -252,3 +252,17 @@ def test_non_finite_targets_mark_a_blow_up_instead_of_raising() -> None:
         assert reason is not None and "non-finite hinge targets" in reason
         assert world.blow_up(calm) is None
         assert np.all(np.isfinite(world.core_position(h)))
+
+
+def test_imu_readings_saturate_at_full_scale_and_nan_passes(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The world saturates the core IMU at +-16 g and +-2000 deg/s (the sensor's full scale), so
+    every env and evaluation feeds the brains the same bounded values; NaN stays visible."""
+    from revolve_env.body.parts import IMU_ACCEL_RANGE, IMU_GYRO_RANGE
+
+    with World() as world:
+        h = world.add_robot(spider())
+        huge = np.array([[1e6, -1e6, 3.0, 1e4, -1e4, np.nan]])
+        monkeypatch.setattr(World, "_imus", lambda self: huge)
+        imu = world.read_sensors(h)[:6]
+    assert imu[:3].tolist() == [IMU_ACCEL_RANGE, -IMU_ACCEL_RANGE, 3.0]
+    assert imu[3:5].tolist() == [IMU_GYRO_RANGE, -IMU_GYRO_RANGE] and np.isnan(imu[5])
