@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from revolve_env.body.geometry import Assembly, assemble
+from revolve_env.body.geometry import Assembly, assemble, mass_properties
 from revolve_env.body.parts import PART_SPECS, SERVO
 from revolve_env.body.robot import PartType, Robot
 from revolve_env.body.validate import Limits, validate
@@ -71,24 +71,12 @@ def _rpy(r: Mat3) -> tuple[float, float, float]:
     return roll, pitch, yaw
 
 
-def _box_inertia(mass: float, size: Vec3, rot: Mat3) -> Mat3:
-    """Inertia tensor of a solid box about its centre, in the frame ``rot`` maps into."""
-    x, y, z = (float(s) for s in size)
-    local = np.diag([y * y + z * z, x * x + z * z, x * x + y * y]) * (mass / 12.0)
-    return rot @ local @ rot.T
-
-
 def link_inertia(assembly: Assembly, body: int) -> tuple[float, Vec3, Mat3]:
-    """Mass (kg), centre of mass (robot frame, metres) and inertia about it (kg m^2) of a body."""
-    boxes = [assembly.boxes[i] for i in assembly.bodies[body].boxes]
-    mass = float(sum(b.mass for b in boxes))
-    com = sum((b.mass * b.center for b in boxes), np.zeros(3)) / mass
-    inertia = np.zeros((3, 3))
-    for b in boxes:
-        d = b.center - com
-        inertia += _box_inertia(b.mass, b.size, b.rotation)
-        inertia += b.mass * (float(d @ d) * np.eye(3) - np.outer(d, d))  # parallel axis
-    return mass, com, inertia
+    """Mass (kg), centre of mass (robot frame, metres) and inertia about it (kg m^2) of a body.
+
+    Computed by :func:`~revolve_env.body.geometry.mass_properties`, as the physics model does.
+    """
+    return mass_properties([assembly.boxes[i] for i in assembly.bodies[body].boxes])
 
 
 def _link_origin(assembly: Assembly, body: int) -> Vec3:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,6 +25,7 @@ __all__ = [
     "RigidBody",
     "assemble",
     "child_frame",
+    "mass_properties",
     "overlapping_boxes",
 ]
 
@@ -270,3 +272,40 @@ def overlapping_boxes(assembly: Assembly, tolerance: float = 0.5e-3) -> list[tup
         dist = np.abs(np.sum(d * unit, axis=1))
         separated |= valid & (dist > ra + rb)
     return [(int(i), int(j)) for i, j in zip(i_idx[~separated], j_idx[~separated])]
+
+
+def mass_properties(boxes: Sequence[PlacedBox], origin: Vec3 | None = None
+                    ) -> tuple[float, Vec3, Mat3]:
+    """Mass properties of rigidly joined solid boxes (one rigid body of a robot).
+
+    The one home of this rule: the physics model (:mod:`revolve_env.world.model`) and the
+    URDF/SDF export (:mod:`revolve_env.body.export`) both use it.
+
+    Args:
+        boxes: The body's boxes (robot frame).
+        origin: Point the centre of mass is given relative to (robot frame, metres); default
+            the robot frame's origin.
+
+    Returns:
+        Mass (kilograms), centre of mass relative to ``origin`` (metres) and the inertia tensor
+        about the centre of mass in the robot frame's axes (kilogram square metres).
+
+    Raises:
+        ValueError: the boxes have no mass.
+    """
+    masses = np.array([b.mass for b in boxes])
+    centers = np.array([b.center for b in boxes])
+    if origin is not None:
+        centers = centers - origin
+    mass = float(masses.sum())
+    if not mass > 0:
+        raise ValueError("a rigid body of the robot has no mass")
+    com = (masses[:, None] * centers).sum(axis=0) / mass
+    inertia = np.zeros((3, 3))
+    for b, c in zip(boxes, centers, strict=True):
+        x, y, z = b.size**2
+        principal = b.mass / 12.0 * np.array([y + z, x + z, x + y])
+        local = b.rotation @ np.diag(principal) @ b.rotation.T
+        d = c - com
+        inertia += local + b.mass * (float(d @ d) * np.eye(3) - np.outer(d, d))
+    return mass, com, inertia

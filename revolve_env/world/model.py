@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from revolve_env.body.geometry import Assembly, PlacedBox, assemble
+from revolve_env.body.geometry import Assembly, PlacedBox, assemble, mass_properties
 from revolve_env.body.parts import PART_SPECS, SLOT_THICKNESS
 from revolve_env.body.robot import PartType, Robot
 
@@ -118,27 +118,13 @@ class RobotModel:
         return len(self.active_links)
 
 
-def _box_inertia(size: Vec3, mass: float) -> Vec3:
-    a, b, c = size**2
-    return mass / 12.0 * np.array([b + c, a + c, a + b])
-
-
 def _link(
     parent: int, origin: Vec3, boxes: list[PlacedBox], colors: list[tuple[float, float, float]],
     joint_axis: Vec3, active: bool,
     fixed: bool,
 ) -> LinkModel:
-    masses = np.array([b.mass for b in boxes])
     centers = np.array([b.center for b in boxes]) - origin
-    mass = float(masses.sum())
-    if mass <= 0:
-        raise ValueError("a rigid body of the robot has no mass")
-    com = (masses[:, None] * centers).sum(axis=0) / mass
-    inertia = np.zeros((3, 3))
-    for b, c in zip(boxes, centers):
-        local = b.rotation @ np.diag(_box_inertia(b.size, b.mass)) @ b.rotation.T
-        d = c - com
-        inertia += local + b.mass * (float(d @ d) * np.eye(3) - np.outer(d, d))
+    mass, com, inertia = mass_properties(boxes, origin)
     moments, axes = np.linalg.eigh(inertia)
     if np.linalg.det(axes) < 0:
         axes[:, 2] = -axes[:, 2]
