@@ -120,9 +120,9 @@ class SlidingWindowFitness:
         capacity: int = 1024,
     ) -> None:
         """Args:
-            window: Window length. Seconds.
-            s_weight: Weight of ``s``.
-            capacity: Initial ring size (samples); it doubles when a window holds more.
+        window: Window length. Seconds.
+        s_weight: Weight of ``s``.
+        capacity: Initial ring size (samples); it doubles when a window holds more.
         """
         if not (window > 0 and math.isfinite(window)):
             raise ValueError(f"window must be a positive number of seconds, got {window}")

@@ -1,5 +1,6 @@
 """The ``revolve`` command line: a thin layer over the Python API (:mod:`evolution.experiments`,
-:mod:`evolution.reporting`, :mod:`revolve_env`)."""
+:mod:`evolution.reporting`, :mod:`revolve_env`).
+"""
 
 from __future__ import annotations
 

@@ -383,7 +383,8 @@ def _nesting_depth(text: str) -> int:
 
 def _decode(text: str | bytes) -> str:
     """``text`` as ``str``: bytes are decoded as JSON allows (UTF-8, or UTF-16/32 by their
-    byte pattern), strictly."""
+    byte pattern), strictly.
+    """
     if isinstance(text, str):
         return text
     if len(text) > MAX_JSON_BYTES:

@@ -93,7 +93,8 @@ def check_step_arrays(inputs: npt.NDArray[np.float64], outputs: npt.NDArray[np.f
 
 class RegistryViews:
     """Read-only views of a :class:`Registry` (layout, specs, parameters) shared by both batch
-    controllers."""
+    controllers.
+    """
 
     _reg: Registry
 

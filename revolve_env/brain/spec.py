@@ -171,7 +171,7 @@ class NetworkSpec:
         dst_64 = np.asarray(dst, dtype=np.int64).reshape(-1)
         weight_a = _frozen(np.asarray(weight, dtype=np.float64).reshape(-1), np.float64)
         params_a = _frozen(neuron_params, np.float64)
-        if not (0 <= n_inputs and 0 <= n_outputs and n_inputs + n_outputs <= n):
+        if not (n_inputs >= 0 and n_outputs >= 0 and n_inputs + n_outputs <= n):
             raise ValueError(f"n_inputs={n_inputs}, n_outputs={n_outputs} do not fit {n} neurons")
         if kinds_64.shape != (n,):
             raise ValueError(f"kinds has shape {kinds_64.shape}, expected ({n},)")
