@@ -351,11 +351,30 @@ def _robot_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--db", metavar="DIR",
                         help="take the robot from this experiment's results directory instead")
     parser.add_argument("--run", type=_non_negative_int, default=0,
-                        help="run of --db (default 0)")
+                        help="run of --db")
     parser.add_argument("--robot", dest="robot_id", type=_non_negative_int, metavar="ID",
                         help="robot id (birth index) within the run of --db")
     parser.add_argument("--best", action="store_true",
                         help="with --db: the fittest robot of the run's final population")
+
+
+class _DefaultsFormatter(argparse.HelpFormatter):
+    """Help that ends every option's text with its default (options without one say so)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        if (action.default in (None, argparse.SUPPRESS) or not action.option_strings
+                or "%(default)" in text or isinstance(action, argparse._HelpAction)):
+            return text
+        return f"{text} (default: %(default)s)"
+
+
+class _DefaultsParser(argparse.ArgumentParser):
+    """A subcommand parser whose ``--help`` shows every option's default."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", _DefaultsFormatter)
+        super().__init__(*args, **kwargs)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -365,7 +384,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Online and offline evolution of modular robots (the Revolve experiments).",
         epilog="Start with `revolve demo`; then `revolve run quick` and `revolve report results`.",
     )
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                parser_class=_DefaultsParser)
     learning = learning_names()
     names = ", ".join(sorted(set(shipped_configs()) - set(learning)))
     learning_list = ", ".join(learning)
@@ -385,13 +405,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("config", metavar="CONFIG_OR_SCENARIO",
                    help=f"a shipped config ({names}; {learning_list}) or the path of a TOML "
                         "config file")
-    p.add_argument("--runs", type=_positive_int, help="independent repeats")
-    p.add_argument("--births", type=_positive_int, help="stop each run after this many births")
-    p.add_argument("--seed", type=_non_negative_int, help="experiment seed")
-    p.add_argument("--workers", type=_non_negative_int, help="worker processes (0: all cores)")
-    p.add_argument("--name", help="experiment name (the folder inside OUT)")
+    p.add_argument("--runs", type=_positive_int, help="independent repeats (default: the config's)")
+    p.add_argument("--births", type=_positive_int,
+                   help="stop each run after this many births (default: the config's)")
+    p.add_argument("--seed", type=_non_negative_int, help="experiment seed (default: the config's)")
+    p.add_argument("--workers", type=_non_negative_int,
+                   help="worker processes, 0: all cores (default: the config's)")
+    p.add_argument("--name", help="experiment name, the folder inside OUT (default: the config's)")
     p.add_argument("--out", default="results", metavar="DIR",
-                   help="results folder (default: results)")
+                   help="results folder")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="change any config key, e.g. --set evaluation_time=6, "
                         "--set evolution.max_parts=20 or --set learning.budget=35 (repeatable)")
@@ -417,9 +439,9 @@ def build_parser() -> argparse.ArgumentParser:
                     "compares inborn and learned fitness.",
     )
     p.add_argument("dir", metavar="DIR", help="results folder (as given to `revolve run --out`)")
-    p.add_argument("--out", metavar="DIR", help="output folder (default: DIR/report)")
+    p.add_argument("--out", metavar="DIR", help="output folder")
     p.add_argument("--formats", default="png,pdf",
-                   help="figure formats, comma-separated: png, pdf, svg (default: png,pdf)")
+                   help="figure formats, comma-separated: png, pdf, svg")
     p.set_defaults(handler=_cmd_report)
 
     p = sub.add_parser(
@@ -429,13 +451,13 @@ def build_parser() -> argparse.ArgumentParser:
                     "name, or a robot of a results database (--db DIR --robot ID / --best).",
     )
     _robot_arguments(p)
-    p.add_argument("--out", metavar="FILE", help="GIF to write (default: <robot name>.gif)")
+    p.add_argument("--out", metavar="FILE", help="GIF to write")
     p.add_argument("--seconds", type=_positive_float, default=12.0,
-                   help="evaluation time after insertion, seconds (default 12)")
+                   help="evaluation time after insertion, seconds")
     p.add_argument("--insertion", type=float, default=3.0,
-                   help="settling time shown first, seconds (default 3)")
+                   help="settling time shown first, seconds")
     p.add_argument("--fps", type=_positive_float, default=15.0,
-                   help="frames per simulated second (default 15)")
+                   help="frames per simulated second")
     p.set_defaults(handler=_cmd_show)
 
     p = sub.add_parser(
@@ -445,23 +467,23 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _robot_arguments(p)
     p.add_argument("--format", required=True, choices=("urdf", "sdf", "bom", "bom-json"))
-    p.add_argument("--out", metavar="FILE", help="file to write (default: stdout)")
+    p.add_argument("--out", metavar="FILE", help="file to write")
     p.set_defaults(handler=_cmd_export)
 
     p = sub.add_parser(
         "demo", help="check the installation: evaluate a robot, evolve a few",
         description="Evaluate the example spider and print its fitness, then evolve a small "
-                    "population for a few births and print the best fitness (about a minute on "
-                    "two cores).",
+                    "population for a few births and print the best fitness (about 8 s on two "
+                    "cores).",
     )
-    p.add_argument("--births", type=_positive_int, default=30, help="births (default 30)")
+    p.add_argument("--births", type=_positive_int, default=30, help="births")
     p.add_argument("--population", type=_positive_int, default=6,
-                   help="population size and children per generation (default 6)")
+                   help="population size and children per generation")
     p.add_argument("--seconds", type=_positive_float, default=12.0,
-                   help="evaluation time per robot after 3 s insertion, seconds (default 12)")
-    p.add_argument("--seed", type=_non_negative_int, default=0, help="seed (default 0)")
+                   help="evaluation time per robot after 3 s insertion, seconds")
+    p.add_argument("--seed", type=_non_negative_int, default=0, help="seed")
     p.add_argument("--workers", type=_non_negative_int, default=0,
-                   help="worker processes (default 0: all cores)")
+                   help="worker processes")
     p.add_argument("--out", metavar="DIR", help="keep the demo's results in DIR/demo")
     p.set_defaults(handler=_cmd_demo)
     return parser

@@ -93,23 +93,7 @@ def run(
     out = Path(out_dir)
     db_path = out / DB_NAME
     if db_path.exists():
-        try:
-            with Store.open(db_path) as existing:
-                same = existing.config == _json_roundtrip(config.to_dict())
-                name = existing.config.get("name", "?")
-        except StoreError as error:
-            raise StoreError(
-                f"{out} already holds a results database that cannot be used: {error}"
-            ) from error
-        if same:
-            raise StoreError(
-                f"{out} already holds results of this experiment; use resume({str(out)!r}) to "
-                "continue it, or choose another directory"
-            )
-        raise StoreError(
-            f"{out} holds results of another experiment ({name!r}); refusing to overwrite them, "
-            "choose another directory"
-        )
+        _refuse_existing(out, db_path, config)
     if out.exists() and not out.is_dir():
         raise StoreError(f"{out} exists and is not a directory")
     Store.create(db_path, config.to_dict(), config.seed).close()
@@ -168,6 +152,51 @@ def _execute(
         if evaluator is None:
             used.close()
     return ExperimentSummary(db_path.parent, db_path, tuple(summaries))
+
+
+def _refuse_existing(out: Path, db_path: Path, config: ExperimentConfig) -> None:
+    """Refuse to run into a folder that holds results, saying whose and what to do instead.
+
+    Raises:
+        StoreError: always; the message says whether the stored experiment is this one (then
+            ``revolve resume`` continues it) or which settings differ.
+    """
+    try:
+        with Store.open(db_path) as existing:
+            stored = existing.config
+    except StoreError as error:
+        raise StoreError(
+            f"{out} already holds a results database that cannot be used: {error}") from error
+    name = stored.get("name", "?")
+    try:  # compare settings, not text: a config stored by an older version lacks newer defaults
+        differ = _differences(ExperimentConfig.from_dict(stored), config)
+    except ConfigError:
+        differ = ["(the stored configuration is not valid for this version)"]
+    if not differ:
+        raise StoreError(
+            f"{out} already holds results of this experiment ({name!r}); continue it with "
+            f"`revolve resume {out}` (Python: evolution.resume({str(out)!r})), or choose another "
+            "--out folder")
+    raise StoreError(
+        f"{out} holds results of experiment {name!r} with other settings "
+        f"({'; '.join(differ[:4])}{'; ...' if len(differ) > 4 else ''}); refusing to overwrite "
+        "them: choose another --out folder or --name")
+
+
+def _differences(stored: ExperimentConfig, wanted: ExperimentConfig) -> list[str]:
+    """``key: stored vs wanted`` for every config value that differs (nested tables flattened)."""
+    def flat(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for key, value in data.items():
+            if isinstance(value, Mapping):
+                out.update(flat(value, f"{prefix}{key}."))
+            else:
+                out[f"{prefix}{key}"] = value
+        return out
+
+    a, b = flat(stored.to_dict()), flat(wanted.to_dict())
+    return [f"{k}: {a.get(k)!r} stored vs {b.get(k)!r}" for k in sorted(set(a) | set(b))
+            if a.get(k) != b.get(k)]
 
 
 def _infancy_for(config: ExperimentConfig, infancy: InfancyHook | None) -> InfancyHook | None:

@@ -160,7 +160,7 @@ def test_existing_results_are_never_overwritten(
     before = [(p, p.read_bytes()) for p in sorted(tmp_path.rglob("*")) if p.is_file()]
     assert "resume" in _error(capsys, ["run", "quick", "--out", str(tmp_path)])
     line = _error(capsys, ["run", "quick", "--out", str(tmp_path / "other")])
-    assert "another experiment ('scenario2')" in line
+    assert "experiment 'scenario2' with other settings" in line and "name:" in line
     after = [(p, p.read_bytes()) for p in sorted(tmp_path.rglob("*")) if p.is_file()]
     assert after == before
 
@@ -170,7 +170,8 @@ def test_existing_results_of_the_same_experiment_point_to_resume(
     with Store.create(tmp_path / "quick" / DB_NAME, preset("quick", runs=1).to_dict(), 0):
         pass
     line = _error(capsys, ["run", "quick", "--out", str(tmp_path)])
-    assert "already holds results of this experiment" in line and "resume" in line
+    assert "already holds results of this experiment" in line
+    assert f"revolve resume {tmp_path / 'quick'}" in line
 
 
 def test_missing_directories(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:

@@ -115,9 +115,11 @@ def test_results_are_never_overwritten(tmp_path: Path) -> None:
     out = tmp_path / "out"
     experiments.run(small_preset("scenario1", births=15), out, evaluator=SERIAL)
     before = dump(out / "results.sqlite")
-    with pytest.raises(StoreError, match="already holds results of this experiment; use resume"):
+    with pytest.raises(StoreError,
+                       match="already holds results of this experiment .*revolve resume"):
         experiments.run(small_preset("scenario1", births=15), out, evaluator=SERIAL)
-    with pytest.raises(StoreError, match="results of another experiment \\('scenario1'\\)"):
+    with pytest.raises(StoreError,
+                       match=r"experiment 'scenario1' with other settings \(births: 15 stored"):
         experiments.run(small_preset("scenario1", births=30), out, evaluator=SERIAL)
     assert dump(out / "results.sqlite") == before
 
