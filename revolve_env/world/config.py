@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
 from revolve_env.body.parts import SERVO
-from revolve_env.world.backend import ENGINES
+from revolve_env.world.backend import ENGINES, require_engine
 
 __all__ = ["WorldConfig"]
 
@@ -92,6 +93,20 @@ class WorldConfig:
             raise ValueError(f"light_position must be 3 finite numbers, got {self.light_position}")
         if self.solver_iterations < 1:
             raise ValueError(f"solver_iterations must be >= 1, got {self.solver_iterations}")
+
+    def with_engine(self, engine: str | None) -> WorldConfig:
+        """This config on ``engine`` (None: its own), checked to be known and installed.
+
+        The one place where an ``engine=`` keyword (of ``evaluate`` and the envs) meets a config,
+        so that a missing package fails when the env is made rather than at its first reset.
+
+        Raises:
+            ValueError: unknown engine name.
+            EngineUnavailableError: the engine's package is not installed.
+        """
+        config = self if engine is None else dataclasses.replace(self, engine=engine)
+        require_engine(config.engine)
+        return config
 
     @property
     def substeps(self) -> int:
