@@ -6,7 +6,6 @@ function (a submodule of the same name would replace it once imported).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -84,9 +83,7 @@ def evaluate(
                         ("sensor_noise", sensor_noise), ("actuator_noise", actuator_noise)):
         if not (math.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value}")
-    cfg = config if config is not None else WorldConfig()
-    if engine is not None:  # replace() validates the name
-        cfg = dataclasses.replace(cfg, engine=engine)
+    cfg = (config if config is not None else WorldConfig()).with_engine(engine)
     dt = cfg.control_period
     insertion_ticks = round(insertion / dt)
     evaluation_ticks = round(seconds / dt)

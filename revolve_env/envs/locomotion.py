@@ -23,7 +23,7 @@ from revolve_env.body.validate import Limits, validate
 from revolve_env.brain import BatchController
 from revolve_env.envs.observations import proprio_bounds, read_proprio, saturated_sensor_bounds
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
-from revolve_env.world import World, WorldConfig, require_engine
+from revolve_env.world import World, WorldConfig
 
 __all__ = ["LocomotionEnv"]
 
@@ -169,9 +169,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         config = world_config if world_config is not None else WorldConfig()
         if control_period is not None:  # replace() validates it against the timestep
             config = dataclasses.replace(config, control_period=control_period)
-        if engine is not None:  # replace() validates the name
-            config = dataclasses.replace(config, engine=engine)
-        require_engine(config.engine)  # a missing package fails here, not at reset()
+        config = config.with_engine(engine)
         self.config = config
         self.robot = robot
         self.render_mode = render_mode

@@ -28,7 +28,7 @@ from revolve_env.brain.spec import NetworkSpec
 from revolve_env.envs.observations import proprio_bounds, read_proprio, uniform_sensor_bounds
 from revolve_env.envs.placement import Disc, clash, footprint_radius, place
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
-from revolve_env.world import World, WorldConfig, require_engine
+from revolve_env.world import World, WorldConfig
 
 __all__ = ["Lifecycle", "PopulationEnv", "SpaceMode", "footprint_radius", "population_env",
            "sensor_bounds"]
@@ -339,9 +339,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         config = world_config if world_config is not None else WorldConfig()
         if control_period is not None:  # replace() validates it against the timestep
             config = dataclasses.replace(config, control_period=control_period)
-        if engine is not None:  # replace() validates the name
-            config = dataclasses.replace(config, engine=engine)
-        require_engine(config.engine)  # a missing package fails here, not at reset()
+        config = config.with_engine(engine)
         self.config = config
         self.max_births = max_births
         self.initial_robots = None if initial_robots is None else list(initial_robots)

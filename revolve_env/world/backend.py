@@ -26,16 +26,18 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from revolve_env.world.config import _REGISTRY, ENGINES, WorldConfig
+from revolve_env.world.config import (
+    _REGISTRY,
+    ENGINES,
+    EngineUnavailableError,
+    WorldConfig,
+    require_engine,
+)
 from revolve_env.world.model import RobotModel
 
 __all__ = ["ENGINES", "BodyStates", "EngineUnavailableError", "PhysicsBackend", "make_backend",
            "require_engine"]
 
-
-
-class EngineUnavailableError(ImportError):
-    """The selected physics engine's Python package cannot be imported."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -130,25 +132,6 @@ class PhysicsBackend(Protocol):
     def close(self) -> None:
         """Release the engine (idempotent)."""
         ...
-
-
-def require_engine(engine: str) -> None:
-    """Check that ``engine`` is a known engine whose package imports.
-
-    Raises:
-        ValueError: unknown engine name.
-        EngineUnavailableError: its package is not installed.
-    """
-    if engine not in _REGISTRY:
-        raise ValueError(f"unknown physics engine {engine!r}: choose one of {', '.join(ENGINES)}")
-    package = _REGISTRY[engine][2]
-    try:
-        importlib.import_module(package)
-    except ImportError as e:
-        raise EngineUnavailableError(
-            f"engine {engine!r} needs the {package!r} package, which cannot be imported ({e}); "
-            f"install it with: pip install {package}"
-        ) from None
 
 
 def make_backend(config: WorldConfig, *, gui: bool = False) -> PhysicsBackend:

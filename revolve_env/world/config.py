@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
+import importlib
 import math
 from dataclasses import dataclass
 
 from revolve_env.body.parts import SERVO
 
-__all__ = ["ENGINES", "WorldConfig"]
+__all__ = ["ENGINES", "EngineUnavailableError", "WorldConfig", "require_engine"]
 
 #: Engine name -> (backend module, class, the pip package it needs); the backends are imported
 #: lazily by :func:`revolve_env.world.backend.make_backend`.
@@ -17,6 +19,29 @@ _REGISTRY: dict[str, tuple[str, str, str]] = {
 }
 #: Names accepted by ``WorldConfig(engine=...)`` and every ``engine=`` keyword.
 ENGINES: tuple[str, ...] = tuple(_REGISTRY)
+
+
+class EngineUnavailableError(ImportError):
+    """The selected physics engine's Python package cannot be imported."""
+
+
+def require_engine(engine: str) -> None:
+    """Check that ``engine`` is a known engine whose package imports.
+
+    Raises:
+        ValueError: unknown engine name.
+        EngineUnavailableError: its package is not installed.
+    """
+    if engine not in _REGISTRY:
+        raise ValueError(f"unknown physics engine {engine!r}: choose one of {', '.join(ENGINES)}")
+    package = _REGISTRY[engine][2]
+    try:
+        importlib.import_module(package)
+    except ImportError as e:
+        raise EngineUnavailableError(
+            f"engine {engine!r} needs the {package!r} package, which cannot be imported ({e}); "
+            f"install it with: pip install {package}"
+        ) from None
 
 
 @dataclass(frozen=True, slots=True)
@@ -100,6 +125,20 @@ class WorldConfig:
             raise ValueError(f"light_position must be 3 finite numbers, got {self.light_position}")
         if self.solver_iterations < 1:
             raise ValueError(f"solver_iterations must be >= 1, got {self.solver_iterations}")
+
+    def with_engine(self, engine: str | None) -> WorldConfig:
+        """This config on ``engine`` (None: its own), checked to be known and installed.
+
+        The one place where an ``engine=`` keyword (of ``evaluate`` and the envs) meets a config,
+        so that a missing package fails when the env is made rather than at its first reset.
+
+        Raises:
+            ValueError: unknown engine name.
+            EngineUnavailableError: the engine's package is not installed.
+        """
+        config = self if engine is None else dataclasses.replace(self, engine=engine)
+        require_engine(config.engine)
+        return config
 
     @property
     def substeps(self) -> int:

@@ -262,7 +262,7 @@ class MujocoBackend:
             d.qacc_warmstart[self._robots[key].dofs] = old_d.qacc_warmstart[dofs]
         self._kinematics_fresh = True
         self._touching = None
-        self._renderer = None
+        self._drop_renderer()  # it holds the old model
         del old_m
 
     def _index(self) -> None:
@@ -429,14 +429,17 @@ class MujocoBackend:
     def reset(self) -> None:
         self._robots.clear()
         self._new_scene()
-        self._renderer = None
+        self._drop_renderer()
+
+    def _drop_renderer(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
 
     def close(self) -> None:
         if not self._closed:
             self._closed = True
-            if self._renderer is not None:
-                self._renderer.close()
-            self._renderer = None
+            self._drop_renderer()
 
     # -- rendering ------------------------------------------------------------------------------
     def render(self, width: int, height: int, target: tuple[float, float, float],

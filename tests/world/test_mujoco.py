@@ -316,3 +316,26 @@ def test_locomotion_env_conformance_on_mujoco() -> None:
     check_env(env.unwrapped, skip_render_check=True)  # rendering needs an OpenGL context
     env.close()
     check_determinism(LOCOMOTION_ID, **kwargs)
+
+
+@pytest.mark.slow
+def test_memory_stays_flat_over_3000_births() -> None:
+    """The issue's bound: RSS after 3,000 births within 50 MB of RSS after 300 (about 1 min)."""
+    import resource
+
+    def rss_mb() -> float:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * resource.getpagesize() / 2**20
+
+    robots = [spider(), snake(), every_part(), example("gecko")]
+    marks: dict[int, float] = {}
+    with World(MJ) as world:
+        alive: list[int] = []
+        for birth in range(1, 3001):
+            alive.append(world.add_robot(robots[birth % 4], position=(2.0 * (birth % 10), 0.0)))
+            if len(alive) > 10:
+                world.remove_robot(alive.pop(0))
+            world.step(6)
+            if birth in (300, 3000):
+                marks[birth] = rss_mb()
+    assert marks[3000] - marks[300] < 50.0, marks
