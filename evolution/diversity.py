@@ -80,7 +80,7 @@ class _ZNode:
 
 
 def _to_znodes(tree: TreeArrays) -> _ZNode:
-    nodes = [_ZNode(int(t), int(s)) for t, s in zip(tree.types, tree.slots)]
+    nodes = [_ZNode(int(t), int(s)) for t, s in zip(tree.types, tree.slots, strict=True)]
     for k in range(1, len(nodes)):
         nodes[int(tree.parents[k])].children.append(nodes[k])
     return nodes[0]

@@ -43,7 +43,8 @@ __all__ = [
 ]
 
 
-class Stage(str, Enum):
+# Not StrEnum: str() and f-strings of a member must stay "Stage.DEATH" (StrEnum gives "death").
+class Stage(str, Enum):  # noqa: UP042
     """The stages of the Triangle of Life."""
 
     CONCEPTION = "conception"
@@ -94,8 +95,10 @@ class LearningSummary:
 
 @runtime_checkable
 class SummarizingInfancyHook(Protocol):
-    """An infancy hook that also reports its learner's numbers (the
-    :class:`~evolution.learning.TrainingCenter` is one)."""
+    """An infancy hook that also reports its learner's numbers.
+
+    The :class:`~evolution.learning.TrainingCenter` is one.
+    """
 
     def __call__(self, robot: Robot, rng: np.random.Generator) -> Robot:
         """The robot with its learned controller."""
@@ -123,7 +126,9 @@ class LifecycleTiming:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.insertion) and self.insertion >= 0):
-            raise ValueError(f"insertion must be a finite number of seconds >= 0, got {self.insertion}")
+            raise ValueError(
+                f"insertion must be a finite number of seconds >= 0, got {self.insertion}"
+            )
         if not (math.isfinite(self.fertile_age) and self.fertile_age >= self.insertion):
             raise ValueError(
                 f"fertile_age ({self.fertile_age} s) must be finite and >= insertion "
@@ -176,7 +181,9 @@ class Lifecycle:
 
     def _move(self, target: Stage, time: float, note: str = "") -> Transition:
         if not math.isfinite(time):
-            raise LifecycleError(f"robot {self.robot_id}: transition time must be finite, got {time}")
+            raise LifecycleError(
+                f"robot {self.robot_id}: transition time must be finite, got {time}"
+            )
         if target not in LEGAL_TRANSITIONS[self.stage]:
             source = "unconceived" if self.stage is None else self.stage.value
             raise LifecycleError(

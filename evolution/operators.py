@@ -23,18 +23,21 @@ Neurons follow the body: a copied subtree carries its neurons under fresh ids an
 internal to it; a removed subtree takes its neurons and every connection touching them along.
 Colours are inherited from the part that was copied (new parts take their parent's colour), so a
 picture of a child shows which parts came from which parent.
+
+The neural operators (steps 5 and 6) live in :mod:`evolution.brain_mutation` and the result types
+in :mod:`evolution.operator_base`; this module re-exports both.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, replace
-from typing import TypeVar
+from dataclasses import replace
 
 import numpy as np
 
+from evolution.brain_mutation import mutate_brain_structure, mutate_parameters
 from evolution.config import EvolutionConfig
+from evolution.operator_base import OperatorOutcome, OperatorRecord, ReproductionResult, pick
 from evolution.random_robot import (
     IdAllocator,
     add_neurons,
@@ -47,14 +50,9 @@ from evolution.random_robot import (
     robot_counts,
     subtree_counts,
 )
-from revolve_env.body.parts import PART_SPECS
 from revolve_env.body.robot import (
-    ACTIVATION_PARAMS,
-    NEURON_PARAM_BOUNDS,
-    WEIGHT_BOUNDS,
     Connection,
     Layer,
-    Neuron,
     Node,
     Path,
     Robot,
@@ -78,58 +76,6 @@ __all__ = [
     "reproduce",
     "swap_subtrees",
 ]
-
-_T = TypeVar("_T")
-
-
-@dataclass(frozen=True, slots=True)
-class OperatorOutcome:
-    """What one operator did.
-
-    Attributes:
-        robot: The resulting robot (the input unchanged when not applied; None only when crossover
-            fails, which means no child).
-        applied: Whether the operator changed the robot.
-        detail: What it did, or why it did nothing, for people and logs.
-        paths: The paths it acted on when applied (crossover: ``(a_c, b_c)``; removals: the
-            removed path; duplication: ``(source, new copy)``; swap: ``(s1, s2)``; add_part: the
-            new part's path); empty otherwise.
-    """
-
-    robot: Robot | None
-    applied: bool
-    detail: str
-    paths: tuple[Path, ...] = ()
-
-
-@dataclass(frozen=True, slots=True)
-class OperatorRecord:
-    """One step of a reproduction: the operator's name, whether it fired, and what it did."""
-
-    name: str
-    applied: bool
-    detail: str
-
-
-@dataclass(frozen=True, slots=True)
-class ReproductionResult:
-    """The child (or None) and the record of every step that made it.
-
-    Attributes:
-        child: The child, valid within the configuration's limits, or None.
-        records: One record per step, in the order applied.
-        failure: Why there is no child (None when there is one).
-    """
-
-    child: Robot | None
-    records: tuple[OperatorRecord, ...]
-    failure: str | None = None
-
-    @property
-    def fired(self) -> tuple[str, ...]:
-        """Names of the operators that changed the robot, in order."""
-        return tuple(r.name for r in self.records if r.applied)
-
 
 # -- tree helpers -------------------------------------------------------------------------------
 
@@ -175,17 +121,15 @@ def _carried_connections(
     ]
 
 
-def _pick(rng: np.random.Generator, items: Sequence[_T]) -> _T:
-    return items[int(rng.integers(len(items)))]
-
-
 def _check_parent(robot: Robot, config: EvolutionConfig) -> None:
     validate(robot, config.limits)
 
 
 # -- crossover ----------------------------------------------------------------------------------
 
-def crossover(a: Robot, b: Robot, rng: np.random.Generator, config: EvolutionConfig) -> OperatorOutcome:
+def crossover(
+    a: Robot, b: Robot, rng: np.random.Generator, config: EvolutionConfig
+) -> OperatorOutcome:
     """Replace a random non-root subtree of a copy of ``a`` by a random subtree of ``b`` that fits.
 
     The crossover point ``a_c`` is drawn once. The subtrees of ``b`` (non-root nodes) are tried in
@@ -209,7 +153,7 @@ def crossover(a: Robot, b: Robot, rng: np.random.Generator, config: EvolutionCon
     b_paths = _non_root_paths(b)
     if not b_paths:
         return OperatorOutcome(None, False, "parent b is a lone core: no subtree to insert")
-    a_c = _pick(rng, a_paths)
+    a_c = pick(rng, a_paths)
     removed = a.node(a_c)
     base = robot_counts(a) - subtree_counts(removed)
     gone = set(_neuron_ids(removed))
@@ -261,7 +205,9 @@ def expected_removed_parts(robot: Robot, config: EvolutionConfig) -> float:
     return config.p_remove_subtree * sum(s for _, s in cands) / len(cands)
 
 
-def remove_subtree(robot: Robot, rng: np.random.Generator, config: EvolutionConfig) -> OperatorOutcome:
+def remove_subtree(
+    robot: Robot, rng: np.random.Generator, config: EvolutionConfig
+) -> OperatorOutcome:
     """Remove a random non-root subtree, chosen among those that leave at least ``min_parts``.
 
     Its neurons and every connection touching them go with it.
@@ -270,7 +216,7 @@ def remove_subtree(robot: Robot, rng: np.random.Generator, config: EvolutionConf
     if not cands:
         return OperatorOutcome(robot, False, f"no subtree can go without leaving fewer than "
                                              f"{config.min_parts} parts")
-    path, size = _pick(rng, cands)
+    path, size = pick(rng, cands)
     child = robot.replace_node(path, None).prune_connections()
     return OperatorOutcome(child, True, f"removed the subtree at {_fmt(path)} ({size} parts)",
                            (path,))
@@ -315,8 +261,8 @@ def duplicate_subtree(
         return OperatorOutcome(robot, False, "no free slot")
     ids = [nr.id for nr in robot.neurons()]
     for _ in range(config.operator_attempts):
-        src, size = _pick(rng, cands)
-        parent, slot = _pick(rng, slots)
+        src, size = pick(rng, cands)
+        parent, slot = pick(rng, slots)
         copy, mapping = _copy_subtree(robot.node(src), IdAllocator(ids))
         child = robot.replace_node((*parent, slot), copy)
         child = replace(child, connections=(*robot.connections,
@@ -329,7 +275,9 @@ def duplicate_subtree(
                                          "would overlap")
 
 
-def swap_subtrees(robot: Robot, rng: np.random.Generator, config: EvolutionConfig) -> OperatorOutcome:
+def swap_subtrees(
+    robot: Robot, rng: np.random.Generator, config: EvolutionConfig
+) -> OperatorOutcome:
     """Swap two random subtrees of which neither is an ancestor of the other.
 
     Each subtree keeps its neurons, so connections are unchanged. Up to ``operator_attempts``
@@ -339,21 +287,23 @@ def swap_subtrees(robot: Robot, rng: np.random.Generator, config: EvolutionConfi
     for _ in range(config.operator_attempts):
         if not paths:
             break
-        s1 = _pick(rng, paths)
+        s1 = pick(rng, paths)
         unrelated = [p for p in paths if not _is_prefix(p, s1) and not _is_prefix(s1, p)]
         if not unrelated:
             continue
-        s2 = _pick(rng, unrelated)
+        s2 = pick(rng, unrelated)
         n1, n2 = robot.node(s1), robot.node(s2)
         child = robot.replace_node(s1, n2).replace_node(s2, n1)
         if constructible(child, config.limits):
-            return OperatorOutcome(child, True, f"swapped the subtrees at {_fmt(s1)} and {_fmt(s2)}",
-                                   (s1, s2))
+            detail = f"swapped the subtrees at {_fmt(s1)} and {_fmt(s2)}"
+            return OperatorOutcome(child, True, detail, (s1, s2))
     if not any(
         not _is_prefix(p, q) and not _is_prefix(q, p) for p in paths for q in paths
     ):
         return OperatorOutcome(robot, False, "no two subtrees without ancestor relation")
-    return OperatorOutcome(robot, False, f"no constructible swap in {config.operator_attempts} tries")
+    return OperatorOutcome(
+        robot, False, f"no constructible swap in {config.operator_attempts} tries"
+    )
 
 
 def add_part(robot: Robot, rng: np.random.Generator, config: EvolutionConfig) -> OperatorOutcome:
@@ -374,8 +324,8 @@ def add_part(robot: Robot, rng: np.random.Generator, config: EvolutionConfig) ->
     taken = [nr.id for nr in robot.neurons()]
     hidden_rate = config.initial_hidden_mean / max(config.initial_parts_mean, 1.0)
     for _ in range(config.operator_attempts):
-        parent, slot = _pick(rng, slots)
-        part_type = _pick(rng, types)
+        parent, slot = pick(rng, slots)
+        part_type = pick(rng, types)
         ids = IdAllocator(taken)
         part = random_part(rng, part_type, robot.node(parent).color, ids)
         n_hidden = min(int(rng.poisson(hidden_rate)), config.max_hidden - counts.hidden)
@@ -399,133 +349,9 @@ def remove_leaf(robot: Robot, rng: np.random.Generator, config: EvolutionConfig)
     if robot.num_parts() <= config.min_parts:
         return OperatorOutcome(robot, False, f"already at the minimum of {config.min_parts} parts")
     leaves = [p for p, n in robot.walk() if p and not n.children]
-    path = _pick(rng, leaves)
+    path = pick(rng, leaves)
     child = robot.replace_node(path, None).prune_connections()
     return OperatorOutcome(child, True, f"removed the leaf at {_fmt(path)}", (path,))
-
-
-# -- neural operators ---------------------------------------------------------------------------
-
-def _map_nodes(node: Node, fn: Callable[[Node], Node]) -> Node:
-    children = tuple((s, _map_nodes(c, fn)) for s, c in node.children)
-    return fn(replace(node, children=children))
-
-
-def mutate_brain_structure(
-    robot: Robot, rng: np.random.Generator, config: EvolutionConfig
-) -> OperatorOutcome:
-    """Remove hidden neurons and connections at random, then add new ones so size does not drift.
-
-    Each hidden neuron goes with ``p_remove_hidden_neuron`` (taking its connections along) and each
-    connection with ``p_remove_connection``. Then ``Poisson(p_remove_hidden_neuron *
-    initial_hidden_mean)`` hidden neurons are added on random parts (capped by ``max_hidden``) and
-    ``Poisson(p_remove_connection * initial_connection_density * pairs)`` connections between
-    random unconnected pairs (``pairs``: allowed ``src -> dst`` pairs of this robot).
-
-    So on average as many are added as are removed when the brain has the size of a random
-    robot's, and the stationary sizes are those of random robots (for hidden neurons exactly the
-    Poisson of :func:`random_robot`). Adding ``Binomial(n_removed_before, p)`` instead would match
-    each step's expected removals but makes 0 absorbing: measured, the mean hidden count fell from
-    2.6 to 0 and the connections from 20 to 0 within 500 generations of mutation. The body is
-    untouched.
-    """
-    hidden = robot.neurons_of(Layer.HIDDEN)
-    drop = {nr.id for nr, r in zip(hidden, rng.random(len(hidden)))
-            if r < config.p_remove_hidden_neuron}
-    conn_keep = rng.random(len(robot.connections)) >= config.p_remove_connection
-    body = _map_nodes(robot.body, lambda n: replace(
-        n, neurons=tuple(nr for nr in n.neurons if nr.id not in drop)))
-    child = Robot(body, tuple(c for c, k in zip(robot.connections, conn_keep) if k),
-                  robot.name).prune_connections()
-    n_conn_removed = len(robot.connections) - len(child.connections)
-
-    n_hidden_now = len(hidden) - len(drop)
-    n_add = min(int(rng.poisson(config.p_remove_hidden_neuron * config.initial_hidden_mean)),
-                config.max_hidden - n_hidden_now)
-    ids = IdAllocator(nr.id for nr in robot.neurons())
-    paths = [p for p, _ in child.walk()]
-    for _ in range(n_add):
-        path = _pick(rng, paths)
-        child = child.replace_node(path, add_neurons(child.node(path), [
-            random_neuron(rng, ids.fresh(), Layer.HIDDEN)]))
-
-    neurons = child.neurons()
-    targets = [nr for nr in neurons if nr.layer != Layer.INPUT]
-    existing = {(c.src, c.dst) for c in child.connections}
-    free_pairs = len(neurons) * len(targets) - len(existing)
-    n_conn_add = min(int(rng.poisson(config.p_remove_connection * config.initial_connection_density
-                                     * len(neurons) * len(targets))), free_pairs)
-    new: list[Connection] = []
-    for _ in range(n_conn_add):
-        for _ in range(config.operator_attempts):
-            src, dst = _pick(rng, neurons).id, _pick(rng, targets).id
-            if (src, dst) not in existing:
-                existing.add((src, dst))
-                new.append(Connection(src, dst, float(rng.uniform(*WEIGHT_BOUNDS))))
-                break
-    child = replace(child, connections=(*child.connections, *new))
-    changed = bool(drop) or n_conn_removed > 0 or n_add > 0 or bool(new)
-    return OperatorOutcome(
-        child, changed,
-        f"hidden neurons -{len(drop)} +{n_add}, connections -{n_conn_removed} +{len(new)}",
-    )
-
-
-def _perturb(rng: np.random.Generator, value: float, low: float, high: float, sigma: float) -> float:
-    return float(np.clip(value + rng.normal(0.0, sigma * (high - low)), low, high))
-
-
-def _with_neuron_params(nr: Neuron, values: Mapping[str, float]) -> Neuron:
-    """A copy of ``nr`` with the parameters named in ``values`` replaced (the others kept)."""
-    unknown = set(values) - set(NEURON_PARAM_BOUNDS)
-    if unknown:
-        raise ValueError(f"unknown neuron parameters {sorted(unknown)}")
-    return replace(
-        nr,
-        bias=values.get("bias", nr.bias),
-        gain=values.get("gain", nr.gain),
-        period=values.get("period", nr.period),
-        phase_offset=values.get("phase_offset", nr.phase_offset),
-        amplitude=values.get("amplitude", nr.amplitude),
-    )
-
-
-def mutate_parameters(
-    robot: Robot, rng: np.random.Generator, config: EvolutionConfig
-) -> OperatorOutcome:
-    """Perturb every continuous parameter by a Gaussian and clip it to its range.
-
-    The standard deviation is ``mutation_sigma`` times the parameter's range. Part parameters
-    (parametric bars) are changed together; if the body would no longer be constructible they
-    are all restored and only the neural changes (neuron parameters, weights) are kept.
-    """
-    sigma = config.mutation_sigma
-    if sigma == 0.0:
-        return OperatorOutcome(robot, False, "mutation_sigma is 0")
-
-    def neural(n: Node) -> Node:
-        neurons = []
-        for nr in n.neurons:
-            changes = {name: _perturb(rng, getattr(nr, name), *NEURON_PARAM_BOUNDS[name], sigma)
-                       for name in ACTIVATION_PARAMS[nr.activation.value]}
-            neurons.append(_with_neuron_params(nr, changes) if changes else nr)
-        return replace(n, neurons=tuple(neurons))
-
-    def body(n: Node) -> Node:
-        spec = PART_SPECS[n.type]
-        if not spec.params:
-            return n
-        params = tuple(_perturb(rng, v, p.low, p.high, sigma) for v, p in zip(n.params, spec.params))
-        return replace(n, params=params)
-
-    with_neural = Robot(_map_nodes(robot.body, neural), tuple(
-        replace(c, weight=_perturb(rng, c.weight, *WEIGHT_BOUNDS, sigma)) for c in robot.connections
-    ), robot.name)
-    with_body = replace(with_neural, body=_map_nodes(with_neural.body, body))
-    if with_body.body == with_neural.body or constructible(with_body, config.limits):
-        return OperatorOutcome(with_body, True, "perturbed part, neuron and weight parameters")
-    return OperatorOutcome(with_neural, True, "perturbed neuron and weight parameters; the part "
-                                              "parameter change would overlap and was undone")
 
 
 # -- whole reproduction -------------------------------------------------------------------------
@@ -580,7 +406,9 @@ def _mutation_steps(
     return robot
 
 
-def _finish(child: Robot, records: list[OperatorRecord], config: EvolutionConfig) -> ReproductionResult:
+def _finish(
+    child: Robot, records: list[OperatorRecord], config: EvolutionConfig
+) -> ReproductionResult:
     # Every step keeps the child valid; this is the last guard, and a failure here is a bug.
     try:
         validate(child, config.limits)

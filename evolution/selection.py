@@ -41,7 +41,12 @@ def tournament(fitness: ArrayLike, rng: np.random.Generator, k: int = 4,
                exclude: int | None = None) -> int:
     """Index of the fittest of ``k`` distinct robots drawn at random (all of them if fewer).
 
+    Ties go to the lower index.
+
     Args:
+        fitness: Fitness of each robot.
+        rng: The generator drawing the entrants.
+        k: Tournament size.
         exclude: An index that may not take part (used to draw a second, different parent).
     """
     f = _fitness(fitness)
@@ -58,7 +63,10 @@ def tournament(fitness: ArrayLike, rng: np.random.Generator, k: int = 4,
 
 
 def select_parents(fitness: ArrayLike, rng: np.random.Generator, k: int = 4) -> tuple[int, int]:
-    """Two distinct parents, each the winner of a ``k``-tournament (the second without the first)."""
+    """Two distinct parents, each the winner of a ``k``-tournament.
+
+    The second tournament is drawn without the first winner.
+    """
     _fitness(fitness, at_least=2)
     a = tournament(fitness, rng, k)
     b = tournament(fitness, rng, k, exclude=a)
@@ -66,7 +74,10 @@ def select_parents(fitness: ArrayLike, rng: np.random.Generator, k: int = 4) -> 
 
 
 def mu_plus_lambda(fitness: ArrayLike, mu: int) -> NDArray[np.intp]:
-    """Indices of the ``mu`` fittest of parents and offspring together (truncation), fittest first."""
+    """Indices of the ``mu`` fittest of parents and offspring together, fittest first.
+
+    Truncation selection; among equal fitness the lower index wins.
+    """
     f = _fitness(fitness)
     if not 1 <= mu <= len(f):
         raise ValueError(f"mu must be in [1, {len(f)}], got {mu}")
@@ -74,7 +85,10 @@ def mu_plus_lambda(fitness: ArrayLike, mu: int) -> NDArray[np.intp]:
 
 
 def random_survivors(n: int, mu: int, rng: np.random.Generator) -> NDArray[np.intp]:
-    """``mu`` distinct indices out of ``n`` drawn uniformly, sorted (the random-selection baseline)."""
+    """``mu`` distinct indices out of ``n`` drawn uniformly, sorted.
+
+    The random-selection baseline.
+    """
     if not 1 <= mu <= n:
         raise ValueError(f"mu must be in [1, n={n}], got {mu}")
     return np.sort(rng.choice(n, size=mu, replace=False))

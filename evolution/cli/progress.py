@@ -15,6 +15,7 @@ __all__ = ["ProgressBar", "duration", "metres"]
 
 
 def duration(seconds: float) -> str:
+    """A wall-clock duration as ``1h02m`` or ``3m05s`` (``?`` when not finite)."""
     if not math.isfinite(seconds):
         return "?"
     seconds = round(seconds)
@@ -24,6 +25,7 @@ def duration(seconds: float) -> str:
 
 
 def metres(value: float) -> str:
+    """A distance in metres with three decimals (``-`` when not finite)."""
     return "-" if not math.isfinite(value) else f"{value:.3f}"
 
 
@@ -64,7 +66,7 @@ class ProgressBar:
         self.births_at_start = sum(self.births.values())
         self.speeds: dict[int, float] = {}
         self.finished: set[int] = set()
-        self.last_event: Any = None
+        self.last_event: ProgressEvent | None = None
         self.last_draw = -math.inf
         self.drawn = False
 
@@ -109,7 +111,7 @@ class ProgressBar:
         text += f" | ETA {duration(self.eta())}"
         return text
 
-    def __call__(self, event: Any) -> None:
+    def __call__(self, event: ProgressEvent) -> None:
         """Take one progress event (called after every commit point of every run)."""
         if event.run_id in self.targets:
             self.births[event.run_id] = event.births

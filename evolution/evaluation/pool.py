@@ -19,11 +19,22 @@ import os
 import queue
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from typing import Any, Protocol, Self
+from typing import Any, Protocol, Self, TypeVar
 
 from evolution.evaluation.tasks import EvalOutcome, EvalTask, EvaluateFunction, evaluate_task
 
-__all__ = ["Evaluator", "LocalEvaluator", "RayEvaluator", "make_evaluator"]
+__all__ = ["Evaluator", "JobFunction", "LocalEvaluator", "RayEvaluator", "make_evaluator"]
+
+JobT = TypeVar("JobT")
+"""What one job is (for the engine: a run to execute)."""
+ResultT = TypeVar("ResultT")
+"""What one job returns."""
+EventT = TypeVar("EventT")
+"""The progress events a job emits."""
+
+JobFunction = Callable[[JobT, "Evaluator", Callable[[EventT], None]], ResultT]
+"""``fn(job, evaluator, emit) -> result``: one job, evaluating with ``evaluator`` and sending
+progress events through ``emit``."""
 
 
 class Evaluator(Protocol):
@@ -38,10 +49,10 @@ class Evaluator(Protocol):
 
     def run_jobs(
         self,
-        fn: Callable[..., Any],
-        jobs: Sequence[Any],
-        on_event: Callable[[Any], None] | None = None,
-    ) -> list[Any]:
+        fn: JobFunction[JobT, EventT, ResultT],
+        jobs: Sequence[JobT],
+        on_event: Callable[[EventT], None] | None = None,
+    ) -> list[ResultT]:
         """Call ``fn(job, evaluator, emit)`` for every job, side by side where possible.
 
         ``emit(event)`` forwards a progress event to ``on_event`` in this process. Results are
@@ -52,8 +63,12 @@ class Evaluator(Protocol):
         """Release workers."""
 
 
-def _run_job_in_worker(fn: Callable[..., Any], job: Any, function: EvaluateFunction,
-                       events: Any) -> Any:
+def _run_job_in_worker(
+    fn: JobFunction[JobT, EventT, ResultT],
+    job: JobT,
+    function: EvaluateFunction,
+    events: queue.Queue[EventT] | None,
+) -> ResultT:
     """Worker side of :meth:`LocalEvaluator.run_jobs`: one run with in-process evaluation."""
     inner = LocalEvaluator(workers=1, function=function)
     emit = (lambda event: events.put(event)) if events is not None else (lambda event: None)
@@ -106,10 +121,10 @@ class LocalEvaluator:
 
     def run_jobs(
         self,
-        fn: Callable[..., Any],
-        jobs: Sequence[Any],
-        on_event: Callable[[Any], None] | None = None,
-    ) -> list[Any]:
+        fn: JobFunction[JobT, EventT, ResultT],
+        jobs: Sequence[JobT],
+        on_event: Callable[[EventT], None] | None = None,
+    ) -> list[ResultT]:
         """Run jobs; one at a time here (evaluations in parallel) or side by side in processes.
 
         With a single job, or a single worker, the jobs run in this process one after the other,
@@ -120,12 +135,12 @@ class LocalEvaluator:
         if len(jobs) <= 1 or self._workers == 1:
             return [fn(job, self, emit) for job in jobs]
         manager = self._context.Manager()
-        events = manager.Queue() if on_event is not None else None
+        events: queue.Queue[EventT] | None = manager.Queue() if on_event is not None else None
         pool = ProcessPoolExecutor(min(self._workers, len(jobs)), mp_context=self._context)
         try:
             futures = [pool.submit(_run_job_in_worker, fn, job, self.function, events)
                        for job in jobs]
-            pending: set[Future[Any]] = set(futures)
+            pending: set[Future[ResultT]] = set(futures)
             while pending:
                 _, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
                 _drain(events, emit)
@@ -154,7 +169,7 @@ class LocalEvaluator:
         raise TypeError("a LocalEvaluator owns processes and cannot be pickled")
 
 
-def _drain(events: Any, emit: Callable[[Any], None]) -> None:
+def _drain(events: queue.Queue[EventT] | None, emit: Callable[[EventT], None]) -> None:
     if events is None:
         return
     while True:
@@ -168,7 +183,9 @@ def _ray_evaluate(function: EvaluateFunction, task: EvalTask) -> EvalOutcome:
     return function(task)
 
 
-def _ray_run_job(fn: Callable[..., Any], job: Any, function: EvaluateFunction) -> Any:
+def _ray_run_job(
+    fn: JobFunction[JobT, EventT, ResultT], job: JobT, function: EvaluateFunction
+) -> ResultT:
     inner = LocalEvaluator(workers=1, function=function)
     return fn(job, inner, lambda event: None)
 
@@ -215,12 +232,14 @@ class RayEvaluator:
             ray.init(address=address, **kwargs)
             self._started_here = True
         self._evaluate = ray.remote(_ray_evaluate)
-        self._run_job = ray.remote(_ray_run_job)
+        # Any: a remote function of the generic _ray_run_job, whose types are fixed per call.
+        self._run_job: Any = ray.remote(_ray_run_job)
 
     @property
     def workers(self) -> int:
         """CPUs of the Ray cluster."""
-        return max(1, int(self._ray.cluster_resources().get("CPU", 1)))
+        resources = self._ray.cluster_resources()  # type: ignore[no-untyped-call]
+        return max(1, int(resources.get("CPU", 1)))
 
     def evaluate(self, tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
         """One Ray task per evaluation; results in task order."""
@@ -229,10 +248,10 @@ class RayEvaluator:
 
     def run_jobs(
         self,
-        fn: Callable[..., Any],
-        jobs: Sequence[Any],
-        on_event: Callable[[Any], None] | None = None,
-    ) -> list[Any]:
+        fn: JobFunction[JobT, EventT, ResultT],
+        jobs: Sequence[JobT],
+        on_event: Callable[[EventT], None] | None = None,
+    ) -> list[ResultT]:
         """One Ray task per run (progress events are not forwarded from Ray tasks)."""
         refs = [self._run_job.remote(fn, job, self.function) for job in jobs]
         try:

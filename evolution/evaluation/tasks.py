@@ -102,10 +102,10 @@ def infancy_seed(evaluation_seed: int) -> np.random.SeedSequence:
 
 
 def evaluate_robot(task: EvalTask) -> EvalOutcome:
-    """Evaluate ``task.robot`` alone at the origin with :func:`revolve_env.evaluate`, its own
-    network driving it.
+    """Evaluate ``task.robot`` alone at the origin with :func:`revolve_env.evaluate`.
 
-    ``task.infancy`` is ignored here (:func:`evaluate_task` runs it first).
+    The robot's own network drives it. ``task.infancy`` is ignored here
+    (:func:`evaluate_task` runs it first).
     """
     # Imported here: it loads the physics engine, which a process that only plans (the CLI, a
     # Ray driver) never needs.
@@ -181,6 +181,9 @@ def evaluate_after_infancy(task: EvalTask, evaluate: EvaluateFunction) -> EvalOu
 
 
 def evaluate_task(task: EvalTask) -> EvalOutcome:
-    """The default evaluation: the Training Center (``task.infancy``, if any), then the robot
-    evaluated alone at the origin with :func:`revolve_env.evaluate`."""
+    """The default evaluation: the Training Center, then the robot alone at the origin.
+
+    The Training Center is ``task.infancy`` (if any); the evaluation is
+    :func:`revolve_env.evaluate`.
+    """
     return evaluate_after_infancy(task, evaluate_robot)

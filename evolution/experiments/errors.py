@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
-__all__ = ["ConfigError"]
+__all__ = ["ConfigError", "StoreError"]
 
 
 class ConfigError(ValueError):
     """An experiment configuration that cannot be run (unknown key, value out of range, ...)."""
+
+
+class StoreError(ValueError):
+    """A results database that cannot be used: missing, corrupt, newer schema, other experiment."""

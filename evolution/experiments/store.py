@@ -43,16 +43,29 @@ from __future__ import annotations
 
 import json
 import math
-import re
 import sqlite3
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Self
 
-import numpy as np
-
+from evolution.experiments.errors import StoreError
+from evolution.experiments.records import (
+    MIGRATIONS,
+    SCHEMA,
+    SCHEMA_VERSION,
+    TABLES,
+    Batch,
+    Checkpoint,
+    DiversityPoint,
+    FailureRecord,
+    FitnessSample,
+    FitnessSeries,
+    LearningRecord,
+    PopulationSnapshot,
+    RobotRecord,
+    RunRecord,
+)
 from evolution.lifecycle import Stage, Transition
 
 __all__ = [
@@ -72,116 +85,9 @@ __all__ = [
     "package_version",
 ]
 
-SCHEMA_VERSION = 2
-"""Version of the database layout; a database with a newer one is refused, an older one is
-upgraded when opened (see the module docstring)."""
-
 DB_NAME = "results.sqlite"
 """File name of the database inside a results directory."""
 
-_SCHEMA_V1 = """
-CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
-CREATE TABLE runs (
-    run_id INTEGER PRIMARY KEY,
-    seed INTEGER NOT NULL,
-    status TEXT NOT NULL CHECK (status IN ('pending', 'running', 'interrupted', 'finished')),
-    births INTEGER NOT NULL DEFAULT 0,
-    sim_time REAL NOT NULL DEFAULT 0,
-    generation INTEGER NOT NULL DEFAULT 0
-);
-CREATE TABLE checkpoints (
-    run_id INTEGER PRIMARY KEY REFERENCES runs(run_id),
-    births INTEGER NOT NULL,
-    sim_time REAL NOT NULL,
-    generation INTEGER NOT NULL,
-    rng_state TEXT NOT NULL,
-    engine_state TEXT NOT NULL
-);
-CREATE TABLE robots (
-    run_id INTEGER NOT NULL REFERENCES runs(run_id),
-    robot_id INTEGER NOT NULL,
-    genome TEXT NOT NULL,
-    parent_a INTEGER,
-    parent_b INTEGER,
-    origin TEXT NOT NULL,
-    generation INTEGER NOT NULL,
-    conceived_time REAL NOT NULL,
-    birth_time REAL,
-    death_time REAL,
-    death_cause TEXT,
-    fitness REAL,
-    PRIMARY KEY (run_id, robot_id)
-);
-CREATE TABLE fitness (
-    run_id INTEGER NOT NULL,
-    robot_id INTEGER NOT NULL,
-    time REAL NOT NULL,
-    fitness REAL NOT NULL,
-    v REAL,
-    s REAL
-);
-CREATE INDEX fitness_by_robot ON fitness (run_id, robot_id);
-CREATE TABLE transitions (
-    run_id INTEGER NOT NULL,
-    robot_id INTEGER NOT NULL,
-    source TEXT,
-    target TEXT NOT NULL,
-    time REAL NOT NULL,
-    note TEXT NOT NULL DEFAULT ''
-);
-CREATE INDEX transitions_by_robot ON transitions (run_id, robot_id);
-CREATE TABLE population (
-    run_id INTEGER NOT NULL,
-    births INTEGER NOT NULL,
-    sim_time REAL NOT NULL,
-    robot_id INTEGER NOT NULL,
-    fitness REAL
-);
-CREATE INDEX population_by_births ON population (run_id, births);
-CREATE TABLE diversity (
-    run_id INTEGER NOT NULL,
-    births INTEGER NOT NULL,
-    sim_time REAL NOT NULL,
-    value REAL NOT NULL,
-    PRIMARY KEY (run_id, births)
-);
-CREATE TABLE failures (
-    run_id INTEGER NOT NULL,
-    robot_id INTEGER,
-    time REAL NOT NULL,
-    kind TEXT NOT NULL,
-    detail TEXT NOT NULL DEFAULT ''
-);
-"""
-
-_LEARNING_TABLE = """
-CREATE TABLE learning (
-    run_id INTEGER NOT NULL,
-    robot_id INTEGER NOT NULL,
-    time REAL NOT NULL,
-    inheritance TEXT NOT NULL,
-    learned_genome TEXT,
-    inborn_fitness REAL,
-    learned_fitness REAL,
-    evaluations INTEGER,
-    sim_seconds REAL,
-    failures INTEGER NOT NULL DEFAULT 0,
-    PRIMARY KEY (run_id, robot_id)
-);
-"""
-
-_SCHEMA = _SCHEMA_V1 + _LEARNING_TABLE
-"""The current layout (version :data:`SCHEMA_VERSION`)."""
-
-_TABLES = frozenset(re.findall(r"CREATE TABLE (\w+)", _SCHEMA))
-"""The tables of the current layout (an opened database must have them all)."""
-
-_MIGRATIONS: dict[int, str] = {1: _LEARNING_TABLE}
-"""For each old version, the statements that bring it to the next one."""
-
-
-class StoreError(ValueError):
-    """A results database that cannot be used: missing, corrupt, newer schema, other experiment."""
 
 
 def package_version() -> str:
@@ -192,214 +98,6 @@ def package_version() -> str:
         return version("revolve-env")
     except PackageNotFoundError:
         return "unknown"
-
-
-# --------------------------------------------------------------------------------------------
-# Records
-
-
-@dataclass(frozen=True, slots=True)
-class RobotRecord:
-    """One robot of a run as stored.
-
-    Attributes:
-        run_id: Run (repeat index).
-        robot_id: Birth index within the run.
-        genome: The robot as JSON (``revolve_env.body.serialize``).
-        parent_a: First parent's id, ``None`` for a random robot.
-        parent_b: Second parent's id, ``None`` for a random robot.
-        origin: ``"random"``, ``"reproduction"`` or ``"random-fallback"`` (reproduction failed
-            too often).
-        generation: Offline generation (online: 0).
-        conceived_time: Simulated time of conception. Seconds.
-        birth_time: Simulated time of delivery; ``None`` if never delivered. Seconds.
-        death_time: Simulated time of death; ``None`` while alive. Seconds.
-        death_cause: Why it died (``"survivor selection"``, ``"blow-up: ..."``); ``None`` alive.
-        fitness: Last known fitness (offline: the evaluation; online: the last sample).
-    """
-
-    run_id: int
-    robot_id: int
-    genome: str
-    parent_a: int | None
-    parent_b: int | None
-    origin: str
-    generation: int
-    conceived_time: float
-    birth_time: float | None
-    death_time: float | None = None
-    death_cause: str | None = None
-    fitness: float | None = None
-
-    def robot(self) -> Any:
-        """The genome decoded into a :class:`~revolve_env.body.robot.Robot`."""
-        from revolve_env.body.serialize import from_json
-
-        return from_json(self.genome)
-
-
-@dataclass(frozen=True, slots=True)
-class FitnessSample:
-    """A robot's fitness at one simulated time.
-
-    Attributes:
-        robot_id: The robot.
-        time: Simulated time. Seconds.
-        fitness: ``v + 5 s`` over the preceding window. Metres.
-        v: Path length over the window. Metres. ``None`` when unknown.
-        s: Straight-line displacement over the window. Metres. ``None`` when unknown.
-    """
-
-    robot_id: int
-    time: float
-    fitness: float
-    v: float | None = None
-    s: float | None = None
-
-
-@dataclass(frozen=True, slots=True)
-class FailureRecord:
-    """Something that went wrong and was handled (``kind``: e.g. ``"crossover"``, ``"blow-up"``).
-
-    Attributes:
-        robot_id: Robot concerned, if any.
-        time: Simulated time. Seconds.
-        kind: Short machine-readable kind.
-        detail: Human-readable detail.
-    """
-
-    robot_id: int | None
-    time: float
-    kind: str
-    detail: str = ""
-
-
-@dataclass(frozen=True, slots=True)
-class LearningRecord:
-    """One infancy in the Training Center (a learner that ran without failing).
-
-    Attributes:
-        robot_id: The infant.
-        time: Simulated time of its birth, when it went to the Training Center. Seconds.
-        inheritance: ``"darwinian"`` or ``"lamarckian"``: which genome it passes to children.
-        learned_genome: The robot as JSON with its learned controller; ``None`` when the learner
-            kept the inborn controller.
-        inborn_fitness: Fitness of the inborn controller as the learner measured it. Metres.
-        learned_fitness: Fitness of the learned controller as the learner measured it. Metres.
-        evaluations: Evaluations (or training episodes) the learner ran.
-        sim_seconds: Simulated seconds spent in the Training Center. Seconds.
-        failures: Learner evaluations that failed (blow-ups).
-    """
-
-    robot_id: int
-    time: float
-    inheritance: str
-    learned_genome: str | None
-    inborn_fitness: float | None
-    learned_fitness: float | None
-    evaluations: int | None
-    sim_seconds: float | None
-    failures: int = 0
-
-    @property
-    def improvement(self) -> float | None:
-        """``learned_fitness - inborn_fitness`` (``None`` when either is unknown). Metres."""
-        if self.inborn_fitness is None or self.learned_fitness is None:
-            return None
-        return self.learned_fitness - self.inborn_fitness
-
-
-@dataclass(frozen=True, slots=True)
-class DiversityPoint:
-    """Population diversity after ``births`` births (mean pairwise tree edit distance)."""
-
-    births: int
-    sim_time: float
-    value: float
-
-
-@dataclass(frozen=True, slots=True)
-class Checkpoint:
-    """Where a run stands at a commit point: enough to continue it exactly.
-
-    Attributes:
-        births: Robots born so far.
-        sim_time: Simulated time. Seconds.
-        generation: Offline generation counter (online: number of conception ticks).
-        rng_state: ``numpy.random.Generator.bit_generator.state``.
-        engine_state: Whatever else the engine needs (JSON-compatible).
-    """
-
-    births: int
-    sim_time: float
-    generation: int
-    rng_state: dict[str, Any]
-    engine_state: dict[str, Any]
-
-
-@dataclass(slots=True)
-class Batch:
-    """The records of one commit point, written in one transaction."""
-
-    robots: list[RobotRecord] = field(default_factory=list)
-    deaths: list[tuple[int, float, str, float | None]] = field(default_factory=list)
-    """(robot_id, time, cause, final fitness) of robots stored earlier that died now."""
-    fitness_updates: list[tuple[int, float]] = field(default_factory=list)
-    """(robot_id, fitness): latest fitness of robots stored earlier."""
-    fitness: list[FitnessSample] = field(default_factory=list)
-    transitions: list[Transition] = field(default_factory=list)
-    population: list[tuple[int, float | None]] | None = None
-    """Snapshot (robot_id, fitness) of the population at this commit point, if any."""
-    diversity: float | None = None
-    failures: list[FailureRecord] = field(default_factory=list)
-    learning: list[LearningRecord] = field(default_factory=list)
-
-    def clear(self) -> None:
-        """Forget everything (after it has been written)."""
-        self.robots.clear()
-        self.deaths.clear()
-        self.fitness_updates.clear()
-        self.fitness.clear()
-        self.transitions.clear()
-        self.population = None
-        self.diversity = None
-        self.failures.clear()
-        self.learning.clear()
-
-
-@dataclass(frozen=True, slots=True)
-class RunRecord:
-    """One run of an experiment."""
-
-    run_id: int
-    seed: int
-    status: str
-    births: int
-    sim_time: float
-    generation: int
-
-
-@dataclass(frozen=True, slots=True)
-class FitnessSeries:
-    """Population fitness after each commit point of a run (arrays of equal length).
-
-    Attributes:
-        births: Births so far.
-        sim_time: Simulated time. Seconds.
-        mean: Mean fitness of the population (robots with a fitness).
-        best: Highest fitness.
-        worst: Lowest fitness.
-        median: Median fitness.
-        size: Population size (all members, with or without fitness).
-    """
-
-    births: np.ndarray
-    sim_time: np.ndarray
-    mean: np.ndarray
-    best: np.ndarray
-    worst: np.ndarray
-    median: np.ndarray
-    size: np.ndarray
 
 
 def _nullable(value: float | None) -> float | None:
@@ -447,7 +145,7 @@ class Store:
             db.execute("PRAGMA journal_mode = WAL")
             # Schema and meta in one transaction: a database without meta is never left behind.
             with _transaction(db):
-                for statement in _SCHEMA.split(";"):
+                for statement in SCHEMA.split(";"):
                     if statement.strip():
                         db.execute(statement)
                 db.executemany(
@@ -480,46 +178,14 @@ class Store:
             db = cls._connect(path)
             check = db.execute("PRAGMA quick_check").fetchone()
         except sqlite3.DatabaseError as error:
-            raise StoreError(f"{path} is not a readable SQLite database ({error}); corrupt?") from error
-        if check is None or check[0] != "ok":
-            db.close()
-            raise StoreError(f"{path} is corrupt: integrity check says {check!r}")
-        try:
-            rows = dict(db.execute("SELECT key, value FROM meta").fetchall())
-        except sqlite3.DatabaseError as error:
-            db.close()
-            raise StoreError(f"{path} is not a revolve-env results database ({error})") from error
-        if "schema_version" not in rows or "config" not in rows:
-            db.close()
-            raise StoreError(f"{path} is not a revolve-env results database (meta table incomplete)")
-        try:
-            version = int(rows["schema_version"])
-        except ValueError:
-            db.close()
             raise StoreError(
-                f"{path} has an unreadable schema version {rows['schema_version']!r}; corrupt?"
-            ) from None
-        if version > SCHEMA_VERSION:
+                f"{path} is not a readable SQLite database ({error}); corrupt?"
+            ) from error
+        try:
+            _check_database(db, path, check)
+        except StoreError:
             db.close()
-            raise StoreError(
-                f"{path} has schema version {version}, newer than this package's "
-                f"{SCHEMA_VERSION}; upgrade revolve-env to read it"
-            )
-        if version < SCHEMA_VERSION:
-            try:
-                _migrate(db, version)
-            except sqlite3.Error as error:
-                db.close()
-                raise StoreError(
-                    f"{path} has schema version {version}, older than this package's "
-                    f"{SCHEMA_VERSION}, and could not be upgraded in place ({error}); open it "
-                    "once with write access, or with the revolve-env version that wrote it"
-                ) from error
-        tables = {row[0] for row in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
-        missing = sorted(_TABLES - tables)
-        if missing:
-            db.close()
-            raise StoreError(f"{path} is incomplete: table(s) {', '.join(missing)} missing; corrupt?")
+            raise
         return cls(db, path)
 
     def close(self) -> None:
@@ -540,8 +206,9 @@ class Store:
 
     @property
     def config(self) -> dict[str, Any]:
-        """The experiment configuration the database was created for."""
-        return json.loads(self.meta()["config"])
+        """The experiment configuration the database was created for (parsed JSON)."""
+        config: dict[str, Any] = json.loads(self.meta()["config"])
+        return config
 
     @property
     def seed(self) -> int:
@@ -621,7 +288,8 @@ class Store:
                     (run_id, checkpoint.births, checkpoint.sim_time, float(batch.diversity)),
                 )
             db.executemany(
-                "INSERT INTO failures (run_id, robot_id, time, kind, detail) VALUES (?, ?, ?, ?, ?)",
+                "INSERT INTO failures (run_id, robot_id, time, kind, detail) "
+                "VALUES (?, ?, ?, ?, ?)",
                 [(run_id, f.robot_id, f.time, f.kind, f.detail) for f in batch.failures],
             )
             db.executemany(
@@ -717,7 +385,7 @@ class Store:
     def failures(self, run_id: int, kind: str | None = None) -> list[FailureRecord]:
         """Handled failures of a run (of one kind if given), in recorded order."""
         query = "SELECT robot_id, time, kind, detail FROM failures WHERE run_id = ?"
-        args: tuple[Any, ...] = (run_id,)
+        args: tuple[int | str, ...] = (run_id,)
         if kind is not None:
             query += " AND kind = ?"
             args += (kind,)
@@ -736,14 +404,14 @@ class Store:
             records = [r for r in records if r.robot_id in wanted]
         return records
 
-    def population_snapshots(self, run_id: int) -> list[tuple[int, float, list[tuple[int, float | None]]]]:
+    def population_snapshots(self, run_id: int) -> list[PopulationSnapshot]:
         """Every population snapshot: ``(births, sim_time, [(robot_id, fitness), ...])``."""
         rows = self._db.execute(
             "SELECT births, sim_time, robot_id, fitness FROM population WHERE run_id = ? "
             "ORDER BY births, rowid",
             (run_id,),
         ).fetchall()
-        snapshots: list[tuple[int, float, list[tuple[int, float | None]]]] = []
+        snapshots: list[PopulationSnapshot] = []
         for births, sim_time, robot_id, fitness in rows:
             if not snapshots or snapshots[-1][0] != births:
                 snapshots.append((births, sim_time, []))
@@ -752,28 +420,7 @@ class Store:
 
     def fitness_over_births(self, run_id: int) -> FitnessSeries:
         """Population fitness statistics after each commit point of a run (for plots)."""
-        births, times, means, bests, worsts, medians, sizes = [], [], [], [], [], [], []
-        for b, t, members in self.population_snapshots(run_id):
-            values = np.array([f for _, f in members if f is not None and math.isfinite(f)])
-            births.append(b)
-            times.append(t)
-            sizes.append(len(members))
-            if values.size:
-                means.append(values.mean())
-                bests.append(values.max())
-                worsts.append(values.min())
-                medians.append(float(np.median(values)))
-            else:
-                means.append(math.nan)
-                bests.append(math.nan)
-                worsts.append(math.nan)
-                medians.append(math.nan)
-        return FitnessSeries(
-            np.array(births, dtype=np.int64), np.array(times, dtype=float),
-            np.array(means, dtype=float), np.array(bests, dtype=float),
-            np.array(worsts, dtype=float), np.array(medians, dtype=float),
-            np.array(sizes, dtype=np.int64),
-        )
+        return FitnessSeries.from_snapshots(self.population_snapshots(run_id))
 
     def final_population(self, run_id: int) -> list[tuple[int, float | None]]:
         """The last population snapshot of a run: ``[(robot_id, fitness), ...]``."""
@@ -801,12 +448,59 @@ _ROBOT_COLUMNS = (
 )
 
 
+def _check_database(db: sqlite3.Connection, path: Path, check: tuple[str] | None) -> None:
+    """Raise :class:`StoreError` unless ``db`` is an intact results database of this package.
+
+    ``check`` is the row of ``PRAGMA quick_check``. A database of an older schema is upgraded
+    in place.
+    """
+    if check is None or check[0] != "ok":
+        raise StoreError(f"{path} is corrupt: integrity check says {check!r}")
+    try:
+        rows = dict(db.execute("SELECT key, value FROM meta").fetchall())
+    except sqlite3.DatabaseError as error:
+        raise StoreError(f"{path} is not a revolve-env results database ({error})") from error
+    if "schema_version" not in rows or "config" not in rows:
+        raise StoreError(
+            f"{path} is not a revolve-env results database (meta table incomplete)"
+        )
+    try:
+        version = int(rows["schema_version"])
+    except ValueError:
+        raise StoreError(
+            f"{path} has an unreadable schema version {rows['schema_version']!r}; corrupt?"
+        ) from None
+    if version > SCHEMA_VERSION:
+        raise StoreError(
+            f"{path} has schema version {version}, newer than this package's "
+            f"{SCHEMA_VERSION}; upgrade revolve-env to read it"
+        )
+    if version < SCHEMA_VERSION:
+        try:
+            _migrate(db, version)
+        except sqlite3.Error as error:
+            raise StoreError(
+                f"{path} has schema version {version}, older than this package's "
+                f"{SCHEMA_VERSION}, and could not be upgraded in place ({error}); open it "
+                "once with write access, or with the revolve-env version that wrote it"
+            ) from error
+    rows_of_tables = db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")
+    tables = {row[0] for row in rows_of_tables}
+    missing = sorted(TABLES - tables)
+    if missing:
+        raise StoreError(
+            f"{path} is incomplete: table(s) {', '.join(missing)} missing; corrupt?"
+        )
+
+
 def _migrate(db: sqlite3.Connection, version: int) -> None:
-    """Bring a database of an older schema ``version`` to :data:`SCHEMA_VERSION` (one
-    transaction: either fully upgraded or untouched)."""
+    """Bring a database of an older schema ``version`` to :data:`SCHEMA_VERSION`.
+
+    One transaction: either fully upgraded or untouched.
+    """
     with _transaction(db):
         for old in range(version, SCHEMA_VERSION):
-            for statement in _MIGRATIONS[old].split(";"):
+            for statement in MIGRATIONS[old].split(";"):
                 if statement.strip():
                     db.execute(statement)
         db.execute("UPDATE meta SET value = ? WHERE key = 'schema_version'",

@@ -21,10 +21,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Literal, Protocol, runtime_checkable
+from typing import Literal, Protocol, runtime_checkable
 
 import numpy as np
-
 from numpy.typing import NDArray
 
 from evolution.lifecycle import LearningSummary
@@ -123,14 +122,20 @@ def check_budget(budget: float) -> float:
     if isinstance(budget, bool) or not isinstance(budget, (int, float)) or not (
         math.isfinite(budget) and budget > 0
     ):
-        raise ValueError(f"budget must be a positive finite number of simulated seconds, got {budget!r}")
+        raise ValueError(
+            f"budget must be a positive finite number of simulated seconds, got {budget!r}"
+        )
     return float(budget)
 
 
 def same_body(a: Robot, b: Robot) -> bool:
-    """True when ``a`` and ``b`` have the same parts in the same places and the same network
-    structure (neuron ids, activations, connections), whatever the parameter values."""
-    def shape(robot: Robot) -> list[Any]:
+    """True when ``a`` and ``b`` have the same body and network structure.
+
+    The same parts in the same places, and the same neuron ids, activations and connections,
+    whatever the parameter values.
+    """
+
+    def shape(robot: Robot) -> list[tuple[object, ...]]:
         return [
             (path, node.type, node.orientation, node.params,
              tuple((nr.id, nr.layer, nr.activation) for nr in node.neurons))
@@ -183,7 +188,9 @@ class TrainingCenter:
                 f"inheritance must be 'darwinian' or 'lamarckian', got {self.inheritance!r}"
             )
         if not isinstance(self.learner, Learner):
-            raise TypeError(f"learner must have a learn(robot, budget, rng) method, got {self.learner!r}")
+            raise TypeError(
+                f"learner must have a learn(robot, budget, rng) method, got {self.learner!r}"
+            )
         if self.lamarckian and getattr(self.learner, "learns_policy", False):
             raise ValueError(
                 f"{type(self.learner).__name__} learns a policy outside the genome: it has no "
@@ -207,7 +214,9 @@ class TrainingCenter:
         try:
             result = self.learner.learn(robot, self.budget, rng)
         except Exception as error:
-            raise LearnerError(f"{type(self.learner).__name__} raised {type(error).__name__}: {error}") from error
+            raise LearnerError(
+                f"{type(self.learner).__name__} raised {type(error).__name__}: {error}"
+            ) from error
         if not isinstance(result, LearningResult):
             raise LearnerError(f"{type(self.learner).__name__} returned {type(result).__name__}, "
                                "not a LearningResult")
@@ -219,7 +228,9 @@ class TrainingCenter:
             k = int(np.argmax(~np.isfinite(params)))
             raise LearnerError(f"learned params[{k}] is {params[k]}")
         if not same_body(robot, result.robot):
-            raise LearnerError("the learner returned a robot with another body or network structure")
+            raise LearnerError(
+                "the learner returned a robot with another body or network structure"
+            )
         try:
             learned = set_params(robot, params)
         except ValueError as error:

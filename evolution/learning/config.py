@@ -7,7 +7,8 @@ An experiment config with learning is an ordinary experiment TOML (see
     learner     = "cma-es"       # "cma-es", "random-search" or "sb3"
     budget      = 90.0           # simulated seconds of learning per infant
     inheritance = "lamarckian"   # or "darwinian"
-    sigma       = 0.15           # cma-es: initial step; random-search: perturbation (fraction of range)
+    sigma       = 0.15           # cma-es: initial step; random-search: perturbation
+                                 # (both a fraction of each parameter's range)
     popsize     = 8              # cma-es: candidates per generation; random-search: batch size
     insertion   = 1.0            # settling time of each candidate evaluation, seconds
     seconds     = 6.0            # fitness window of each candidate evaluation, seconds
@@ -29,7 +30,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from evolution.learning.base import TrainingCenter
+from evolution.learning.base import Learner, TrainingCenter
 from evolution.learning.params import CandidateEvaluation, CMAESLearner, RandomSearchLearner
 from evolution.learning.sb3 import SB3Learner
 
@@ -67,8 +68,9 @@ def training_center_from_dict(data: Mapping[str, Any], engine: str = "pybullet")
                          f"{', '.join(sorted(_KEYS[name]))}")
     if "budget" not in data:
         raise ValueError("learning.budget (simulated seconds per infant) is required")
+    # Any, not float: spread as keyword arguments beside arguments of other types.
     timing: dict[str, Any] = {k: float(data[k]) for k in ("insertion", "seconds") if k in data}
-    learner: Any
+    learner: Learner
     if name == "sb3":
         kwargs = {k: data[k] for k in ("algorithm", "policy", "action", "n_envs", "vec_env",
                                        "control_period") if k in data}

@@ -22,6 +22,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import NDArray
 
 from evolution.evaluation import (
     EvalOutcome,
@@ -93,7 +94,9 @@ class CandidateEvaluation:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.insertion) and self.insertion >= 0):
-            raise ValueError(f"insertion must be a finite number of seconds >= 0, got {self.insertion}")
+            raise ValueError(
+                f"insertion must be a finite number of seconds >= 0, got {self.insertion}"
+            )
         if not (math.isfinite(self.seconds) and self.seconds > 0):
             raise ValueError(f"seconds must be a positive number of seconds, got {self.seconds}")
         if isinstance(self.workers, bool) or not isinstance(self.workers, int) or self.workers < 1:
@@ -133,7 +136,8 @@ def evaluate_params(
         if own:
             evaluator.close()
     fitness = np.array(
-        [o.fitness if o.fitness is not None and math.isfinite(o.fitness) else 0.0 for o in outcomes],
+        [o.fitness if o.fitness is not None and math.isfinite(o.fitness) else 0.0
+         for o in outcomes],
         dtype=np.float64,
     )
     failures = sum(1 for o in outcomes if o.fitness is None or not math.isfinite(o.fitness))
@@ -165,11 +169,15 @@ class _Search:
         """Evaluations the budget still pays for."""
         return self.max_evaluations - len(self.fitness)
 
-    def to_unit(self, params: np.ndarray) -> np.ndarray:
-        return np.clip((params - self.low) / self.span, 0.0, 1.0)
+    def to_unit(self, params: np.ndarray) -> NDArray[np.float64]:
+        """Parameters mapped to the unit cube of their ranges (clipped to it)."""
+        unit: NDArray[np.float64] = np.clip((params - self.low) / self.span, 0.0, 1.0)
+        return unit
 
-    def from_unit(self, x: np.ndarray) -> np.ndarray:
-        return self.low + np.clip(x, 0.0, 1.0) * self.span
+    def from_unit(self, x: np.ndarray) -> NDArray[np.float64]:
+        """Unit-cube coordinates (clipped to it) mapped back to parameters."""
+        params: NDArray[np.float64] = self.low + np.clip(x, 0.0, 1.0) * self.span
+        return params
 
     def evaluate(self, params: Sequence[np.ndarray]) -> np.ndarray:
         """Evaluate candidates (no more than the budget allows), update the best."""
@@ -179,7 +187,7 @@ class _Search:
         fitness, failed = evaluate_params(self.robot, params, self.seed, self.evaluation,
                                           self.evaluator)
         self.failures += failed
-        for p, f in zip(params, fitness):
+        for p, f in zip(params, fitness, strict=True):
             self.fitness.append(float(f))
             if f > self.best_fitness:  # strict: ties keep the earlier (the inborn first)
                 self.best_fitness, self.best_params = float(f), np.array(p, dtype=np.float64)
@@ -224,7 +232,9 @@ class CMAESLearner:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.sigma0) and 0 < self.sigma0 <= 1):
-            raise ValueError(f"sigma0 must be in (0, 1] (a fraction of each range), got {self.sigma0}")
+            raise ValueError(
+                f"sigma0 must be in (0, 1] (a fraction of each range), got {self.sigma0}"
+            )
         if self.popsize is not None and (not isinstance(self.popsize, int) or self.popsize < 2):
             raise ValueError(f"popsize must be an integer >= 2 or None, got {self.popsize!r}")
 

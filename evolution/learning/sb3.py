@@ -16,8 +16,9 @@ therefore drives the robot as an *agent-controlled* robot in the population env
 
 Budget: ``budget`` simulated seconds buy ``budget / control_period`` training steps (summed over
 the parallel envs; on-policy algorithms round up to a whole rollout of ``n_steps * n_envs``, and
-:attr:`LearningResult.sim_seconds` reports the steps actually taken). The evaluations of the inborn controller and of the trained policy that frame
-the record are not charged (they are one episode each).
+:attr:`LearningResult.sim_seconds` reports the steps actually taken). The evaluations of the
+inborn controller and of the trained policy that frame the record are not charged (they are one
+episode each).
 
 The policy lives outside the genome, so an SB3 learner is Darwinian only
 (:class:`~evolution.learning.base.TrainingCenter` refuses ``"lamarckian"`` for it).
@@ -31,16 +32,29 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import partial
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, Protocol
 
 import numpy as np
+from numpy.typing import NDArray
 
 from evolution.learning.base import LearningResult, check_budget
 from revolve_env.body.robot import Layer, Robot
 
-__all__ = ["PolicyAgent", "SB3Learner", "rollout_fitness"]
+if TYPE_CHECKING:
+    from revolve_env.brain import BatchController
+
+__all__ = ["Policy", "PolicyAgent", "SB3Learner", "rollout_fitness"]
 
 ActionMode = Literal["targets", "modulate"]
+
+
+class Policy(Protocol):
+    """What :class:`PolicyAgent` needs of a trained policy: SB3's ``predict``."""
+
+    def predict(
+        self, observation: NDArray[np.float64], /, *, deterministic: bool = ...
+    ) -> tuple[NDArray[Any], object]:
+        """The action for one observation, and the policy's recurrent state (unused here)."""
 
 
 def _algorithm_class(algorithm: type | str) -> type:
@@ -49,17 +63,27 @@ def _algorithm_class(algorithm: type | str) -> type:
     try:
         import stable_baselines3
     except ImportError as error:  # pragma: no cover - depends on the installation
-        raise ImportError("SB3Learner needs stable-baselines3: pip install 'revolve-env[learn]'") from error
+        raise ImportError(
+            "SB3Learner needs stable-baselines3: pip install 'revolve-env[learn]'"
+        ) from error
     cls = getattr(stable_baselines3, algorithm, None)
     if not isinstance(cls, type):
-        known = [n for n in ("A2C", "DDPG", "DQN", "PPO", "SAC", "TD3") if hasattr(stable_baselines3, n)]
-        raise ValueError(f"stable_baselines3 has no algorithm {algorithm!r}; known: {', '.join(known)}")  # noqa: TRY004
+        known = [n for n in ("A2C", "DDPG", "DQN", "PPO", "SAC", "TD3")
+                 if hasattr(stable_baselines3, n)]
+        raise ValueError(
+            f"stable_baselines3 has no algorithm {algorithm!r}; known: {', '.join(known)}"
+        )
     return cls
 
 
 def _make_env(robot: Robot, action: ActionMode, insertion: float, seconds: float,
               control_period: float, engine: str = "pybullet") -> Any:
-    """The infant's single-robot env (module level, so that worker processes can build it)."""
+    """The infant's single-robot env (module level, so that worker processes can build it).
+
+    Returns a :class:`~revolve_env.envs.LocomotionEnv`, typed ``Any`` because its declared
+    action type (float32) does not admit the float64 targets :func:`rollout_fitness` sends on
+    purpose (exact targets).
+    """
     from revolve_env.envs import LocomotionEnv
 
     return LocomotionEnv(
@@ -87,18 +111,22 @@ class PolicyAgent:
         control_period: The period between two calls of :meth:`act`. Seconds.
     """
 
-    def __init__(self, policy: Any, robot: Robot, action: ActionMode, control_period: float) -> None:
+    def __init__(
+        self, policy: Policy, robot: Robot, action: ActionMode, control_period: float
+    ) -> None:
         if action not in ("targets", "modulate"):
             raise ValueError(f"action must be 'targets' or 'modulate', got {action!r}")
         if not (math.isfinite(control_period) and control_period > 0):
-            raise ValueError(f"control_period must be a positive number of seconds, got {control_period}")
+            raise ValueError(
+                f"control_period must be a positive number of seconds, got {control_period}"
+            )
         self.policy = policy
         self.robot = robot
         self.action = action
         self.control_period = float(control_period)
         self.n_inputs = len(robot.neurons_of(Layer.INPUT))
         self.n_outputs = len(robot.neurons_of(Layer.OUTPUT))
-        self._brain: Any = None
+        self._brain: BatchController | None = None
         self._out = np.zeros(self.n_outputs)
 
     def __getstate__(self) -> dict[str, Any]:
@@ -133,7 +161,7 @@ class PolicyAgent:
         In ``"modulate"`` mode this also advances the robot's network by one control period.
         """
         obs = np.ascontiguousarray(observation, dtype=np.float64).reshape(-1)
-        a = np.clip(self.policy_action(obs), -1.0, 1.0)
+        a: NDArray[np.float64] = np.clip(self.policy_action(obs), -1.0, 1.0)
         if self.action == "targets":
             return a
         if self._brain is None:
@@ -143,7 +171,8 @@ class PolicyAgent:
             self._brain.add(self.robot)
         self._brain.step(obs, self._out)
         n = self.n_outputs
-        return np.clip((1.0 + a[:n]) * self._out + a[n:], -1.0, 1.0)
+        targets: NDArray[np.float64] = np.clip((1.0 + a[:n]) * self._out + a[n:], -1.0, 1.0)
+        return targets
 
     __call__ = act
 
@@ -216,7 +245,9 @@ class SB3Learner:
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive number of seconds, got {value}")
         if not (math.isfinite(self.insertion) and self.insertion >= 0):
-            raise ValueError(f"insertion must be a finite number of seconds >= 0, got {self.insertion}")
+            raise ValueError(
+                f"insertion must be a finite number of seconds >= 0, got {self.insertion}"
+            )
         _algorithm_class(self.algorithm)  # fail early on an unknown name
 
     def learn(self, robot: Robot, budget: float, rng: np.random.Generator) -> LearningResult:
@@ -249,7 +280,7 @@ class SB3Learner:
             """Collects the fitness at the end of every training episode."""
 
             def _on_step(self) -> bool:
-                for done, info in zip(self.locals["dones"], self.locals["infos"]):
+                for done, info in zip(self.locals["dones"], self.locals["infos"], strict=True):
                     if done:
                         blown = info.get("blow_up") is not None
                         failures[0] += int(blown)

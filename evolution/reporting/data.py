@@ -96,7 +96,7 @@ class ExperimentData:
 
     def final_diversities(self) -> NDArray[np.float64]:
         """Final-population diversity of each run (undefined ones left out)."""
-        values = np.array([r.final_diversity for r in self.runs], dtype=float)
+        values = np.array([r.final_diversity for r in self.runs], dtype=np.float64)
         return values[np.isfinite(values)]
 
     @property
@@ -229,7 +229,8 @@ def runs_on_grid(
 ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """Several runs' step series on the union of their x values: ``(grid, values[run, grid])``."""
     grid = np.unique(np.concatenate([np.asarray(x) for x in xs])) if xs else np.zeros(0, np.int64)
-    values = np.array([step_on_grid(x, y, grid) for x, y in zip(xs, ys)]).reshape(len(xs), -1)
+    steps = [step_on_grid(x, y, grid) for x, y in zip(xs, ys, strict=True)]
+    values = np.array(steps).reshape(len(xs), -1)
     return grid.astype(np.int64), values
 
 

@@ -1,4 +1,4 @@
-"""The paper's figures from :class:`~evolution.reporting.data.ExperimentData` (matplotlib, no display).
+"""The paper's figures from :class:`~evolution.reporting.data.ExperimentData`.
 
 Figures are drawn on ``matplotlib.figure.Figure`` objects directly (no ``pyplot``), so nothing
 depends on a display or on the global backend: PNG is written by Agg, PDF by the PDF backend.
@@ -9,11 +9,15 @@ from __future__ import annotations
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from evolution.reporting.data import ExperimentData, runs_on_grid
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 __all__ = [
     "FIGURES",
@@ -30,7 +34,9 @@ _COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#7f7f7f", "#ff7f0e", "#9467bd", "#8
            "#e377c2", "#17becf", "#bcbd22")
 
 
-def _figure(width: float, height: float = 4.0, ncols: int = 1) -> tuple[Any, list[Any]]:
+def _figure(
+    width: float, height: float = 4.0, ncols: int = 1
+) -> tuple[Figure, list[Axes]]:
     from matplotlib.figure import Figure
 
     figure = Figure(figsize=(width, height), layout="constrained")
@@ -38,7 +44,7 @@ def _figure(width: float, height: float = 4.0, ncols: int = 1) -> tuple[Any, lis
     return figure, list(axes)
 
 
-def _band(ax: Any, grid: np.ndarray, values: np.ndarray, color: str, label: str) -> None:
+def _band(ax: Axes, grid: np.ndarray, values: np.ndarray, color: str, label: str) -> None:
     """Mean over runs as a line, +-1 standard deviation as a band.
 
     Solid where every run has reached those births; dashed beyond (the mean of the runs that
@@ -63,7 +69,7 @@ def _band(ax: Any, grid: np.ndarray, values: np.ndarray, color: str, label: str)
         ax.fill_between(grid, mean - sd, mean + sd, color=color, alpha=0.2, lw=0)
 
 
-def fitness_over_births(experiments: Sequence[ExperimentData]) -> Any:
+def fitness_over_births(experiments: Sequence[ExperimentData]) -> Figure:
     """Population mean (left) and best (right) fitness over births; mean +-1 SD over runs."""
     figure, (left, right) = _figure(11.0, 4.2, 2)
     for k, e in enumerate(experiments):
@@ -88,16 +94,16 @@ def fitness_over_births(experiments: Sequence[ExperimentData]) -> Any:
     return figure
 
 
-def _boxes(ax: Any, data: list[np.ndarray], labels: list[str]) -> None:
+def _boxes(ax: Axes, data: list[np.ndarray], labels: list[str]) -> None:
     positions = list(range(1, len(data) + 1))
-    kept = [(p, d) for p, d in zip(positions, data) if d.size]
+    kept = [(p, d) for p, d in zip(positions, data, strict=True) if d.size]
     if kept:
         box = ax.boxplot([d for _, d in kept], positions=[p for p, _ in kept], widths=0.6,
                          patch_artist=True, showmeans=True,
                          medianprops={"color": "black"},
                          meanprops={"marker": "^", "markerfacecolor": "white",
                                     "markeredgecolor": "black"})
-        for patch, (p, _) in zip(box["boxes"], kept):
+        for patch, (p, _) in zip(box["boxes"], kept, strict=True):
             patch.set_facecolor(_COLORS[(p - 1) % len(_COLORS)])
             patch.set_alpha(0.35)
     ax.set_xticks(positions, labels, rotation=20)
@@ -105,7 +111,7 @@ def _boxes(ax: Any, data: list[np.ndarray], labels: list[str]) -> None:
     ax.grid(axis="y", alpha=0.3)
 
 
-def final_fitness(experiments: Sequence[ExperimentData]) -> Any:
+def final_fitness(experiments: Sequence[ExperimentData]) -> Figure:
     """Box plots of the fitness of the final populations (robots of all runs pooled)."""
     figure, (ax,) = _figure(max(4.5, 1.3 * len(experiments) + 2))
     _boxes(ax, [e.final_fitness() for e in experiments],
@@ -115,7 +121,7 @@ def final_fitness(experiments: Sequence[ExperimentData]) -> Any:
     return figure
 
 
-def diversity_over_births(experiments: Sequence[ExperimentData]) -> Any:
+def diversity_over_births(experiments: Sequence[ExperimentData]) -> Figure:
     """Population diversity over births; mean +-1 SD over runs."""
     figure, (ax,) = _figure(7.0, 4.2)
     for k, e in enumerate(experiments):
@@ -134,7 +140,7 @@ def diversity_over_births(experiments: Sequence[ExperimentData]) -> Any:
     return figure
 
 
-def final_diversity(experiments: Sequence[ExperimentData]) -> Any:
+def final_diversity(experiments: Sequence[ExperimentData]) -> Figure:
     """Box plots of the diversity of each run's final population."""
     figure, (ax,) = _figure(max(4.5, 1.3 * len(experiments) + 2))
     _boxes(ax, [e.final_diversities() for e in experiments],
@@ -144,7 +150,7 @@ def final_diversity(experiments: Sequence[ExperimentData]) -> Any:
     return figure
 
 
-FIGURES: dict[str, Callable[[Sequence[ExperimentData]], Any]] = {
+FIGURES: dict[str, Callable[[Sequence[ExperimentData]], Figure]] = {
     "fitness_over_births": fitness_over_births,
     "final_fitness": final_fitness,
     "diversity_over_births": diversity_over_births,
@@ -153,9 +159,11 @@ FIGURES: dict[str, Callable[[Sequence[ExperimentData]], Any]] = {
 """Figure file stems and the functions drawing them."""
 
 
-def learning_gain(experiments: Sequence[ExperimentData]) -> Any:
-    """Box plots of the infants' inborn and learned fitness (as their learner measured it), for
-    each experiment that learns."""
+def learning_gain(experiments: Sequence[ExperimentData]) -> Figure:
+    """Box plots of the infants' inborn and learned fitness, for each experiment that learns.
+
+    Each fitness is the one the infant's learner measured.
+    """
     learners = [e for e in experiments if e.learns]
     figure, (ax,) = _figure(max(4.5, 2.2 * len(learners) + 2))
     data: list[np.ndarray] = []
@@ -172,7 +180,7 @@ def learning_gain(experiments: Sequence[ExperimentData]) -> Any:
     return figure
 
 
-LEARNING_FIGURES: dict[str, Callable[[Sequence[ExperimentData]], Any]] = {
+LEARNING_FIGURES: dict[str, Callable[[Sequence[ExperimentData]], Figure]] = {
     "learning_gain": learning_gain,
 }
 """Figures drawn only when an experiment learns."""
@@ -181,8 +189,10 @@ LEARNING_FIGURES: dict[str, Callable[[Sequence[ExperimentData]], Any]] = {
 def write_figures(
     experiments: Sequence[ExperimentData], out_dir: Path, formats: Sequence[str] = ("png", "pdf")
 ) -> tuple[Path, ...]:
-    """Draw every figure of :data:`FIGURES` (and of :data:`LEARNING_FIGURES` when an experiment
-    learns) and save it in each format; returns the paths."""
+    """Draw every figure of :data:`FIGURES` and save it in each format; returns the paths.
+
+    The figures of :data:`LEARNING_FIGURES` are drawn too when an experiment learns.
+    """
     written = []
     figures = dict(FIGURES)
     if any(e.learns for e in experiments):

@@ -1,8 +1,9 @@
-"""Reports over results directories: the paper's figures and a summary table with significance tests.
+"""Reports over results directories: the paper's figures, a summary table, significance tests.
 
 ``report(path)`` finds every experiment below ``path`` (a directory holding ``results.sqlite``,
-as written by :func:`evolution.experiments.config.run`; ``revolve run`` writes ``OUT/<name>/``), reads
-them through :class:`~evolution.experiments.store.Store`, and writes into ``path/report/`` (or ``out``):
+as written by :func:`evolution.experiments.api.run`; ``revolve run`` writes ``OUT/<name>/``),
+reads them through :class:`~evolution.experiments.store.Store`, and writes into
+``path/report/`` (or ``out``):
 
 ==================================== ==============================================================
 file                                  content

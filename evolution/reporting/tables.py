@@ -7,7 +7,6 @@ import math
 from collections.abc import Sequence
 from itertools import combinations
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,6 +24,9 @@ __all__ = [
     "summary_rows",
     "write_tables",
 ]
+
+Cell = str | int | float
+"""The value of one table cell."""
 
 
 def _describe(values: NDArray[np.float64]) -> tuple[float, float, float, float]:
@@ -53,38 +55,44 @@ learned fitness and their difference as the learners measured them (their own ev
 window, not the robots' fitness in the run)."""
 
 
-def _learning_cells(e: ExperimentData) -> dict[str, Any]:
+def _mean(values: NDArray[np.float64]) -> float:
+    """The mean, ``nan`` when empty."""
+    return float(values.mean()) if values.size else math.nan
+
+
+def _learning_cells(e: ExperimentData) -> dict[str, Cell]:
     table = e.config.get("learning")
     inborn, learned = e.learning_fitness()
-    mean = (lambda x: float(x.mean()) if x.size else math.nan)
     return {
         "learning": (f"{table.get('learner', '?')} {table.get('inheritance', 'darwinian')}"
                      if isinstance(table, dict) else ("yes" if e.learns else "none")),
         "infants_learned": int(inborn.size),
         "learner_failures": sum(r.learner_failures for r in e.runs),
-        "inborn_fitness_mean": mean(inborn),
-        "learned_fitness_mean": mean(learned),
-        "learning_gain_mean": mean(learned - inborn),
+        "inborn_fitness_mean": _mean(inborn),
+        "learned_fitness_mean": _mean(learned),
+        "learning_gain_mean": _mean(learned - inborn),
     }
 
 
 def summary_columns(experiments: Sequence[ExperimentData]) -> tuple[str, ...]:
-    """Columns of ``summary.csv``: :data:`SUMMARY_COLUMNS`, plus :data:`LEARNING_COLUMNS` when
-    an experiment learns."""
+    """Columns of ``summary.csv``.
+
+    :data:`SUMMARY_COLUMNS`, plus :data:`LEARNING_COLUMNS` when an experiment learns.
+    """
     return SUMMARY_COLUMNS + (LEARNING_COLUMNS if any(e.learns for e in experiments) else ())
 
 
-def summary_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Any]]:
-    """One row per experiment (columns :func:`summary_columns`: :data:`SUMMARY_COLUMNS`, and
-    :data:`LEARNING_COLUMNS` when an experiment learns).
+def summary_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Cell]]:
+    """One row per experiment, with the columns of :func:`summary_columns`.
 
+    Those are :data:`SUMMARY_COLUMNS`, and :data:`LEARNING_COLUMNS` when an experiment learns.
     ``runs`` counts the runs with at least one commit point (the ones described), of
     ``runs_in_database``; ``births_mean`` is over those runs.
 
     ``final_fitness_*`` describe the pooled final populations, ``run_mean_fitness_*`` the
     per-run means of the final populations, ``final_diversity_*`` the per-run final diversity.
     """
-    rows = []
+    rows: list[dict[str, Cell]] = []
     for e in experiments:
         pooled = _describe(e.final_fitness())
         run_means = _describe(e.final_run_means())
@@ -108,7 +116,7 @@ def summary_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Any]]:
             "final_diversity_sd": div[2],
         })
     if any(e.learns for e in experiments):
-        for row, e in zip(rows, experiments):
+        for row, e in zip(rows, experiments, strict=True):
             row.update(_learning_cells(e))
     return rows
 
@@ -144,16 +152,16 @@ def _holm(p: Sequence[float]) -> list[float]:
     return adjusted.tolist()
 
 
-def mann_whitney_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Any]]:
+def mann_whitney_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Cell]]:
     """Two-sided Mann-Whitney U tests between every pair of experiments, per sample.
 
     Samples are described in :data:`TESTED_SAMPLES`; a pair is left out when either side has
     no value. ``p_holm`` is Holm's correction over the pairs of the same sample.
     """
-    rows: list[dict[str, Any]] = []
+    rows: list[dict[str, Cell]] = []
     samples = {e.label: _samples(e) for e in experiments}
     for sample in TESTED_SAMPLES:
-        block: list[dict[str, Any]] = []
+        block: list[dict[str, Cell]] = []
         for a, b in combinations([e.label for e in experiments], 2):
             xa, xb = samples[a][sample], samples[b][sample]
             if xa.size == 0 or xb.size == 0:
@@ -167,7 +175,8 @@ def mann_whitney_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, A
                           "n_a": int(xa.size), "n_b": int(xb.size),
                           "median_a": float(np.median(xa)), "median_b": float(np.median(xb)),
                           "u_statistic": u, "p_value": min(1.0, max(0.0, p))})
-        for row, adjusted in zip(block, _holm([float(r["p_value"]) for r in block])):
+        adjusted_p = _holm([float(r["p_value"]) for r in block])
+        for row, adjusted in zip(block, adjusted_p, strict=True):
             row["p_holm"] = adjusted
         rows += block
     return rows
@@ -177,13 +186,13 @@ def mann_whitney_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, A
 # Writing
 
 
-def _cell(value: Any) -> str:
+def _cell(value: Cell) -> str:
     if isinstance(value, float):
         return "" if math.isnan(value) else f"{value:.6g}"
     return str(value)
 
 
-def _write_csv(path: Path, columns: Sequence[str], rows: Sequence[dict[str, Any]]) -> None:
+def _write_csv(path: Path, columns: Sequence[str], rows: Sequence[dict[str, Cell]]) -> None:
     with open(path, "w", newline="", encoding="utf-8") as f:
         writer = csv.writer(f)
         writer.writerow(columns)
@@ -191,8 +200,8 @@ def _write_csv(path: Path, columns: Sequence[str], rows: Sequence[dict[str, Any]
             writer.writerow([_cell(row[c]) for c in columns])
 
 
-def _markdown(columns: Sequence[str], rows: Sequence[dict[str, Any]]) -> list[str]:
-    def short(value: Any) -> str:
+def _markdown(columns: Sequence[str], rows: Sequence[dict[str, Cell]]) -> list[str]:
+    def short(value: Cell) -> str:
         if isinstance(value, float):
             return "-" if math.isnan(value) else f"{value:.4g}"
         return str(value)

@@ -1,0 +1,380 @@
+"""The layout of the results store: its SQL tables and the records read from and written to them.
+
+:class:`~evolution.experiments.store.Store` writes and reads them (its module docstring
+describes each table). The records are plain data: a :class:`Batch` collects one commit point's
+records and is cleared after it, the others are frozen.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from evolution.lifecycle import Transition
+
+if TYPE_CHECKING:
+    from revolve_env.body.robot import Robot
+
+__all__ = [
+    "LEARNING_TABLE",
+    "MIGRATIONS",
+    "SCHEMA",
+    "SCHEMA_V1",
+    "SCHEMA_VERSION",
+    "TABLES",
+    "Batch",
+    "Checkpoint",
+    "DiversityPoint",
+    "FailureRecord",
+    "FitnessSample",
+    "FitnessSeries",
+    "LearningRecord",
+    "PopulationSnapshot",
+    "RobotRecord",
+    "RunRecord",
+]
+
+SCHEMA_VERSION = 2
+"""Version of the database layout; a database with a newer one is refused, an older one is
+upgraded when opened (see the module docstring)."""
+
+SCHEMA_V1 = """
+CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE runs (
+    run_id INTEGER PRIMARY KEY,
+    seed INTEGER NOT NULL,
+    status TEXT NOT NULL CHECK (status IN ('pending', 'running', 'interrupted', 'finished')),
+    births INTEGER NOT NULL DEFAULT 0,
+    sim_time REAL NOT NULL DEFAULT 0,
+    generation INTEGER NOT NULL DEFAULT 0
+);
+CREATE TABLE checkpoints (
+    run_id INTEGER PRIMARY KEY REFERENCES runs(run_id),
+    births INTEGER NOT NULL,
+    sim_time REAL NOT NULL,
+    generation INTEGER NOT NULL,
+    rng_state TEXT NOT NULL,
+    engine_state TEXT NOT NULL
+);
+CREATE TABLE robots (
+    run_id INTEGER NOT NULL REFERENCES runs(run_id),
+    robot_id INTEGER NOT NULL,
+    genome TEXT NOT NULL,
+    parent_a INTEGER,
+    parent_b INTEGER,
+    origin TEXT NOT NULL,
+    generation INTEGER NOT NULL,
+    conceived_time REAL NOT NULL,
+    birth_time REAL,
+    death_time REAL,
+    death_cause TEXT,
+    fitness REAL,
+    PRIMARY KEY (run_id, robot_id)
+);
+CREATE TABLE fitness (
+    run_id INTEGER NOT NULL,
+    robot_id INTEGER NOT NULL,
+    time REAL NOT NULL,
+    fitness REAL NOT NULL,
+    v REAL,
+    s REAL
+);
+CREATE INDEX fitness_by_robot ON fitness (run_id, robot_id);
+CREATE TABLE transitions (
+    run_id INTEGER NOT NULL,
+    robot_id INTEGER NOT NULL,
+    source TEXT,
+    target TEXT NOT NULL,
+    time REAL NOT NULL,
+    note TEXT NOT NULL DEFAULT ''
+);
+CREATE INDEX transitions_by_robot ON transitions (run_id, robot_id);
+CREATE TABLE population (
+    run_id INTEGER NOT NULL,
+    births INTEGER NOT NULL,
+    sim_time REAL NOT NULL,
+    robot_id INTEGER NOT NULL,
+    fitness REAL
+);
+CREATE INDEX population_by_births ON population (run_id, births);
+CREATE TABLE diversity (
+    run_id INTEGER NOT NULL,
+    births INTEGER NOT NULL,
+    sim_time REAL NOT NULL,
+    value REAL NOT NULL,
+    PRIMARY KEY (run_id, births)
+);
+CREATE TABLE failures (
+    run_id INTEGER NOT NULL,
+    robot_id INTEGER,
+    time REAL NOT NULL,
+    kind TEXT NOT NULL,
+    detail TEXT NOT NULL DEFAULT ''
+);
+"""
+"""The tables of schema version 1."""
+
+LEARNING_TABLE = """
+CREATE TABLE learning (
+    run_id INTEGER NOT NULL,
+    robot_id INTEGER NOT NULL,
+    time REAL NOT NULL,
+    inheritance TEXT NOT NULL,
+    learned_genome TEXT,
+    inborn_fitness REAL,
+    learned_fitness REAL,
+    evaluations INTEGER,
+    sim_seconds REAL,
+    failures INTEGER NOT NULL DEFAULT 0,
+    PRIMARY KEY (run_id, robot_id)
+);
+"""
+"""The ``learning`` table, added by schema version 2."""
+
+SCHEMA = SCHEMA_V1 + LEARNING_TABLE
+"""The current layout (version :data:`SCHEMA_VERSION`)."""
+
+TABLES = frozenset(re.findall(r"CREATE TABLE (\w+)", SCHEMA))
+"""The tables of the current layout (an opened database must have them all)."""
+
+MIGRATIONS: dict[int, str] = {1: LEARNING_TABLE}
+"""For each old version, the statements that bring it to the next one."""
+
+
+PopulationSnapshot = tuple[int, float, list[tuple[int, float | None]]]
+"""One population snapshot: ``(births, sim_time, [(robot_id, fitness), ...])``."""
+
+
+@dataclass(frozen=True, slots=True)
+class RobotRecord:
+    """One robot of a run as stored.
+
+    Attributes:
+        run_id: Run (repeat index).
+        robot_id: Birth index within the run.
+        genome: The robot as JSON (``revolve_env.body.serialize``).
+        parent_a: First parent's id, ``None`` for a random robot.
+        parent_b: Second parent's id, ``None`` for a random robot.
+        origin: ``"random"``, ``"reproduction"`` or ``"random-fallback"`` (reproduction failed
+            too often).
+        generation: Offline generation (online: 0).
+        conceived_time: Simulated time of conception. Seconds.
+        birth_time: Simulated time of delivery; ``None`` if never delivered. Seconds.
+        death_time: Simulated time of death; ``None`` while alive. Seconds.
+        death_cause: Why it died (``"survivor selection"``, ``"blow-up: ..."``); ``None`` alive.
+        fitness: Last known fitness (offline: the evaluation; online: the last sample).
+    """
+
+    run_id: int
+    robot_id: int
+    genome: str
+    parent_a: int | None
+    parent_b: int | None
+    origin: str
+    generation: int
+    conceived_time: float
+    birth_time: float | None
+    death_time: float | None = None
+    death_cause: str | None = None
+    fitness: float | None = None
+
+    def robot(self) -> Robot:
+        """The genome decoded into a :class:`~revolve_env.body.robot.Robot`."""
+        from revolve_env.body.serialize import from_json
+
+        return from_json(self.genome)
+
+
+@dataclass(frozen=True, slots=True)
+class FitnessSample:
+    """A robot's fitness at one simulated time.
+
+    Attributes:
+        robot_id: The robot.
+        time: Simulated time. Seconds.
+        fitness: ``v + 5 s`` over the preceding window. Metres.
+        v: Path length over the window. Metres. ``None`` when unknown.
+        s: Straight-line displacement over the window. Metres. ``None`` when unknown.
+    """
+
+    robot_id: int
+    time: float
+    fitness: float
+    v: float | None = None
+    s: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class FailureRecord:
+    """Something that went wrong and was handled (``kind``: e.g. ``"crossover"``, ``"blow-up"``).
+
+    Attributes:
+        robot_id: Robot concerned, if any.
+        time: Simulated time. Seconds.
+        kind: Short machine-readable kind.
+        detail: Human-readable detail.
+    """
+
+    robot_id: int | None
+    time: float
+    kind: str
+    detail: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class LearningRecord:
+    """One infancy in the Training Center (a learner that ran without failing).
+
+    Attributes:
+        robot_id: The infant.
+        time: Simulated time of its birth, when it went to the Training Center. Seconds.
+        inheritance: ``"darwinian"`` or ``"lamarckian"``: which genome it passes to children.
+        learned_genome: The robot as JSON with its learned controller; ``None`` when the learner
+            kept the inborn controller.
+        inborn_fitness: Fitness of the inborn controller as the learner measured it. Metres.
+        learned_fitness: Fitness of the learned controller as the learner measured it. Metres.
+        evaluations: Evaluations (or training episodes) the learner ran.
+        sim_seconds: Simulated seconds spent in the Training Center. Seconds.
+        failures: Learner evaluations that failed (blow-ups).
+    """
+
+    robot_id: int
+    time: float
+    inheritance: str
+    learned_genome: str | None
+    inborn_fitness: float | None
+    learned_fitness: float | None
+    evaluations: int | None
+    sim_seconds: float | None
+    failures: int = 0
+
+    @property
+    def improvement(self) -> float | None:
+        """``learned_fitness - inborn_fitness`` (``None`` when either is unknown). Metres."""
+        if self.inborn_fitness is None or self.learned_fitness is None:
+            return None
+        return self.learned_fitness - self.inborn_fitness
+
+
+@dataclass(frozen=True, slots=True)
+class DiversityPoint:
+    """Population diversity after ``births`` births (mean pairwise tree edit distance)."""
+
+    births: int
+    sim_time: float
+    value: float
+
+
+@dataclass(frozen=True, slots=True)
+class Checkpoint:
+    """Where a run stands at a commit point: enough to continue it exactly.
+
+    Attributes:
+        births: Robots born so far.
+        sim_time: Simulated time. Seconds.
+        generation: Offline generation counter (online: number of conception ticks).
+        rng_state: ``numpy.random.Generator.bit_generator.state``.
+        engine_state: Whatever else the engine needs (JSON-compatible).
+    """
+
+    births: int
+    sim_time: float
+    generation: int
+    rng_state: dict[str, Any]
+    engine_state: dict[str, Any]
+
+
+@dataclass(slots=True)
+class Batch:
+    """The records of one commit point, written in one transaction."""
+
+    robots: list[RobotRecord] = field(default_factory=list)
+    deaths: list[tuple[int, float, str, float | None]] = field(default_factory=list)
+    """(robot_id, time, cause, final fitness) of robots stored earlier that died now."""
+    fitness_updates: list[tuple[int, float]] = field(default_factory=list)
+    """(robot_id, fitness): latest fitness of robots stored earlier."""
+    fitness: list[FitnessSample] = field(default_factory=list)
+    transitions: list[Transition] = field(default_factory=list)
+    population: list[tuple[int, float | None]] | None = None
+    """Snapshot (robot_id, fitness) of the population at this commit point, if any."""
+    diversity: float | None = None
+    failures: list[FailureRecord] = field(default_factory=list)
+    learning: list[LearningRecord] = field(default_factory=list)
+
+    def clear(self) -> None:
+        """Forget everything (after it has been written)."""
+        self.robots.clear()
+        self.deaths.clear()
+        self.fitness_updates.clear()
+        self.fitness.clear()
+        self.transitions.clear()
+        self.population = None
+        self.diversity = None
+        self.failures.clear()
+        self.learning.clear()
+
+
+@dataclass(frozen=True, slots=True)
+class RunRecord:
+    """One run of an experiment."""
+
+    run_id: int
+    seed: int
+    status: str
+    births: int
+    sim_time: float
+    generation: int
+
+
+@dataclass(frozen=True, slots=True)
+class FitnessSeries:
+    """Population fitness after each commit point of a run (arrays of equal length).
+
+    Attributes:
+        births: Births so far.
+        sim_time: Simulated time. Seconds.
+        mean: Mean fitness of the population (robots with a fitness).
+        best: Highest fitness.
+        worst: Lowest fitness.
+        median: Median fitness.
+        size: Population size (all members, with or without fitness).
+    """
+
+    births: np.ndarray
+    sim_time: np.ndarray
+    mean: np.ndarray
+    best: np.ndarray
+    worst: np.ndarray
+    median: np.ndarray
+    size: np.ndarray
+
+    @classmethod
+    def from_snapshots(cls, snapshots: Sequence[PopulationSnapshot]) -> FitnessSeries:
+        """The statistics of each snapshot (finite fitness values only; ``nan`` without any)."""
+        births, times, means, bests, worsts, medians, sizes = [], [], [], [], [], [], []
+        for b, t, members in snapshots:
+            values = np.array([f for _, f in members if f is not None and math.isfinite(f)])
+            births.append(b)
+            times.append(t)
+            sizes.append(len(members))
+            if values.size:
+                means.append(values.mean())
+                bests.append(values.max())
+                worsts.append(values.min())
+                medians.append(float(np.median(values)))
+            else:
+                means.append(math.nan)
+                bests.append(math.nan)
+                worsts.append(math.nan)
+                medians.append(math.nan)
+        return cls(
+            np.array(births, dtype=np.int64), np.array(times, dtype=float),
+            np.array(means, dtype=float), np.array(bests, dtype=float),
+            np.array(worsts, dtype=float), np.array(medians, dtype=float),
+            np.array(sizes, dtype=np.int64),
+        )
