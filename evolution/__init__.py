@@ -22,6 +22,7 @@ from typing import Any
 
 from evolution.config import EvolutionConfig
 from evolution.diversity import diversity, pairwise_distances, tree_edit_distance
+from evolution.lifecycle import Lifecycle, LifecycleError, Stage
 from evolution.operators import (
     OperatorOutcome,
     OperatorRecord,
@@ -37,7 +38,6 @@ from evolution.operators import (
     reproduce,
     swap_subtrees,
 )
-from evolution.lifecycle import Lifecycle, LifecycleError, Stage
 from evolution.random_robot import (
     RandomRobotError,
     RandomRobotResult,

@@ -134,7 +134,8 @@ class EvolutionConfig:
                 if value < low:
                     raise ValueError(f"EvolutionConfig.{f.name} must be >= {low}, got {value!r}")
                 if value > MAX_INT:
-                    raise ValueError(f"EvolutionConfig.{f.name} must be <= {MAX_INT}, got {value!r}")
+                    raise ValueError(
+                        f"EvolutionConfig.{f.name} must be <= {MAX_INT}, got {value!r}")
             elif f.type in ("float", float):
                 if (
                     not isinstance(value, (int, float))
@@ -151,7 +152,8 @@ class EvolutionConfig:
                 if value < 0:
                     raise ValueError(f"EvolutionConfig.{f.name} must be >= 0, got {value!r}")
             elif f.name == "balance_by_removal" and not isinstance(value, bool):
-                raise ValueError(f"EvolutionConfig.balance_by_removal must be a bool, got {value!r}")
+                raise ValueError(
+                    f"EvolutionConfig.balance_by_removal must be a bool, got {value!r}")
         if self.min_parts > self.max_parts:
             raise ValueError(
                 f"EvolutionConfig.min_parts ({self.min_parts}) is greater than max_parts "
@@ -168,7 +170,8 @@ class EvolutionConfig:
             raise ValueError("EvolutionConfig.initial_parts_mean is outside [min_parts, max_parts]")
         reach = self.initial_parts_mean + DRAW_SIGMAS * self.initial_parts_sd
         if not reach < MAX_DRAW:
-            field = "initial_parts_sd" if self.initial_parts_mean < MAX_DRAW else "initial_parts_mean"
+            field = ("initial_parts_sd" if self.initial_parts_mean < MAX_DRAW
+                     else "initial_parts_mean")
             raise ValueError(
                 f"EvolutionConfig.{field}: the part count N({self.initial_parts_mean!r}, "
                 f"{self.initial_parts_sd!r}) overflows; initial_parts_mean + "
@@ -176,8 +179,8 @@ class EvolutionConfig:
             )
         if not self.initial_hidden_mean < MAX_DRAW:
             raise ValueError(
-                f"EvolutionConfig.initial_hidden_mean must be below 2**53 (a Poisson mean NumPy can "
-                f"draw from), got {self.initial_hidden_mean!r}"
+                "EvolutionConfig.initial_hidden_mean must be below 2**53 (a Poisson mean NumPy "
+                f"can draw from), got {self.initial_hidden_mean!r}"
             )
         if self.max_random_robot_retries < MIN_RANDOM_ROBOT_RETRIES:
             raise ValueError(
@@ -194,7 +197,7 @@ class EvolutionConfig:
 
     @property
     def limits(self) -> Limits:
-        """The robot limits of this configuration, for :func:`revolve_env.body.validate.validate`."""
+        """The robot limits of this configuration for ``validate``."""
         return Limits(
             max_parts=self.max_parts,
             max_inputs=self.max_inputs,

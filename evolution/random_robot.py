@@ -192,6 +192,7 @@ def random_connections(
     """Random connections over every allowed ``src -> dst`` pair (dst not an input).
 
     Args:
+        rng: Draws the pairs.
         neurons: Candidate ends, in a fixed order (the draw order depends on it).
         density: Probability of each pair.
         only_touching: If given, only pairs with at least one end in this set are drawn.
@@ -233,7 +234,8 @@ class RandomRobotResult:
     failed_placements: int
 
 
-def random_robot_with_report(rng: np.random.Generator, config: EvolutionConfig) -> RandomRobotResult:
+def random_robot_with_report(rng: np.random.Generator,
+                             config: EvolutionConfig) -> RandomRobotResult:
     """Grow a random valid robot; see :func:`random_robot`.
 
     Raises:

@@ -8,7 +8,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 
-def quat_to_matrix(q: tuple[float, float, float, float] | NDArray[np.float64]) -> NDArray[np.float64]:
+def quat_to_matrix(
+    q: tuple[float, float, float, float] | NDArray[np.float64],
+) -> NDArray[np.float64]:
     """Rotation matrix of a unit quaternion ``(x, y, z, w)``."""
     x, y, z, w = q
     return np.array([

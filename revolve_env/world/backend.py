@@ -77,8 +77,11 @@ class PhysicsBackend(Protocol):
     """
 
     def add(self, model: RobotModel, position: tuple[float, float, float], yaw: float) -> int:
-        """Build a robot with its root link frame at ``position`` (metres) turned by ``yaw``
-        (radians) about the vertical, at rest; return its key. Hinges start free (no torque)."""
+        """Build a robot at rest; return its key.
+
+        Its root link frame is at ``position`` (metres), turned by ``yaw`` (radians) about the
+        vertical. Hinges start free (no torque).
+        """
         ...
 
     def remove(self, key: int) -> None:
@@ -86,9 +89,11 @@ class PhysicsBackend(Protocol):
         ...
 
     def set_joint_velocities(self, velocities: NDArray[np.float64], max_torque: float) -> None:
-        """Drive every active hinge of every robot towards a velocity (radians per second) with a
-        torque limit (newton metres), until the next call. ``velocities`` holds each robot's active
-        hinges in controller output order, robots one after the other."""
+        """Drive every active hinge of every robot towards a velocity until the next call.
+
+        ``velocities`` (radians per second) holds each robot's active hinges in controller output
+        order, robots one after the other; ``max_torque`` is the torque limit (newton metres).
+        """
         ...
 
     def step(self, substeps: int) -> None:

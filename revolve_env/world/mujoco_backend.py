@@ -36,10 +36,11 @@ fitness ``v + 5 s`` in metres; pybullet gives spider 10.2, gecko 8.9, snake 10.0
   is about 70 % of a step, collision detection 11 %.
 * Contacts: stiff (time constant :data:`CONTACT_STEPS` physics steps, see there; MuJoCo's
   default 0.02 s let the light parts sink and slip), pyramidal cone (an elliptic cone with
-  impratio 10, or 3 noslip iterations, ranked robots no closer to pybullet), condim 3 (sliding friction only, as in pybullet), the ground's friction on robot-ground
-  contacts (``config.friction``) and 1.0 between robots, as in the pybullet backend. A robot
-  never collides with itself (every pair of its bodies is excluded). Hinges have no limits (as
-  in pybullet: the servo's target range is the limit).
+  impratio 10, or 3 noslip iterations, ranked robots no closer to pybullet), condim 3 (sliding
+  friction only, as in pybullet), the ground's friction on robot-ground contacts
+  (``config.friction``) and 1.0 between robots, as in the pybullet backend. A robot never
+  collides with itself (every pair of its bodies is excluded). Hinges have no limits (as in
+  pybullet: the servo's target range is the limit).
 * Blow-ups: ``mjDSBL_AUTORESET`` is set, since MuJoCo would otherwise reset the *whole* scene
   when one robot's accelerations became NaN. MuJoCo's constraint solver spreads a NaN to every
   robot within the step, so a control period that ends non-finite is replayed one physics step
@@ -304,13 +305,16 @@ class MujocoBackend:
         except ValueError as e:
             del self._robots[key]
             self._unbuild(robot)
-            raise ValueError("MuJoCo cannot build this robot: " + " ".join(str(e).split())) from None
+            raise ValueError(
+                "MuJoCo cannot build this robot: " + " ".join(str(e).split())) from None
         self._next_key += 1
         return key
 
     def remove(self, key: int) -> None:
-        """Delete a robot's bodies, joints, servos and exclusions from the spec and recompile:
-        nothing of it stays allocated."""
+        """Delete a robot's bodies, joints, servos and exclusions from the spec and recompile.
+
+        Nothing of it stays allocated.
+        """
         robot = self._robots.pop(key)
         self._unbuild(robot)
         robot.qpos = slice(0, 0)
@@ -471,7 +475,8 @@ class MujocoBackend:
         camera = mujoco.MjvCamera()
         camera.lookat[:] = target
         camera.distance = distance
-        camera.azimuth = yaw_deg - 90.0  # pybullet's yaw 0 looks along +y; MuJoCo's azimuth along +x
+        # pybullet's yaw 0 looks along +y; MuJoCo's azimuth 0 along +x.
+        camera.azimuth = yaw_deg - 90.0
         camera.elevation = pitch_deg
         r.update_scene(self._data, camera)
         return np.asarray(r.render(), dtype=np.uint8).copy()

@@ -14,6 +14,7 @@ calls per robot and control period.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import sys
@@ -111,17 +112,14 @@ class PybulletBackend:
     def close(self) -> None:
         if not self._closed:
             self._closed = True
-            try:
+            # pb.error: already gone (e.g. the GUI window was closed).
+            with contextlib.suppress(pb.error):
                 pb.disconnect(physicsClientId=self._cid)
-            except pb.error:  # already gone (e.g. the GUI window was closed)
-                pass
 
     def __del__(self) -> None:
         # Never raise from __del__: at interpreter shutdown pybullet may already be unloaded.
-        try:
+        with contextlib.suppress(Exception):
             self.close()
-        except Exception:  # noqa: BLE001, S110
-            pass
 
     # -- robots -------------------------------------------------------------------------------
     def add(self, model: RobotModel, position: tuple[float, float, float], yaw: float) -> int:

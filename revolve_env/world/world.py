@@ -231,8 +231,11 @@ class World:
         return handle
 
     def remove_robot(self, handle: int) -> None:
-        """Take a robot out of the world; its bodies are deleted, the others keep their state
-        exactly. See the backend's ``remove`` for what the engine keeps allocated."""
+        """Take a robot out of the world; its bodies are deleted.
+
+        The others keep their state exactly. See the backend's ``remove`` for what the engine
+        keeps allocated.
+        """
         state = self._state(handle)
         keep = np.ones(len(self._robots), dtype=bool)
         keep[state.row] = False
@@ -269,7 +272,8 @@ class World:
         t = np.asarray(targets, dtype=np.float64).reshape(-1)
         if t.shape[0] != state.model.n_outputs:
             raise ValueError(
-                f"robot {handle} has {state.model.n_outputs} active hinges, got {t.shape[0]} targets"
+                f"robot {handle} has {state.model.n_outputs} active hinges, "
+                f"got {t.shape[0]} targets"
             )
         if not _all_finite(t):
             if state.blow_up is None:
@@ -305,8 +309,10 @@ class World:
 
     # -- blow-ups -----------------------------------------------------------------------------
     def _check_blow_ups(self) -> None:
-        """Flag every robot whose state is non-finite or beyond a sane speed (one batched test
-        for the common case where none is, then the exact per-robot test)."""
+        """Flag every robot whose state is non-finite or beyond a sane speed.
+
+        One batched test for the common case where none is, then the exact per-robot test.
+        """
         c = self.config
         s = self._now
         # A NaN anywhere makes its max/min NaN and the comparison False; |v|_max * sqrt(3)
@@ -440,7 +446,7 @@ class World:
         }
         if state.sensor_links:
             poses = self._backend.link_poses(state.key, state.sensor_links)
-            link_pose.update(zip(state.sensor_links, poses))
+            link_pose.update(zip(state.sensor_links, poses, strict=True))
         contacts: frozenset[int] | None = None  # model link indices touching anything
         c = self.config
         light = np.asarray(c.light_position)
@@ -479,6 +485,8 @@ class World:
         """An RGB picture of the world, shape (height, width, 3).
 
         Args:
+            width: Picture width. Pixels.
+            height: Picture height. Pixels.
             target: Point the camera looks at (metres); defaults to the first robot's core.
             distance: Camera distance from the target. Metres.
             yaw_deg: Camera heading. Degrees.

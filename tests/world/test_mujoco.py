@@ -16,7 +16,7 @@ from revolve_env import evaluate, example, population_env
 from revolve_env.body.parts import SERVO
 from revolve_env.body.robot import Node, PartType, Robot
 from revolve_env.world import World, WorldConfig, build_model, require_engine
-from revolve_env.world import backend as backend_module
+from revolve_env.world import config as registry_module
 from revolve_env.world.backend import EngineUnavailableError
 
 mujoco = pytest.importorskip("mujoco", reason="the 'mujoco' package is not installed: "
@@ -32,7 +32,7 @@ def test_the_compiled_model_has_the_engine_neutral_masses_inertias_boxes_and_joi
         h = world.add_robot(robot)
         m = world.backend._model  # type: ignore[attr-defined]
         ids = world.backend._robots[0].bodies  # type: ignore[attr-defined]
-        for link, body in zip(model.links, ids):
+        for link, body in zip(model.links, ids, strict=True):
             assert m.body_mass[body] == pytest.approx(link.mass, rel=1e-12)
             np.testing.assert_allclose(m.body_ipos[body], link.com, atol=1e-12)
             np.testing.assert_allclose(np.sort(m.body_inertia[body]),
@@ -131,7 +131,8 @@ def _run_survivors(birth: tuple[float, float] | None) -> np.ndarray:
                 before = [world.core_position(a), *world.core_velocity(b), world.joint_angles(a)]
                 c = world.add_robot(every_part(), position=birth, yaw=1.0)
                 after = [world.core_position(a), *world.core_velocity(b), world.joint_angles(a)]
-                for x, y in zip(before, after):  # the birth itself keeps the state bit for bit
+                # the birth itself keeps the state bit for bit
+                for x, y in zip(before, after, strict=True):
                     np.testing.assert_array_equal(x, y)
             _drive(world, list(world.handles), i)
             world.step()
@@ -184,7 +185,8 @@ def test_same_inputs_same_trajectory_and_reset_replays() -> None:
         np.testing.assert_array_equal(run(world), first)
 
 
-def test_a_diverging_robot_is_flagged_and_contained(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_diverging_robot_is_flagged_and_contained(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(tmp_path)  # MuJoCo logs its NaN warning to ./MUJOCO_LOG.TXT
     def run(poison: bool) -> tuple[np.ndarray, str | None]:
         with World(MJ) as world:
@@ -279,9 +281,9 @@ def test_unknown_engine_and_missing_package_are_one_clear_error(
         evaluate(example("spider"), engine="ode")
     with pytest.raises(ValueError, match="unknown physics engine"):
         gym.make("revolve_env/Locomotion-v0", robot=example("spider"), engine="ode")
-    registry = dict(backend_module._REGISTRY)
+    registry = dict(registry_module._REGISTRY)
     registry["mujoco"] = ("revolve_env.world.mujoco_backend", "MujocoBackend", "no_such_mujoco")
-    monkeypatch.setattr(backend_module, "_REGISTRY", registry)
+    monkeypatch.setattr(registry_module, "_REGISTRY", registry)
     with pytest.raises(EngineUnavailableError, match="pip install no_such_mujoco"):
         require_engine("mujoco")
     with pytest.raises(EngineUnavailableError):
