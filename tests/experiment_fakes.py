@@ -173,3 +173,17 @@ class CtrlCEvaluator:
 
     def close(self) -> None:
         pass
+
+
+class PickyWorld(FakeWorld):
+    """A fake world whose engine cannot build every third robot it is given."""
+
+    def add(self, robot: Robot) -> Birth:
+        self.offered = getattr(self, "offered", 0) + 1
+        if self.offered % 3 == 0:
+            raise ValueError("MuJoCo cannot build this robot: fake refusal")
+        return super().add(robot)
+
+
+def picky_world(config: ExperimentConfig, seed: int) -> FakeWorld:
+    return PickyWorld(config, seed)

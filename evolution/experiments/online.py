@@ -50,14 +50,23 @@ class OnlineRun(RunState):
             living = report.robot
             self.record_infancy(member, time_s, report.failure, report.learning,
                                 living if report.changed else None)
-        birth = self.world.add(living)
+        self.batch.robots.append(record)
+        try:
+            birth = self.world.add(living)
+        except ValueError as error:
+            # The engine cannot build this body (e.g. MuJoCo refuses its geometry): the robot is
+            # born dead. Recorded, and the run goes on.
+            cause = f"not built: {error}"
+            self.batch.failures.append(FailureRecord(member.robot_id, time_s, "birth", cause))
+            self.kill(member, time_s, cause)
+            self.dead.append(member)
+            return
         member.agent = birth.agent
         if not birth.inside:
             x, y = birth.position
             self.batch.failures.append(FailureRecord(
                 member.robot_id, time_s, "crowded",
                 f"the birth disc was full; born at the nearest free spot ({x:.3f}, {y:.3f}) m"))
-        self.batch.robots.append(record)
         self.population.append(member)
 
     def update(self, now: float) -> None:

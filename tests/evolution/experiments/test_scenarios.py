@@ -17,6 +17,7 @@ from experiment_fakes import (
     fake_evaluate_with_nan,
     fake_world,
     fake_world_with_blow_ups,
+    picky_world,
     small,
 )
 
@@ -148,6 +149,16 @@ def test_a_nan_fitness_is_a_lost_evaluation_not_a_crash(tmp_path: Path) -> None:
         assert store.robot(0, f.robot_id).fitness is None
     assert all(len(m) == 15 for _, _, m in store.population_snapshots(0))
     assert store.runs()[0].births == 60 and store.runs()[0].status == "finished"
+
+
+def test_a_robot_the_engine_cannot_build_is_born_dead_and_the_run_goes_on(
+        tmp_path: Path) -> None:
+    store = _run(small_preset("scenario3", births=40), tmp_path, world_factory=picky_world)
+    assert [r.births for r in store.runs()] == [40]
+    refused = store.failures(0, "birth")
+    assert refused and all("fake refusal" in f.detail for f in refused)
+    dead = {r.robot_id: r for r in store.robots(0)}
+    assert all(dead[f.robot_id].death_cause.startswith("not built") for f in refused)
 
 
 def test_online_population_bounds_births_and_mature_parents(tmp_path: Path) -> None:
