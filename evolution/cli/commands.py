@@ -27,7 +27,7 @@ import tomllib
 import traceback
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeAlias
 
 from evolution.cli.progress import ProgressBar, duration, metres
 from evolution.config import EvolutionConfig
@@ -386,10 +386,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
                                 parser_class=_DefaultsParser)
+    for add in (_add_run, _add_resume, _add_report, _add_show, _add_export, _add_demo):
+        add(sub)
+    return parser
+
+
+_Subparsers: TypeAlias = "argparse._SubParsersAction[_DefaultsParser]"
+
+
+def _add_run(sub: _Subparsers) -> None:
     learning = learning_names()
     names = ", ".join(sorted(set(shipped_configs()) - set(learning)))
     learning_list = ", ".join(learning)
-
     p = sub.add_parser(
         "run", help="run an experiment",
         description="Run an experiment and store it in OUT/<name>/results.sqlite (name from the "
@@ -419,6 +427,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "--set evolution.max_parts=20 or --set learning.budget=35 (repeatable)")
     p.set_defaults(handler=_cmd_run)
 
+
+def _add_resume(sub: _Subparsers) -> None:
     p = sub.add_parser(
         "resume", help="continue interrupted experiments",
         description="Continue every unfinished run of the experiment in DIR (a folder holding "
@@ -428,6 +438,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("dir", metavar="DIR", help="an experiment's results folder, or a folder of them")
     p.set_defaults(handler=_cmd_resume)
 
+
+def _add_report(sub: _Subparsers) -> None:
     p = sub.add_parser(
         "report", help="figures and tables comparing experiments",
         description="Compare every experiment at or below DIR. Writes fitness_over_births, "
@@ -444,6 +456,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="figure formats, comma-separated: png, pdf, svg")
     p.set_defaults(handler=_cmd_report)
 
+
+def _add_show(sub: _Subparsers) -> None:
     p = sub.add_parser(
         "show", help="render a GIF of a robot walking",
         description="Simulate a robot driven by its own brain and write an animated GIF (with "
@@ -460,6 +474,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="frames per simulated second")
     p.set_defaults(handler=_cmd_show)
 
+
+def _add_export(sub: _Subparsers) -> None:
     p = sub.add_parser(
         "export", help="export a robot as URDF, SDF or bill of materials",
         description="Write a robot as URDF or SDF, or its bill of materials (bom: a table; "
@@ -470,6 +486,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", metavar="FILE", help="file to write")
     p.set_defaults(handler=_cmd_export)
 
+
+def _add_demo(sub: _Subparsers) -> None:
     p = sub.add_parser(
         "demo", help="check the installation: evaluate a robot, evolve a few",
         description="Evaluate the example spider and print its fitness, then evolve a small "
@@ -486,7 +504,6 @@ def build_parser() -> argparse.ArgumentParser:
                    help="worker processes")
     p.add_argument("--out", metavar="DIR", help="keep the demo's results in DIR/demo")
     p.set_defaults(handler=_cmd_demo)
-    return parser
 
 
 INPUT_ERRORS: tuple[type[Exception], ...] = (
