@@ -90,43 +90,57 @@ def evaluate(
     if evaluation_ticks < 1:
         raise ValueError(f"seconds ({seconds}) must cover at least one control period ({dt} s)")
     rng = np.random.default_rng(seed)
-
-    brain = BatchController(dt)
-    brain.add(robot)
-    inputs = np.zeros(brain.n_inputs)
-    outputs = np.zeros(brain.n_outputs)
-    trajectory = np.empty((evaluation_ticks + 1, 3))
     with World(cfg) as world:
-        h = world.add_robot(robot)
-        if world.n_inputs(h) != len(inputs) or world.n_outputs(h) != len(outputs):
-            raise ValueError(
-                f"the network has {len(inputs)} inputs / {len(outputs)} outputs but the body has "
-                f"{world.n_inputs(h)} sensor values / {world.n_outputs(h)} active hinges"
-            )
-        reason: str | None = None
-        rows = 0
-        for tick in range(insertion_ticks + evaluation_ticks):
-            if tick == insertion_ticks:
-                trajectory[0] = world.core_position(h)
-                rows = 1
-            inputs[:] = world.read_sensors(h)
-            if sensor_noise > 0:
-                inputs += rng.normal(0.0, sensor_noise, inputs.shape)
-            brain.step(inputs, outputs)
-            if actuator_noise > 0:
-                world.set_targets(h, outputs + rng.normal(0.0, actuator_noise, outputs.shape))
-            else:
-                world.set_targets(h, outputs)
-            world.step(1)
-            reason = world.blow_up(h)
-            if reason is not None:
-                break
-            if tick >= insertion_ticks:
-                trajectory[rows] = world.core_position(h)
-                rows += 1
-    path = trajectory[:rows].copy()
-    path.setflags(write=False)
+        path, reason = _rollout(world, robot, insertion_ticks, evaluation_ticks, rng,
+                                sensor_noise, actuator_noise)
     if reason is not None:
         return EvaluationResult(0.0, 0.0, 0.0, path, reason)
     terms = fitness_terms(path, DEFAULT_S_WEIGHT)
     return EvaluationResult(terms.fitness, terms.v, terms.s, path, None)
+
+
+def _rollout(
+    world: World, robot: Robot, insertion_ticks: int, evaluation_ticks: int,
+    rng: np.random.Generator, sensor_noise: float, actuator_noise: float,
+) -> tuple[NDArray[np.float64], str | None]:
+    """Drop ``robot`` into ``world`` and let its own network drive it.
+
+    Returns:
+        The core's path over the evaluation ticks (read-only, metres) and the blow-up reason
+        (``None`` if the simulation stayed sane).
+    """
+    brain = BatchController(world.config.control_period)
+    brain.add(robot)
+    inputs = np.zeros(brain.n_inputs)
+    outputs = np.zeros(brain.n_outputs)
+    trajectory = np.empty((evaluation_ticks + 1, 3))
+    h = world.add_robot(robot)
+    if world.n_inputs(h) != len(inputs) or world.n_outputs(h) != len(outputs):
+        raise ValueError(
+            f"the network has {len(inputs)} inputs / {len(outputs)} outputs but the body has "
+            f"{world.n_inputs(h)} sensor values / {world.n_outputs(h)} active hinges"
+        )
+    reason: str | None = None
+    rows = 0
+    for tick in range(insertion_ticks + evaluation_ticks):
+        if tick == insertion_ticks:
+            trajectory[0] = world.core_position(h)
+            rows = 1
+        inputs[:] = world.read_sensors(h)
+        if sensor_noise > 0:
+            inputs += rng.normal(0.0, sensor_noise, inputs.shape)
+        brain.step(inputs, outputs)
+        if actuator_noise > 0:
+            world.set_targets(h, outputs + rng.normal(0.0, actuator_noise, outputs.shape))
+        else:
+            world.set_targets(h, outputs)
+        world.step(1)
+        reason = world.blow_up(h)
+        if reason is not None:
+            break
+        if tick >= insertion_ticks:
+            trajectory[rows] = world.core_position(h)
+            rows += 1
+    path = trajectory[:rows].copy()
+    path.setflags(write=False)
+    return path, reason
