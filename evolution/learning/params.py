@@ -51,20 +51,15 @@ def evaluate_in_env(task: EvalTask) -> EvalOutcome:
     evaluation function for :class:`CandidateEvaluation` that goes through the Gym env (one
     episode: ``task.insertion`` then a ``task.seconds`` fitness window).
     """
-    from gymnasium.spaces import Box
-
-    from revolve_env.envs import LocomotionEnv  # loads the physics engine: only when used
+    # Imported here: they load the physics engine, which a process that only plans never needs.
+    from revolve_env.envs import LocomotionEnv
+    from revolve_env.envs.episode import run_episode
 
     env = LocomotionEnv(task.robot, controller="brain", insertion_time=task.insertion,
-                        evaluation_time=task.seconds, fitness_window=task.seconds)
+                        evaluation_time=task.seconds, fitness_window=task.seconds,
+                        engine=task.engine)
     try:
-        env.reset(seed=task.seed)
-        assert isinstance(env.action_space, Box)  # LocomotionEnv's action space is a Box
-        zero = np.zeros(env.action_space.shape, dtype=np.float32)
-        while True:
-            _, _, terminated, truncated, info = env.step(zero)
-            if terminated or truncated:
-                break
+        info = run_episode(env, task.seed)
     finally:
         env.close()
     if info["blow_up"] is not None:

@@ -189,14 +189,11 @@ def rollout_fitness(agent: PolicyAgent | None, robot: Robot, insertion: float, s
     else:
         env = _make_env(robot, "targets", insertion, seconds, control_period, engine)
         agent.reset()
+    from revolve_env.envs.episode import run_episode  # loads the physics engine: when used
+
     try:
-        obs, info = env.reset(seed=seed)
-        zero = np.zeros(env.action_space.shape, dtype=np.float32)
-        while True:
-            action = zero if agent is None else agent.act(obs)  # float64: exact targets
-            obs, _, terminated, truncated, info = env.step(action)
-            if terminated or truncated:
-                break
+        # The agent's actions are float64: exact targets.
+        info = run_episode(env, seed, None if agent is None else agent.act)
         return 0.0 if info["blow_up"] is not None else float(info["fitness"])
     finally:
         env.close()
