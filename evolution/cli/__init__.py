@@ -1,5 +1,6 @@
-"""The ``revolve`` command line: a thin layer over the Python API (:mod:`evolution.experiments`,
-:mod:`evolution.reporting`, :mod:`revolve_env`).
+"""The ``revolve`` command line: a thin layer over the Python API.
+
+The API is :mod:`evolution.experiments`, :mod:`evolution.reporting` and :mod:`revolve_env`.
 """
 
 from __future__ import annotations

@@ -11,6 +11,7 @@ import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -185,7 +186,7 @@ def assemble(robot: Robot) -> Assembly:
     """
     parts: list[PlacedPart] = []
     boxes: list[PlacedBox] = []
-    bodies: list[dict] = [
+    bodies: list[dict[str, Any]] = [
         {"parent": -1, "joint_part": -1, "joint_anchor": np.zeros(3),
          "joint_axis": np.array([0, 0, 1.0]), "active": False, "boxes": []}
     ]
@@ -271,7 +272,7 @@ def overlapping_boxes(assembly: Assembly, tolerance: float = 0.5e-3) -> list[tup
         rb = np.sum(b_half * np.abs(np.einsum("mij,mi->mj", b_rot, unit)), axis=1)
         dist = np.abs(np.sum(d * unit, axis=1))
         separated |= valid & (dist > ra + rb)
-    return [(int(i), int(j)) for i, j in zip(i_idx[~separated], j_idx[~separated])]
+    return [(int(i), int(j)) for i, j in zip(i_idx[~separated], j_idx[~separated], strict=True)]
 
 
 def mass_properties(boxes: Sequence[PlacedBox], origin: Vec3 | None = None

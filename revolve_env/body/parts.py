@@ -216,10 +216,14 @@ def _box(
     body: int, center: tuple[float, float, float], size: tuple[float, float, float], mass: float,
     name: str, rotation: Mat3 = _I3,
 ) -> Box:
-    return Box(body, np.array(center, dtype=float), rotation, np.array(size, dtype=float), mass, name)
+    return Box(
+        body, np.array(center, dtype=float), rotation, np.array(size, dtype=float), mass, name
+    )
 
 
-def _slot(body: int, position: tuple[float, float, float], normal: Vec3, tangent: Vec3 = _Z) -> SlotGeometry:
+def _slot(
+    body: int, position: tuple[float, float, float], normal: Vec3, tangent: Vec3 = _Z
+) -> SlotGeometry:
     return SlotGeometry(body, np.array(position, dtype=float), normal.copy(), tangent.copy())
 
 
@@ -288,8 +292,10 @@ def _active_hinge_geometry(_: tuple[float, ...]) -> PartGeometry:
     x_plate_b = x_servo + AH_SERVO_LENGTH / 2 + SEPARATION + t / 2
     boxes = (
         _box(0, (x_plate_a, 0, 0), (t, SLOT_WIDTH, SLOT_WIDTH), AH_MASS_SLOT, "slot_a"),
-        _box(0, (x_frame, 0, 0), (AH_FRAME_LENGTH, SLOT_WIDTH, AH_FRAME_HEIGHT), AH_MASS_FRAME, "frame"),
-        _box(1, (x_servo, 0, 0), (AH_SERVO_LENGTH, SLOT_WIDTH, AH_SERVO_HEIGHT), AH_MASS_SERVO, "servo"),
+        _box(0, (x_frame, 0, 0), (AH_FRAME_LENGTH, SLOT_WIDTH, AH_FRAME_HEIGHT), AH_MASS_FRAME,
+             "frame"),
+        _box(1, (x_servo, 0, 0), (AH_SERVO_LENGTH, SLOT_WIDTH, AH_SERVO_HEIGHT), AH_MASS_SERVO,
+             "servo"),
         _box(1, (x_plate_b, 0, 0), (t, SLOT_WIDTH, SLOT_WIDTH), AH_MASS_SLOT, "slot_b"),
     )
     slots = {1: _slot(1, (x_plate_b + t / 2, 0, 0), _X)}
@@ -317,8 +323,10 @@ def _passive_hinge_geometry(_: tuple[float, ...]) -> PartGeometry:
     off = PH_PART_THICKNESS / 2 + 0.5 * MM
     boxes = (
         _box(0, (t / 2, 0, 0), (t, SLOT_WIDTH, SLOT_WIDTH), PH_MASS_SLOT, "slot_a"),
-        _box(0, (x_a, off, 0), (PH_PART_LENGTH, PH_PART_THICKNESS, PH_PART_HEIGHT), PH_MASS_FRAME, "connection_a"),
-        _box(1, (x_b, -off, 0), (PH_PART_LENGTH, PH_PART_THICKNESS, PH_PART_HEIGHT), PH_MASS_FRAME, "connection_b"),
+        _box(0, (x_a, off, 0), (PH_PART_LENGTH, PH_PART_THICKNESS, PH_PART_HEIGHT), PH_MASS_FRAME,
+             "connection_a"),
+        _box(1, (x_b, -off, 0), (PH_PART_LENGTH, PH_PART_THICKNESS, PH_PART_HEIGHT), PH_MASS_FRAME,
+             "connection_b"),
         _box(1, (x_plate_b, 0, 0), (t, SLOT_WIDTH, SLOT_WIDTH), PH_MASS_SLOT, "slot_b"),
     )
     slots = {1: _slot(1, (x_plate_b + t / 2, 0, 0), _X)}
@@ -350,7 +358,8 @@ def _bar_geometry(params: tuple[float, ...]) -> PartGeometry:
     slot_b_pos = pivot + r_tilt @ np.array([length + SEPARATION + t, 0.0, 0.0])
     boxes = (
         _box(0, (t / 2, 0, 0), (t, SLOT_WIDTH, SLOT_WIDTH), BAR_MASS_SLOT, "slot_a"),
-        Box(0, conn_center, r_tilt, np.array([length, BAR_CONNECTION_WIDTH, BAR_CONNECTION_THICKNESS]),
+        Box(0, conn_center, r_tilt,
+            np.array([length, BAR_CONNECTION_WIDTH, BAR_CONNECTION_THICKNESS]),
             BAR_MASS_PER_M * length, "connection"),
         Box(0, plate_b_center, r_b, np.array([t, SLOT_WIDTH, SLOT_WIDTH]), BAR_MASS_SLOT, "slot_b"),
     )

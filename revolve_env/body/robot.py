@@ -88,8 +88,9 @@ class Activation(str, Enum):
     * ``INPUT``: the value of one sensor reading; only for input neurons.
     * ``LINEAR``: ``gain * (sum_in - bias)``.
     * ``SIGMOID``: ``1 / (1 + exp(-gain * (sum_in - bias)))``.
-    * ``OSCILLATOR``: ``0.5 - amplitude/2 + amplitude * (sin(2 pi (t - period*phase_offset) / period)
-      + 1) / 2``; depends only on time, its inputs are ignored.
+    * ``OSCILLATOR``:
+      ``0.5 - amplitude/2 + amplitude * (sin(2 pi (t - period*phase_offset) / period) + 1) / 2``;
+      depends only on time, its inputs are ignored.
     """
 
     INPUT = "input"

@@ -1,4 +1,4 @@
-"""Robot descriptions as JSON: a documented, versioned schema with exact round trips.
+r"""Robot descriptions as JSON: a documented, versioned schema with exact round trips.
 
 The schema (``"schema": "revolve-env/robot"``, ``"version": 1``) is described in
 ``docs/robot-json-schema.md``. In short::
@@ -13,14 +13,15 @@ Floats are written with Python's shortest round-trip representation, so
 ``from_json(to_json(r)) == r`` holds exactly. Reading is strict: unknown or repeated keys, wrong
 types, unknown part types, NaN or infinite numbers and unknown schema versions are errors naming
 the JSON path of the problem (e.g. ``body.children[2].type``; a repeated key is named by key), and
-the result is validated (limits included) before it is returned. Every error raised here is a :class:`~revolve_env.body.validate.RobotError`.
+the result is validated (limits included) before it is returned. Every error raised here is a
+:class:`~revolve_env.body.validate.RobotError`.
 
 Hostile or damaged input gets the same one-line :class:`~revolve_env.body.validate.RobotError`,
 never a traceback from deeper down: a document larger than :data:`MAX_JSON_BYTES` (rule
 ``json-size``), nested deeper than :data:`MAX_JSON_DEPTH` (``json-depth``; the standard parser and
 any recursive reader would raise ``RecursionError`` at about 1,000 levels), bytes or a file that
 are not UTF-8 (``json-encoding``), and text that UTF-8 cannot hold, such as a name or id with a
-lone surrogate (``"\\ud800"`` escapes; rule ``json-text``), refused on reading so that a robot once
+lone surrogate (``"\ud800"`` escapes; rule ``json-text``), refused on reading so that a robot once
 loaded can always be saved.
 """
 
@@ -266,7 +267,8 @@ class _Reader:
         )
         color_list = self.list(d.get("color", list(_DEFAULT_COLOR)), f"{where}.color", path)
         if len(color_list) != 3:
-            raise self.fail(f"{where}.color", f"expected 3 numbers (r, g, b), got {len(color_list)}",
+            raise self.fail(f"{where}.color",
+                            f"expected 3 numbers (r, g, b), got {len(color_list)}",
                             "json-value", path)
         r, g, b = (self.number(c, f"{where}.color[{i}]", path) for i, c in enumerate(color_list))
         neurons = tuple(
@@ -382,8 +384,9 @@ def _nesting_depth(text: str) -> int:
 
 
 def _decode(text: str | bytes) -> str:
-    """``text`` as ``str``: bytes are decoded as JSON allows (UTF-8, or UTF-16/32 by their
-    byte pattern), strictly.
+    """Return ``text`` as ``str``.
+
+    Bytes are decoded as JSON allows (UTF-8, or UTF-16/32 by their byte pattern), strictly.
     """
     if isinstance(text, str):
         return text
@@ -429,7 +432,9 @@ def from_json(text: str | bytes, limits: Limits | None = None, *, check: bool = 
     return from_dict(data, limits, check=check)
 
 
-def load(path: str | os.PathLike[str], limits: Limits | None = None, *, check: bool = True) -> Robot:
+def load(
+    path: str | os.PathLike[str], limits: Limits | None = None, *, check: bool = True
+) -> Robot:
     """Read a robot from a UTF-8 JSON file (see :func:`from_json`).
 
     Raises:

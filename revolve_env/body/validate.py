@@ -90,14 +90,15 @@ def _check_node(path: Path, node: Node) -> None:
             f"{spec.param_names}, got {len(node.params)}",
             path=path, rule="param-count",
         )
-    for p, value in zip(spec.params, node.params):
+    for p, value in zip(spec.params, node.params, strict=True):
         if not _finite(value) or not (p.low <= value <= p.high):
             raise RobotError(
                 f"parameter {p.name}={value!r} is outside [{p.low}, {p.high}] {p.unit}",
                 path=path, rule="param-range",
             )
     if len(node.color) != 3 or not all(_finite(c) and 0.0 <= c <= 1.0 for c in node.color):
-        raise RobotError(f"colour {node.color!r} is not 3 values in [0, 1]", path=path, rule="color")
+        raise RobotError(f"colour {node.color!r} is not 3 values in [0, 1]", path=path,
+                         rule="color")
     if not isinstance(node.children, tuple) or not all(
         isinstance(sc, tuple) and len(sc) == 2 and _integer(sc[0])
         and isinstance(sc[1], Node) for sc in node.children

@@ -92,8 +92,9 @@ def check_step_arrays(inputs: npt.NDArray[np.float64], outputs: npt.NDArray[np.f
 
 
 class RegistryViews:
-    """Read-only views of a :class:`Registry` (layout, specs, parameters) shared by both batch
-    controllers.
+    """Read-only views of a :class:`Registry` (layout, specs, parameters).
+
+    Shared by both batch controllers.
     """
 
     _reg: Registry

@@ -23,9 +23,9 @@ linear neuron in a recurrent loop with ``gain * weight > 1`` grows without limit
 then NaN, which the world reports as a blow-up). So the motor's [0, 1] clamp is applied to the
 value of every linear neuron as well: every non-input value then lies in [0, 1] (oscillator
 amplitudes are at most 1), and with finite sensor values and weights whose sums stay finite
-(any weights within ``WEIGHT_BOUNDS``) no network can diverge. An output's hinge target is the same as with the clamp at the motor alone; only what other
-neurons read from a linear neuron changes. NaN (a NaN sensor value) passes through, as in
-``np.clip``.
+(any weights within ``WEIGHT_BOUNDS``) no network can diverge. An output's hinge target is the
+same as with the clamp at the motor alone; only what other neurons read from a linear neuron
+changes. NaN (a NaN sensor value) passes through, as in ``np.clip``.
 
 The compiled :class:`~revolve_env.brain.controller.BatchController` computes the same thing with
 the same floating-point operations in the same order (its exp and sin differ from NumPy's by at
@@ -198,10 +198,13 @@ class ReferenceBatchController(RegistryViews):
         items = list(specs.items())
         offs = [bases[h][0] for h, _ in items]
         kinds = cat([sp.kinds for _, sp in items], np.int8)
-        params = np.concatenate([sp.neuron_params for _, sp in items]) if items else np.zeros((0, 5))
+        params = (
+            np.concatenate([sp.neuron_params for _, sp in items]) if items else np.zeros((0, 5))
+        )
         net_of = cat([np.full(sp.n_neurons, k) for k, (_, sp) in enumerate(items)], np.int64)
-        src = cat([sp.src.astype(np.int64) + o for (_, sp), o in zip(items, offs)], np.int64)
-        dst = cat([sp.dst.astype(np.int64) + o for (_, sp), o in zip(items, offs)], np.int64)
+        pairs = list(zip(items, offs, strict=True))
+        src = cat([sp.src.astype(np.int64) + o for (_, sp), o in pairs], np.int64)
+        dst = cat([sp.dst.astype(np.int64) + o for (_, sp), o in pairs], np.int64)
         weight = cat([sp.weight for _, sp in items], np.float64)
         order = np.argsort(dst, kind="stable")
         lin_idx = np.flatnonzero(kinds == KIND_LINEAR)
@@ -212,9 +215,9 @@ class ReferenceBatchController(RegistryViews):
             state=cat([self._state[h] for h, _ in items], np.float64),
             time=np.array([self._time[h] for h, _ in items], dtype=np.float64),
             bases=bases,
-            in_idx=cat([o + np.arange(sp.n_inputs) for (_, sp), o in zip(items, offs)], np.int64),
+            in_idx=cat([o + np.arange(sp.n_inputs) for (_, sp), o in pairs], np.int64),
             out_idx=cat(
-                [o + sp.n_inputs + np.arange(sp.n_outputs) for (_, sp), o in zip(items, offs)],
+                [o + sp.n_inputs + np.arange(sp.n_outputs) for (_, sp), o in pairs],
                 np.int64,
             ),
             src=src[order],

@@ -58,7 +58,9 @@ _KIND_OF: Final = {
 }
 _ACTIVATION_OF: Final = {v: k for k, v in _KIND_OF.items()}
 
-NEURON_PARAM_COLUMNS: Final[tuple[str, ...]] = ("bias", "gain", "period", "phase_offset", "amplitude")
+NEURON_PARAM_COLUMNS: Final[tuple[str, ...]] = (
+    "bias", "gain", "period", "phase_offset", "amplitude"
+)
 """Columns of :attr:`NetworkSpec.neuron_params`."""
 
 
@@ -131,7 +133,9 @@ class NetworkSpec:
         for c in robot.connections:
             for end in (c.src, c.dst):
                 if end not in index:
-                    raise ValueError(f"connection {c.src!r} -> {c.dst!r} refers to missing neuron {end!r}")
+                    raise ValueError(
+                        f"connection {c.src!r} -> {c.dst!r} refers to missing neuron {end!r}"
+                    )
             src.append(index[c.src])
             dst.append(index[c.dst])
         params = [[getattr(nr, col) for col in NEURON_PARAM_COLUMNS] for nr in neurons]
@@ -185,7 +189,9 @@ class NetworkSpec:
         for arr, name in ((src_64, "source"), (dst_64, "destination")):
             out = (arr < 0) | (arr >= n)
             if out.any():
-                raise ValueError(f"connection {int(np.argmax(out))} has a {name} index out of range")
+                raise ValueError(
+                    f"connection {int(np.argmax(out))} has a {name} index out of range"
+                )
         kinds_a = _frozen(kinds_64, np.int8)
         src_a = _frozen(src_64, np.int32)
         dst_a = _frozen(dst_64, np.int32)
@@ -213,7 +219,9 @@ class NetworkSpec:
         bad_period = (kinds_a == KIND_OSCILLATOR) & (params_a[:, 2] <= 0.0)
         if bad_period.any():
             i = int(np.argmax(bad_period))
-            raise ValueError(f"oscillator {ids_t[i]!r} has period {params_a[i, 2]} s; it must be > 0")
+            raise ValueError(
+                f"oscillator {ids_t[i]!r} has period {params_a[i, 2]} s; it must be > 0"
+            )
         cells: list[int] = []
         for i in range(n_inputs, n):
             for name in ACTIVATION_PARAMS[_ACTIVATION_OF[int(kinds_a[i])].value]:
@@ -278,7 +286,7 @@ class NetworkSpec:
         """
         names: list[str] = []
         seen: dict[tuple[int, int], int] = {}
-        for s, d in zip(self.src.tolist(), self.dst.tolist()):
+        for s, d in zip(self.src.tolist(), self.dst.tolist(), strict=True):
             seen[s, d] = seen.get((s, d), 0) + 1
             repeat = f"#{seen[s, d]}" if seen[s, d] > 1 else ""  # parallel connections
             names.append(f"weight:{self.ids[s]}->{self.ids[d]}{repeat}")
@@ -288,7 +296,10 @@ class NetworkSpec:
         return names
 
     def param_bounds(self) -> np.ndarray:
-        """``(n_params, 2)`` float64 lower/upper bounds (``WEIGHT_BOUNDS``, ``NEURON_PARAM_BOUNDS``)."""
+        """``(n_params, 2)`` float64 lower/upper bounds, in :meth:`param_names` order.
+
+        The rows come from ``WEIGHT_BOUNDS`` and ``NEURON_PARAM_BOUNDS``.
+        """
         rows = [WEIGHT_BOUNDS] * self.n_connections
         rows += [NEURON_PARAM_BOUNDS[NEURON_PARAM_COLUMNS[int(c) % 5]] for c in self.param_cells]
         return np.array(rows, dtype=np.float64).reshape(-1, 2)
@@ -329,7 +340,9 @@ def set_params(robot: Robot, params: npt.ArrayLike) -> Robot:
     updated: dict[str, dict[str, Any]] = {}
     for cell in new.param_cells:
         i, col = divmod(int(cell), 5)
-        updated.setdefault(new.ids[i], {})[NEURON_PARAM_COLUMNS[col]] = float(new.neuron_params[i, col])
+        updated.setdefault(new.ids[i], {})[NEURON_PARAM_COLUMNS[col]] = float(
+            new.neuron_params[i, col]
+        )
 
     def rebuild(node: Node) -> Node:
         neurons = tuple(

@@ -1,7 +1,8 @@
 """Single-robot locomotion task: ``revolve_env/Locomotion-v0`` and ``-v1`` (with proprioception).
 
 One RoboGen robot on a flat plane; the episode is an insertion phase followed by an evaluation
-phase, and the return is the robot's locomotion fitness ``f = v + 5 s`` (:mod:`revolve_env.fitness`).
+phase, and the return is the robot's locomotion fitness ``f = v + 5 s``
+(:mod:`revolve_env.fitness`).
 """
 
 from __future__ import annotations
@@ -96,9 +97,10 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     * Termination: only on a simulation blow-up.
 
     ## Info
-    ``fitness``, ``fitness_v``, ``fitness_s`` (metres; the fitness and its terms), ``reward_fitness``
-    (the reward), ``time`` (seconds since reset), ``evaluating`` (past insertion), ``x_position``,
-    ``y_position`` (core, metres) and ``blow_up`` (the reason string, or None).
+    ``fitness``, ``fitness_v``, ``fitness_s`` (metres; the fitness and its terms),
+    ``reward_fitness`` (the reward), ``time`` (seconds since reset), ``evaluating`` (past
+    insertion), ``x_position``, ``y_position`` (core, metres) and ``blow_up`` (the reason string,
+    or None).
 
     ## Versions
     * ``v0``: observations are RoboGen's sensors only.
@@ -120,7 +122,8 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     | action             | "targets" | "targets" or "modulate" (scale/offset the brain's outputs) |
     | proprioception     | False     | observe hinge angles and velocities (True in ``-v1``)      |
     | world_config       | None      | a :class:`~revolve_env.world.WorldConfig` (physics)        |
-    | limits             | None      | validation limits (:class:`~revolve_env.body.validate.Limits`) |
+    | limits             | None      | validation limits                                          |
+    |                    |           | (:class:`~revolve_env.body.validate.Limits`)               |
     | engine             | None      | "pybullet" or "mujoco"; None: ``world_config``'s (pybullet) |
     """
 
@@ -148,7 +151,9 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         elif isinstance(robot, Robot):
             validate(robot, limits)
         else:
-            raise TypeError(f"robot must be a Robot or a path to its JSON, got {type(robot).__name__}")
+            raise TypeError(
+                f"robot must be a Robot or a path to its JSON, got {type(robot).__name__}"
+            )
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, "
                              f"got {render_mode!r}")
@@ -156,7 +161,8 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
                             ("actuator_noise", actuator_noise)):
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value}")
-        for name, value in (("evaluation_time", evaluation_time), ("fitness_window", fitness_window)):
+        for name, value in (("evaluation_time", evaluation_time),
+                            ("fitness_window", fitness_window)):
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive number of seconds, got {value}")
         if controller not in ("agent", "brain"):
@@ -164,7 +170,9 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         if action not in ("targets", "modulate"):
             raise ValueError(f"action must be 'targets' or 'modulate', got {action!r}")
         if action == "modulate" and controller != "brain":
-            raise ValueError("action='modulate' scales the brain's outputs: it needs controller='brain'")
+            raise ValueError(
+                "action='modulate' scales the brain's outputs: it needs controller='brain'"
+            )
 
         config = world_config if world_config is not None else WorldConfig()
         if control_period is not None:  # replace() validates it against the timestep
@@ -220,6 +228,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[NDArray[np.float64], dict[str, Any]]:
+        """Start an episode (``seed`` seeds the noise); return the first observation and info."""
         super().reset(seed=seed)
         if self._world is None:
             self._world = self._make_world()
@@ -243,6 +252,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     def step(
         self, action: NDArray[np.float32]
     ) -> tuple[NDArray[np.float64], float, bool, bool, dict[str, Any]]:
+        """Act for one ``control_period`` (seconds); the reward is the fitness gain, in metres."""
         if self._world is None:
             raise RuntimeError("call reset() before step()")
         if self._blow_up is not None or self._step_count >= self._total_steps:
@@ -267,6 +277,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         return self._obs.copy(), reward, terminated, truncated, self._get_info(reward)
 
     def render(self) -> NDArray[np.uint8] | None:
+        """Frame on the core: an RGB (height, width, 3) array, or None with "human" (a window)."""
         if self._world is None or self.render_mode is None:
             return None
         target = self._world.core_position(self._handle)
@@ -276,6 +287,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         return self._world.render(target=target)
 
     def close(self) -> None:
+        """Release the physics world (and its window); the next ``reset()`` makes a new one."""
         if self._world is not None:
             self._world.close()
             self._world = None
@@ -291,7 +303,9 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
 
     def _targets(self, action: NDArray[np.float64]) -> NDArray[np.float64]:
         if action.shape != self.action_space.shape:
-            raise ValueError(f"action must have shape {self.action_space.shape}, got {action.shape}")
+            raise ValueError(
+                f"action must have shape {self.action_space.shape}, got {action.shape}"
+            )
         if not _all_finite(action):
             raise ValueError(f"action contains NaN or infinity: {action}")
         action = np.minimum(np.maximum(action, -1.0), 1.0)

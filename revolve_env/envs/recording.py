@@ -43,7 +43,9 @@ class Video:
     distance: float
 
 
-def _annotate(frame: NDArray[np.uint8], text: str, path: list[tuple[float, float]]) -> NDArray[np.uint8]:
+def _annotate(
+    frame: NDArray[np.uint8], text: str, path: list[tuple[float, float]]
+) -> NDArray[np.uint8]:
     from PIL import Image, ImageDraw
 
     image = Image.fromarray(frame)

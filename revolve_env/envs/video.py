@@ -63,7 +63,7 @@ def write_video(
 
             with imageio.get_writer(out, fps=fps, macro_block_size=1) as writer:
                 for f in frames:
-                    writer.append_data(np.asarray(f, dtype=np.uint8))  # type: ignore[attr-defined]
+                    writer.append_data(np.asarray(f, dtype=np.uint8))  # type: ignore[attr-defined,unused-ignore]
             return out
         out = out.with_suffix(".gif")
         warnings.warn(f"MP4 needs ffmpeg (pip install imageio-ffmpeg), which is not installed: "

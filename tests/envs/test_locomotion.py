@@ -110,7 +110,9 @@ def test_brain_controller_ignores_the_action_and_modulate_zero_equals_brain() ->
     # a non-zero modulation changes the gait
     env.reset(seed=0)
     for _ in range(30):
-        _, _, _, _, info = env.step(np.concatenate([np.full(8, -1.0), np.zeros(8)]).astype(np.float32))
+        _, _, _, _, info = env.step(
+            np.concatenate([np.full(8, -1.0), np.zeros(8)]).astype(np.float32)
+        )
     # scale -1 silences the brain: the robot barely moves from where it landed
     assert abs(info["x_position"]) + abs(info["y_position"]) < 0.01
     env.close()

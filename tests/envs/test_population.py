@@ -105,7 +105,8 @@ def test_random_births_never_overlap_a_living_robot() -> None:
     # Boxes of different robots (= different "parts" here) must not intersect.
     assert overlapping_boxes(Assembly(parts=(), boxes=tuple(boxes), bodies=())) == []
     # and the check has teeth: two robots at the same place do overlap
-    twin = _posed_boxes(robots[0], np.zeros(2), 0.0, 0) + _posed_boxes(robots[1], np.zeros(2), 0.0, 1)
+    twin = (_posed_boxes(robots[0], np.zeros(2), 0.0, 0)
+            + _posed_boxes(robots[1], np.zeros(2), 0.0, 1))
     assert overlapping_boxes(Assembly(parts=(), boxes=tuple(twin), bodies=()))
 
 

@@ -27,7 +27,9 @@ def _share(img: np.ndarray, channel: int) -> float:
     """Fraction of pixels strongly of one primary colour."""
     c = img.astype(int)
     others = [k for k in range(3) if k != channel]
-    return float(np.mean((c[..., channel] > 120) & (c[..., others[0]] < 60) & (c[..., others[1]] < 60)))
+    return float(
+        np.mean((c[..., channel] > 120) & (c[..., others[0]] < 60) & (c[..., others[1]] < 60))
+    )
 
 
 @pytest.mark.parametrize("view", ["top", "chase"])

@@ -254,7 +254,9 @@ def test_non_finite_targets_mark_a_blow_up_instead_of_raising() -> None:
         assert np.all(np.isfinite(world.core_position(h)))
 
 
-def test_imu_readings_saturate_at_full_scale_and_nan_passes(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_imu_readings_saturate_at_full_scale_and_nan_passes(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     """The world saturates the core IMU at +-16 g and +-2000 deg/s (the sensor's full scale), so
     every env and evaluation feeds the brains the same bounded values; NaN stays visible."""
     from revolve_env.body.parts import IMU_ACCEL_RANGE, IMU_GYRO_RANGE
