@@ -13,11 +13,13 @@ import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.body.robot import Robot
+from revolve_env.envs.episode import run_episode
 from revolve_env.envs.locomotion import LocomotionEnv
 from revolve_env.envs.video import write_video
 
@@ -94,31 +96,33 @@ def record_robot(
     env = LocomotionEnv(robot, render_mode="rgb_array", insertion_time=insertion,
                         evaluation_time=seconds, controller="brain")
     try:
-        env.reset(seed=0)
         dt = env.config.control_period
         every = max(1, round(1.0 / (fps * dt)))
-        action = np.zeros(env.action_space.shape or (0,), dtype=np.float32)
         frames: list[NDArray[np.uint8]] = []
         trail: list[tuple[float, float]] = []
-        info: dict[str, object] = {}
-        step = 0
-        done = False
-        while not done:
-            _, _, terminated, truncated, info = env.step(action)
-            done = terminated or truncated
-            trail.append((float(info["x_position"]), float(info["y_position"])))  # type: ignore[arg-type]
-            step += 1
-            if step % every == 0 or done:
-                frame = env.render()
-                assert frame is not None
-                label = (f"t = {step * dt:5.1f} s   fitness = {float(info['fitness']):.3f} m"  # type: ignore[arg-type]
-                         + ("   (settling)" if not info.get("evaluating") else ""))
-                frames.append(_annotate(frame, label, trail))
+        steps = [0]
+
+        def frame(step: int, info: dict[str, Any]) -> None:
+            label = (f"t = {step * dt:5.1f} s   fitness = {float(info['fitness']):.3f} m"
+                     + ("   (settling)" if not info.get("evaluating") else ""))
+            picture = env.render()
+            assert picture is not None
+            frames.append(_annotate(picture, label, trail))
+
+        def record(step: int, info: dict[str, Any]) -> None:
+            steps[0] = step
+            trail.append((float(info["x_position"]), float(info["y_position"])))
+            if step % every == 0:
+                frame(step, info)
+
+        info = run_episode(env, 0, on_step=record)
+        if steps[0] % every != 0:  # the last frame shows the end of the episode
+            frame(steps[0], info)
         if info.get("blow_up"):
             raise ValueError(f"the simulation blew up: {info['blow_up']}")
     finally:
         env.close()
     distance = math.hypot(trail[-1][0] - trail[0][0], trail[-1][1] - trail[0][1])
     written = write_video(frames, path, fps=1.0 / (every * dt))
-    return Video(written, len(frames), step * dt, float(info["fitness"]), distance)  # type: ignore[arg-type]
+    return Video(written, len(frames), steps[0] * dt, float(info["fitness"]), distance)
 
