@@ -239,3 +239,18 @@ def test_verify_accepts_a_healthy_online_run(tmp_path: Path) -> None:
     with Store.open(tmp_path / "online" / DB_NAME) as store:
         assert verify(store).births == 30
         assert [r.status for r in store.runs()] == ["finished"]
+
+
+def test_a_damaged_genome_outside_the_population_is_refused_when_asked_for(
+        interrupted: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    with Store.open(interrupted / DB_NAME) as store:
+        members = {rid for rid, _ in store.final_population(0)}
+    dead = min(set(range(30)) - members)
+    folder = _damaged(interrupted, tmp_path / "exp",
+                      f"UPDATE robots SET genome = '[' WHERE run_id = 0 AND robot_id = {dead}")
+    digest = _digest(folder)
+    for argv in (["show", "--db", str(folder), "--robot", str(dead)],
+                 ["export", "--db", str(folder), "--robot", str(dead), "--format", "urdf"]):
+        line = _one_line_error(capsys, argv)
+        assert f"robot {dead} of run 0 does not decode" in line
+    assert _digest(folder) == digest
