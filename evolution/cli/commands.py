@@ -10,7 +10,8 @@ Errors in the input (unknown scenario or config key, out-of-range value, a direc
 other results, a corrupt, damaged, newer or (for ``resume``) read-only database, a bad robot
 file) print one line to stderr and exit with status 2; ``resume``, ``report`` and ``show --db``
 check a database (:func:`evolution.experiments.integrity.verify`) before using it, so a refused
-one is left exactly as it was. Any other error is a bug: its traceback is shown with a line saying so (status 1).
+one is left exactly as it was. Any other error is a bug: its traceback is shown with a line
+saying so (status 1).
 Ctrl-C stops after the last commit point (status 130); ``revolve resume`` continues from there.
 
 The modules that load a physics engine (``revolve_env.envs``) are imported by the commands that
