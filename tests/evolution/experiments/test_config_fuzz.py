@@ -8,7 +8,10 @@ lists, tables, text), nothing else may escape, and what is accepted is a valid c
 
 from __future__ import annotations
 
+import os
+import tempfile
 from dataclasses import fields
+from pathlib import Path
 from typing import Any
 
 from hypothesis import HealthCheck, given, settings
@@ -18,7 +21,8 @@ from evolution.cli.commands import CliError, _parse_set
 from evolution.config import EvolutionConfig
 from evolution.experiments import ConfigError, ExperimentConfig, load_config
 
-SETTINGS = settings(max_examples=int(__import__("os").environ.get("FUZZ_N", "150")), deadline=None,
+# REVOLVE_FUZZ_EXAMPLES=3000 searches harder (a few minutes); the default keeps the run short.
+SETTINGS = settings(max_examples=int(os.environ.get("REVOLVE_FUZZ_EXAMPLES", "150")), deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
 CONFIGS = ("quick", "scenario3", "scenario1_learning")
 TOP = sorted(f.name for f in fields(ExperimentConfig) if f.name not in ("evolution", "learning"))
@@ -117,3 +121,25 @@ def test_booleans_are_not_numbers() -> None:
             assert key in str(error)
         else:
             raise AssertionError(f"{key}=true was accepted")
+
+
+@SETTINGS
+@given(top=st.lists(st.tuples(st.sampled_from([*TOP, "preset", "bogus"]), toml_values),
+                    max_size=5),
+       tables=st.lists(st.tuples(st.sampled_from(["evolution", "learning", "other"]),
+                                 st.sampled_from([*EVOLUTION, *LEARNING]), toml_values),
+                       max_size=5),
+       noise=st.binary(max_size=8))
+def test_config_files_raise_only_config_error(top: list[tuple[str, str]],
+                                              tables: list[tuple[str, str, str]],
+                                              noise: bytes) -> None:
+    lines = [f"{key} = {value}" for key, value in top]
+    lines += [f"[{table}]\n{key} = {value}" for table, key, value in tables]
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "fuzz.toml"
+        path.write_bytes("\n".join(lines).encode("utf-8", "surrogatepass") + noise)
+        try:
+            config = load_config(path)
+        except ConfigError:
+            return
+    _check(config)
