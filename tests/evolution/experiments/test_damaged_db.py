@@ -1,6 +1,7 @@
 """Damaged results databases: every command refuses them on one line and changes nothing.
 
-One small interrupted offline run (fast physics stand-ins) is made once; each case copies it,
+One small interrupted offline experiment and one online experiment (fast physics stand-ins)
+are made once; each case copies one,
 damages one table (emptied, rows deleted, a wrong type, an inconsistent checkpoint), and runs
 ``resume``, ``report`` and ``show --db`` through :func:`evolution.cli.main`: each must exit 2
 with one line on stderr (no traceback), and the database's bytes must be unchanged.
@@ -25,7 +26,7 @@ from experiment_fakes import fake_evaluate, fake_world, small
 from evolution import experiments
 from evolution.cli import main
 from evolution.evaluation import LocalEvaluator
-from evolution.experiments import ProgressEvent, api, preset
+from evolution.experiments import ProgressEvent, api, engine, preset
 from evolution.experiments.integrity import verify
 from evolution.experiments.store import DB_NAME, Store
 
@@ -50,10 +51,6 @@ DAMAGES: list[tuple[str, str]] = [
     ("checkpoints-empty-state", "UPDATE checkpoints SET engine_state = '{}'"),
     ("checkpoints-state-not-object", "UPDATE checkpoints SET engine_state = '[1]'"),
     ("checkpoints-state-not-json", "UPDATE checkpoints SET engine_state = 'population'"),
-    ("checkpoints-population-wrong-type",
-     "UPDATE checkpoints SET engine_state = json_set(engine_state, '$.population[0][0]', 'x')"),
-    ("checkpoints-population-unborn",
-     "UPDATE checkpoints SET engine_state = json_set(engine_state, '$.population[0][0]', 999)"),
     ("checkpoints-rng-empty", "UPDATE checkpoints SET rng_state = '{}'"),
     ("checkpoints-rng-wrong-type",
      "UPDATE checkpoints SET rng_state = json_set(rng_state, '$.state.state', 'x')"),
@@ -90,6 +87,26 @@ DAMAGES: list[tuple[str, str]] = [
 ]
 
 
+OFFLINE_ONLY: list[tuple[str, str]] = [
+    ("checkpoints-population-wrong-type",
+     "UPDATE checkpoints SET engine_state = json_set(engine_state, '$.population[0][0]', 'x')"),
+    ("checkpoints-population-unborn",
+     "UPDATE checkpoints SET engine_state = json_set(engine_state, '$.population[0][0]', 999)"),
+    ("checkpoints-learned-outside-population",
+     "UPDATE checkpoints SET engine_state = json_set(engine_state, '$.learned', json('[999]'))"),
+]
+ONLINE_ONLY: list[tuple[str, str]] = [
+    ("checkpoints-alive-missing",
+     "UPDATE checkpoints SET engine_state = json_remove(engine_state, '$.alive')"),
+    ("checkpoints-alive-wrong-type",
+     "UPDATE checkpoints SET engine_state = json_set(engine_state, '$.alive[0]', 1.5)"),
+    ("checkpoints-alive-unborn",
+     "UPDATE checkpoints SET engine_state = json_set(engine_state, '$.alive[0]', 999)"),
+]
+CASES = ([pytest.param("offline", c, q, id=f"offline-{c}") for c, q in DAMAGES + OFFLINE_ONLY]
+         + [pytest.param("online", c, q, id=f"online-{c}") for c, q in DAMAGES + ONLINE_ONLY])
+
+
 def _kill_after(births: int) -> experiments.ProgressCallback:
     def progress(event: ProgressEvent) -> None:
         if event.births >= births:
@@ -107,9 +124,20 @@ def interrupted(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
+@pytest.fixture(scope="module")
+def online(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """An online experiment of 2 runs: run 0 interrupted at 22 births of 30, run 1 pending."""
+    out = tmp_path_factory.mktemp("damaged") / "exp"
+    config = small(preset("scenario3", births=30, runs=2, diversity_interval=5))
+    with pytest.raises(KeyboardInterrupt):
+        experiments.run(config, out, _kill_after(22), evaluator=SERIAL, world_factory=fake_world)
+    return out
+
+
 @pytest.fixture
 def fake_physics(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(api, "make_evaluator", lambda *a, **k: SERIAL)
+    monkeypatch.setattr(engine, "default_world", fake_world)
 
 
 def _digest(folder: Path) -> str:
@@ -148,18 +176,22 @@ def _one_line_error(capsys: pytest.CaptureFixture[str], argv: list[str]) -> str:
     return lines[0]
 
 
-def test_the_undamaged_database_is_usable(interrupted: Path) -> None:
+def test_the_undamaged_databases_are_usable(interrupted: Path, online: Path) -> None:
     with Store.open(interrupted / DB_NAME) as store:
         assert verify(store, resumable=True).births == 45
         assert [(r.status, r.births) for r in store.runs()] == [("interrupted", 30),
                                                                  ("pending", 0)]
+    with Store.open(online / DB_NAME) as store:
+        assert verify(store, resumable=True).engine == "online"
+        assert [r.status for r in store.runs()] == ["interrupted", "pending"]
 
 
-@pytest.mark.parametrize("case, sql", DAMAGES, ids=[c for c, _ in DAMAGES])
+@pytest.mark.parametrize("engine_name, case, sql", CASES)
 def test_a_damaged_database_is_refused_on_one_line_and_left_unchanged(
-        interrupted: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str],
-        fake_physics: None, case: str, sql: str) -> None:
-    folder = _damaged(interrupted, tmp_path / "exp", sql)
+        request: pytest.FixtureRequest, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        fake_physics: None, engine_name: str, case: str, sql: str) -> None:
+    source = request.getfixturevalue("interrupted" if engine_name == "offline" else "online")
+    folder = _damaged(source, tmp_path / "exp", sql)
     digest = _digest(folder)
     for command, argv in _commands(folder, tmp_path).items():
         line = _one_line_error(capsys, argv)
