@@ -286,3 +286,14 @@ def test_a_damaged_genome_outside_the_population_is_refused_when_asked_for(
         line = _one_line_error(capsys, argv)
         assert f"robot {dead} of run 0 does not decode" in line
     assert _digest(folder) == digest
+
+
+def test_resume_of_a_folder_changes_nothing_when_one_experiment_is_damaged(
+        interrupted: Path, online: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        fake_physics: None) -> None:
+    shutil.copytree(interrupted, tmp_path / "a")  # healthy, would be continued
+    _damaged(online, tmp_path / "b", "DELETE FROM checkpoints")
+    digests = {name: _digest(tmp_path / name) for name in ("a", "b")}
+    line = _one_line_error(capsys, ["resume", str(tmp_path)])
+    assert "no checkpoint" in line
+    assert {name: _digest(tmp_path / name) for name in ("a", "b")} == digests
