@@ -7,8 +7,11 @@ at or below ``DIR`` and compares them, writing into ``DIR/report/``. Existing re
 overwritten: running into a directory that holds results is an error (use ``revolve resume``).
 
 Errors in the input (unknown scenario or config key, out-of-range value, a directory holding
-other results, a corrupt or newer database, a bad robot file) print one line to stderr and exit
-with status 2. Any other error is a bug: its traceback is shown with a line saying so (status 1).
+other results, a corrupt, damaged, newer or (for ``resume``) read-only database, a bad robot
+file) print one line to stderr and exit with status 2; ``resume``, ``report`` and ``show --db``
+check a database (:func:`evolution.experiments.integrity.verify`) before using it, so a refused
+one is left exactly as it was. Any other error is a bug: its traceback is shown with a line
+saying so (status 1).
 Ctrl-C stops after the last commit point (status 130); ``revolve resume`` continues from there.
 
 The modules that load a physics engine (``revolve_env.envs``) are imported by the commands that
@@ -46,6 +49,7 @@ from evolution.experiments import (
     run,
     shipped_configs,
 )
+from evolution.experiments.integrity import check_writable, verify
 from evolution.random_robot import RandomRobotError
 from evolution.reporting import report
 from revolve_env.body.examples import EXAMPLES, example, spider
@@ -167,12 +171,15 @@ def _experiment_dirs(root: Path) -> list[Path]:
 
 def _cmd_resume(args: argparse.Namespace) -> int:
     todo = []
+    # Every database is checked before any is continued: a damaged or read-only one stops the
+    # command with nothing changed.
     for folder in _experiment_dirs(Path(args.dir)):
         with Store.open(folder / DB_NAME) as store:
-            config = ExperimentConfig.from_dict(store.config)
+            config = verify(store, resumable=True)
             runs = store.runs()
-        if any(r.status != "finished" for r in runs):
-            todo.append((folder, config, runs))
+            if any(r.status != "finished" for r in runs):
+                check_writable(store)
+                todo.append((folder, config, runs))
     if not todo:
         _say(f"nothing to resume: every run below {args.dir} has finished")
         return 0
@@ -218,6 +225,7 @@ def _load_robot(args: argparse.Namespace) -> tuple[Robot, str]:
         db = Path(args.db)
         db = db if db.name == DB_NAME else db / DB_NAME
         with Store.open(db) as store:
+            verify(store)
             if args.run not in {r.run_id for r in store.runs()}:
                 raise CliError(f"{db} has no run {args.run}")
             if args.best:
@@ -232,7 +240,12 @@ def _load_robot(args: argparse.Namespace) -> tuple[Robot, str]:
                 record = store.robot(args.run, robot_id)
             except KeyError as error:
                 raise CliError(str(error.args[0])) from None
-            return record.robot(), f"run{args.run}_robot{robot_id}"
+            try:
+                robot = record.robot()
+            except ValueError as error:  # RobotError, or a genome that is not JSON
+                raise StoreError(f"{db} is damaged: robot {robot_id} of run {args.run} does not "
+                                 f"decode ({error})") from None
+            return robot, f"run{args.run}_robot{robot_id}"
     if args.robot is None:
         raise CliError("give a robot JSON file, an example name "
                        f"({', '.join(EXAMPLES)}) or --db DIR --robot ID")

@@ -8,6 +8,8 @@ An evaluator does two things:
 :class:`LocalEvaluator` uses worker processes on this machine (``forkserver`` start method: a
 clean interpreter per worker, no inherited physics state). :class:`RayEvaluator` runs the same
 work as Ray tasks on a local Ray instance or an existing cluster (``pip install revolve-env[ray]``).
+The local processes die with the process that made them, SIGKILL included
+(:mod:`evolution.evaluation.lifeline`).
 Both run any picklable evaluation function (default :func:`~evolution.evaluation.evaluate_task`:
 the Training Center, then the robot alone at the origin).
 """
@@ -19,8 +21,10 @@ import os
 import queue
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from multiprocessing.managers import SyncManager
 from typing import Any, Protocol, Self, TypeVar
 
+from evolution.evaluation.lifeline import guard_worker
 from evolution.evaluation.tasks import EvalOutcome, EvalTask, EvaluateFunction, evaluate_task
 
 __all__ = ["Evaluator", "JobFunction", "LocalEvaluator", "RayEvaluator", "make_evaluator"]
@@ -110,7 +114,8 @@ class LocalEvaluator:
 
     def _executor(self) -> ProcessPoolExecutor:
         if self._pool is None:
-            self._pool = ProcessPoolExecutor(self._workers, mp_context=self._context)
+            self._pool = ProcessPoolExecutor(self._workers, mp_context=self._context,
+                                             initializer=guard_worker, initargs=(os.getpid(),))
         return self._pool
 
     def evaluate(self, tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
@@ -134,9 +139,11 @@ class LocalEvaluator:
         emit = on_event or (lambda event: None)
         if len(jobs) <= 1 or self._workers == 1:
             return [fn(job, self, emit) for job in jobs]
-        manager = self._context.Manager()
+        manager = SyncManager(ctx=self._context)
+        manager.start(guard_worker, (os.getpid(),))
         events: queue.Queue[EventT] | None = manager.Queue() if on_event is not None else None
-        pool = ProcessPoolExecutor(min(self._workers, len(jobs)), mp_context=self._context)
+        pool = ProcessPoolExecutor(min(self._workers, len(jobs)), mp_context=self._context,
+                                   initializer=guard_worker, initargs=(os.getpid(),))
         try:
             futures = [pool.submit(_run_job_in_worker, fn, job, self.function, events)
                        for job in jobs]

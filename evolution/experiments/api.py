@@ -13,6 +13,7 @@ import revolve_env
 from evolution.evaluation import Evaluator, make_evaluator
 from evolution.experiments.config import ConfigError, ExperimentConfig, load_config
 from evolution.experiments.engine import execute_run
+from evolution.experiments.integrity import check_writable, verify
 from evolution.experiments.run import (
     ProgressEvent,
     RunJob,
@@ -114,15 +115,22 @@ def resume(
     stored ``learning`` table the Training Center is rebuilt from it (``infancy`` may be given
     only if it is the same one).
 
+    The database is checked before anything is written to it
+    (:func:`~evolution.experiments.integrity.verify`): a damaged or read-only one is refused
+    and left as it was.
+
     Raises:
-        StoreError: no usable results database in ``out_dir`` (missing, corrupt, newer schema).
-        ConfigError: the stored configuration is not valid for this package version, or
-            ``infancy`` differs from the stored learning table's Training Center.
+        StoreError: no usable results database in ``out_dir`` (missing, corrupt, newer schema,
+            damaged, its stored configuration invalid for this package version, or read-only).
+        ConfigError: ``infancy`` differs from the stored learning table's Training Center.
     """
     check_infancy(infancy)
     db_path = Path(out_dir) / DB_NAME
     with Store.open(db_path) as store:
-        config = ExperimentConfig.from_dict(store.config)
+        config = verify(store, resumable=True)
+        runs = store.runs()
+        if len(runs) < config.runs or any(r.status != "finished" for r in runs):
+            check_writable(store)
     infancy = _infancy_for(config, infancy)
     check_infancy(infancy)
     return _execute(config, db_path, progress, evaluator, world_factory, infancy)

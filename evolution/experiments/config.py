@@ -169,8 +169,7 @@ class ExperimentConfig:
         }
         for key, (bound, strict) in floats.items():
             value = getattr(self, key)
-            if (not isinstance(value, (int, float)) or isinstance(value, bool)
-                    or not math.isfinite(value)):
+            if not _finite_number(value):
                 raise ConfigError(f"{key} must be a finite number, got {value!r}")
             if value < bound or (strict and value == bound):
                 raise ConfigError(f"{key} must be {'>' if strict else '>='} {bound}, got {value}")
@@ -178,8 +177,7 @@ class ExperimentConfig:
             if getattr(self, key) > 1:
                 raise ConfigError(f"{key} must be <= 1, got {getattr(self, key)}")
         if self.max_sim_time is not None and not (
-            isinstance(self.max_sim_time, (int, float)) and self.max_sim_time > 0
-            and math.isfinite(self.max_sim_time)
+            _finite_number(self.max_sim_time) and self.max_sim_time > 0
         ):
             raise ConfigError("max_sim_time must be a positive number of seconds, got "
                               f"{self.max_sim_time!r}")
@@ -274,7 +272,7 @@ class ExperimentConfig:
             )
         try:
             evolution_config = EvolutionConfig(**evolution)
-        except (TypeError, ValueError) as error:
+        except (TypeError, ValueError, ArithmeticError) as error:  # 10**400 -> float: Overflow
             raise ConfigError(f"evolution: {error}") from error
         world = dict(base.pop("world", {}))
         world_data = data.pop("world", {})
@@ -319,7 +317,7 @@ class ExperimentConfig:
             return None
         try:
             return training_center_from_dict(self.learning, engine=self.world.engine)
-        except (TypeError, ValueError) as error:
+        except (TypeError, ValueError, ArithmeticError) as error:  # int(inf): OverflowError
             raise ConfigError(f"learning: {error}") from error
 
     @property
@@ -386,6 +384,19 @@ def preset(name: str, **overrides: Any) -> ExperimentConfig:
             raise ConfigError(f"unknown experiment config key(s): {', '.join(unknown)}")
         config = config.replace(**overrides)
     return config
+
+
+def _finite_number(value: object) -> bool:
+    """Whether ``value`` is a finite int or float.
+
+    A bool is not a number here: ``true`` for a number of seconds is a mistake, not 1 s.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:  # an int beyond any float
+        return False
 
 
 def _json_roundtrip(data: dict[str, Any]) -> dict[str, Any]:

@@ -206,8 +206,18 @@ class Store:
 
     @property
     def config(self) -> dict[str, Any]:
-        """The experiment configuration the database was created for (parsed JSON)."""
-        config: dict[str, Any] = json.loads(self.meta()["config"])
+        """The experiment configuration the database was created for.
+
+        Raises:
+            StoreError: the stored configuration is not a JSON object (a damaged database).
+        """
+        try:
+            config = json.loads(self.meta()["config"])
+        except (ValueError, RecursionError):
+            config = None
+        if not isinstance(config, dict):
+            raise StoreError(f"{self.path} is damaged: its stored configuration is not a JSON "
+                             "object")
         return config
 
     @property
@@ -434,6 +444,13 @@ class Store:
             (run_id,),
         ).fetchall()
         return [DiversityPoint(*row) for row in rows]
+
+    def query(self, sql: str, params: Sequence[Any] = ()) -> list[tuple[Any, ...]]:
+        """Run one SQL statement and return its rows.
+
+        For read-only checks such as :func:`evolution.experiments.integrity.verify`.
+        """
+        return self._db.execute(sql, tuple(params)).fetchall()
 
     def table_counts(self) -> dict[str, int]:
         """Number of rows of each table (for summaries and tests)."""

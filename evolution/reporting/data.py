@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evolution.diversity import diversity
+from evolution.experiments.integrity import verify
 from evolution.experiments.store import DB_NAME, FitnessSeries, Store, StoreError
 from revolve_env.body.serialize import from_json
 
@@ -136,6 +137,7 @@ def load_experiment(path: str | os.PathLike[str], label: str | None = None) -> E
     db = path if path.name == DB_NAME else path / DB_NAME
     runs: list[RunData] = []
     with Store.open(db) as store:
+        verify(store)
         config = store.config
         records = store.runs()
         for record in records:
