@@ -458,8 +458,7 @@ class RunState:
             raise StopRun
 
     def save_snapshot(self) -> dict[str, Any] | None:
-        """Write what an exact continuation needs beside the database (before the checkpoint's
-        transaction).
+        """Write what an exact continuation needs beside the database (before the commit).
 
         Returns:
             The reference the checkpoint keeps, or ``None`` (the default: nothing written, the
