@@ -219,9 +219,9 @@ class OnlineRun(RunState):
         ref = checkpoint.engine_state.get("snapshot")
         world = self._restorable()
         if world is None:
-            if ref is not None:
-                _log.warning("run %d: this world cannot restore a snapshot exactly; replaying "
-                             "from birth 0", self.run_id)
+            if isinstance(self.world, RestorableWorld):  # an engine that cannot (pybullet)
+                _log.warning("run %d: this physics engine cannot restore a saved state exactly; "
+                             "replaying from birth 0", self.run_id)
             return False
         if ref is None:
             _log.warning("run %d: its checkpoint at %d births has no snapshot (an older "
