@@ -206,7 +206,13 @@ class OnlineRun(RunState):
             ],
         }
         path = snapshot.snapshot_path(self.job.db_path, self.run_id, self.births)
-        digest = snapshot.write(path, {"engine": engine, "world": world.snapshot()})
+        try:
+            digest = snapshot.write(path, {"engine": engine, "world": world.snapshot()})
+        except OSError as e:
+            # The results matter more than a fast resume: commit without a snapshot.
+            _log.warning("run %d: cannot write the snapshot %s (%s); a resume from this "
+                         "checkpoint will replay", self.run_id, path, e.strerror or e)
+            return None
         return snapshot.reference(path, digest, self.births)
 
     def committed(self, written: dict[str, Any] | None) -> None:

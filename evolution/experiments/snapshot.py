@@ -15,6 +15,7 @@ back with an unpickler that refuses any other class: a damaged or foreign file i
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import io
 import os
@@ -116,4 +117,5 @@ def prune(db_path: str | Path, run_id: int, keep: str | None) -> None:
         return
     for path in folder.glob(f"run{run_id}.b*.snapshot"):
         if path.name != keep:
-            path.unlink(missing_ok=True)
+            with contextlib.suppress(OSError):  # best effort: a leftover file only costs disk
+                path.unlink()

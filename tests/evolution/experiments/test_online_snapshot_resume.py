@@ -111,3 +111,21 @@ def test_without_a_usable_snapshot_resume_replays_to_the_same_database(
     assert "replaying from birth 0" in caplog.text
     assert any(e.replaying for e in events)
     assert dump(out / "results.sqlite") == reference
+
+
+def test_an_unwritable_snapshot_folder_never_stops_a_run(
+        tmp_path: Path, reference: dict[str, list[tuple[Any, ...]]],
+        caplog: pytest.LogCaptureFixture) -> None:
+    """The results matter more than a fast resume: without snapshots the run goes on (a file
+    where the folder should be), and a resume replays."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "checkpoints").write_text("not a folder")
+    with caplog.at_level(logging.WARNING, logger="evolution.experiments.online"), \
+            pytest.raises(Kill):
+        experiments.run(tiny(), out, kill_after(5), evaluator=SERIAL)
+    assert "cannot write the snapshot" in caplog.text
+    events: list[ProgressEvent] = []
+    experiments.resume(out, events.append, evaluator=SERIAL)
+    assert any(e.replaying for e in events)
+    assert dump(out / "results.sqlite") == reference
