@@ -23,6 +23,7 @@ Prints the figures; wall times depend on the machine (and on other work on it).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import shutil
 import sqlite3
 import tempfile
@@ -104,10 +105,8 @@ def main() -> None:
                 raise _Kill
 
         start = time.perf_counter()
-        try:
+        with contextlib.suppress(_Kill):
             experiments.run(config, root / "killed", killer, evaluator=serial)
-        except _Kill:
-            pass
         killed_s = time.perf_counter() - start
         (snapshot,) = (root / "killed" / "checkpoints").glob("*.snapshot")
         size = snapshot.stat().st_size
