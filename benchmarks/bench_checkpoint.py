@@ -17,7 +17,13 @@ from the same seed:
    the behaviour before snapshots). Both resumed databases are checked against the
    uninterrupted one, table by table.
 
-Prints the figures; wall times depend on the machine (and on other work on it).
+Prints the figures; wall times depend on the machine (and on other work on it). Measured with
+``--births 300`` (seed 0, one core of a 2-core machine shared with other work, 2026-11-23):
+
+* uninterrupted run 174.8 s; 285 snapshots took 3.9 s in all, 2.2 % of the run (53 ms at most;
+  4.5 MB per file at 270 births); the checkpoint transactions 0.2 s (0.1 %);
+* killed at 270 births: resume by replay 157.5 s, from the snapshot 16.6 s (9.5x faster; the
+  30 births left are the work); both databases identical to the uninterrupted run's.
 """
 
 from __future__ import annotations
