@@ -45,13 +45,13 @@ def kill_after(births: int) -> Any:
     return progress
 
 
-def tiny(**changes: Any) -> ExperimentConfig:
+def tiny(engine: str = "mujoco", **changes: Any) -> ExperimentConfig:
     values: dict[str, Any] = dict(
         runs=1, births=12, population_size=3, insertion=0.5, evaluation_time=1.0,
         fertile_age=1.5, min_alive=2, max_alive=5, conception_interval=1.0,
         checkpoint_interval=2, diversity_interval=3, workers=1)
     values.update(changes)
-    return small(load_config("scenario3", {"world": {"engine": "mujoco"}, **values}))
+    return small(load_config("scenario3", {"world": {"engine": engine}, **values}))
 
 
 @pytest.fixture(scope="module")
@@ -129,3 +129,20 @@ def test_an_unwritable_snapshot_folder_never_stops_a_run(
     experiments.resume(out, events.append, evaluator=SERIAL)
     assert any(e.replaying for e in events)
     assert dump(out / "results.sqlite") == reference
+
+
+def test_pybullet_writes_no_snapshot_and_resumes_by_replay(
+        tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """pybullet cannot continue a saved state exactly: no snapshot files, replay with a note."""
+    config = tiny("pybullet", births=8)
+    experiments.run(config, tmp_path / "ref", evaluator=SERIAL)
+    out = tmp_path / "killed"
+    with pytest.raises(Kill):
+        experiments.run(config, out, kill_after(5), evaluator=SERIAL)
+    assert not (out / "checkpoints").exists()
+    events: list[ProgressEvent] = []
+    with caplog.at_level(logging.WARNING, logger="evolution.experiments.online"):
+        experiments.resume(out, events.append, evaluator=SERIAL)
+    assert "cannot restore a saved state exactly" in caplog.text
+    assert any(e.replaying for e in events)
+    assert dump(out / "results.sqlite") == dump(tmp_path / "ref" / "results.sqlite")
