@@ -41,6 +41,7 @@ from evolution.experiments.run import (
     RestorableWorld,
     RunJob,
     RunState,
+    _json_norm,
     decode,
     genome,
 )
@@ -240,7 +241,7 @@ class OnlineRun(RunState):
             if (engine["births"] != checkpoint.births
                     or engine["generation"] != checkpoint.generation
                     or engine["sim_time"] != checkpoint.sim_time
-                    or _plain(engine["rng"]) != _plain(checkpoint.rng_state)):
+                    or _json_norm(engine["rng"]) != _json_norm(checkpoint.rng_state)):
                 raise snapshot.SnapshotError("the snapshot's counters or generator differ from "
                                              "the checkpoint's")
             population = [
@@ -276,11 +277,3 @@ class OnlineRun(RunState):
             self.dead = []
             self.commit(self.engine_state(), members)
 
-
-def _plain(value: object) -> object:
-    """A generator state compared by value (Python ints, whatever JSON or pickle made them)."""
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    return value
