@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -186,6 +187,32 @@ class SlidingWindowFitness:
         self._xy[: len(t)] = xy
         self._path[: len(t)] = path
         self._start = 0
+
+    def snapshot(self) -> dict[str, Any]:
+        """The window's samples and settings as plain data (see :meth:`from_snapshot`)."""
+        idx = (self._start + np.arange(self._n)) % len(self._t)
+        return {"window": self.window, "s_weight": self.s_weight, "capacity": len(self._t),
+                "t": self._t[idx], "xy": self._xy[idx], "path": self._path[idx]}
+
+    @classmethod
+    def from_snapshot(cls, snapshot: dict[str, Any]) -> SlidingWindowFitness:
+        """A window that goes on exactly as the one :meth:`snapshot` was taken of.
+
+        Raises:
+            ValueError: inconsistent sample arrays.
+        """
+        t = np.asarray(snapshot["t"], dtype=np.float64).reshape(-1)
+        xy = np.asarray(snapshot["xy"], dtype=np.float64).reshape(-1, 2)
+        path = np.asarray(snapshot["path"], dtype=np.float64).reshape(-1)
+        n = len(t)
+        if len(xy) != n or len(path) != n:
+            raise ValueError("a fitness window snapshot needs as many positions and path lengths "
+                             "as times")
+        window = cls(float(snapshot["window"]), float(snapshot["s_weight"]),
+                     max(int(snapshot["capacity"]), n, 2))
+        window._t[:n], window._xy[:n], window._path[:n] = t, xy, path
+        window._n = n
+        return window
 
     def samples(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Times (T,) and horizontal positions (T, 2) in the window, oldest first (copies)."""

@@ -317,4 +317,16 @@ std::vector<double> BatchController::state(std::int64_t handle) const {
 
 double BatchController::time(std::int64_t handle) const { return t_[index_of(handle)]; }
 
+void BatchController::set_state(std::int64_t handle, const double* values, std::int64_t n, double time) {
+    const std::size_t k = index_of(handle);
+    const Network& net = nets_[k];
+    if (n != net.n) {
+        throw std::invalid_argument("set_state expects " + std::to_string(net.n) + " neuron values, got " +
+                                    std::to_string(n));
+    }
+    if (!std::isfinite(time)) throw std::invalid_argument("set_state: the time must be finite");
+    for (std::int64_t i = 0; i < net.n; ++i) x_[static_cast<std::size_t>(global(net, i))] = values[i];
+    t_[k] = time;
+}
+
 }  // namespace revolve

@@ -108,6 +108,11 @@ void set_params(Locked& l, std::int64_t handle, Mat neuron_params, Vec<double> w
                  static_cast<std::int64_t>(weight.shape(0)));
 }
 
+void set_state(Locked& l, std::int64_t handle, Vec<double> values, double time) {
+    Guard g(l.mu);
+    l.c.set_state(handle, values.data(), static_cast<std::int64_t>(values.shape(0)), time);
+}
+
 }  // namespace
 
 NB_MODULE(_controller, m) {
@@ -173,5 +178,7 @@ NB_MODULE(_controller, m) {
             "output_offset", [](Locked& l, std::int64_t h) { Guard g(l.mu); return l.c.output_offset(h); },
             nb::arg("handle"))
         .def("state", [](Locked& l, std::int64_t h) { Guard g(l.mu); return l.c.state(h); }, nb::arg("handle"))
-        .def("time", [](Locked& l, std::int64_t h) { Guard g(l.mu); return l.c.time(h); }, nb::arg("handle"));
+        .def("time", [](Locked& l, std::int64_t h) { Guard g(l.mu); return l.c.time(h); }, nb::arg("handle"))
+        .def("set_state", &set_state, nb::arg("handle"), nb::arg("values"), nb::arg("time"),
+             "Overwrite one network's neuron values (spec order) and time (seconds).");
 }

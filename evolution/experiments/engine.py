@@ -32,12 +32,18 @@ Online (``engine = "online"``)
     ``min_alive`` robots, extra robots are conceived at once. A commit point is every
     ``checkpoint_interval`` births.
 
-    Resume of an online run is by **deterministic replay**: a physics world cannot be
-    serialised portably (pybullet's saveState lives in memory, and controller states live in
-    the compiled controllers), so the engine re-runs the run from its start with the same seed,
+    Resume of an online run continues from its last checkpoint where the physics engine can
+    restore its state exactly (MuJoCo): each checkpoint but the last writes a snapshot file of
+    the world (physics state, controllers, generator, fitness windows) and of the engine's
+    population beside the database (``checkpoints/run<id>.b<births>.snapshot``, referenced
+    with its SHA-256 from the checkpoint's ``engine_state``), and resume restores it; the cost
+    is the work since the checkpoint. Elsewhere (pybullet, whose saved state does not continue
+    exactly; a database from before snapshots; a missing or damaged file) resume is by
+    **deterministic replay**: the engine re-runs the run from its start with the same seed,
     checking every replayed robot against the stored one and the generator's state against the
-    checkpoint, and writes nothing until it has passed the last commit point. The stored results
-    are never touched; the price is re-simulating the time before the interruption.
+    checkpoint, and writes nothing until it has passed the last commit point. Either way the
+    stored results are never touched and the resumed run is bit-identical to an uninterrupted
+    one.
 
 Evaluation seeds are :func:`~evolution.evaluation.evaluation_seed` (run seed, robot id), so
 offline results do not depend on the number of workers.

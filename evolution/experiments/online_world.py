@@ -6,6 +6,10 @@ controlled_by="brain")`` (their own brains drive them, so ``step`` gets no actio
 with ``remove_robot``, and the per-agent ``infos`` give the sliding-window fitness, the core
 position and the reason a robot was removed (blow-up). Imported lazily: ``evolution`` itself
 never imports the physics.
+
+It is a :class:`~evolution.experiments.run.RestorableWorld`: :meth:`PopulationWorld.snapshot`
+holds the env's whole state (:meth:`PopulationEnv.snapshot`) and the last infos the world
+reported; restoring it is exact on MuJoCo (``exact_restore``), not on pybullet.
 """
 
 from __future__ import annotations
@@ -20,6 +24,9 @@ if TYPE_CHECKING:
     from revolve_env.envs.population import PopulationEnv
 
 __all__ = ["PopulationWorld"]
+
+# What advance_to reads from an info (a snapshot keeps only these).
+_LAST_KEYS = ("position", "fitness", "fitness_v", "fitness_s", "blow_up", "death")
 
 
 class PopulationWorld:
@@ -42,6 +49,7 @@ class PopulationWorld:
             maturity_age=config.fertile_age, fitness_window=config.evaluation_time,
             birth_radius=config.birth_radius, birth_clearance=config.birth_clearance,
             limits=config.evolution.limits, engine=config.world.engine)
+        self._seed = seed
         self._env.reset(seed=seed)
         self._last: dict[str, dict[str, Any]] = {}
 
@@ -89,6 +97,37 @@ class PopulationWorld:
             if agent in removed:
                 self._last.pop(agent, None)
         return out
+
+    @property
+    def exact_restore(self) -> bool:
+        """Whether :meth:`restore` continues a :meth:`snapshot` bit for bit (MuJoCo: yes)."""
+        return self._env.exact_restore
+
+    def snapshot(self) -> dict[str, Any]:
+        """The env's whole state and the last reported infos, as plain data.
+
+        Raises:
+            NotImplementedError: the engine cannot restore its state exactly (pybullet).
+        """
+        last = {agent: {k: info[k] for k in _LAST_KEYS if k in info}
+                for agent, info in self._last.items()}
+        return {"env": self._env.snapshot(), "last": last}
+
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        """Continue from a :meth:`snapshot`; on failure the world is as new (reset, empty).
+
+        Raises:
+            ValueError: the snapshot does not fit (``SnapshotMismatchError``).
+            NotImplementedError: the engine cannot restore its state exactly (pybullet).
+        """
+        try:
+            last = {str(agent): dict(info) for agent, info in snapshot["last"].items()}
+            self._env.restore(snapshot["env"])
+        except BaseException:
+            self._env.reset(seed=self._seed)
+            self._last = {}
+            raise
+        self._last = last
 
     def close(self) -> None:
         """Release the physics."""

@@ -16,7 +16,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -46,6 +46,7 @@ __all__ = [
     "OnlineWorld",
     "ProgressEvent",
     "ReplayError",
+    "RestorableWorld",
     "RunJob",
     "RunSummary",
     "WorldFactory",
@@ -187,6 +188,25 @@ class OnlineWorld(Protocol):
 
     def close(self) -> None:
         """Release the physics."""
+
+
+@runtime_checkable
+class RestorableWorld(Protocol):
+    """An online world that can also save and restore its whole state (for an exact resume)."""
+
+    @property
+    def exact_restore(self) -> bool:
+        """Whether :meth:`restore` continues a :meth:`snapshot` bit for bit on this engine."""
+
+    def snapshot(self) -> dict[str, Any]:
+        """The world's whole state as plain data (NumPy arrays allowed)."""
+
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        """Continue from a :meth:`snapshot`; on failure the world is as new (time 0, empty).
+
+        Raises:
+            ValueError: the snapshot does not fit this world.
+        """
 
 
 WorldFactory = Callable[[ExperimentConfig, int], OnlineWorld]
@@ -427,11 +447,27 @@ class RunState:
             self.sim_time_at_start = self.sim_time
             self._progress()
             return
+        written = self.save_snapshot()
+        if written is not None:
+            checkpoint.engine_state["snapshot"] = written
         self.store.commit(self.run_id, self.batch, checkpoint)
+        self.committed(written)
         self.commits += 1
         self._progress()
         if self.job.stop_after_commits is not None and self.commits >= self.job.stop_after_commits:
             raise StopRun
+
+    def save_snapshot(self) -> dict[str, Any] | None:
+        """Write what an exact continuation needs beside the database (before the commit).
+
+        Returns:
+            The reference the checkpoint keeps, or ``None`` (the default: nothing written, the
+            engine resumes otherwise).
+        """
+        return None
+
+    def committed(self, snapshot: dict[str, Any] | None) -> None:
+        """Called once a checkpoint referencing ``snapshot`` (or none) is committed."""
 
     def _stats(self) -> tuple[float, float]:
         values = _finite([m.fitness for m in self.population])

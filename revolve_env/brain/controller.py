@@ -78,6 +78,26 @@ class BatchController(RegistryViews):
         self._reg.spec(handle)
         return float(self._impl.time(handle))
 
+    def set_state(self, handle: int, values: npt.ArrayLike, time: float) -> None:
+        """Overwrite the neuron values (spec order, as :meth:`get_state` gives them) and the time
+        of one network.
+
+        With the values and time of a saved network, the next tick is bit for bit the one the
+        saved network would have made (a checkpoint's controller state).
+
+        Args:
+            handle: A live network.
+            values: One value per neuron, in spec order.
+            time: The time of the next tick. Seconds.
+
+        Raises:
+            KeyError: unknown handle.
+            ValueError: wrong length, or a non-finite time.
+        """
+        self._reg.spec(handle)
+        v = np.ascontiguousarray(values, dtype=np.float64).reshape(-1)
+        self._impl.set_state(handle, v, float(time))
+
     # -- parameters ----------------------------------------------------------------------------
     def set_params(self, handle: int, params: npt.ArrayLike) -> None:
         """Replace the learnable parameters of a network; its state and time are kept.

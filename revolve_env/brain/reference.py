@@ -35,6 +35,8 @@ networks (one ``bincount`` per tick) and is the benchmark baseline.
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -133,6 +135,23 @@ class ReferenceBatchController(RegistryViews):
         if self._layout is None:
             return self._time[handle]
         return float(self._layout.time[self._layout.bases[handle][1]])
+
+    def set_state(self, handle: int, values: npt.ArrayLike, time: float) -> None:
+        """Overwrite the neuron values (spec order) and the time of one network (seconds).
+
+        Raises:
+            KeyError: unknown handle.
+            ValueError: wrong length, or a non-finite time.
+        """
+        spec = self._reg.spec(handle)
+        v = np.asarray(values, dtype=np.float64).reshape(-1)
+        if v.shape[0] != spec.n_neurons:
+            raise ValueError(f"set_state expects {spec.n_neurons} neuron values, got {v.shape[0]}")
+        if not math.isfinite(float(time)):
+            raise ValueError("set_state: the time must be finite")
+        self._unpack()
+        self._state[handle][:] = v
+        self._time[handle] = float(time)
 
     # -- parameters ----------------------------------------------------------------------------
     def set_params(self, handle: int, params: npt.ArrayLike) -> None:

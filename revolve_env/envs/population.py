@@ -22,6 +22,7 @@ from pettingzoo import ParallelEnv
 from revolve_env.body.examples import EXAMPLES
 from revolve_env.body.parts import PART_SPECS
 from revolve_env.body.robot import Layer, PartType, Robot
+from revolve_env.body.serialize import from_json, to_json
 from revolve_env.body.validate import Limits, validate
 from revolve_env.brain import BatchController
 from revolve_env.brain.spec import NetworkSpec
@@ -29,6 +30,7 @@ from revolve_env.envs.observations import proprio_bounds, read_proprio, uniform_
 from revolve_env.envs.placement import Disc, clash, footprint_radius, place
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
 from revolve_env.world import World, WorldConfig
+from revolve_env.world.backend import SnapshotMismatchError
 
 __all__ = ["Lifecycle", "PopulationEnv", "SpaceMode", "footprint_radius", "population_env",
            "sensor_bounds"]
@@ -711,6 +713,150 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self.agents = []
         self._members = {}
         self._brain_members = []
+
+    # -- snapshots -------------------------------------------------------------------------------
+    @property
+    def exact_restore(self) -> bool:
+        """Whether :meth:`restore` continues a :meth:`snapshot` bit for bit (the world's engine
+        allows it: MuJoCo, not pybullet)."""
+        return self.world.exact_restore
+
+    def snapshot(self) -> dict[str, Any]:
+        """Everything an exact continuation of this episode needs, as plain data.
+
+        The world (:meth:`World.snapshot`), the generator, the counters, every living robot's
+        bookkeeping (fitness window, age, trajectory, observation, controller state and time),
+        the robots removed since the last step (reported by the next one) and the masks and
+        spaces of every agent born in this episode. :meth:`restore` on an env made with the same
+        arguments continues exactly, on an engine whose :attr:`exact_restore` holds.
+
+        Raises:
+            RuntimeError: before ``reset``.
+            NotImplementedError: the engine cannot restore its state exactly (pybullet).
+        """
+        world = self.world
+        brain = self._brain
+        assert brain is not None
+        return {
+            "world": world.snapshot(),
+            "rng": dict(self.np_random.bit_generator.state),
+            "rng_seed": self._np_random_seed,
+            "births": self._births, "steps": self._steps,
+            "members": [self._member_snapshot(m, brain, with_robot=False)
+                        for m in self._members.values()],
+            "dead": [(self._member_snapshot(m, None, with_robot=True), death)
+                     for m, death in self._dead],
+            "masks": {a: (o.copy(), act.copy()) for a, (o, act) in self._masks.items()},
+            "spaces": {a: (self._obs_spaces[a].low, self._obs_spaces[a].high,
+                           int(self._act_spaces[a].shape[0])) for a in self._obs_spaces},
+            "uniform": sorted(self._uniform_spaces),
+        }
+
+    @staticmethod
+    def _member_snapshot(m: _Member, brain: BatchController | None,
+                         with_robot: bool) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "agent": m.agent, "controlled_by": m.controlled_by, "handle": m.handle,
+            "birth_step": m.birth_step, "birth_position": list(m.birth_position),
+            "born_inside": m.born_inside, "yaw": m.yaw, "radius": m.radius, "obs": m.obs.copy(),
+            "position": m.position.copy(), "fitness": m.fitness.snapshot(),
+            "terms": [m.terms.fitness, m.terms.v, m.terms.s], "age_steps": m.age_steps,
+            "trajectory": m.trajectory[: m.n_trajectory].copy(),
+            "trajectory_capacity": len(m.trajectory), "blow_up": m.blow_up,
+            "n_outputs": m.n_outputs, "padded": m.padded, "view": m.view.copy(),
+            "brain": None,
+        }
+        if with_robot:
+            out["robot"] = to_json(m.robot, indent=None)
+        if brain is not None and m.brain is not None:
+            out["brain"] = (brain.get_state(m.brain), brain.time(m.brain))
+        return out
+
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        """Continue the episode a :meth:`snapshot` was taken of, in a fresh world.
+
+        The env must have been made with the same arguments as the one the snapshot was taken
+        of. Whatever this env held is replaced.
+
+        Raises:
+            SnapshotMismatchError: the snapshot does not fit (another engine, damaged data, a
+                scene that cannot be rebuilt exactly); the env must be ``reset`` then.
+            NotImplementedError: the engine cannot restore its state exactly (pybullet).
+        """
+        if self._world is not None:
+            self._world.close()
+        self._world = None
+        self._brain = None
+        self.agents, self._members, self._dead, self._brain_members = [], {}, [], []
+        world = World(self.config)
+        try:
+            world.restore(snapshot["world"])
+            brain = BatchController(self.config.control_period)
+            members = [self._member_restore(e, world.robot(int(e["handle"])), brain)
+                       for e in snapshot["members"]]
+            dead = [(self._member_restore(e, from_json(e["robot"]), None), str(death))
+                    for e, death in snapshot["dead"]]
+            rng = np.random.Generator(np.random.PCG64())
+            rng.bit_generator.state = snapshot["rng"]
+            masks = {str(a): (np.array(o, dtype=bool), np.array(act, dtype=bool))
+                     for a, (o, act) in snapshot["masks"].items()}
+            spaces_ = {str(a): (np.array(low, dtype=np.float64), np.array(high, dtype=np.float64),
+                                int(n)) for a, (low, high, n) in snapshot["spaces"].items()}
+            births, steps = int(snapshot["births"]), int(snapshot["steps"])
+            uniform = [str(a) for a in snapshot["uniform"]]
+        except BaseException as e:
+            world.close()
+            if isinstance(e, (SnapshotMismatchError, NotImplementedError)):
+                raise
+            if isinstance(e, (KeyError, TypeError, ValueError, IndexError)):
+                raise SnapshotMismatchError(f"damaged population snapshot: {e!r}") from e
+            raise
+        self._world, self._brain = world, brain
+        self._np_random, self._np_random_seed = rng, snapshot["rng_seed"]
+        self._births, self._steps = births, steps
+        self._members = {m.agent: m for m in members}
+        self.agents = [m.agent for m in members]
+        self._dead = dead
+        for mask in masks.values():
+            mask[0].flags.writeable = False
+            mask[1].flags.writeable = False
+        self._masks = masks
+        self._obs_spaces = {a: spaces.Box(low, high, dtype=np.float64)
+                            for a, (low, high, _) in spaces_.items()}
+        self._act_spaces = {a: spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)
+                            for a, (_, _, n) in spaces_.items()}
+        for agent in uniform:
+            self._uniform(agent)
+        self._relayout_brains()
+
+    @staticmethod
+    def _member_restore(e: dict[str, Any], robot: Robot,
+                        brain: BatchController | None) -> _Member:
+        handle: int | None = None
+        if e["brain"] is not None:
+            assert brain is not None
+            values, time = e["brain"]
+            handle = brain.add(NetworkSpec.from_robot(robot))
+            brain.set_state(handle, values, float(time))
+        trajectory = np.asarray(e["trajectory"], dtype=np.float64).reshape(-1, 3)
+        capacity = max(int(e["trajectory_capacity"]), len(trajectory), 1)
+        stored = np.empty((capacity, 3))
+        stored[: len(trajectory)] = trajectory
+        fitness, v, s = (float(x) for x in e["terms"])
+        x, y = (float(c) for c in e["birth_position"])
+        controlled_by: Controller = "brain" if e["controlled_by"] == "brain" else "agent"
+        return _Member(
+            agent=str(e["agent"]), robot=robot, controlled_by=controlled_by,
+            handle=int(e["handle"]), brain=handle, birth_step=int(e["birth_step"]),
+            birth_position=(x, y), born_inside=bool(e["born_inside"]), yaw=float(e["yaw"]),
+            radius=float(e["radius"]), obs=np.array(e["obs"], dtype=np.float64),
+            position=np.array(e["position"], dtype=np.float64),
+            fitness=SlidingWindowFitness.from_snapshot(e["fitness"]),
+            terms=FitnessTerms(fitness, v, s), age_steps=int(e["age_steps"]),
+            trajectory=stored, n_trajectory=len(trajectory), blow_up=e["blow_up"],
+            n_outputs=int(e["n_outputs"]), padded=bool(e["padded"]),
+            view=np.array(e["view"], dtype=np.float64),
+        )
 
     # -- births and deaths -----------------------------------------------------------------------
     def add_robot(

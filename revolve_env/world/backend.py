@@ -10,7 +10,10 @@ through a handful of batched primitives (one call per control period for all rob
 * :meth:`PhysicsBackend.read`: the core poses, velocities and hinge states of all robots as
   arrays (:class:`BodyStates`),
 * :meth:`PhysicsBackend.link_poses` and :meth:`PhysicsBackend.contacts` for the sensors,
-* :meth:`PhysicsBackend.render`.
+* :meth:`PhysicsBackend.render`,
+* :meth:`PhysicsBackend.snapshot` / :meth:`PhysicsBackend.restore`: the engine's whole state, for
+  an exact continuation in a scene rebuilt from the same robots (where
+  :attr:`PhysicsBackend.exact_restore` says the engine allows it).
 
 Engines are chosen by name (``WorldConfig.engine``): :data:`ENGINES` lists them and
 :func:`make_backend` imports the chosen one lazily, so a missing optional engine only matters
@@ -21,7 +24,8 @@ from __future__ import annotations
 
 import importlib
 from dataclasses import dataclass
-from typing import Protocol
+from collections.abc import Sequence
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,9 +39,18 @@ from revolve_env.world.config import (
 )
 from revolve_env.world.model import RobotModel
 
-__all__ = ["ENGINES", "BodyStates", "EngineUnavailableError", "PhysicsBackend", "make_backend",
-           "require_engine"]
+__all__ = ["ENGINES", "BodyStates", "EngineUnavailableError", "PhysicsBackend", "PlacedModel",
+           "SnapshotMismatchError", "make_backend", "require_engine"]
 
+
+
+class SnapshotMismatchError(ValueError):
+    """A snapshot does not fit the scene rebuilt to restore it (other robots, other engine or
+    engine version, damaged data): the continuation would not be exact."""
+
+
+PlacedModel = tuple[int, RobotModel, tuple[float, float, float], float]
+"""A robot as a backend built it: (key, model, root position in metres, yaw in radians)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -136,6 +149,30 @@ class PhysicsBackend(Protocol):
 
     def close(self) -> None:
         """Release the engine (idempotent)."""
+        ...
+
+    @property
+    def exact_restore(self) -> bool:
+        """Whether :meth:`restore` continues a :meth:`snapshot` bit for bit."""
+        ...
+
+    def snapshot(self) -> dict[str, Any]:
+        """The engine's state now: plain data (numbers, strings, lists, NumPy arrays).
+
+        Raises:
+            NotImplementedError: the engine cannot restore its state exactly.
+        """
+        ...
+
+    def restore(self, robots: Sequence[PlacedModel], state: dict[str, Any]) -> None:
+        """Replace everything by a scene of ``robots`` (the robots present at the snapshot, in
+        order, with their keys and the poses they were added at) in the state of a
+        :meth:`snapshot`.
+
+        Raises:
+            SnapshotMismatchError: the rebuilt scene is not the one the snapshot was taken of.
+            NotImplementedError: the engine cannot restore its state exactly.
+        """
         ...
 
 

@@ -47,21 +47,33 @@ fitness ``v + 5 s`` in metres; pybullet gives spider 10.2, gecko 8.9, snake 10.0
   at a time and the robots that caused it are put back at rest where the period started and
   reported as ``diverged`` (the world flags them as blown up); the others carry on exactly as
   if nothing had happened.
+
+Snapshots (:meth:`MujocoBackend.snapshot` / :meth:`MujocoBackend.restore`) are exact: the scene is
+rebuilt from the same robots, keys and poses in the same order and compiled once; the compiled
+model must hash to the snapshot's (its MJB bytes: every array, name and option), then MuJoCo's
+full integration state (``mj_getState`` with ``mjSTATE_INTEGRATION``: time, positions,
+velocities, actuator state, controls, applied forces, the solver's warm start) is written back.
+The bodies touching something (which MuJoCo's contact list, one physics step old after a step,
+gave the touch sensors) are stored too: a fresh ``mj_forward`` would find the contacts of the
+current state instead.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.world._rotations import matrix_to_quat
-from revolve_env.world.backend import BodyStates
+from revolve_env.world.backend import BodyStates, PlacedModel, SnapshotMismatchError
 from revolve_env.world.config import WorldConfig
 from revolve_env.world.model import RobotModel
 
@@ -89,6 +101,7 @@ _ROBOT_FRICTION = 1.0  # between two robots; the ground's friction rules robot-g
 
 
 _XYZ = np.arange(3)
+_STATE = int(mujoco.mjtState.mjSTATE_INTEGRATION)
 
 
 def _wxyz(m: NDArray[np.float64]) -> list[float]:
@@ -415,14 +428,8 @@ class MujocoBackend:
                 for i in ids]
 
     def contacts(self, key: int) -> frozenset[int]:
-        if self._touching is None:
-            d = self._data
-            touching = np.zeros(self._model.nbody, dtype=bool)
-            if d.ncon:
-                touching[self._model.geom_bodyid[d.contact.geom[: d.ncon]].ravel()] = True
-            self._touching = touching
         bodies = self._robots[key].bodies
-        return frozenset(np.flatnonzero(self._touching[bodies]).tolist())
+        return frozenset(np.flatnonzero(self._touching_now()[bodies]).tolist())
 
     def total_mass(self, key: int) -> float:
         return float(self._model.body_subtreemass[self._robots[key].bodies[0]])
@@ -444,6 +451,89 @@ class MujocoBackend:
         if not self._closed:
             self._closed = True
             self._drop_renderer()
+
+    # -- snapshots ------------------------------------------------------------------------------
+    @property
+    def exact_restore(self) -> bool:
+        """True: :meth:`restore` continues a snapshot bit for bit (see the module doc)."""
+        return True
+
+    def _model_digest(self) -> str:
+        """SHA-256 of the compiled model's MJB bytes (every array, name and option)."""
+        buffer = np.zeros(mujoco.mj_sizeModel(self._model), dtype=np.uint8)
+        mujoco.mj_saveModel(self._model, None, buffer)
+        return hashlib.sha256(buffer.tobytes()).hexdigest()
+
+    def _touching_now(self) -> NDArray[np.bool_]:
+        if self._touching is None:
+            d = self._data
+            touching = np.zeros(self._model.nbody, dtype=bool)
+            if d.ncon:
+                touching[self._model.geom_bodyid[d.contact.geom[: d.ncon]].ravel()] = True
+            self._touching = touching
+        return self._touching
+
+    def snapshot(self) -> dict[str, Any]:
+        """The scene's state now (see the module doc): plain data and NumPy arrays.
+
+        Keys: ``engine``, ``mujoco`` (version), ``next_key``, ``keys`` (robots in order),
+        ``model_sha256``, ``state`` (``mjSTATE_INTEGRATION``), ``diverged`` (per robot),
+        ``touching`` (per body).
+        """
+        m, d = self._model, self._data
+        state = np.empty(mujoco.mj_stateSize(m, _STATE))
+        mujoco.mj_getState(m, d, state, _STATE)
+        return {
+            "engine": "mujoco", "mujoco": mujoco.__version__, "next_key": self._next_key,
+            "keys": list(self._robots), "model_sha256": self._model_digest(), "state": state,
+            "diverged": np.array([r.diverged for r in self._robots.values()], dtype=bool),
+            "touching": self._touching_now().copy(),
+        }
+
+    def restore(self, robots: Sequence[PlacedModel], state: dict[str, Any]) -> None:
+        """Rebuild the scene from ``robots`` and put it in the snapshot's state, exactly.
+
+        Raises:
+            SnapshotMismatchError: another engine or MuJoCo version, other robots, or a compiled
+                model that differs from the snapshot's (the backend is empty then).
+        """
+        self.reset()
+        try:
+            if state.get("engine") != "mujoco" or state.get("mujoco") != mujoco.__version__:
+                raise SnapshotMismatchError(
+                    f"the snapshot is of {state.get('engine')} {state.get('mujoco')}, not mujoco "
+                    f"{mujoco.__version__}")
+            keys = [key for key, _, _, _ in robots]
+            if keys != list(state["keys"]):
+                raise SnapshotMismatchError(f"robots {keys} do not match the snapshot's "
+                                            f"{list(state['keys'])}")
+            diverged = np.asarray(state["diverged"], dtype=bool)
+            for (key, model, position, yaw), was_diverged in zip(robots, diverged, strict=True):
+                robot = self._build(key, model, position, yaw)
+                robot.diverged = bool(was_diverged)
+                self._robots[key] = robot
+            self._next_key = int(state["next_key"])
+            self._compile()
+            m, d = self._model, self._data
+            if self._model_digest() != state["model_sha256"]:
+                raise SnapshotMismatchError("the rebuilt MuJoCo model differs from the snapshot's")
+            values = np.ascontiguousarray(state["state"], dtype=np.float64)
+            if values.shape != (mujoco.mj_stateSize(m, _STATE),):
+                raise SnapshotMismatchError("the snapshot's state does not fit the rebuilt model")
+            touching = np.asarray(state["touching"], dtype=bool)
+            if touching.shape != (m.nbody,):
+                raise SnapshotMismatchError("the snapshot's contacts do not fit the rebuilt model")
+            mujoco.mj_setState(m, d, values, _STATE)
+            mujoco.mj_forward(m, d)  # poses for the sensors
+            mujoco.mj_setState(m, d, values, _STATE)  # the warm start exactly as saved
+        except (SnapshotMismatchError, ValueError, KeyError, TypeError) as e:
+            self.reset()
+            if isinstance(e, SnapshotMismatchError):
+                raise
+            raise SnapshotMismatchError(f"cannot restore the MuJoCo snapshot: {e}") from e
+        self._kinematics_fresh = True
+        self._touching = touching.copy()
+        self._renderer = None
 
     # -- rendering ------------------------------------------------------------------------------
     def render(self, width: int, height: int, target: tuple[float, float, float],

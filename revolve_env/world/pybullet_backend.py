@@ -10,6 +10,12 @@ constraint that reaches the commanded speed within the torque limit).
 pybullet has no batched calls: :meth:`PybulletBackend.read` and
 :meth:`PybulletBackend.set_joint_velocities` loop over the bodies inside the backend, three engine
 calls per robot and control period.
+
+No exact snapshots: pybullet's ``saveBullet`` + ``restoreState(fileName=...)`` on a world rebuilt
+with the same robots (in Bullet's own body order, which a removal permutes) restores every pose
+and velocity exactly, but the continuation drifts (4.2 cm on a core after 2 s, measured with four
+example robots after a death): the file does not hold the solver's warm-start and contact
+caches. Online runs on pybullet therefore resume by deterministic replay.
 """
 
 from __future__ import annotations
@@ -18,14 +24,16 @@ import contextlib
 import math
 import os
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pybullet as pb
 from numpy.typing import NDArray
 
 from revolve_env.world._rotations import matrix_to_quat, quat_to_matrix
-from revolve_env.world.backend import BodyStates
+from revolve_env.world.backend import BodyStates, PlacedModel
 from revolve_env.world.config import WorldConfig
 from revolve_env.world.model import RobotModel
 
@@ -285,6 +293,28 @@ class PybulletBackend:
 
     def body_count(self) -> int:
         return int(pb.getNumBodies(physicsClientId=self._cid))
+
+    # -- snapshots ------------------------------------------------------------------------------
+    @property
+    def exact_restore(self) -> bool:
+        """False: pybullet cannot continue a saved state exactly (see the module doc)."""
+        return False
+
+    def snapshot(self) -> dict[str, Any]:
+        """Not available (see the module doc).
+
+        Raises:
+            NotImplementedError: always.
+        """
+        raise NotImplementedError("pybullet cannot restore a saved state exactly; replay instead")
+
+    def restore(self, robots: Sequence[PlacedModel], state: dict[str, Any]) -> None:
+        """Not available (see the module doc).
+
+        Raises:
+            NotImplementedError: always.
+        """
+        raise NotImplementedError("pybullet cannot restore a saved state exactly; replay instead")
 
     # -- rendering ------------------------------------------------------------------------------
     def render(self, width: int, height: int, target: tuple[float, float, float],

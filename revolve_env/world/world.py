@@ -11,14 +11,21 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from types import TracebackType
-from typing import Self
+from typing import Any, Self
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from revolve_env.body.parts import IMU_ACCEL_RANGE, IMU_GYRO_RANGE
 from revolve_env.body.robot import Robot
-from revolve_env.world.backend import BodyStates, PhysicsBackend, make_backend
+from revolve_env.body.serialize import from_json, to_json
+from revolve_env.world.backend import (
+    BodyStates,
+    PhysicsBackend,
+    PlacedModel,
+    SnapshotMismatchError,
+    make_backend,
+)
 from revolve_env.world.config import WorldConfig
 from revolve_env.world.model import LightSensorModel, RobotModel, TouchSensorModel, build_model
 
@@ -46,9 +53,27 @@ class _RobotState:
     active_local: NDArray[np.intp]  # active hinges among the robot's hinges, output order
     n_joints: int  # hinges, active and passive
     sensor_links: list[int]  # non-root links carrying a light sensor
+    placed: tuple[float, float, float] = (0.0, 0.0, 0.0)  # root position given to the backend, m
+    yaw: float = 0.0  # heading given to the backend. Radians
     row: int = 0  # row in the backend's BodyStates
     joint_start: int = 0  # first hinge in BodyStates.joint_pos
     blow_up: str | None = None
+
+
+def _robot_state(key: int, model: RobotModel, robot: Robot, placed: tuple[float, float, float],
+                 yaw: float) -> _RobotState:
+    """The world's bookkeeping of a robot the backend built under ``key``."""
+    hinges = [i for i in range(1, len(model.links)) if not model.links[i].fixed]
+    assert hinges == list(range(1, len(hinges) + 1)), "hinge links come before welded ones"
+    return _RobotState(
+        key=key, model=model, robot=robot, targets=np.zeros(model.n_outputs),
+        active_local=np.array([i - 1 for i in model.active_links], dtype=np.intp),
+        n_joints=len(hinges),
+        sensor_links=sorted({
+            s.link for _, s in model.sensors if isinstance(s, LightSensorModel) and s.link > 0
+        }),
+        placed=placed, yaw=yaw,
+    )
 
 
 class World:
@@ -208,17 +233,9 @@ class World:
         if not (math.isfinite(gap) and gap >= 0):
             raise ValueError(f"drop_height must be >= 0 m, got {drop_height}")
         model = build_model(robot)
-        key = self._backend.add(model, (x, y, gap - model.lowest_z), float(yaw))
-        hinges = [i for i in range(1, len(model.links)) if not model.links[i].fixed]
-        assert hinges == list(range(1, len(hinges) + 1)), "hinge links come before welded ones"
-        state = _RobotState(
-            key=key, model=model, robot=robot, targets=np.zeros(model.n_outputs),
-            active_local=np.array([i - 1 for i in model.active_links], dtype=np.intp),
-            n_joints=len(hinges),
-            sensor_links=sorted({
-                s.link for _, s in model.sensors if isinstance(s, LightSensorModel) and s.link > 0
-            }),
-        )
+        placed = (x, y, gap - model.lowest_z)
+        key = self._backend.add(model, placed, float(yaw))
+        state = _robot_state(key, model, robot, placed, float(yaw))
         handle = self._next_handle
         self._next_handle += 1
         previous = self._prev_vel
@@ -229,6 +246,86 @@ class World:
         self._imu = None
         state.blow_up = self._check_blow_up(state)
         return handle
+
+    # -- snapshots ----------------------------------------------------------------------------
+    @property
+    def exact_restore(self) -> bool:
+        """Whether :meth:`restore` continues a :meth:`snapshot` bit for bit on this engine
+        (MuJoCo: yes; pybullet: no, see its backend)."""
+        return self._backend.exact_restore
+
+    def snapshot(self) -> dict[str, Any]:
+        """Everything an exact continuation of this world needs, as plain data.
+
+        The robots (JSON, in insertion order, with their handles and the poses they were added
+        at), their targets and blow-ups, the clock, the IMU's previous velocities and the
+        engine's state (:meth:`PhysicsBackend.snapshot`). :meth:`restore` on a fresh world of the
+        same config makes a world that steps on exactly as this one.
+
+        Raises:
+            NotImplementedError: the engine cannot restore its state exactly (pybullet).
+        """
+        self._check_open()
+        backend = self._backend.snapshot()
+        return {
+            "engine": self.engine, "time": self._time, "next_handle": self._next_handle,
+            "prev_vel": self._prev_vel.copy(), "backend": backend,
+            "robots": [
+                {"handle": h, "key": s.key, "robot": to_json(s.robot, indent=None),
+                 "placed": list(s.placed), "yaw": s.yaw, "targets": s.targets.copy(),
+                 "blow_up": s.blow_up}
+                for h, s in self._robots.items()
+            ],
+        }
+
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        """Replace this world's robots and state by those of a :meth:`snapshot`.
+
+        Raises:
+            SnapshotMismatchError: the snapshot is of another engine, or its scene cannot be
+                rebuilt exactly (the world is empty then, at time 0).
+            NotImplementedError: the engine cannot restore its state exactly (pybullet).
+        """
+        self._check_open()
+        if snapshot.get("engine") != self.engine:
+            raise SnapshotMismatchError(f"the snapshot is of engine {snapshot.get('engine')!r}, "
+                                        f"this world runs {self.engine!r}")
+        robots: dict[int, _RobotState] = {}
+        placed: list[PlacedModel] = []
+        try:
+            for entry in snapshot["robots"]:
+                robot = from_json(entry["robot"])
+                model = build_model(robot)
+                x, y, z = (float(v) for v in entry["placed"])
+                state = _robot_state(int(entry["key"]), model, robot, (x, y, z),
+                                     float(entry["yaw"]))
+                targets = np.array(entry["targets"], dtype=np.float64)
+                if targets.shape != state.targets.shape:
+                    raise SnapshotMismatchError(f"robot {entry['handle']}: {targets.shape[0]} "
+                                                f"targets for {model.n_outputs} active hinges")
+                state.targets = targets
+                state.blow_up = entry["blow_up"]
+                robots[int(entry["handle"])] = state
+                placed.append((state.key, model, state.placed, state.yaw))
+            prev_vel = np.array(snapshot["prev_vel"], dtype=np.float64).reshape(-1, 3)
+            if prev_vel.shape[0] != len(robots):
+                raise SnapshotMismatchError("the snapshot's IMU state does not fit its robots")
+        except (KeyError, TypeError, ValueError) as e:
+            if isinstance(e, SnapshotMismatchError):
+                raise
+            raise SnapshotMismatchError(f"damaged world snapshot: {e}") from e
+        self._robots.clear()
+        self._time = 0.0
+        try:
+            self._backend.restore(placed, snapshot["backend"])
+        except BaseException:
+            self._relayout()
+            raise
+        self._robots = robots
+        self._next_handle = int(snapshot["next_handle"])
+        self._time = float(snapshot["time"])
+        self._relayout()
+        self._prev_vel = prev_vel
 
     def remove_robot(self, handle: int) -> None:
         """Take a robot out of the world; its bodies are deleted.

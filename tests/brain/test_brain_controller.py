@@ -236,6 +236,41 @@ def test_reset_restarts_state_and_time(cls: type) -> None:
     np.testing.assert_array_equal(run(ctrl, x), first)
 
 
+@given(st.lists(robots(), min_size=3, max_size=3), st.integers(0, 2**32 - 1))
+@settings(max_examples=20, deadline=None)
+def test_set_state_continues_a_saved_network_bit_for_bit(three: list[Robot], seed: int) -> None:
+    """A checkpoint's controller: state and time copied into a rebuilt batch (the survivors
+    added again in the same order) tick exactly as the original batch goes on."""
+    rng = np.random.default_rng(seed)
+    for cls in CONTROLLERS:
+        original = cls(DT)
+        handles = [original.add(r) for r in three]
+        run(original, sensor_values(rng, 7, original.n_inputs))
+        original.remove(handles[0])
+        run(original, sensor_values(rng, 3, original.n_inputs))
+        rebuilt = cls(DT)
+        for h, r in zip(handles[1:], three[1:], strict=True):
+            twin = rebuilt.add(r)
+            rebuilt.set_state(twin, original.get_state(h), original.time(h))
+            assert rebuilt.time(twin) == original.time(h)
+            np.testing.assert_array_equal(rebuilt.get_state(twin), original.get_state(h))
+        x = sensor_values(rng, 20, original.n_inputs)
+        np.testing.assert_array_equal(run(rebuilt, x), run(original, x))
+
+
+@pytest.mark.parametrize("cls", CONTROLLERS)
+def test_set_state_refuses_bad_values(cls: type) -> None:
+    ctrl = cls(DT)
+    h = ctrl.add(small_robot())
+    n = len(ctrl.get_state(h))
+    with pytest.raises(ValueError, match="neuron values"):
+        ctrl.set_state(h, np.zeros(n + 1), 0.0)
+    with pytest.raises(ValueError, match="finite"):
+        ctrl.set_state(h, np.zeros(n), math.nan)
+    with pytest.raises(KeyError):
+        ctrl.set_state(h + 1, np.zeros(n), 0.0)
+
+
 @given(robots(), st.integers(0, 2**32 - 1))
 @settings(max_examples=30, deadline=None)
 def test_set_params_mid_run_matches_reference_and_keeps_state(robot: Robot, seed: int) -> None:

@@ -93,6 +93,11 @@ class BatchController {
     std::int64_t output_offset(std::int64_t handle) const;
     std::vector<double> state(std::int64_t handle) const;
     double time(std::int64_t handle) const;
+    // Overwrites one network's neuron values (spec order, n values) and time (seconds): with
+    // state(handle) and time(handle) of a saved network, its next tick is bit for bit the one
+    // the saved network would have made. Throws std::invalid_argument on a wrong length or a
+    // non-finite time.
+    void set_state(std::int64_t handle, const double* values, std::int64_t n, double time);
 
    private:
     struct Network {  // one robot's network, as given (spec order), plus its packed offsets
