@@ -120,10 +120,12 @@ class SlidingWindowFitness:
         self, window: float = DEFAULT_WINDOW, s_weight: float = DEFAULT_S_WEIGHT,
         capacity: int = 1024,
     ) -> None:
-        """Args:
-        window: Window length. Seconds.
-        s_weight: Weight of ``s``.
-        capacity: Initial ring size (samples); it doubles when a window holds more.
+        """A window of ``window`` seconds; ``f = v + s_weight * s``.
+
+        Args:
+            window: Window length. Seconds.
+            s_weight: Weight of ``s``.
+            capacity: Initial ring size (samples); it doubles when a window holds more.
         """
         if not (window > 0 and math.isfinite(window)):
             raise ValueError(f"window must be a positive number of seconds, got {window}")
@@ -149,7 +151,8 @@ class SlidingWindowFitness:
     def add(self, t: float, position: ArrayLike) -> None:
         """Append the core's position at time ``t`` (seconds; not before the previous sample)."""
         p = np.asarray(position, dtype=np.float64).reshape(-1)
-        if p.shape[0] not in (2, 3) or not (math.isfinite(float(p[0])) and math.isfinite(float(p[1]))):
+        if p.shape[0] not in (2, 3) or not (math.isfinite(float(p[0]))
+                                            and math.isfinite(float(p[1]))):
             raise ValueError(f"position must be 2 or 3 finite numbers, got {position!r}")
         t = float(t)
         if not math.isfinite(t):
@@ -161,7 +164,8 @@ class SlidingWindowFitness:
             last = (self._start + self._n - 1) % cap
             if t < self._t[last]:
                 raise ValueError(f"time {t} s is before the previous sample")
-            path = float(self._path[last]) + math.hypot(x - self._xy[last, 0], y - self._xy[last, 1])
+            step = math.hypot(x - self._xy[last, 0], y - self._xy[last, 1])
+            path = float(self._path[last]) + step
         # Drop samples that left the window (the newest one always stays).
         while self._n and self._t[self._start] < t - self.window - _TIME_EPS:
             self._start = (self._start + 1) % cap
@@ -226,7 +230,8 @@ class SlidingWindowFitness:
         first = self._start
         last = (self._start + self._n - 1) % len(self._t)
         v = float(self._path[last] - self._path[first])
-        s = math.hypot(self._xy[last, 0] - self._xy[first, 0], self._xy[last, 1] - self._xy[first, 1])
+        s = math.hypot(self._xy[last, 0] - self._xy[first, 0],
+                       self._xy[last, 1] - self._xy[first, 1])
         return FitnessTerms(v + self.s_weight * s, v, s)
 
     @property

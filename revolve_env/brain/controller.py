@@ -79,8 +79,9 @@ class BatchController(RegistryViews):
         return float(self._impl.time(handle))
 
     def set_state(self, handle: int, values: npt.ArrayLike, time: float) -> None:
-        """Overwrite the neuron values (spec order, as :meth:`get_state` gives them) and the time
-        of one network.
+        """Overwrite the neuron values and the time of one network.
+
+        The values are in spec order, as :meth:`get_state` gives them.
 
         With the values and time of a saved network, the next tick is bit for bit the one the
         saved network would have made (a checkpoint's controller state).

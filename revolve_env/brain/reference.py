@@ -36,7 +36,6 @@ networks (one ``bincount`` per tick) and is the benchmark baseline.
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass
 
 import numpy as np

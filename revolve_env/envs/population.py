@@ -271,7 +271,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     | control_period      | None     | time per env step. Seconds (a multiple of the timestep);    |
     |                     |          | None: world_config's (1/60 s by default)                    |
     | world_config        | None     | a :class:`~revolve_env.world.WorldConfig` (physics)         |
-    | limits              | None     | validation limits (:class:`~revolve_env.body.validate.Limits`) |
+    | limits              | None     | validation limits (:class:`~revolve_env.body.Limits`)       |
     |                     |          | and the sizes of the uniform spaces (None: Table 1)         |
     | space_mode          | "exact"  | "exact" or "uniform" (see Spaces)                           |
     | proprioception      | False    | observe hinge angles and velocities                         |
@@ -491,13 +491,15 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         if self._world is None:
             return {}
         world = self._world
-        return {a: (float(p[0]), float(p[1])) for a, p in zip(
-            self.agents, world.core_positions([self._members[a].handle for a in self.agents]))}
+        centres = world.core_positions([self._members[a].handle for a in self.agents])
+        return {a: (float(p[0]), float(p[1]))
+                for a, p in zip(self.agents, centres, strict=True)}
 
     def observe(self, agent: str) -> NDArray[np.float64]:
-        """The current observation of a living robot (a copy, in its observation space): made at
-        its birth, or after the last step (its sensor part is what the next :meth:`step` feeds
-        its brain).
+        """The current observation of a living robot (a copy, in its observation space).
+
+        It is made at its birth, or after the last step (its sensor part is what the next
+        :meth:`step` feeds its brain).
 
         A robot added between two steps gets its first observation here, before it is ever
         reported by :meth:`step` (an agent-controlled policy needs one to choose its first
@@ -717,8 +719,10 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     # -- snapshots -------------------------------------------------------------------------------
     @property
     def exact_restore(self) -> bool:
-        """Whether :meth:`restore` continues a :meth:`snapshot` bit for bit (the world's engine
-        allows it: MuJoCo, not pybullet)."""
+        """Whether :meth:`restore` continues a :meth:`snapshot` bit for bit.
+
+        True when the world's engine allows it: MuJoCo, not pybullet.
+        """
         return self.world.exact_restore
 
     def snapshot(self) -> dict[str, Any]:

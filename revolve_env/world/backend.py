@@ -23,8 +23,8 @@ to whoever selects it.
 from __future__ import annotations
 
 import importlib
-from dataclasses import dataclass
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
@@ -45,8 +45,11 @@ __all__ = ["ENGINES", "BodyStates", "EngineUnavailableError", "PhysicsBackend", 
 
 
 class SnapshotMismatchError(ValueError):
-    """A snapshot does not fit the scene rebuilt to restore it (other robots, other engine or
-    engine version, damaged data): the continuation would not be exact."""
+    """A snapshot does not fit the scene rebuilt to restore it.
+
+    Other robots, another engine or engine version, or damaged data: the continuation would not
+    be exact.
+    """
 
 
 PlacedModel = tuple[int, RobotModel, tuple[float, float, float], float]
@@ -165,9 +168,10 @@ class PhysicsBackend(Protocol):
         ...
 
     def restore(self, robots: Sequence[PlacedModel], state: dict[str, Any]) -> None:
-        """Replace everything by a scene of ``robots`` (the robots present at the snapshot, in
-        order, with their keys and the poses they were added at) in the state of a
-        :meth:`snapshot`.
+        """Replace everything by a scene of ``robots`` in the state of a :meth:`snapshot`.
+
+        ``robots`` are the robots present at the snapshot, in order, with their keys and the
+        poses they were added at.
 
         Raises:
             SnapshotMismatchError: the rebuilt scene is not the one the snapshot was taken of.

@@ -250,8 +250,10 @@ class World:
     # -- snapshots ----------------------------------------------------------------------------
     @property
     def exact_restore(self) -> bool:
-        """Whether :meth:`restore` continues a :meth:`snapshot` bit for bit on this engine
-        (MuJoCo: yes; pybullet: no, see its backend)."""
+        """Whether :meth:`restore` continues a :meth:`snapshot` bit for bit on this engine.
+
+        MuJoCo: yes; pybullet: no (see its backend).
+        """
         return self._backend.exact_restore
 
     def snapshot(self) -> dict[str, Any]:
