@@ -31,10 +31,8 @@ for name in revolve_env.EXAMPLES:
     result = revolve_env.evaluate(revolve_env.example(name), seconds=SECONDS, insertion=INSERTION)
     # trajectory: the core's (x, y, z) at every control period of the fitness window, metres.
     path = result.trajectory
-    if result.blow_up is not None:  # the default fitness is 0 after a blow-up; do the same
-        custom = 0.0
-    else:
-        custom = forward_distance(path)
+    # The default fitness is 0 after a blow-up; do the same.
+    custom = 0.0 if result.blow_up is not None else forward_distance(path)
     heavier_s = fitness_terms(path, s_weight=10.0).fitness  # the paper's formula, reweighted
     scores[name] = (result.fitness, custom)
     print(f"{name:<16}{result.fitness:>12.3f}{custom:>13.3f}{straightness(path):>14.2f}"

@@ -17,7 +17,8 @@ spider = revolve_env.example("spider")  # also: gecko, snake, sensor_crawler, ba
 
 # 1. One call: the robot's own neural network drives it in a fresh world.
 for engine in revolve_env.ENGINES:  # ("pybullet", "mujoco"); MuJoCo needs `pip install .[mujoco]`
-    result = revolve_env.evaluate(spider, seconds=SECONDS, insertion=INSERTION, seed=0, engine=engine)
+    result = revolve_env.evaluate(spider, seconds=SECONDS, insertion=INSERTION, seed=0,
+                                  engine=engine)
     print(f"{engine}: fitness {result.fitness:.3f} m "
           f"(path v = {result.v:.3f} m, displacement s = {result.s:.3f} m, "
           f"{len(result.trajectory)} trajectory rows)")

@@ -27,7 +27,8 @@ config = evolution.preset(
 
 with tempfile.TemporaryDirectory() as tmp:
     out = Path(tmp) / config.name
-    summary = evolution.run(config, out)  # writes out/results.sqlite; evolution.resume(out) continues
+    # Writes out/results.sqlite as it goes; after a crash evolution.resume(out) continues.
+    summary = evolution.run(config, out)
     for run in summary.runs:
         print(f"run {run.run_id}: {run.births} births, best fitness {run.best:.3f} m, "
               f"mean {run.mean:.3f} m, {run.wall_time:.1f} s wall time ({run.status})")

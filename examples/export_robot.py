@@ -1,7 +1,7 @@
 """Export a robot for other simulators and for building it: URDF, SDF, bill of materials, JSON.
 
 Run from the repository root: ``python examples/export_robot.py [OUT_DIR]`` (default: a temporary
-folder, deleted at the end). The command line does the same: ``revolve export spider --format urdf``.
+folder, deleted at the end). From the command line: ``revolve export spider --format urdf``.
 """
 
 import sys
