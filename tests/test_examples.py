@@ -1,0 +1,123 @@
+"""Every script of ``examples/`` runs as a researcher runs it and prints what it promises.
+
+Each test runs ``python examples/NAME.py`` in a subprocess from the repository root (the package
+on ``PYTHONPATH``, as in a source checkout), checks the exit status and then the numbers the
+script prints: finite fitness values that agree with each other where they must.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import revolve_env
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+NUMBER = r"(-?\d+(?:\.\d+)?)"
+
+
+def run_example(name: str, *args: str) -> str:
+    """Run ``examples/NAME.py``; its stdout, after checking that it exited with status 0."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
+    proc = subprocess.run(
+        [sys.executable, str(EXAMPLES / f"{name}.py"), *args],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=300,
+    )
+    assert proc.returncode == 0, f"{name}.py exited with {proc.returncode}:\n{proc.stderr}"
+    return proc.stdout
+
+
+def numbers(pattern: str, text: str) -> list[float]:
+    """The numbers captured by ``pattern`` in ``text`` (which must match), all finite."""
+    match = re.search(pattern, text, flags=re.M)
+    assert match is not None, f"no line matches {pattern!r} in:\n{text}"
+    values = [float(g) for g in match.groups()]
+    assert all(math.isfinite(v) for v in values), match.group(0)
+    return values
+
+
+def test_every_example_has_a_test() -> None:
+    tested = {name.removeprefix("test_") for name in globals() if name.startswith("test_")}
+    scripts = {p.stem for p in EXAMPLES.glob("*.py")}
+    assert scripts <= tested, f"examples without a smoke test: {sorted(scripts - tested)}"
+
+
+def test_evaluate_robot() -> None:
+    out = run_example("evaluate_robot")
+    for engine in ("pybullet", "mujoco"):
+        f, v, s = numbers(rf"^{engine}: fitness {NUMBER} m \(path v = {NUMBER} m, "
+                          rf"displacement s = {NUMBER} m", out)
+        assert f == pytest.approx(v + 5 * s, abs=2e-3)  # printed to 3 decimals
+        assert f > 0
+    # The env's return is the fitness at the end of the episode.
+    ret, fitness = numbers(rf"^gym .*: return {NUMBER} m, info fitness {NUMBER} m", out)
+    assert ret == pytest.approx(fitness, abs=2e-3)
+
+
+def test_evolve_offline() -> None:
+    out = run_example("evolve_offline")
+    best, mean = numbers(rf"^run 0: 12 births, best fitness {NUMBER} m, mean {NUMBER} m", out)
+    assert best >= mean >= 0
+    (figures,) = numbers(r"^report: (\d+) figures", out)
+    assert figures >= 1
+    assert "summary.csv" in out
+
+
+def test_online_world() -> None:
+    out = run_example("online_world")
+    for agent in ("robot_1", "robot_2", "robot_3"):
+        assert re.search(rf"^t = \d+\.\d+ s: born {agent}$", out, flags=re.M), out
+    (fitness,) = numbers(rf"^t = 2\.50 s: robot_0 died \(removed\) .* fitness {NUMBER} m", out)
+    assert fitness >= 0
+    assert "4 births, alive: ['robot_1', 'robot_2', 'robot_3']" in out
+    numbers(rf"^robot_1: age {NUMBER} s, fitness {NUMBER} m", out)
+
+
+def test_infancy_cmaes() -> None:
+    out = run_example("infancy_cmaes")
+    inborn, learned, gain = numbers(
+        rf"^inborn fitness {NUMBER} m, learned fitness {NUMBER} m \(improvement \+?{NUMBER} m\)",
+        out)
+    assert learned >= inborn  # the learner returns the best controller it evaluated
+    assert gain == pytest.approx(learned - inborn, abs=2e-3)
+    # A fresh evaluation of the same length gives the learner's numbers back.
+    assert numbers(rf"^re-evaluated inborn: {NUMBER} m", out) == [inborn]
+    assert numbers(rf"^re-evaluated learned: {NUMBER} m", out) == [learned]
+
+
+def test_infancy_ppo() -> None:
+    out = run_example("infancy_ppo")
+    (seconds,) = numbers(rf"^{NUMBER} simulated s of training", out)
+    assert seconds >= 256 / 60 - 1e-9
+    inborn, trained = numbers(rf"^inborn fitness {NUMBER} m, with the policy {NUMBER} m", out)
+    assert inborn > 0 and trained >= 0
+    numbers(rf"^policy in the population env: fitness {NUMBER} m", out)
+
+
+def test_export_robot(tmp_path: Path) -> None:
+    out = run_example("export_robot", str(tmp_path))
+    links, joints, revolute = numbers(r"^URDF: (\d+) links, (\d+) joints \((\d+) revolute\)", out)
+    assert joints == links - 1  # a tree
+    (servos,) = numbers(r"^\d+ parts, (\d+) servos", out)
+    assert servos == revolute == 8  # the spider's active hinges
+    assert "JSON round trip gives the same robot: True" in out
+    written = sorted(p.name for p in tmp_path.iterdir())
+    assert written == ["spider.json", "spider.sdf", "spider.urdf"]
+
+
+def test_custom_fitness() -> None:
+    out = run_example("custom_fitness")
+    rankings = re.findall(r"^ranking by .*:\s+(.*)$", out, flags=re.M)
+    assert len(rankings) == 2
+    assert sorted(rankings[0].split(", ")) == sorted(rankings[1].split(", ")) == sorted(
+        revolve_env.EXAMPLES)
+    for name in revolve_env.EXAMPLES:
+        numbers(rf"^{name}\s+{NUMBER}\s+{NUMBER}\s+{NUMBER}\s+{NUMBER}$", out)
