@@ -17,10 +17,13 @@ from revolve_env.body.parts import PART_SPECS
 from revolve_env.body.robot import PartType, Robot
 from revolve_env.fitness import FitnessTerms, SlidingWindowFitness
 
-__all__ = ["NO_TERMS", "Controller", "Lifetimes", "Member", "sensor_bounds"]
+__all__ = ["NO_TERMS", "Controller", "Dicts", "Lifetimes", "Member", "Report", "sensor_bounds"]
 
 Controller = Literal["brain", "agent"]
 NO_TERMS = FitnessTerms(0.0, 0.0, 0.0)
+Dicts = tuple[dict[str, NDArray[np.float64]], dict[str, float], dict[str, bool],
+              dict[str, bool], dict[str, dict[str, Any]]]
+"""The five dicts of a step: observations, rewards, terminations, truncations, infos."""
 
 
 def sensor_bounds(robot: Robot) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -114,3 +117,27 @@ class Member:
             "obs_mask": masks[0],
             "act_mask": masks[1],
         }
+
+
+class Report:
+    """The five dicts of a step, filled agent by agent."""
+
+    def __init__(self) -> None:
+        self.obs: dict[str, NDArray[np.float64]] = {}
+        self.rewards: dict[str, float] = {}
+        self.terminations: dict[str, bool] = {}
+        self.truncations: dict[str, bool] = {}
+        self.infos: dict[str, dict[str, Any]] = {}
+
+    def add(self, agent: str, obs: NDArray[np.float64], reward: float, terminated: bool,
+            truncated: bool, info: dict[str, Any]) -> None:
+        """Report one agent in all five dicts."""
+        self.obs[agent] = obs
+        self.rewards[agent] = reward
+        self.terminations[agent] = terminated
+        self.truncations[agent] = truncated
+        self.infos[agent] = info
+
+    def dicts(self) -> Dicts:
+        """The five dicts, as ``step`` returns them."""
+        return self.obs, self.rewards, self.terminations, self.truncations, self.infos

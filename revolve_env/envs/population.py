@@ -25,11 +25,11 @@ from pettingzoo import ParallelEnv
 
 from revolve_env.body.examples import EXAMPLES
 from revolve_env.body.robot import Layer, Robot
-from revolve_env.body.validate import Limits, validate
+from revolve_env.body.validate import Limits
 from revolve_env.brain import BatchController
-from revolve_env.brain.spec import NetworkSpec
 from revolve_env.envs.agent_spaces import AgentSpaces, SpaceMode
-from revolve_env.envs.members import Controller, Lifetimes, Member, sensor_bounds
+from revolve_env.envs.births import check_birth, initial_births
+from revolve_env.envs.members import Controller, Dicts, Lifetimes, Member, Report, sensor_bounds
 from revolve_env.envs.placement import Disc, clash, footprint_radius, place
 from revolve_env.envs.population_snapshot import member_snapshot, read_snapshot
 from revolve_env.fitness import DEFAULT_WINDOW, SlidingWindowFitness
@@ -41,9 +41,6 @@ __all__ = ["Controller", "Lifecycle", "PopulationEnv", "SpaceMode", "footprint_r
 Lifecycle = Callable[["PopulationEnv", int], None]
 """Called as ``lifecycle(env, k)`` inside step ``k`` (1, 2, ... since reset), before the physics;
 it may add and remove robots (see :class:`PopulationEnv`, Births and deaths inside a step)."""
-Dicts = tuple[dict[str, NDArray[np.float64]], dict[str, float], dict[str, bool],
-              dict[str, bool], dict[str, dict[str, Any]]]
-"""The five dicts of a step: observations, rewards, terminations, truncations, infos."""
 
 
 def _check_arguments(max_births: int, render_mode: str | None, render_view: str,
@@ -76,28 +73,6 @@ def _check_arguments(max_births: int, render_mode: str | None, render_view: str,
     if lifecycle is not None and not callable(lifecycle):
         raise TypeError(f"lifecycle must be callable as lifecycle(env, step), got "
                         f"{type(lifecycle).__name__}")
-
-
-class _Report:
-    """The five dicts of a step, filled agent by agent."""
-
-    def __init__(self) -> None:
-        self.obs: dict[str, NDArray[np.float64]] = {}
-        self.rewards: dict[str, float] = {}
-        self.terminations: dict[str, bool] = {}
-        self.truncations: dict[str, bool] = {}
-        self.infos: dict[str, dict[str, Any]] = {}
-
-    def add(self, agent: str, obs: NDArray[np.float64], reward: float, terminated: bool,
-            truncated: bool, info: dict[str, Any]) -> None:
-        self.obs[agent] = obs
-        self.rewards[agent] = reward
-        self.terminations[agent] = terminated
-        self.truncations[agent] = truncated
-        self.infos[agent] = info
-
-    def dicts(self) -> Dicts:
-        return self.obs, self.rewards, self.terminations, self.truncations, self.infos
 
 
 # pettingzoo ships no type information (no py.typed), so mypy sees ParallelEnv as Any.
@@ -494,28 +469,11 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             entries = self.initial_robots
         else:
             entries = [make() for make in EXAMPLES.values()]
-        self._add_initial(entries)
+        for kwargs in initial_births(entries):
+            self.add_robot(**kwargs)
         obs = {a: self._members[a].view.copy() for a in self.agents}
         infos = {a: self._get_info(self._members[a], None) for a in self.agents}
         return obs, infos
-
-    def _add_initial(self, entries: Iterable[Robot | Mapping[str, Any]]) -> None:
-        """Add ``reset``'s robots: each a ``Robot`` or a mapping of :meth:`add_robot`'s args."""
-        for k, entry in enumerate(entries):
-            if isinstance(entry, Robot):
-                self.add_robot(entry)
-            elif isinstance(entry, Mapping):
-                unknown = set(entry) - {"robot", "position", "controlled_by", "yaw"}
-                if unknown or "robot" not in entry:
-                    raise ValueError(f"initial robot {k}: expected a Robot or a mapping with keys "
-                                     f"'robot' and optional 'position', 'controlled_by', 'yaw'; "
-                                     f"got keys {sorted(entry)}")
-                self.add_robot(entry["robot"], entry.get("position"),
-                               controlled_by=entry.get("controlled_by", "brain"),
-                               yaw=entry.get("yaw"))
-            else:
-                raise TypeError(f"initial robot {k}: expected a Robot or a mapping, got "
-                                f"{type(entry).__name__}")
 
     def step(self, actions: Mapping[str, ArrayLike]) -> Dicts:
         """Advance every robot one control period (see the class doc for the five dicts).
@@ -535,7 +493,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             checked = [(m, a) for m, a in checked if m.agent in self._members]
         self._physics(world, checked)
 
-        report = _Report()
+        report = Report()
         for member, death in self._dead:
             report.add(member.agent, member.view.copy(), 0.0, True, False,
                        self._get_info(member, death))
@@ -577,7 +535,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         world.step(1)
         self._steps += 1
 
-    def _observe_living(self, world: World, truncate: bool, report: _Report) -> list[Member]:
+    def _observe_living(self, world: World, truncate: bool, report: Report) -> list[Member]:
         """Read every living robot after the physics, report it; the ones that blew up."""
         blown: list[Member] = []
         for agent in self.agents:
@@ -743,7 +701,10 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         if world is None or brain is None:
             raise RuntimeError("call reset() before add_robot()")
         agent = f"robot_{self._births}"
-        spec, low, high = self._check_birth(agent, robot, position, controlled_by, yaw)
+        if self._births >= self.max_births:
+            raise ValueError(f"cannot add a robot: max_births={self.max_births} births already "
+                             "happened in this episode (raise max_births)")
+        spec, low, high = check_birth(agent, robot, position, controlled_by, yaw, self.limits)
         radius = footprint_radius(robot)
         xy, inside = self._birth_position(agent, position, radius)
         heading = float(self.np_random.uniform(0.0, 2.0 * math.pi)) if yaw is None else float(yaw)
@@ -772,39 +733,6 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         if member.brain is not None:
             self._relayout_brains()
         return agent
-
-    def _check_birth(
-        self, agent: str, robot: Robot, position: tuple[float, float] | None,
-        controlled_by: Controller, yaw: float | None,
-    ) -> tuple[NetworkSpec | None, NDArray[np.float64], NDArray[np.float64]]:
-        """Refuse a bad birth, naming the agent; its network and its sensors' bounds."""
-        if self._births >= self.max_births:
-            raise ValueError(f"cannot add a robot: max_births={self.max_births} births already "
-                             "happened in this episode (raise max_births)")
-        if controlled_by not in ("brain", "agent"):
-            raise ValueError(f"add_robot ({agent}): controlled_by must be 'brain' or 'agent', "
-                             f"got {controlled_by!r}")
-        if not isinstance(robot, Robot):
-            raise TypeError(f"add_robot ({agent}): expected a Robot, got {type(robot).__name__}")
-        try:
-            validate(robot, self.limits)
-        except ValueError as e:
-            raise ValueError(f"add_robot ({agent}): invalid robot: {e}") from e
-        if yaw is not None and not math.isfinite(float(yaw)):
-            raise ValueError(f"add_robot ({agent}): yaw must be finite, got {yaw!r}")
-        if position is not None and len(position) != 2:
-            raise ValueError(f"add_robot ({agent}): position must be (x, y), got {position!r}")
-        low, high = sensor_bounds(robot)
-        spec: NetworkSpec | None = None
-        if controlled_by == "brain":
-            try:
-                spec = NetworkSpec.from_robot(robot)
-            except ValueError as e:
-                raise ValueError(f"add_robot ({agent}): invalid network: {e}") from e
-            if spec.n_inputs != len(low):
-                raise ValueError(f"add_robot ({agent}): the network has {spec.n_inputs} input "
-                                 f"neurons but the body has {len(low)} sensor values")
-        return spec, low, high
 
     def _birth_position(self, agent: str, position: tuple[float, float] | None,
                         radius: float) -> tuple[tuple[float, float], bool]:
