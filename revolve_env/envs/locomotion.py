@@ -34,6 +34,43 @@ def _all_finite(a: NDArray[np.float64]) -> bool:
     return math.isfinite(float(np.add.reduce(a, axis=None))) or bool(np.isfinite(a).all())
 
 
+def _checked_robot(robot: object, limits: Limits | None) -> Robot:
+    """The robot, loaded from its JSON path or validated (ValueError, TypeError)."""
+    if isinstance(robot, (str, os.PathLike)):
+        return load(robot, limits)
+    if isinstance(robot, Robot):
+        validate(robot, limits)
+        return robot
+    raise TypeError(
+        f"robot must be a Robot or a path to its JSON, got {type(robot).__name__}"
+    )
+
+
+def _check_arguments(render_mode: str | None, render_modes: list[str], insertion_time: float,
+                     evaluation_time: float, fitness_window: float, sensor_noise: float,
+                     actuator_noise: float, controller: str, action: str) -> None:
+    """Refuse bad :class:`LocomotionEnv` arguments by name (times in seconds)."""
+    if render_mode is not None and render_mode not in render_modes:
+        raise ValueError(f"render_mode must be one of {render_modes} or None, "
+                         f"got {render_mode!r}")
+    for name, value in (("insertion_time", insertion_time), ("sensor_noise", sensor_noise),
+                        ("actuator_noise", actuator_noise)):
+        if not (math.isfinite(value) and value >= 0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+    for name, value in (("evaluation_time", evaluation_time),
+                        ("fitness_window", fitness_window)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be a positive number of seconds, got {value}")
+    if controller not in ("agent", "brain"):
+        raise ValueError(f"controller must be 'agent' or 'brain', got {controller!r}")
+    if action not in ("targets", "modulate"):
+        raise ValueError(f"action must be 'targets' or 'modulate', got {action!r}")
+    if action == "modulate" and controller != "brain":
+        raise ValueError(
+            "action='modulate' scales the brain's outputs: it needs controller='brain'"
+        )
+
+
 class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     """Make a RoboGen modular robot walk: reward is the step's increase of its fitness.
 
@@ -146,33 +183,10 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         proprioception: bool = False,
         engine: str | None = None,
     ) -> None:
-        if isinstance(robot, (str, os.PathLike)):
-            robot = load(robot, limits)
-        elif isinstance(robot, Robot):
-            validate(robot, limits)
-        else:
-            raise TypeError(
-                f"robot must be a Robot or a path to its JSON, got {type(robot).__name__}"
-            )
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, "
-                             f"got {render_mode!r}")
-        for name, value in (("insertion_time", insertion_time), ("sensor_noise", sensor_noise),
-                            ("actuator_noise", actuator_noise)):
-            if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0, got {value}")
-        for name, value in (("evaluation_time", evaluation_time),
-                            ("fitness_window", fitness_window)):
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a positive number of seconds, got {value}")
-        if controller not in ("agent", "brain"):
-            raise ValueError(f"controller must be 'agent' or 'brain', got {controller!r}")
-        if action not in ("targets", "modulate"):
-            raise ValueError(f"action must be 'targets' or 'modulate', got {action!r}")
-        if action == "modulate" and controller != "brain":
-            raise ValueError(
-                "action='modulate' scales the brain's outputs: it needs controller='brain'"
-            )
+        robot = _checked_robot(robot, limits)
+        _check_arguments(render_mode, self.metadata["render_modes"], insertion_time,
+                         evaluation_time, fitness_window, sensor_noise, actuator_noise,
+                         controller, action)
 
         config = world_config if world_config is not None else WorldConfig()
         if control_period is not None:  # replace() validates it against the timestep

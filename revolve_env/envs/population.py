@@ -3,6 +3,14 @@
 All robots live in ONE :class:`~revolve_env.world.World` (an infinite flat plane; robots collide
 with each other). Robots are added and removed between steps by the caller (online evolution, a
 test harness, a learner); each is one PettingZoo agent ``robot_<n>``.
+
+The robots' bookkeeping and the five dicts are in :mod:`revolve_env.envs.members`, the exact and
+uniform spaces and masks in :mod:`revolve_env.envs.agent_spaces`, a birth's checks in
+:mod:`revolve_env.envs.births`, the snapshots' plain data in
+:mod:`revolve_env.envs.population_snapshot`. This module is over 600 lines on purpose: it is the
+env's reference documentation too. About 310 of its lines are docstrings (the class docstring
+alone, some 185 lines, is the documentation of the agents, spaces, infos, rewards and the five
+dicts on births and deaths); the code is about 400 lines.
 """
 
 from __future__ import annotations
@@ -10,7 +18,6 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
@@ -20,79 +27,55 @@ from numpy.typing import ArrayLike, NDArray
 from pettingzoo import ParallelEnv
 
 from revolve_env.body.examples import EXAMPLES
-from revolve_env.body.parts import PART_SPECS
-from revolve_env.body.robot import Layer, PartType, Robot
-from revolve_env.body.serialize import from_json, to_json
-from revolve_env.body.validate import Limits, validate
+from revolve_env.body.robot import Layer, Robot
+from revolve_env.body.validate import Limits
 from revolve_env.brain import BatchController
-from revolve_env.brain.spec import NetworkSpec
-from revolve_env.envs.observations import proprio_bounds, read_proprio, uniform_sensor_bounds
+from revolve_env.envs.agent_spaces import AgentSpaces, SpaceMode
+from revolve_env.envs.births import check_birth, initial_births
+from revolve_env.envs.members import Controller, Dicts, Lifetimes, Member, Report, sensor_bounds
 from revolve_env.envs.placement import Disc, clash, footprint_radius, place
-from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
+from revolve_env.envs.population_snapshot import member_snapshot, read_snapshot
+from revolve_env.fitness import DEFAULT_WINDOW, SlidingWindowFitness
 from revolve_env.world import World, WorldConfig
-from revolve_env.world.backend import SnapshotMismatchError
 
-__all__ = ["Lifecycle", "PopulationEnv", "SpaceMode", "footprint_radius", "population_env",
-           "sensor_bounds"]
+__all__ = ["Controller", "Lifecycle", "PopulationEnv", "SpaceMode", "footprint_radius",
+           "population_env", "sensor_bounds"]
 
-Controller = Literal["brain", "agent"]
-SpaceMode = Literal["exact", "uniform"]
 Lifecycle = Callable[["PopulationEnv", int], None]
 """Called as ``lifecycle(env, k)`` inside step ``k`` (1, 2, ... since reset), before the physics;
 it may add and remove robots (see :class:`PopulationEnv`, Births and deaths inside a step)."""
-_NO_TERMS = FitnessTerms(0.0, 0.0, 0.0)
 
 
-def sensor_bounds(robot: Robot) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Lower and upper bounds of a robot's sensor values, in controller input order.
-
-    The core's IMU is unbounded; touch (binary) and light (intensity) sensors read in [0, 1].
-    """
-    low: list[float] = []
-    high: list[float] = []
-    for _, node in robot.walk():
-        n = PART_SPECS[node.type].n_inputs
-        bounded = node.type != PartType.CORE
-        low += [0.0 if bounded else -np.inf] * n
-        high += [1.0 if bounded else np.inf] * n
-    return np.array(low), np.array(high)
-
-
-@dataclass(eq=False)
-class _Member:
-    """A living robot (private, mutable bookkeeping)."""
-
-    agent: str
-    robot: Robot
-    controlled_by: Controller
-    handle: int  # world handle
-    brain: int | None  # BatchController handle (brain-controlled robots)
-    birth_step: int
-    birth_position: tuple[float, float]
-    born_inside: bool  # placed in the birth disc (False: the disc was crowded)
-    yaw: float
-    radius: float  # footprint radius, metres
-    obs: NDArray[np.float64]
-    position: NDArray[np.float64]  # core centre after the last step (last finite one), metres
-    fitness: SlidingWindowFitness
-    terms: FitnessTerms = _NO_TERMS
-    age_steps: int = 0
-    trajectory: NDArray[np.float64] = field(default_factory=lambda: np.empty((64, 3)))
-    n_trajectory: int = 0
-    blow_up: str | None = None
-    in_slice: slice = field(default_factory=lambda: slice(0, 0))
-    out_slice: slice = field(default_factory=lambda: slice(0, 0))
-    n_outputs: int = 0  # active hinges
-    padded: bool = False  # observed and driven through the uniform spaces
-    view: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))  # what the agent sees
-
-    def record(self, position: NDArray[np.float64]) -> None:
-        if self.n_trajectory == len(self.trajectory):
-            grown = np.empty((2 * len(self.trajectory), 3))
-            grown[: self.n_trajectory] = self.trajectory
-            self.trajectory = grown
-        self.trajectory[self.n_trajectory] = position
-        self.n_trajectory += 1
+def _check_arguments(max_births: int, render_mode: str | None, render_view: str,
+                     render_size: tuple[int, int], times: dict[str, float],
+                     fitness_window: float, max_placement_tries: int, trajectory_stride: int,
+                     max_steps: int | None, space_mode: str, lifecycle: object) -> None:
+    """Refuse bad constructor arguments (``times``: the ones that must be >= 0) by name."""
+    if not (isinstance(max_births, int) and max_births >= 1):
+        raise ValueError(f"max_births must be an integer >= 1, got {max_births!r}")
+    if render_mode is not None and render_mode != "rgb_array":
+        raise ValueError(f"render_mode must be 'rgb_array' or None, got {render_mode!r}")
+    if render_view not in ("top", "chase"):
+        raise ValueError(f"render_view must be 'top' or 'chase', got {render_view!r}")
+    if len(render_size) != 2 or min(render_size) < 1:
+        raise ValueError(f"render_size must be (width, height) in pixels, got {render_size!r}")
+    for name, value in times.items():
+        if not (math.isfinite(value) and value >= 0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+    if not (math.isfinite(fitness_window) and fitness_window > 0):
+        raise ValueError(f"fitness_window must be a positive number of seconds, got "
+                         f"{fitness_window}")
+    if max_placement_tries < 1:
+        raise ValueError(f"max_placement_tries must be >= 1, got {max_placement_tries}")
+    if trajectory_stride < 1:
+        raise ValueError(f"trajectory_stride must be >= 1, got {trajectory_stride}")
+    if max_steps is not None and max_steps < 1:
+        raise ValueError(f"max_steps must be >= 1 or None, got {max_steps}")
+    if space_mode not in ("exact", "uniform"):
+        raise ValueError(f"space_mode must be 'exact' or 'uniform', got {space_mode!r}")
+    if lifecycle is not None and not callable(lifecycle):
+        raise TypeError(f"lifecycle must be callable as lifecycle(env, step), got "
+                        f"{type(lifecycle).__name__}")
 
 
 # pettingzoo ships no type information (no py.typed), so mypy sees ParallelEnv as Any.
@@ -288,6 +271,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         "is_parallelizable": True,
     }
 
+
     def __init__(
         self,
         max_births: int = 1000,
@@ -311,33 +295,10 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         lifecycle: Lifecycle | None = None,
         engine: str | None = None,
     ) -> None:
-        if not (isinstance(max_births, int) and max_births >= 1):
-            raise ValueError(f"max_births must be an integer >= 1, got {max_births!r}")
-        if render_mode is not None and render_mode != "rgb_array":
-            raise ValueError(f"render_mode must be 'rgb_array' or None, got {render_mode!r}")
-        if render_view not in ("top", "chase"):
-            raise ValueError(f"render_view must be 'top' or 'chase', got {render_view!r}")
-        if len(render_size) != 2 or min(render_size) < 1:
-            raise ValueError(f"render_size must be (width, height) in pixels, got {render_size!r}")
-        for name, value in (("insertion_time", insertion_time), ("maturity_age", maturity_age),
-                            ("birth_radius", birth_radius), ("birth_clearance", birth_clearance)):
-            if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0, got {value}")
-        if not (math.isfinite(fitness_window) and fitness_window > 0):
-            raise ValueError(f"fitness_window must be a positive number of seconds, got "
-                             f"{fitness_window}")
-        if max_placement_tries < 1:
-            raise ValueError(f"max_placement_tries must be >= 1, got {max_placement_tries}")
-        if trajectory_stride < 1:
-            raise ValueError(f"trajectory_stride must be >= 1, got {trajectory_stride}")
-        if max_steps is not None and max_steps < 1:
-            raise ValueError(f"max_steps must be >= 1 or None, got {max_steps}")
-        if space_mode not in ("exact", "uniform"):
-            raise ValueError(f"space_mode must be 'exact' or 'uniform', got {space_mode!r}")
-        if lifecycle is not None and not callable(lifecycle):
-            raise TypeError(f"lifecycle must be callable as lifecycle(env, step), got "
-                            f"{type(lifecycle).__name__}")
-
+        times = {"insertion_time": insertion_time, "maturity_age": maturity_age,
+                 "birth_radius": birth_radius, "birth_clearance": birth_clearance}
+        _check_arguments(max_births, render_mode, render_view, render_size, times, fitness_window,
+                         max_placement_tries, trajectory_stride, max_steps, space_mode, lifecycle)
         config = world_config if world_config is not None else WorldConfig()
         if control_period is not None:  # replace() validates it against the timestep
             config = dataclasses.replace(config, control_period=control_period)
@@ -360,38 +321,22 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self.space_mode: SpaceMode = space_mode
         self.proprioception = bool(proprioception)
         self.lifecycle = lifecycle
-        # The uniform layout: sensor block, then (with proprioception) angle and velocity blocks.
-        sizes = limits if limits is not None else Limits()
-        self._u_inputs, self._u_outputs = sizes.max_inputs, sizes.max_outputs
-        u_low, u_high = uniform_sensor_bounds(self._u_inputs)
-        if self.proprioception:
-            p_low, p_high = proprio_bounds(self._u_outputs, config)
-            u_low, u_high = np.concatenate((u_low, p_low)), np.concatenate((u_high, p_high))
-        self._u_low, self._u_high = u_low, u_high
+        self._spaces = AgentSpaces(max_births, space_mode, self.proprioception, limits, config)
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.config.control_period)}
         dt = self.config.control_period
-        self._insertion_steps = round(self.insertion_time / dt)
-        self._maturity_steps = round(self.maturity_age / dt)
+        self._life = Lifetimes(dt, round(self.insertion_time / dt), round(self.maturity_age / dt))
 
-        self.possible_agents: list[str] = [f"robot_{n}" for n in range(max_births)]
-        self._possible = frozenset(self.possible_agents)
+        self.possible_agents: list[str] = self._spaces.possible_agents
         self.agents: list[str] = []
-        self._members: dict[str, _Member] = {}
-        self._dead: list[tuple[_Member, str]] = []  # removed since the last step: (member, death)
-        # Exact spaces of the robots born in this episode (their body's sizes).
-        self._obs_spaces: dict[str, spaces.Box] = {}
-        self._act_spaces: dict[str, spaces.Box] = {}
-        # Uniform spaces handed out, for the env's lifetime (they fit any body).
-        self._uniform_spaces: dict[str, tuple[spaces.Box, spaces.Box]] = {}
-        # Masks (observation, action) of every robot born in this episode, alive or dead.
-        self._masks: dict[str, tuple[NDArray[np.bool_], NDArray[np.bool_]]] = {}
+        self._members: dict[str, Member] = {}
+        self._dead: list[tuple[Member, str]] = []  # removed since the last step: (member, death)
         self._births = 0
         self._steps = 0
         self._world: World | None = None
         self._brain: BatchController | None = None
         self._brain_in = np.zeros(0)
         self._brain_out = np.zeros(0)
-        self._brain_members: list[_Member] = []
+        self._brain_members: list[Member] = []
         self._np_random: np.random.Generator | None = None
         self._np_random_seed: int | None = None
 
@@ -404,8 +349,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         Raises:
             KeyError: ``agent`` is not one of ``possible_agents``.
         """
-        space = self._obs_spaces.get(agent)
-        return space if space is not None else self._uniform(agent)[0]
+        return self._spaces.observation_space(agent)
 
     def action_space(self, agent: str) -> spaces.Box:
         """The action space of any agent of ``possible_agents`` (the same object every call).
@@ -413,19 +357,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         Raises:
             KeyError: ``agent`` is not one of ``possible_agents``.
         """
-        space = self._act_spaces.get(agent)
-        return space if space is not None else self._uniform(agent)[1]
-
-    def _uniform(self, agent: str) -> tuple[spaces.Box, spaces.Box]:
-        """The agent's uniform spaces, made on first request and kept for the env's lifetime."""
-        pair = self._uniform_spaces.get(agent)
-        if pair is None:
-            if agent not in self._possible:
-                raise KeyError(self._unknown(agent))
-            pair = (spaces.Box(self._u_low, self._u_high, dtype=np.float64),
-                    spaces.Box(-1.0, 1.0, (self._u_outputs,), dtype=np.float32))
-            self._uniform_spaces[agent] = pair
-        return pair
+        return self._spaces.action_space(agent)
 
     def observation_mask(self, agent: str) -> NDArray[np.bool_]:
         """Which entries of the agent's observations carry its values (True) and which are padding.
@@ -436,7 +368,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         Raises:
             KeyError: naming the agent when it is unknown or not yet born in this episode.
         """
-        return self._mask(agent, "observation_mask")[0]
+        return self._spaces.mask(agent, "observation_mask")[0]
 
     def action_mask(self, agent: str) -> NDArray[np.bool_]:
         """Which entries of the agent's actions drive a hinge (True); the others are ignored.
@@ -444,18 +376,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         Raises:
             KeyError: naming the agent when it is unknown or not yet born in this episode.
         """
-        return self._mask(agent, "action_mask")[1]
-
-    def _mask(self, agent: str, what: str) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
-        try:
-            return self._masks[agent]
-        except KeyError:
-            raise KeyError(f"{what}: {self._unknown(agent)}") from None
-
-    def _unknown(self, agent: str) -> str:
-        if agent in self.possible_agents:
-            return f"agent {agent!r} has not been born in this episode"
-        return f"unknown agent {agent!r} (ids are robot_0 .. robot_{self.max_births - 1})"
+        return self._spaces.mask(agent, "action_mask")[1]
 
     # -- properties ------------------------------------------------------------------------------
     @property
@@ -514,14 +435,14 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         """The current info of a living robot (as :meth:`step` reports it)."""
         return self._get_info(self._member(agent, "agent_info"), None)
 
-    def _member(self, agent: str, what: str) -> _Member:
+    def _member(self, agent: str, what: str) -> Member:
         try:
             return self._members[agent]
         except KeyError:
             pass
-        if agent in self._masks:  # born in this episode
+        if agent in self._spaces.masks:  # born in this episode
             raise KeyError(f"{what}: agent {agent!r} is dead (removed or blown up)")
-        raise KeyError(f"{what}: {self._unknown(agent)}")
+        raise KeyError(f"{what}: {self._spaces.unknown(agent)}")
 
     # -- PettingZoo API --------------------------------------------------------------------------
     def reset(
@@ -540,9 +461,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self.agents = []
         self._members = {}
         self._dead = []
-        self._obs_spaces = {}
-        self._act_spaces = {}
-        self._masks = {}
+        self._spaces.reset()
         self._births = 0
         self._steps = 0
 
@@ -553,31 +472,13 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             entries = self.initial_robots
         else:
             entries = [make() for make in EXAMPLES.values()]
-        for k, entry in enumerate(entries):
-            if isinstance(entry, Robot):
-                self.add_robot(entry)
-            elif isinstance(entry, Mapping):
-                unknown = set(entry) - {"robot", "position", "controlled_by", "yaw"}
-                if unknown or "robot" not in entry:
-                    raise ValueError(f"initial robot {k}: expected a Robot or a mapping with keys "
-                                     f"'robot' and optional 'position', 'controlled_by', 'yaw'; "
-                                     f"got keys {sorted(entry)}")
-                self.add_robot(entry["robot"], entry.get("position"),
-                               controlled_by=entry.get("controlled_by", "brain"),
-                               yaw=entry.get("yaw"))
-            else:
-                raise TypeError(f"initial robot {k}: expected a Robot or a mapping, got "
-                                f"{type(entry).__name__}")
+        for kwargs in initial_births(entries):
+            self.add_robot(**kwargs)
         obs = {a: self._members[a].view.copy() for a in self.agents}
         infos = {a: self._get_info(self._members[a], None) for a in self.agents}
         return obs, infos
 
-    def step(
-        self, actions: Mapping[str, ArrayLike]
-    ) -> tuple[
-        dict[str, NDArray[np.float64]], dict[str, float], dict[str, bool], dict[str, bool],
-        dict[str, dict[str, Any]],
-    ]:
+    def step(self, actions: Mapping[str, ArrayLike]) -> Dicts:
         """Advance every robot one control period (see the class doc for the five dicts).
 
         Raises:
@@ -588,88 +489,85 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         world = self._world
         if world is None or self._brain is None:
             raise RuntimeError("call reset() before step()")
-        # Check every action before anything changes.
-        checked: list[tuple[_Member, NDArray[np.float64]]] = []
-        for agent, action in actions.items():
-            member = self._member(agent, "action")
-            a = np.asarray(action, dtype=np.float64)
-            n = member.n_outputs
-            shape = (self._u_outputs,) if member.padded else (n,)
-            if a.shape != shape:
-                layout = (f" (the uniform action space: its first {n} entries drive its {n} "
-                          "active hinges, the rest are ignored)" if member.padded else "")
-                raise ValueError(f"action for {agent!r} must have shape {shape}{layout}, got "
-                                 f"{a.shape}")
-            if not np.all(np.isfinite(a)):
-                raise ValueError(f"action for {agent!r} contains NaN or infinity: {a}")
-            if member.controlled_by == "agent":
-                checked.append((member, a[:n] if member.padded else a))
+        checked = self._checked_actions(actions)
         if self.lifecycle is not None:
             self.lifecycle(self, self._steps + 1)
             # Robots it removed leave with this step's death report; their actions are dropped.
             checked = [(m, a) for m, a in checked if m.agent in self._members]
+        self._physics(world, checked)
 
+        report = Report()
+        for member, death in self._dead:
+            report.add(member.agent, member.view.copy(), 0.0, True, False,
+                       self._get_info(member, death))
+        self._dead = []
+        truncate = self.max_steps is not None and self._steps >= self.max_steps
+        blown = self._observe_living(world, truncate, report)
+        for m in blown:
+            self._drop(m)
+        if truncate:
+            for agent in list(self.agents):
+                self._drop(self._members[agent])
+        return report.dicts()
+
+    def _checked_actions(
+        self, actions: Mapping[str, ArrayLike]
+    ) -> list[tuple[Member, NDArray[np.float64]]]:
+        """Check every action before anything changes; the agent-controlled robots' targets."""
+        checked: list[tuple[Member, NDArray[np.float64]]] = []
+        for agent, action in actions.items():
+            member = self._member(agent, "action")
+            a = self._spaces.checked_action(member, action)
+            if member.controlled_by == "agent":
+                checked.append((member, a[:member.n_outputs] if member.padded else a))
+        return checked
+
+    def _physics(self, world: World, checked: list[tuple[Member, NDArray[np.float64]]]) -> None:
+        """Set every hinge target (actions, then one batch step of the brains); step the world."""
+        brain = self._brain
+        assert brain is not None
         for member, a in checked:
             world.set_targets(member.handle, a)  # clips to [-1, 1]
         if self._brain_members:
             brain_in = self._brain_in
             for m in self._brain_members:
                 brain_in[m.in_slice] = m.obs
-            self._brain.step(brain_in, self._brain_out)
+            brain.step(brain_in, self._brain_out)
             for m in self._brain_members:
                 world.set_targets(m.handle, self._brain_out[m.out_slice])
         world.step(1)
         self._steps += 1
 
-        obs: dict[str, NDArray[np.float64]] = {}
-        rewards: dict[str, float] = {}
-        terminations: dict[str, bool] = {}
-        truncations: dict[str, bool] = {}
-        infos: dict[str, dict[str, Any]] = {}
-        for member, death in self._dead:
-            gone = member.agent
-            obs[gone] = member.view.copy()
-            rewards[gone] = 0.0
-            terminations[gone] = True
-            truncations[gone] = False
-            infos[gone] = self._get_info(member, death)
-        self._dead = []
-
-        truncate = self.max_steps is not None and self._steps >= self.max_steps
-        blown: list[_Member] = []
+    def _observe_living(self, world: World, truncate: bool, report: Report) -> list[Member]:
+        """Read every living robot after the physics, report it; the ones that blew up."""
+        blown: list[Member] = []
         for agent in self.agents:
             m = self._members[agent]
             m.age_steps += 1
             previous = m.terms.fitness
             m.blow_up = world.blow_up(m.handle)
             if m.blow_up is not None:
-                m.obs = np.zeros_like(m.obs)
-                m.view = np.zeros_like(m.view)
-                m.terms = _NO_TERMS
+                m.blow()
                 blown.append(m)
             else:
-                # No clipping needed: touch and light sensors read in [0, 1] by construction.
-                m.obs = world.read_sensors(m.handle)
-                m.view = self._view(m)
-                position = world.core_position(m.handle)
-                m.position = position
-                if m.age_steps % self.trajectory_stride == 0:
-                    m.record(position)
-                if m.age_steps >= self._insertion_steps:
-                    m.fitness.add(self.time, position)
-                    m.terms = m.fitness.terms()
-            obs[agent] = m.view.copy()
-            rewards[agent] = m.terms.fitness - previous
-            terminations[agent] = m.blow_up is not None
-            truncations[agent] = truncate and m.blow_up is None
-            infos[agent] = self._get_info(m, "blow_up" if m.blow_up is not None else None)
+                self._sense(world, m)
+            report.add(agent, m.view.copy(), m.terms.fitness - previous, m.blow_up is not None,
+                       truncate and m.blow_up is None,
+                       self._get_info(m, "blow_up" if m.blow_up is not None else None))
+        return blown
 
-        for m in blown:
-            self._drop(m)
-        if truncate:
-            for agent in list(self.agents):
-                self._drop(self._members[agent])
-        return obs, rewards, terminations, truncations, infos
+    def _sense(self, world: World, m: Member) -> None:
+        """A robot's sensors, view, position, trajectory and fitness after a step."""
+        # No clipping needed: touch and light sensors read in [0, 1] by construction.
+        m.obs = world.read_sensors(m.handle)
+        m.view = self._spaces.view(m, world)
+        position = world.core_position(m.handle)
+        m.position = position
+        if m.age_steps % self.trajectory_stride == 0:
+            m.record(position)
+        if m.age_steps >= self._life.insertion_steps:
+            m.fitness.add(self.time, position)
+            m.terms = m.fitness.terms()
 
     def render(self) -> NDArray[np.uint8] | None:
         """An RGB image ``(height, width, 3)`` of the whole arena (``render_mode="rgb_array"``).
@@ -746,35 +644,12 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             "rng": dict(self.np_random.bit_generator.state),
             "rng_seed": self._np_random_seed,
             "births": self._births, "steps": self._steps,
-            "members": [self._member_snapshot(m, brain, with_robot=False)
+            "members": [member_snapshot(m, brain, with_robot=False)
                         for m in self._members.values()],
-            "dead": [(self._member_snapshot(m, None, with_robot=True), death)
+            "dead": [(member_snapshot(m, None, with_robot=True), death)
                      for m, death in self._dead],
-            "masks": {a: (o.copy(), act.copy()) for a, (o, act) in self._masks.items()},
-            "spaces": {a: (self._obs_spaces[a].low, self._obs_spaces[a].high,
-                           int(self._act_spaces[a].shape[0])) for a in self._obs_spaces},
-            "uniform": sorted(self._uniform_spaces),
+            **self._spaces.snapshot(),
         }
-
-    @staticmethod
-    def _member_snapshot(m: _Member, brain: BatchController | None,
-                         with_robot: bool) -> dict[str, Any]:
-        out: dict[str, Any] = {
-            "agent": m.agent, "controlled_by": m.controlled_by, "handle": m.handle,
-            "birth_step": m.birth_step, "birth_position": list(m.birth_position),
-            "born_inside": m.born_inside, "yaw": m.yaw, "radius": m.radius, "obs": m.obs.copy(),
-            "position": m.position.copy(), "fitness": m.fitness.snapshot(),
-            "terms": [m.terms.fitness, m.terms.v, m.terms.s], "age_steps": m.age_steps,
-            "trajectory": m.trajectory[: m.n_trajectory].copy(),
-            "trajectory_capacity": len(m.trajectory), "blow_up": m.blow_up,
-            "n_outputs": m.n_outputs, "padded": m.padded, "view": m.view.copy(),
-            "brain": None,
-        }
-        if with_robot:
-            out["robot"] = to_json(m.robot, indent=None)
-        if brain is not None and m.brain is not None:
-            out["brain"] = (brain.get_state(m.brain), brain.time(m.brain))
-        return out
 
     def restore(self, snapshot: dict[str, Any]) -> None:
         """Continue the episode a :meth:`snapshot` was taken of, in a fresh world.
@@ -792,75 +667,15 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self._world = None
         self._brain = None
         self.agents, self._members, self._dead, self._brain_members = [], {}, [], []
-        world = World(self.config)
-        try:
-            world.restore(snapshot["world"])
-            brain = BatchController(self.config.control_period)
-            members = [self._member_restore(e, world.robot(int(e["handle"])), brain)
-                       for e in snapshot["members"]]
-            dead = [(self._member_restore(e, from_json(e["robot"]), None), str(death))
-                    for e, death in snapshot["dead"]]
-            rng = np.random.Generator(np.random.PCG64())
-            rng.bit_generator.state = snapshot["rng"]
-            masks = {str(a): (np.array(o, dtype=bool), np.array(act, dtype=bool))
-                     for a, (o, act) in snapshot["masks"].items()}
-            spaces_ = {str(a): (np.array(low, dtype=np.float64), np.array(high, dtype=np.float64),
-                                int(n)) for a, (low, high, n) in snapshot["spaces"].items()}
-            births, steps = int(snapshot["births"]), int(snapshot["steps"])
-            uniform = [str(a) for a in snapshot["uniform"]]
-        except BaseException as e:
-            world.close()
-            if isinstance(e, (SnapshotMismatchError, NotImplementedError)):
-                raise
-            if isinstance(e, (KeyError, TypeError, ValueError, IndexError)):
-                raise SnapshotMismatchError(f"damaged population snapshot: {e!r}") from e
-            raise
-        self._world, self._brain = world, brain
-        self._np_random, self._np_random_seed = rng, snapshot["rng_seed"]
-        self._births, self._steps = births, steps
-        self._members = {m.agent: m for m in members}
-        self.agents = [m.agent for m in members]
-        self._dead = dead
-        for mask in masks.values():
-            mask[0].flags.writeable = False
-            mask[1].flags.writeable = False
-        self._masks = masks
-        self._obs_spaces = {a: spaces.Box(low, high, dtype=np.float64)
-                            for a, (low, high, _) in spaces_.items()}
-        self._act_spaces = {a: spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)
-                            for a, (_, _, n) in spaces_.items()}
-        for agent in uniform:
-            self._uniform(agent)
+        restored = read_snapshot(snapshot, self.config)
+        self._world, self._brain = restored.world, restored.brain
+        self._np_random, self._np_random_seed = restored.rng, snapshot["rng_seed"]
+        self._births, self._steps = restored.births, restored.steps
+        self._members = {m.agent: m for m in restored.members}
+        self.agents = [m.agent for m in restored.members]
+        self._dead = restored.dead
+        self._spaces.restore(restored.masks, restored.spaces, restored.uniform)
         self._relayout_brains()
-
-    @staticmethod
-    def _member_restore(e: dict[str, Any], robot: Robot,
-                        brain: BatchController | None) -> _Member:
-        handle: int | None = None
-        if e["brain"] is not None:
-            assert brain is not None
-            values, time = e["brain"]
-            handle = brain.add(NetworkSpec.from_robot(robot))
-            brain.set_state(handle, values, float(time))
-        trajectory = np.asarray(e["trajectory"], dtype=np.float64).reshape(-1, 3)
-        capacity = max(int(e["trajectory_capacity"]), len(trajectory), 1)
-        stored = np.empty((capacity, 3))
-        stored[: len(trajectory)] = trajectory
-        fitness, v, s = (float(x) for x in e["terms"])
-        x, y = (float(c) for c in e["birth_position"])
-        controlled_by: Controller = "brain" if e["controlled_by"] == "brain" else "agent"
-        return _Member(
-            agent=str(e["agent"]), robot=robot, controlled_by=controlled_by,
-            handle=int(e["handle"]), brain=handle, birth_step=int(e["birth_step"]),
-            birth_position=(x, y), born_inside=bool(e["born_inside"]), yaw=float(e["yaw"]),
-            radius=float(e["radius"]), obs=np.array(e["obs"], dtype=np.float64),
-            position=np.array(e["position"], dtype=np.float64),
-            fitness=SlidingWindowFitness.from_snapshot(e["fitness"]),
-            terms=FitnessTerms(fitness, v, s), age_steps=int(e["age_steps"]),
-            trajectory=stored, n_trajectory=len(trajectory), blow_up=e["blow_up"],
-            n_outputs=int(e["n_outputs"]), padded=bool(e["padded"]),
-            view=np.array(e["view"], dtype=np.float64),
-        )
 
     # -- births and deaths -----------------------------------------------------------------------
     def add_robot(
@@ -885,95 +700,60 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             ValueError: invalid robot or network, a position overlapping a living robot, no free
                 position found, or ``max_births`` reached. Nothing changes then.
         """
-        world = self._world
-        if world is None or self._brain is None:
+        world, brain = self._world, self._brain
+        if world is None or brain is None:
             raise RuntimeError("call reset() before add_robot()")
-        n = self._births
-        agent = f"robot_{n}"
-        if n >= self.max_births:
+        agent = f"robot_{self._births}"
+        if self._births >= self.max_births:
             raise ValueError(f"cannot add a robot: max_births={self.max_births} births already "
                              "happened in this episode (raise max_births)")
-        if controlled_by not in ("brain", "agent"):
-            raise ValueError(f"add_robot ({agent}): controlled_by must be 'brain' or 'agent', "
-                             f"got {controlled_by!r}")
-        if not isinstance(robot, Robot):
-            raise TypeError(f"add_robot ({agent}): expected a Robot, got {type(robot).__name__}")
-        try:
-            validate(robot, self.limits)
-        except ValueError as e:
-            raise ValueError(f"add_robot ({agent}): invalid robot: {e}") from e
-        if yaw is not None and not math.isfinite(float(yaw)):
-            raise ValueError(f"add_robot ({agent}): yaw must be finite, got {yaw!r}")
-        if position is not None and len(position) != 2:
-            raise ValueError(f"add_robot ({agent}): position must be (x, y), got {position!r}")
-        low, high = sensor_bounds(robot)
-        n_outputs = len(robot.neurons_of(Layer.OUTPUT))
-        # A future agent's body is unknown: one whose spaces were handed out before its birth
-        # keeps the uniform ones (exact mode), as every agent does in uniform mode.
-        padded = self.space_mode == "uniform" or agent in self._uniform_spaces
-        spec: NetworkSpec | None = None
-        if controlled_by == "brain":
-            try:
-                spec = NetworkSpec.from_robot(robot)
-            except ValueError as e:
-                raise ValueError(f"add_robot ({agent}): invalid network: {e}") from e
-            if spec.n_inputs != len(low):
-                raise ValueError(f"add_robot ({agent}): the network has {spec.n_inputs} input "
-                                 f"neurons but the body has {len(low)} sensor values")
+        spec, low, high = check_birth(agent, robot, position, controlled_by, yaw, self.limits)
         radius = footprint_radius(robot)
-        rng = self.np_random
-        inside = True
-        if position is None:
-            placement = place(self._discs(), radius, self.birth_radius, self.birth_clearance, rng,
-                              self.max_placement_tries)
-            xy, inside = placement.position, placement.inside
-        else:
-            xy = (float(position[0]), float(position[1]))
-            if not (math.isfinite(xy[0]) and math.isfinite(xy[1])):
-                raise ValueError(f"add_robot ({agent}): position must be finite, got {position!r}")
-            clash = self._clash(xy, radius)
-            if clash is not None:
-                raise ValueError(f"add_robot ({agent}): position {xy} overlaps {clash}: a robot "
-                                 f"of footprint radius {radius:.3f} m needs "
-                                 f"{self.birth_clearance} m clearance")
-        heading = float(rng.uniform(0.0, 2.0 * math.pi)) if yaw is None else float(yaw)
+        xy, inside = self._birth_position(agent, position, radius)
+        heading = float(self.np_random.uniform(0.0, 2.0 * math.pi)) if yaw is None else float(yaw)
 
         # All checks passed: from here on nothing can fail on bad input.
+        n_outputs = len(robot.neurons_of(Layer.OUTPUT))
+        padded = self._spaces.is_padded(agent)
         handle = world.add_robot(robot, xy, heading)
-        brain = self._brain.add(spec) if spec is not None else None
-        member = _Member(
-            agent=agent, robot=robot, controlled_by=controlled_by, handle=handle, brain=brain,
-            birth_step=self._steps, birth_position=xy, born_inside=inside, yaw=heading,
-            radius=radius,
+        member = Member(
+            agent=agent, robot=robot, controlled_by=controlled_by, handle=handle,
+            brain=brain.add(spec) if spec is not None else None, birth_step=self._steps,
+            birth_position=xy, born_inside=inside, yaw=heading, radius=radius,
             obs=np.zeros(len(low)),
             position=world.core_position(handle), fitness=SlidingWindowFitness(self.fitness_window),
             n_outputs=n_outputs, padded=padded,
         )
         member.obs = world.read_sensors(handle)
-        member.view = self._view(member)
+        member.view = self._spaces.view(member, world)
         member.record(member.position)
-        if self._insertion_steps == 0:
+        if self._life.insertion_steps == 0:
             member.fitness.add(self.time, member.position)
         self._births += 1
         self._members[agent] = member
         self.agents.append(agent)
-        if padded:
-            ones = np.ones(2 * n_outputs) if self.proprioception else None
-            obs_mask = self._padded(np.ones(len(low)), n_outputs, ones) > 0
-            act_mask = np.arange(self._u_outputs) < n_outputs
-        else:
-            if self.proprioception:
-                p_low, p_high = proprio_bounds(n_outputs, self.config)
-                low, high = np.concatenate((low, p_low)), np.concatenate((high, p_high))
-            self._obs_spaces[agent] = spaces.Box(low, high, dtype=np.float64)
-            self._act_spaces[agent] = spaces.Box(-1.0, 1.0, (n_outputs,), dtype=np.float32)
-            obs_mask, act_mask = np.ones(len(low), bool), np.ones(n_outputs, bool)
-        obs_mask.flags.writeable = False
-        act_mask.flags.writeable = False
-        self._masks[agent] = (obs_mask, act_mask)
-        if brain is not None:
+        self._spaces.register(agent, low, high, n_outputs, padded)
+        if member.brain is not None:
             self._relayout_brains()
         return agent
+
+    def _birth_position(self, agent: str, position: tuple[float, float] | None,
+                        radius: float) -> tuple[tuple[float, float], bool]:
+        """Where a newborn goes, and whether inside the birth disc (ValueError on an overlap)."""
+        if position is None:
+            placement = place(self._discs(), radius, self.birth_radius, self.birth_clearance,
+                              self.np_random, self.max_placement_tries)
+            return placement.position, placement.inside
+        xy = (float(position[0]), float(position[1]))
+        if not (math.isfinite(xy[0]) and math.isfinite(xy[1])):
+            raise ValueError(f"add_robot ({agent}): position must be finite, got {position!r}")
+        clash = self._clash(xy, radius)
+        if clash is not None:
+            raise ValueError(f"add_robot ({agent}): position {xy} overlaps {clash}: a robot "
+                             f"of footprint radius {radius:.3f} m needs "
+                             f"{self.birth_clearance} m clearance")
+        return xy, True
+
 
     def remove_robot(self, agent: str) -> None:
         """Take a living robot out of the world (between steps); its bodies are deleted at once.
@@ -987,7 +767,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self._drop(member)
         self._dead.append((member, "removed"))
 
-    def _drop(self, member: _Member) -> None:
+    def _drop(self, member: Member) -> None:
         assert self._world is not None and self._brain is not None
         self._world.remove_robot(member.handle)
         del self._members[member.agent]
@@ -1024,52 +804,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         return None if k is None else list(self._members)[k]
 
     # -- private ---------------------------------------------------------------------------------
-    def _view(self, m: _Member) -> NDArray[np.float64]:
-        """What the agent observes now: its sensor values (and hinge values), in its space."""
-        if not m.padded:
-            if not self.proprioception:
-                return m.obs
-            return np.concatenate((m.obs, read_proprio(self.world, m.handle)))
-        proprio = read_proprio(self.world, m.handle) if self.proprioception else None
-        return self._padded(m.obs, m.n_outputs, proprio)
-
-    def _padded(self, sensors: NDArray[np.float64], n_hinges: int,
-                proprio: NDArray[np.float64] | None) -> NDArray[np.float64]:
-        """Sensor values (and angles then velocities of ``n_hinges``) laid out uniformly.
-
-        The IMU saturates at the uniform bounds (finite, unlike the raw readings).
-        """
-        out = np.zeros(len(self._u_low))
-        k = len(sensors)
-        out[:k] = np.minimum(np.maximum(sensors, self._u_low[:k]), self._u_high[:k])
-        if proprio is not None:
-            u_in, u_out = self._u_inputs, self._u_outputs
-            out[u_in:u_in + n_hinges] = proprio[:n_hinges]
-            out[u_in + u_out:u_in + u_out + n_hinges] = proprio[n_hinges:]
-        return out
-
-    def _get_info(self, m: _Member, death: str | None) -> dict[str, Any]:
-        dt = self.config.control_period
-        trajectory = m.trajectory[: m.n_trajectory]
-        trajectory.flags.writeable = False
-        return {
-            "age": m.age_steps * dt,
-            "birth_time": m.birth_step * dt,
-            "birth_position": m.birth_position,
-            "born_inside_disc": m.born_inside,
-            "inserting": m.age_steps < self._insertion_steps,
-            "is_mature": m.age_steps >= self._maturity_steps,
-            "fitness": m.terms.fitness,
-            "fitness_v": m.terms.v,
-            "fitness_s": m.terms.s,
-            "position": m.position.copy(),
-            "trajectory": trajectory,
-            "controlled_by": m.controlled_by,
-            "blow_up": m.blow_up,
-            "death": death,
-            "obs_mask": self._masks[m.agent][0],
-            "act_mask": self._masks[m.agent][1],
-        }
+    def _get_info(self, m: Member, death: str | None) -> dict[str, Any]:
+        return m.info(self._life, death, self._spaces.masks[m.agent])
 
 
 def population_env(**kwargs: Any) -> PopulationEnv:

@@ -1,0 +1,124 @@
+"""The population env's snapshots as plain data: its robots' bookkeeping out and back in.
+
+:meth:`revolve_env.envs.population.PopulationEnv.snapshot` writes, and ``restore`` reads, what is
+here: one dict per robot (positions in metres, ages in control periods) and the reading of a
+whole snapshot into a fresh world, refused with :class:`SnapshotMismatchError` when damaged.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from revolve_env.body.robot import Robot
+from revolve_env.body.serialize import from_json, to_json
+from revolve_env.brain import BatchController
+from revolve_env.brain.spec import NetworkSpec
+from revolve_env.envs.agent_spaces import Masks
+from revolve_env.envs.members import Controller, Member
+from revolve_env.fitness import FitnessTerms, SlidingWindowFitness
+from revolve_env.world import World, WorldConfig
+from revolve_env.world.backend import SnapshotMismatchError
+
+__all__ = ["Restored", "member_restore", "member_snapshot", "read_snapshot"]
+
+
+def member_snapshot(m: Member, brain: BatchController | None, with_robot: bool) -> dict[str, Any]:
+    """One robot's bookkeeping (and its controller state; its body too ``with_robot``)."""
+    out: dict[str, Any] = {
+        "agent": m.agent, "controlled_by": m.controlled_by, "handle": m.handle,
+        "birth_step": m.birth_step, "birth_position": list(m.birth_position),
+        "born_inside": m.born_inside, "yaw": m.yaw, "radius": m.radius, "obs": m.obs.copy(),
+        "position": m.position.copy(), "fitness": m.fitness.snapshot(),
+        "terms": [m.terms.fitness, m.terms.v, m.terms.s], "age_steps": m.age_steps,
+        "trajectory": m.trajectory[: m.n_trajectory].copy(),
+        "trajectory_capacity": len(m.trajectory), "blow_up": m.blow_up,
+        "n_outputs": m.n_outputs, "padded": m.padded, "view": m.view.copy(),
+        "brain": None,
+    }
+    if with_robot:
+        out["robot"] = to_json(m.robot, indent=None)
+    if brain is not None and m.brain is not None:
+        out["brain"] = (brain.get_state(m.brain), brain.time(m.brain))
+    return out
+
+
+def member_restore(e: dict[str, Any], robot: Robot, brain: BatchController | None) -> Member:
+    """A robot's bookkeeping back from :func:`member_snapshot` (its network added to ``brain``)."""
+    handle: int | None = None
+    if e["brain"] is not None:
+        assert brain is not None
+        values, time = e["brain"]
+        handle = brain.add(NetworkSpec.from_robot(robot))
+        brain.set_state(handle, values, float(time))
+    trajectory = np.asarray(e["trajectory"], dtype=np.float64).reshape(-1, 3)
+    capacity = max(int(e["trajectory_capacity"]), len(trajectory), 1)
+    stored = np.empty((capacity, 3))
+    stored[: len(trajectory)] = trajectory
+    fitness, v, s = (float(x) for x in e["terms"])
+    x, y = (float(c) for c in e["birth_position"])
+    controlled_by: Controller = "brain" if e["controlled_by"] == "brain" else "agent"
+    return Member(
+        agent=str(e["agent"]), robot=robot, controlled_by=controlled_by,
+        handle=int(e["handle"]), brain=handle, birth_step=int(e["birth_step"]),
+        birth_position=(x, y), born_inside=bool(e["born_inside"]), yaw=float(e["yaw"]),
+        radius=float(e["radius"]), obs=np.array(e["obs"], dtype=np.float64),
+        position=np.array(e["position"], dtype=np.float64),
+        fitness=SlidingWindowFitness.from_snapshot(e["fitness"]),
+        terms=FitnessTerms(fitness, v, s), age_steps=int(e["age_steps"]),
+        trajectory=stored, n_trajectory=len(trajectory), blow_up=e["blow_up"],
+        n_outputs=int(e["n_outputs"]), padded=bool(e["padded"]),
+        view=np.array(e["view"], dtype=np.float64),
+    )
+
+
+@dataclass
+class Restored:
+    """A population snapshot read back, in a fresh world, ready for the env to take over."""
+
+    world: World
+    brain: BatchController
+    members: list[Member]
+    dead: list[tuple[Member, str]]
+    rng: np.random.Generator
+    masks: dict[str, Masks]
+    spaces: dict[str, tuple[NDArray[np.float64], NDArray[np.float64], int]]
+    births: int
+    steps: int
+    uniform: list[str]
+
+
+def read_snapshot(snapshot: dict[str, Any], config: WorldConfig) -> Restored:
+    """Rebuild a snapshot's world and robots (a damaged one: :class:`SnapshotMismatchError`).
+
+    Raises:
+        SnapshotMismatchError: the snapshot does not fit; nothing is left open then.
+        NotImplementedError: the engine cannot restore its state exactly (pybullet).
+    """
+    world = World(config)
+    try:
+        world.restore(snapshot["world"])
+        brain = BatchController(config.control_period)
+        members = [member_restore(e, world.robot(int(e["handle"])), brain)
+                   for e in snapshot["members"]]
+        dead = [(member_restore(e, from_json(e["robot"]), None), str(death))
+                for e, death in snapshot["dead"]]
+        rng = np.random.Generator(np.random.PCG64())
+        rng.bit_generator.state = snapshot["rng"]
+        masks = {str(a): (np.array(o, dtype=bool), np.array(act, dtype=bool))
+                 for a, (o, act) in snapshot["masks"].items()}
+        spaces_ = {str(a): (np.array(low, dtype=np.float64), np.array(high, dtype=np.float64),
+                            int(n)) for a, (low, high, n) in snapshot["spaces"].items()}
+        births, steps = int(snapshot["births"]), int(snapshot["steps"])
+        uniform = [str(a) for a in snapshot["uniform"]]
+    except BaseException as e:
+        world.close()
+        if isinstance(e, (SnapshotMismatchError, NotImplementedError)):
+            raise
+        if isinstance(e, (KeyError, TypeError, ValueError, IndexError)):
+            raise SnapshotMismatchError(f"damaged population snapshot: {e!r}") from e
+        raise
+    return Restored(world, brain, members, dead, rng, masks, spaces_, births, steps, uniform)
