@@ -117,7 +117,12 @@ def _check_node(path: Path, node: Node) -> None:
         raise RobotError("a slot holds more than one child", path=path, rule="slot-duplicate")
     if slots != sorted(slots):
         raise RobotError("children are not sorted by slot", path=path, rule="slot-order")
+    _check_neurons(path, node)
 
+
+def _check_neurons(path: Path, node: Node) -> None:
+    """The neurons a part carries: one per sensor value and actuator, valid types and values."""
+    spec = PART_SPECS[node.type]
     inputs = [n for n in node.neurons if n.layer == Layer.INPUT]
     outputs = [n for n in node.neurons if n.layer == Layer.OUTPUT]
     if len(inputs) != spec.n_inputs:

@@ -9,7 +9,6 @@ chosen by ``WorldConfig.engine``, driven with one batched call per primitive and
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from types import TracebackType
 from typing import Any, Self
 
@@ -20,60 +19,16 @@ from revolve_env.body.parts import IMU_ACCEL_RANGE, IMU_GYRO_RANGE
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import from_json, to_json
 from revolve_env.world.backend import (
-    BodyStates,
     PhysicsBackend,
     PlacedModel,
     SnapshotMismatchError,
     make_backend,
 )
 from revolve_env.world.config import WorldConfig
-from revolve_env.world.model import LightSensorModel, RobotModel, TouchSensorModel, build_model
+from revolve_env.world.model import LightSensorModel, TouchSensorModel, build_model
+from revolve_env.world.robot_state import RobotState, all_finite, empty_states, robot_state
 
 __all__ = ["World"]
-
-
-def _all_finite(a: NDArray[np.float64]) -> bool:
-    """Whether every entry is finite (fast path: one reduction; exact on overflow)."""
-    return math.isfinite(float(np.add.reduce(a, axis=None))) or bool(np.isfinite(a).all())
-
-
-def _empty_states() -> BodyStates:
-    return BodyStates(np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
-                      np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool))
-
-
-@dataclass
-class _RobotState:
-    """Per-robot bookkeeping of the world (private, mutable)."""
-
-    key: int  # the backend's key
-    model: RobotModel
-    robot: Robot
-    targets: NDArray[np.float64]  # active hinge targets. Radians
-    active_local: NDArray[np.intp]  # active hinges among the robot's hinges, output order
-    n_joints: int  # hinges, active and passive
-    sensor_links: list[int]  # non-root links carrying a light sensor
-    placed: tuple[float, float, float] = (0.0, 0.0, 0.0)  # root position given to the backend, m
-    yaw: float = 0.0  # heading given to the backend. Radians
-    row: int = 0  # row in the backend's BodyStates
-    joint_start: int = 0  # first hinge in BodyStates.joint_pos
-    blow_up: str | None = None
-
-
-def _robot_state(key: int, model: RobotModel, robot: Robot, placed: tuple[float, float, float],
-                 yaw: float) -> _RobotState:
-    """The world's bookkeeping of a robot the backend built under ``key``."""
-    hinges = [i for i in range(1, len(model.links)) if not model.links[i].fixed]
-    assert hinges == list(range(1, len(hinges) + 1)), "hinge links come before welded ones"
-    return _RobotState(
-        key=key, model=model, robot=robot, targets=np.zeros(model.n_outputs),
-        active_local=np.array([i - 1 for i in model.active_links], dtype=np.intp),
-        n_joints=len(hinges),
-        sensor_links=sorted({
-            s.link for _, s in model.sensors if isinstance(s, LightSensorModel) and s.link > 0
-        }),
-        placed=placed, yaw=yaw,
-    )
 
 
 class World:
@@ -113,10 +68,10 @@ class World:
         self.config = config if config is not None else WorldConfig()
         self._backend: PhysicsBackend = make_backend(self.config, gui=gui)
         self._closed = False
-        self._robots: dict[int, _RobotState] = {}
+        self._robots: dict[int, RobotState] = {}
         self._next_handle = 0
         self._time = 0.0
-        self._now = _empty_states()
+        self._now = empty_states()
         self._prev_vel = np.zeros((0, 3))
         self._active_index = np.zeros(0, dtype=np.intp)
         self._imu: NDArray[np.float64] | None = None  # every robot's IMU, computed on demand
@@ -195,7 +150,7 @@ class World:
         self._check_open()
         return self._backend.body_count()
 
-    def _state(self, handle: int) -> _RobotState:
+    def _state(self, handle: int) -> RobotState:
         self._check_open()
         try:
             return self._robots[handle]
@@ -235,7 +190,7 @@ class World:
         model = build_model(robot)
         placed = (x, y, gap - model.lowest_z)
         key = self._backend.add(model, placed, float(yaw))
-        state = _robot_state(key, model, robot, placed, float(yaw))
+        state = robot_state(key, model, robot, placed, float(yaw))
         handle = self._next_handle
         self._next_handle += 1
         previous = self._prev_vel
@@ -292,14 +247,14 @@ class World:
         if snapshot.get("engine") != self.engine:
             raise SnapshotMismatchError(f"the snapshot is of engine {snapshot.get('engine')!r}, "
                                         f"this world runs {self.engine!r}")
-        robots: dict[int, _RobotState] = {}
+        robots: dict[int, RobotState] = {}
         placed: list[PlacedModel] = []
         try:
             for entry in snapshot["robots"]:
                 robot = from_json(entry["robot"])
                 model = build_model(robot)
                 x, y, z = (float(v) for v in entry["placed"])
-                state = _robot_state(int(entry["key"]), model, robot, (x, y, z),
+                state = robot_state(int(entry["key"]), model, robot, (x, y, z),
                                      float(entry["yaw"]))
                 targets = np.array(entry["targets"], dtype=np.float64)
                 if targets.shape != state.targets.shape:
@@ -355,7 +310,7 @@ class World:
             active.append(start + state.active_local)
             start += state.n_joints
         self._active_index = np.concatenate(active) if active else np.zeros(0, dtype=np.intp)
-        self._now = self._backend.read() if self._robots else _empty_states()
+        self._now = self._backend.read() if self._robots else empty_states()
         self._prev_vel = self._now.core_vel.copy()
         self._imu = None
 
@@ -374,7 +329,7 @@ class World:
                 f"robot {handle} has {state.model.n_outputs} active hinges, "
                 f"got {t.shape[0]} targets"
             )
-        if not _all_finite(t):
+        if not all_finite(t):
             if state.blow_up is None:
                 state.blow_up = (f"non-finite hinge targets at t={self._time:.3f} s "
                                  "(the controller's outputs diverged)")
@@ -423,7 +378,7 @@ class World:
             and (s.joint_vel.size == 0
                  or float(np.abs(s.joint_vel).max()) <= 0.999 * c.max_angular_speed)
             and float(s.core_pos[:, 2].min()) >= -0.999
-            and _all_finite(s.core_pos) and _all_finite(s.joint_pos)
+            and all_finite(s.core_pos) and all_finite(s.joint_pos)
             and not s.diverged.any()
         )
         if calm:
@@ -432,16 +387,16 @@ class World:
             if state.blow_up is None:
                 state.blow_up = self._check_blow_up(state)
 
-    def _check_blow_up(self, state: _RobotState) -> str | None:
+    def _check_blow_up(self, state: RobotState) -> str | None:
         c = self.config
         s = self._now
         r = state.row
         joints = slice(state.joint_start, state.joint_start + state.n_joints)
         joint_vel = s.joint_vel[joints]
         finite = (not s.diverged[r]
-                  and all(_all_finite(a[r]) for a in (s.core_pos, s.core_rot, s.core_vel,
+                  and all(all_finite(a[r]) for a in (s.core_pos, s.core_rot, s.core_vel,
                                                       s.core_angvel))
-                  and _all_finite(s.joint_pos[joints]) and _all_finite(joint_vel))
+                  and all_finite(s.joint_pos[joints]) and all_finite(joint_vel))
         if not finite:
             return f"non-finite state (NaN or infinity) at t={self._time:.3f} s"
         vx, vy, vz = s.core_vel[r]
