@@ -16,6 +16,8 @@ from evolution.experiments.store import Store, StoreError
 
 
 def small_preset(name: str, **kw: object) -> ExperimentConfig:
+    """A shipped config with small robots and, unless told otherwise, one run."""
+    kw.setdefault("runs", 1)
     return small(preset(name, **kw))
 
 
