@@ -233,6 +233,12 @@ class CMAESLearner:
         if self.popsize is not None and (not isinstance(self.popsize, int) or self.popsize < 2):
             raise ValueError(f"popsize must be an integer >= 2 or None, got {self.popsize!r}")
 
+    @property
+    def min_budget(self) -> float:
+        """The smallest budget that buys one learning step: the inborn evaluation and one
+        generation (``popsize``; with ``None`` CMA-ES's smallest default, 6). Seconds."""
+        return (1 + (self.popsize or 6)) * self.evaluation.cost
+
     def learn(self, robot: Robot, budget: float, rng: np.random.Generator) -> LearningResult:
         """Run CMA-ES for ``budget`` simulated seconds (see the class docstring).
 
@@ -299,6 +305,12 @@ class RandomSearchLearner:
             raise ValueError(f"sigma must be a positive fraction of each range, got {self.sigma}")
         if not isinstance(self.batch_size, int) or self.batch_size < 1:
             raise ValueError(f"batch_size must be an integer >= 1, got {self.batch_size!r}")
+
+    @property
+    def min_budget(self) -> float:
+        """The smallest budget that buys one learning step: the inborn evaluation and one
+        candidate. Seconds."""
+        return 2 * self.evaluation.cost
 
     def learn(self, robot: Robot, budget: float, rng: np.random.Generator) -> LearningResult:
         """Run random search for ``budget`` simulated seconds (see the class docstring)."""
