@@ -4,7 +4,9 @@ killed and resumed to the same database, budgets checked at config time."""
 from __future__ import annotations
 
 import json
+import shutil
 import sqlite3
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -72,23 +74,125 @@ def _check_policies(out: Path) -> None:
         assert (out / json.loads(r.policy)["file"]).is_file()
 
 
-def test_offline_ppo_infancy_killed_and_resumed(tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def offline_ref(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("offline") / "ref"
+    experiments.run(offline_config(), out, evaluator=SERIAL)
+    return out
+
+
+@pytest.fixture(scope="module")
+def online_ref(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("online") / "ref"
+    experiments.run(online_config(), out, evaluator=SERIAL)
+    return out
+
+
+@pytest.fixture(scope="module")
+def online_killed(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """An online run killed after its checkpoint at 5 births (not to be resumed in place)."""
+    out = tmp_path_factory.mktemp("online") / "killed"
+    with pytest.raises(Kill):
+        experiments.run(online_config(), out, killer(5), evaluator=SERIAL)
+    return out
+
+
+def test_offline_ppo_infancy_saves_policies_and_resumes(offline_ref: Path, tmp_path: Path) -> None:
+    _check_policies(offline_ref)
+    out = tmp_path / "killed"
+    with pytest.raises(Kill):
+        experiments.run(offline_config(), out, killer(4), evaluator=SERIAL)
+    experiments.resume(out, evaluator=SERIAL)
+    assert dump(out / "results.sqlite") == dump(offline_ref / "results.sqlite")
+
+
+def test_offline_evaluation_is_driven_by_the_saved_policy(offline_ref: Path) -> None:
+    """The stored fitness of a learned robot is its saved policy's evaluation (same seed and
+    window), not its network's."""
+    from evolution.evaluation import EvalTask, evaluate_robot, evaluation_seed
+    from evolution.experiments.run import run_seed
+    from evolution.learning import load_policy
+
     config = offline_config()
-    experiments.run(config, tmp_path / "ref", evaluator=SERIAL)
-    _check_policies(tmp_path / "ref")
-    out = tmp_path / "killed"
-    with pytest.raises(Kill):
-        experiments.run(config, out, killer(4), evaluator=SERIAL)
-    experiments.resume(out, evaluator=SERIAL)
-    assert dump(out / "results.sqlite") == dump(tmp_path / "ref" / "results.sqlite")
+    with Store.open(offline_ref / "results.sqlite") as store:
+        record = store.learning(0)[0]
+        robot = store.robots(0, [record.robot_id])[0]
+    assert record.policy is not None
+    ref = json.loads(record.policy)
+    agent = load_policy(offline_ref / ref["file"], robot.robot(), ref["digest"])
+    task = EvalTask(robot.robot_id, robot.robot(), config.insertion, config.evaluation_time,
+                    evaluation_seed(run_seed(config.seed, 0), robot.robot_id))
+    driven = evaluate_robot(replace(task, policy=agent))
+    assert robot.fitness is not None and driven.fitness is not None
+    with sqlite3.connect(offline_ref / "results.sqlite") as con:
+        stored = con.execute("SELECT fitness FROM fitness WHERE robot_id = ?",
+                             (robot.robot_id,)).fetchone()[0]
+    assert stored == driven.fitness
+    assert stored != evaluate_robot(task).fitness
 
 
-def test_online_ppo_infancy_killed_and_resumed(tmp_path: Path) -> None:
-    config = online_config()
-    experiments.run(config, tmp_path / "ref", evaluator=SERIAL)
-    _check_policies(tmp_path / "ref")
+def test_online_ppo_infancy_saves_policies_and_resumes(
+        online_ref: Path, online_killed: Path, tmp_path: Path) -> None:
+    _check_policies(online_ref)
     out = tmp_path / "killed"
-    with pytest.raises(Kill):
-        experiments.run(config, out, killer(5), evaluator=SERIAL)
-    experiments.resume(out, evaluator=SERIAL)
-    assert dump(out / "results.sqlite") == dump(tmp_path / "ref" / "results.sqlite")
+    shutil.copytree(online_killed, out)
+    events: list[ProgressEvent] = []
+    experiments.resume(out, events.append, evaluator=SERIAL)
+    assert any(e.replaying for e in events) and events[-1].finished
+    assert dump(out / "results.sqlite") == dump(online_ref / "results.sqlite")
+
+
+def _policies(out: Path) -> list[Path]:
+    with Store.open(out / "results.sqlite") as store:
+        return [out / json.loads(r.policy)["file"] for r in store.learning(0)
+                if r.policy is not None]
+
+
+@pytest.mark.parametrize("damage", ["truncated", "garbage", "another body", "missing"])
+def test_a_bad_policy_file_is_one_line_naming_it_and_changes_nothing(
+        online_killed: Path, tmp_path: Path, damage: str) -> None:
+    out = tmp_path / "killed"
+    shutil.copytree(online_killed, out)
+    first, second = _policies(out)[:2]
+    if damage == "truncated":
+        second.write_bytes(second.read_bytes()[:200])
+    elif damage == "garbage":
+        second.write_bytes(b"not a policy at all")
+    elif damage == "another body":
+        second.write_bytes(first.read_bytes())
+    else:
+        second.unlink()
+    before = dump(out / "results.sqlite")
+    with pytest.raises(StoreError) as error:
+        experiments.resume(out, evaluator=SERIAL)
+    message = str(error.value)
+    assert str(second) in message and "\n" not in message
+    if damage == "another body":
+        assert "another body" in message
+    assert dump(out / "results.sqlite") == before
+
+
+def test_report_shows_inborn_vs_learned(offline_ref: Path) -> None:
+    from evolution.reporting import find_experiments, summary_rows
+
+    [row] = summary_rows(find_experiments(offline_ref))
+    with Store.open(offline_ref / "results.sqlite") as store:
+        records = store.learning(0)
+    assert row["learning"] == "sb3 darwinian"
+    assert row["infants_learned"] == len(records)
+    assert row["inborn_fitness_mean"] == pytest.approx(
+        sum(r.inborn_fitness or 0.0 for r in records) / len(records))
+    assert row["learned_fitness_mean"] == pytest.approx(
+        sum(r.learned_fitness or 0.0 for r in records) / len(records))
+
+
+@pytest.mark.parametrize("learning, needs", [
+    ({"learner": "cma-es", "budget": 21}, "at least 63 s"),
+    ({"learner": "random-search", "budget": 13}, "at least 14 s"),
+    ({**LEARNING, "budget": 3.2}, "at least 3.26667 s"),
+    ({"learner": "sb3", "budget": 60}, "at least 77.2667 s"),  # PPO's 2048-step rollout
+])
+def test_a_budget_too_small_for_one_learning_step_is_a_config_error(
+        learning: dict[str, Any], needs: str) -> None:
+    with pytest.raises(ConfigError, match=f"too small for one learning step.*{needs}"):
+        preset("scenario1", learning=learning)
