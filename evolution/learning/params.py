@@ -235,8 +235,10 @@ class CMAESLearner:
 
     @property
     def min_budget(self) -> float:
-        """The smallest budget that buys one learning step: the inborn evaluation and one
-        generation (``popsize``; with ``None`` CMA-ES's smallest default, 6). Seconds."""
+        """Seconds: the inborn evaluation and one generation (``None``: CMA-ES's least, 6).
+
+        Less buys no learning step, so the Training Center refuses it.
+        """
         return (1 + (self.popsize or 6)) * self.evaluation.cost
 
     def learn(self, robot: Robot, budget: float, rng: np.random.Generator) -> LearningResult:
@@ -308,8 +310,7 @@ class RandomSearchLearner:
 
     @property
     def min_budget(self) -> float:
-        """The smallest budget that buys one learning step: the inborn evaluation and one
-        candidate. Seconds."""
+        """Seconds: the inborn evaluation and one candidate (less buys no learning step)."""
         return 2 * self.evaluation.cost
 
     def learn(self, robot: Robot, budget: float, rng: np.random.Generator) -> LearningResult:

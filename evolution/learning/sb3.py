@@ -301,7 +301,9 @@ class SB3Learner:
         defaults = {name: p.default for name, p in inspect.signature(cls).parameters.items()
                     if p.default is not inspect.Parameter.empty}
         kwargs = {**defaults, **dict(self.algorithm_kwargs)}
-        if "n_steps" in kwargs:  # on-policy (PPO, A2C): one rollout, then an update
+        from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+
+        if issubclass(cls, OnPolicyAlgorithm):  # PPO, A2C: one rollout, then an update
             return int(kwargs["n_steps"]), 0
         freq = kwargs.get("train_freq", 1)
         freq = int(freq[0] if isinstance(freq, tuple) else freq)

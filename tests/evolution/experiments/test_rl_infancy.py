@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+
 from evolution import experiments
 from evolution.evaluation import LocalEvaluator, evaluate_task
 from evolution.experiments import ConfigError, ExperimentConfig, ProgressEvent, preset
@@ -196,3 +197,65 @@ def test_a_budget_too_small_for_one_learning_step_is_a_config_error(
         learning: dict[str, Any], needs: str) -> None:
     with pytest.raises(ConfigError, match=f"too small for one learning step.*{needs}"):
         preset("scenario1", learning=learning)
+
+
+def test_mujoco_online_resume_restores_policy_driven_robots_from_the_snapshot(
+        tmp_path: Path) -> None:
+    """On MuJoCo the resume starts from the snapshot (no replay): the agent-driven robots get
+    their policies back from their files, with their networks' states, to the same database."""
+    pytest.importorskip("mujoco", reason="the mujoco package is not installed")
+    from evolution.experiments import load_config
+
+    config = load_config("scenario3", {
+        "world": {"engine": "mujoco"}, "runs": 1, "births": 6, "population_size": 4,
+        "min_alive": 2, "max_alive": 8, "insertion": 0.5, "evaluation_time": 1.0,
+        "fertile_age": 1.0, "conception_interval": 0.5, "checkpoint_interval": 1,
+        "learning": LEARNING})
+    experiments.run(config, tmp_path / "ref", evaluator=SERIAL)
+    out = tmp_path / "killed"
+    with pytest.raises(Kill):
+        experiments.run(config, out, killer(5), evaluator=SERIAL)
+    assert list((out / "checkpoints").glob("*.snapshot"))
+    events: list[ProgressEvent] = []
+    experiments.resume(out, events.append, evaluator=SERIAL)
+    assert not any(e.replaying for e in events) and events[-1].finished
+    assert dump(out / "results.sqlite") == dump(tmp_path / "ref" / "results.sqlite")
+
+
+def test_the_online_world_asks_the_policy_every_control_step() -> None:
+    """A robot added with a policy is agent-controlled: every step the world passes the policy
+    the robot's observation and sets its hinge targets to the answer."""
+    import numpy as np
+
+    from evolution.experiments.online_world import PopulationWorld
+    from revolve_env.body.examples import EXAMPLES
+    from revolve_env.body.robot import Layer
+
+    class Recording:
+        control_period = 1 / 60
+
+        def __init__(self, n: int) -> None:
+            self.n, self.seen = n, 0
+
+        def reset(self) -> None:
+            pass
+
+        def act(self, observation: np.ndarray) -> np.ndarray:
+            assert observation.ndim == 1 and np.all(np.isfinite(observation))
+            self.seen += 1
+            return np.full(self.n, 0.5)
+
+    config = online_config()
+    world = PopulationWorld(config, 0)
+    try:
+        robot = EXAMPLES["spider"]()
+        policy = Recording(len(robot.neurons_of(Layer.OUTPUT)))
+        birth = world.add(robot, policy)
+        assert world._env.agent_info(birth.agent)["controlled_by"] == "agent"
+        world.advance_to(0.5)
+        assert policy.seen == round(0.5 / world._env.config.control_period)
+        world.remove(birth.agent)
+        world.advance_to(0.6)
+        assert policy.seen == round(0.5 / world._env.config.control_period)
+    finally:
+        world.close()
