@@ -84,6 +84,9 @@ class LearningSummary:
         sim_seconds: Simulated seconds the learner used in its own Training Center simulations;
             ``None`` when unknown. Seconds.
         failures: Learner evaluations that failed (blow-ups).
+        policy: The trained policy when the learner's controller is not the robot's network
+            (an SB3 :class:`~evolution.learning.PolicyAgent`): it drives the robot's evaluation
+            (offline) or its life in the shared world (online); ``None`` otherwise.
     """
 
     inborn_fitness: float | None = None
@@ -91,6 +94,7 @@ class LearningSummary:
     evaluations: int | None = None
     sim_seconds: float | None = None
     failures: int = 0
+    policy: object | None = field(default=None, compare=False)
 
 
 @runtime_checkable

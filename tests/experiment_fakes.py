@@ -72,13 +72,15 @@ class FakeWorld:
         self.max_population = 0
         self.blow_ups = blow_ups
         self.closed = False
+        self.policies: dict[str, Any] = {}
 
     @property
     def time(self) -> float:
         return self._time
 
-    def add(self, robot: Robot) -> Birth:
+    def add(self, robot: Robot, policy: Any = None) -> Birth:
         agent = f"robot_{self._next}"
+        self.policies[agent] = policy
         position = (0.0, float(self._next))  # a row of lanes: never crowded
         self._next += 1
         self.robots[agent] = (speed_of(to_json(robot, indent=None)), self._time, position, 0.0)

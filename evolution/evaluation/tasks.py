@@ -13,13 +13,16 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import Protocol, cast
 
 import numpy as np
+from numpy.typing import NDArray
 
 from evolution.lifecycle import InfancyHook, LearningSummary, SummarizingInfancyHook
 from revolve_env.body.robot import Robot
 
 __all__ = [
+    "DrivingPolicy",
     "EvalOutcome",
     "EvalTask",
     "EvaluateFunction",
@@ -34,6 +37,18 @@ __all__ = [
 ]
 
 
+class DrivingPolicy(Protocol):
+    """A learned controller that drives a robot (:class:`evolution.learning.PolicyAgent`)."""
+
+    control_period: float
+
+    def reset(self) -> None:
+        """Start a new episode."""
+
+    def act(self, observation: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Normalised hinge targets in [-1, 1] for one observation of the robot's sensors."""
+
+
 @dataclass(frozen=True, slots=True)
 class EvalTask:
     """One isolated evaluation.
@@ -46,6 +61,8 @@ class EvalTask:
         seed: Seed of the evaluation (:func:`evaluation_seed`).
         infancy: Optional Training Center learner applied before the evaluation.
         engine: The physics engine (``"pybullet"`` or ``"mujoco"``).
+        policy: A learned policy that drives the robot instead of its network (set by
+            :func:`evaluate_after_infancy` after an SB3 infancy).
     """
 
     robot_id: int
@@ -55,6 +72,7 @@ class EvalTask:
     seed: int
     infancy: InfancyHook | None = None
     engine: str = "pybullet"
+    policy: DrivingPolicy | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -104,9 +122,12 @@ def infancy_seed(evaluation_seed: int) -> np.random.SeedSequence:
 def evaluate_robot(task: EvalTask) -> EvalOutcome:
     """Evaluate ``task.robot`` alone at the origin with :func:`revolve_env.evaluate`.
 
-    The robot's own network drives it. ``task.infancy`` is ignored here
-    (:func:`evaluate_task` runs it first).
+    The robot's own network drives it, or ``task.policy`` when set (the same window, seed and
+    engine, in the single-robot env with ``controller="agent"``). ``task.infancy`` is ignored
+    here (:func:`evaluate_task` runs it first).
     """
+    if task.policy is not None:
+        return _evaluate_with_policy(task, task.policy)
     # Imported here: it loads the physics engine, which a process that only plans (the CLI, a
     # Ray driver) never needs.
     from revolve_env.evaluation import evaluate
@@ -116,6 +137,23 @@ def evaluate_robot(task: EvalTask) -> EvalOutcome:
     if result.blow_up is not None:
         return EvalOutcome(None, failure=f"blow-up: {result.blow_up}")
     return EvalOutcome(float(result.fitness), float(result.v), float(result.s))
+
+
+def _evaluate_with_policy(task: EvalTask, policy: DrivingPolicy) -> EvalOutcome:
+    from revolve_env.envs import LocomotionEnv
+    from revolve_env.envs.episode import run_episode
+
+    env = LocomotionEnv(task.robot, insertion_time=task.insertion, evaluation_time=task.seconds,
+                        fitness_window=task.seconds, control_period=policy.control_period,
+                        controller="agent", action="targets", engine=task.engine)
+    try:
+        policy.reset()
+        info = run_episode(env, task.seed, policy.act)
+    finally:
+        env.close()
+    if info["blow_up"] is not None:
+        return EvalOutcome(None, failure=f"blow-up: {info['blow_up']}")
+    return EvalOutcome(float(info["fitness"]), float(info["fitness_v"]), float(info["fitness_s"]))
 
 
 @dataclass(frozen=True, slots=True)
@@ -175,7 +213,9 @@ def evaluate_after_infancy(task: EvalTask, evaluate: EvaluateFunction) -> EvalOu
         return evaluate(task)
     report = run_infancy(task.infancy, task.robot, task.seed)
     learned = report.robot if report.changed else None
-    outcome = evaluate(replace(task, robot=report.robot, infancy=None))
+    policy = None if report.learning is None else report.learning.policy
+    outcome = evaluate(replace(task, robot=report.robot, infancy=None,
+                               policy=cast("DrivingPolicy | None", policy)))
     return replace(outcome, learner_failure=report.failure, learned=learned,
                    learning=report.learning)
 

@@ -83,8 +83,8 @@ def run(
     Raises:
         ConfigError: invalid configuration, or an ``infancy`` other than the Training Center
             of ``config.learning``.
-        ValueError: an infancy hook the engine cannot honour
-            (:func:`evolution.experiments.engine.check_infancy`).
+        TypeError: an infancy hook that is not callable
+            (:func:`evolution.experiments.run.check_infancy`).
         StoreError: ``out_dir`` already holds results (of this or another experiment).
         KeyboardInterrupt: Ctrl-C; what finished is committed, ``resume(out_dir)`` continues.
     """

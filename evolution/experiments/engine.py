@@ -70,8 +70,17 @@ Infancy learning (the Training Center, ``RunJob.infancy``)
     learned fitness, evaluations, simulated seconds). With a Lamarckian
     :class:`~evolution.learning.TrainingCenter` (``center.lamarckian``) the genome the robot
     passes to its children is the learned one; otherwise (Darwinian, or a plain hook) it is
-    the inborn one. A learner that trains a policy outside the genome (stable-baselines3) is
-    refused: the engine's evaluators and world run robots on their own networks.
+    the inborn one.
+
+    A learner that trains a policy outside the genome (stable-baselines3; Darwinian only) gives
+    the robot a policy instead of a network: the engine writes it to
+    ``<results>/policies/run<r>_robot<id>.pkl`` before the commit that references it (the
+    learning record's ``policy`` column: file and parameter digest), and the policy drives the
+    robot: its offline evaluation (same seed and window), or its online life as an
+    agent-controlled robot of the shared world. An online run resumed by replay reloads the
+    policies from their files (a missing, damaged or foreign file is a one-line
+    :class:`~evolution.experiments.store.StoreError` naming it, before anything is written);
+    a MuJoCo snapshot keeps the policies' references and network states.
 """
 
 from __future__ import annotations

@@ -70,7 +70,7 @@ _COLUMN_TYPES: dict[str, dict[str, tuple[str, ...]]] = {
     "learning": {"run_id": _INT, "robot_id": _INT, "time": _NUM, "inheritance": _TEXT,
                  "learned_genome": _TEXT + _NULL, "inborn_fitness": _NUM + _NULL,
                  "learned_fitness": _NUM + _NULL, "evaluations": _INT + _NULL,
-                 "sim_seconds": _NUM + _NULL, "failures": _INT},
+                 "sim_seconds": _NUM + _NULL, "failures": _INT, "policy": _TEXT + _NULL},
 }
 """The ``typeof`` each column may hold (SQLite keeps whatever it is given)."""
 

@@ -45,8 +45,14 @@ from evolution.experiments.run import (
     decode,
     genome,
 )
-from evolution.experiments.store import Checkpoint, FailureRecord, FitnessSample, Store
-from evolution.lifecycle import Lifecycle, Stage
+from evolution.experiments.store import (
+    Checkpoint,
+    FailureRecord,
+    FitnessSample,
+    LearningRecord,
+    Store,
+)
+from evolution.lifecycle import LearningSummary, Lifecycle, Stage
 from evolution.selection import online_survivors
 
 __all__ = ["OnlineRun"]
@@ -69,7 +75,16 @@ class OnlineRun(RunState):
         robot, pa, pb, origin = self.conceive(mature, time_s, random)
         member, record = self.new_member(robot, (pa, pb), origin, time_s, time_s)
         living = robot
-        if self.infancy is not None:
+        stored = self._stored_learning(member.robot_id)
+        if stored is not None:
+            # Replaying: the policy saved with the run, not a second training.
+            assert stored.policy is not None
+            member.policy_ref = stored.policy
+            self.record_infancy(member, time_s, None, LearningSummary(
+                stored.inborn_fitness, stored.learned_fitness, stored.evaluations,
+                stored.sim_seconds, stored.failures, self.load_policy(robot, stored.policy)),
+                None)
+        elif self.infancy is not None:
             # The Training Center: a separate simulation before the robot enters the world.
             report = run_infancy(self.infancy, robot, evaluation_seed(self.seed, member.robot_id))
             living = report.robot
@@ -77,7 +92,9 @@ class OnlineRun(RunState):
                                 living if report.changed else None)
         self.batch.robots.append(record)
         try:
-            birth = self.world.add(living)
+            # A robot with a policy is agent-controlled: the world asks the policy every step.
+            birth = (self.world.add(living) if member.policy is None
+                     else self.world.add(living, member.policy))
         except ValueError as error:
             # The engine cannot build this body (e.g. MuJoCo refuses its geometry): the robot is
             # born dead. Recorded, and the run goes on.
@@ -93,6 +110,13 @@ class OnlineRun(RunState):
                 member.robot_id, time_s, "crowded",
                 f"the birth disc was full; born at the nearest free spot ({x:.3f}, {y:.3f}) m"))
         self.population.append(member)
+
+    def _stored_learning(self, robot_id: int) -> LearningRecord | None:
+        """While replaying, the stored learning record of ``robot_id`` if it has a policy."""
+        if self.replay_until is None or robot_id not in self.stored_genomes:
+            return None
+        records = self.store.learning(self.run_id, [robot_id])
+        return records[0] if records and records[0].policy is not None else None
 
     def update(self, now: float) -> None:
         """Advance the world to ``now``, then age, sample and bury."""
@@ -211,7 +235,8 @@ class OnlineRun(RunState):
                 {"robot_id": m.robot_id, "genome": genome(m.robot),
                  "stage": None if m.lifecycle.stage is None else m.lifecycle.stage.value,
                  "birth_time": m.lifecycle.birth_time, "fitness": m.fitness, "agent": m.agent,
-                 "learned": m.learned}
+                 "learned": m.learned, "policy": m.policy_ref,
+                 "policy_state": None if m.policy is None else m.policy.get_state()}
                 for m in self.population
             ],
         }
@@ -261,7 +286,15 @@ class OnlineRun(RunState):
                        e["fitness"], e["agent"], bool(e["learned"]))
                 for e in engine["population"]
             ]
+            for m, e in zip(population, engine["population"], strict=True):
+                if e.get("policy") is not None:
+                    m.policy_ref = str(e["policy"])
+                    m.policy = self.load_policy(m.robot, m.policy_ref)
+                    m.policy.set_state(e["policy_state"])
             world.restore(data["world"])
+            for m in population:
+                if m.policy is not None and m.agent is not None:
+                    world.drive(m.agent, m.policy)
         except (snapshot.SnapshotError, KeyError, TypeError, ValueError, NotImplementedError,
                 RecursionError) as e:
             _log.warning("run %d: cannot resume from the snapshot at %d births (%s); replaying "

@@ -2,7 +2,9 @@
 
 Adapts :class:`revolve_env.envs.population.PopulationEnv` to
 :class:`evolution.experiments.run.OnlineWorld`: robots are added with ``add_robot(robot, position,
-controlled_by="brain")`` (their own brains drive them, so ``step`` gets no actions), removed
+controlled_by="brain")`` (their own brains drive them), or ``controlled_by="agent"`` for a robot
+with a learned policy (an SB3 infancy: ``step`` gets ``policy.act(observe(agent))`` for each of
+them every control step), removed
 with ``remove_robot``, and the per-agent ``infos`` give the sliding-window fitness, the core
 position and the reason a robot was removed (blow-up). Imported lazily: ``evolution`` itself
 never imports the physics.
@@ -52,15 +54,23 @@ class PopulationWorld:
         self._seed = seed
         self._env.reset(seed=seed)
         self._last: dict[str, dict[str, Any]] = {}
+        self._policies: dict[str, Any] = {}  # agent -> PolicyAgent of agent-controlled robots
 
     @property
     def time(self) -> float:
         """Simulated time. Seconds."""
         return float(self._env.time)
 
-    def add(self, robot: Robot) -> Birth:
-        """Drop a brain-driven robot where the env's placement rule puts it."""
-        agent = self._env.add_robot(robot, None, controlled_by="brain")
+    def add(self, robot: Robot, policy: Any = None) -> Birth:
+        """Drop a robot where the env's placement rule puts it.
+
+        Its own network drives it, or ``policy`` (agent-controlled: the policy's action for the
+        robot's observation every control step).
+        """
+        agent = self._env.add_robot(robot, None,
+                                    controlled_by="brain" if policy is None else "agent")
+        if policy is not None:
+            self._policies[agent] = policy
         info = self._env.agent_info(agent)
         x, y = info["birth_position"]
         self._last[agent] = {"position": (x, y), "fitness": 0.0}
@@ -70,6 +80,7 @@ class PopulationWorld:
         """Take a robot out of the world."""
         self._env.remove_robot(agent)
         self._last.pop(agent, None)
+        self._policies.pop(agent, None)
 
     def advance_to(self, t: float) -> dict[str, AgentStatus]:
         """Simulate until time ``t``; the status of every robot alive before the call."""
@@ -77,7 +88,10 @@ class PopulationWorld:
         removed: dict[str, str] = {}
         # Half a control period of tolerance: ticks land on whole control steps.
         while self.time < t - 0.5 * float(self._env.config.control_period):
-            _, _, terminations, truncations, infos = self._env.step({})
+            # Deterministic policies on the current observations: a replay repeats the actions.
+            actions = {agent: policy.act(self._env.observe(agent))
+                       for agent, policy in self._policies.items()}
+            _, _, terminations, truncations, infos = self._env.step(actions)
             for agent, info in infos.items():
                 # A robot the engine removed before this call gets one last report; keeping
                 # it would hold every dead robot's info for the rest of the run.
@@ -96,6 +110,7 @@ class PopulationWorld:
                                      removed.get(agent))
             if agent in removed:
                 self._last.pop(agent, None)
+                self._policies.pop(agent, None)
         return out
 
     @property
@@ -128,6 +143,12 @@ class PopulationWorld:
             self._last = {}
             raise
         self._last = last
+        self._policies = {}
+
+    def drive(self, agent: str, policy: Any) -> None:
+        """After :meth:`restore`: ``policy`` drives the agent-controlled robot ``agent`` again."""
+        self._env.observe(agent)  # KeyError naming it if it is not alive
+        self._policies[agent] = policy
 
     def close(self) -> None:
         """Release the physics."""

@@ -39,7 +39,7 @@ __all__ = [
     "RunRecord",
 ]
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 """Version of the database layout; a database with a newer one is refused, an older one is
 upgraded when opened (see the module docstring)."""
 
@@ -136,13 +136,19 @@ CREATE TABLE learning (
 """
 """The ``learning`` table, added by schema version 2."""
 
-SCHEMA = SCHEMA_V1 + LEARNING_TABLE
+POLICY_COLUMN = """
+ALTER TABLE learning ADD COLUMN policy TEXT;
+"""
+"""Schema version 3: the learning record's reference to a saved policy (JSON), for learners
+whose controller is a policy outside the genome (SB3)."""
+
+SCHEMA = SCHEMA_V1 + LEARNING_TABLE + POLICY_COLUMN
 """The current layout (version :data:`SCHEMA_VERSION`)."""
 
 TABLES = frozenset(re.findall(r"CREATE TABLE (\w+)", SCHEMA))
 """The tables of the current layout (an opened database must have them all)."""
 
-MIGRATIONS: dict[int, str] = {1: LEARNING_TABLE}
+MIGRATIONS: dict[int, str] = {1: LEARNING_TABLE, 2: POLICY_COLUMN}
 """For each old version, the statements that bring it to the next one."""
 
 
@@ -241,6 +247,9 @@ class LearningRecord:
         evaluations: Evaluations (or training episodes) the learner ran.
         sim_seconds: Simulated seconds spent in the Training Center. Seconds.
         failures: Learner evaluations that failed (blow-ups).
+        policy: ``None``, or the saved policy that drives the robot (an SB3 learner), as JSON:
+            ``{"file": path relative to the results folder, "digest": SHA-256 of its
+            parameters}`` (:func:`evolution.learning.sb3.save_policy`).
     """
 
     robot_id: int
@@ -252,6 +261,7 @@ class LearningRecord:
     evaluations: int | None
     sim_seconds: float | None
     failures: int = 0
+    policy: str | None = None
 
     @property
     def improvement(self) -> float | None:

@@ -16,6 +16,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -23,7 +24,6 @@ import numpy as np
 from evolution.diversity import diversity
 from evolution.evaluation import LearningSummary
 from evolution.experiments.config import ExperimentConfig
-from evolution.experiments.errors import ConfigError
 from evolution.experiments.store import (
     Batch,
     Checkpoint,
@@ -172,8 +172,13 @@ class OnlineWorld(Protocol):
     def time(self) -> float:
         """Simulated time. Seconds."""
 
-    def add(self, robot: Robot) -> Birth:
-        """Place a robot by the population env's rule and drop it in; where it went."""
+    def add(self, robot: Robot, policy: Any = None) -> Birth:
+        """Place a robot by the population env's rule and drop it in; where it went.
+
+        ``policy`` (a :class:`~evolution.learning.PolicyAgent`): the robot is agent-controlled
+        and the world sets its hinge targets to ``policy.act(observation)`` every control step;
+        ``None``: its own network drives it.
+        """
 
     def remove(self, agent: str) -> None:
         """Take a robot out of the world."""
@@ -208,6 +213,9 @@ class RestorableWorld(Protocol):
             ValueError: the snapshot does not fit this world.
         """
 
+    def drive(self, agent: str, policy: Any) -> None:
+        """After :meth:`restore`: let ``policy`` drive the agent-controlled robot ``agent``."""
+
 
 WorldFactory = Callable[[ExperimentConfig, int], OnlineWorld]
 """Makes the online world of a run from the config and a seed (:func:`world_seed`; picklable)."""
@@ -230,7 +238,9 @@ class Member:
     """A living robot known to the engine.
 
     ``robot`` is the genome the member passes to its children: the inborn one, or the learned
-    one (``learned``) under Lamarckian inheritance.
+    one (``learned``) under Lamarckian inheritance. ``policy`` is the SB3 policy that drives it
+    (a :class:`~evolution.learning.PolicyAgent`; ``None``: its own network) and ``policy_ref``
+    the store's reference to its file (JSON).
     """
 
     robot_id: int
@@ -239,6 +249,8 @@ class Member:
     fitness: float | None = None
     agent: str | None = None
     learned: bool = False
+    policy: Any = None
+    policy_ref: str | None = None
 
 
 class StopRun(Exception):
@@ -251,23 +263,16 @@ class StopRun(Exception):
 def check_infancy(hook: InfancyHook | None) -> None:
     """Refuse an infancy hook the engine cannot honour.
 
+    Learners of a policy outside the genome (stable-baselines3) are accepted: the engines save
+    the policy with the results and let it drive the robot (offline evaluation, online life).
+
     Raises:
         TypeError: ``hook`` is not callable.
-        ConfigError: its learner trains a policy outside the genome (stable-baselines3): the
-            engine's evaluators and world drive robots with their own networks, so the policy
-            would be silently ignored.
     """
     if hook is None:
         return
     if not callable(hook):
         raise TypeError(f"infancy must be a callable hook(robot, rng) -> robot, got {hook!r}")
-    learner = getattr(hook, "learner", None)
-    if getattr(learner, "learns_policy", False):
-        raise ConfigError(
-            f"{type(learner).__name__} trains a policy outside the genome, but the engine "
-            "evaluates robots on their own networks; use a controller-parameter learner "
-            "(CMA-ES, random search) in experiments"
-        )
 
 
 def genome(robot: Robot) -> str:
@@ -384,14 +389,56 @@ class RunState:
             return
         if learning is None:
             return
+        if learning.policy is not None:
+            member.policy = learning.policy
+            if member.policy_ref is None:  # a policy loaded on replay is already saved
+                member.policy_ref = self.save_policy(member)
         self.batch.learning.append(LearningRecord(
             member.robot_id, time_s, "lamarckian" if self.lamarckian else "darwinian",
             genome(learned) if learned is not None else None, learning.inborn_fitness,
             learning.learned_fitness, learning.evaluations, learning.sim_seconds,
-            learning.failures))
+            learning.failures, member.policy_ref))
         if self.lamarckian and learned is not None:
             member.robot = learned
             member.learned = True
+
+    def policy_path(self, robot_id: int) -> Path:
+        """Where the policy of robot ``robot_id`` is saved: ``<results>/policies/``."""
+        return Path(self.job.db_path).parent / "policies" / f"run{self.run_id}_robot{robot_id}.pkl"
+
+    def save_policy(self, member: Member) -> str:
+        """Write ``member.policy`` beside the database (before the commit that references it).
+
+        Returns:
+            The learning record's reference: JSON ``{"file": ..., "digest": ...}``.
+        """
+        from evolution.learning.sb3 import save_policy
+
+        path = self.policy_path(member.robot_id)
+        digest = save_policy(member.policy, path)
+        relative = path.relative_to(Path(self.job.db_path).parent).as_posix()
+        return json.dumps({"file": relative, "digest": digest}, sort_keys=True)
+
+    def load_policy(self, robot: Robot, reference: str) -> Any:
+        """The policy a learning record references, checked against ``robot``.
+
+        Raises:
+            StoreError: one line naming the file: missing, damaged, of another body, or not the
+                one the store recorded.
+        """
+        from evolution.learning.sb3 import PolicyFileError, load_policy
+
+        try:
+            ref = json.loads(reference)
+            path = Path(self.job.db_path).parent / str(ref["file"])
+            digest = str(ref["digest"])
+        except (ValueError, KeyError, TypeError) as error:
+            raise StoreError(f"run {self.run_id}: malformed policy reference {reference!r}"
+                             ) from error
+        try:
+            return load_policy(path, robot, digest)
+        except PolicyFileError as error:
+            raise StoreError(f"run {self.run_id}: {error}") from error
 
     # -- deaths ------------------------------------------------------------------------------
 

@@ -31,9 +31,10 @@ inheritance the genome a robot passes to its children is its learned genome
 (``learning.learned_genome``); the checkpoint's engine state lists the members that reproduce
 with it (``"learned"``), so a resumed run continues with the same genomes.
 
-Schema versions: 1 had no ``learning`` table. A version-1 database is upgraded in place when
-opened (the empty ``learning`` table is added and the version set to 2; nothing else changes);
-a database newer than this package is refused.
+Schema versions: 1 had no ``learning`` table; 2 had no ``learning.policy`` column (the reference
+to a saved SB3 policy in ``<results>/policies/``). An older database is upgraded in place when
+opened (the empty ``learning`` table and the ``policy`` column, NULL in old rows, are added and
+the version set to 3; nothing else changes); a database newer than this package is refused.
 
 The query functions at the bottom (``fitness_over_births``, ``final_population``, ...) are what
 reports and plots read.
@@ -304,11 +305,11 @@ class Store:
             )
             db.executemany(
                 "INSERT INTO learning (run_id, robot_id, time, inheritance, learned_genome, "
-                "inborn_fitness, learned_fitness, evaluations, sim_seconds, failures) "
-                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                "inborn_fitness, learned_fitness, evaluations, sim_seconds, failures, policy) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                 [(run_id, r.robot_id, r.time, r.inheritance, r.learned_genome,
                   _nullable(r.inborn_fitness), _nullable(r.learned_fitness), r.evaluations,
-                  r.sim_seconds, r.failures) for r in batch.learning],
+                  r.sim_seconds, r.failures, r.policy) for r in batch.learning],
             )
             db.execute(
                 "INSERT OR REPLACE INTO checkpoints "
@@ -405,7 +406,8 @@ class Store:
         """Infancy learning records of a run (only of ``ids`` if given), in birth order."""
         rows = self._db.execute(
             "SELECT robot_id, time, inheritance, learned_genome, inborn_fitness, learned_fitness, "
-            "evaluations, sim_seconds, failures FROM learning WHERE run_id = ? ORDER BY robot_id",
+            "evaluations, sim_seconds, failures, policy FROM learning WHERE run_id = ? "
+            "ORDER BY robot_id",
             (run_id,),
         ).fetchall()
         records = [LearningRecord(*row) for row in rows]

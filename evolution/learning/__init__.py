@@ -19,9 +19,13 @@ fitness, evaluations, simulated seconds); a :class:`LearnerError` (or any error 
 the inborn robot and lands in the failures table as kind ``"learner"``. With
 ``inheritance="lamarckian"`` the engine reproduces from the learned genome, otherwise from the
 inborn one (the ``robots`` table always holds the inborn genome). :class:`SB3Learner` trains a
-policy outside the genome: the engine refuses it (its evaluators and world run robots on their
-own networks); its results drive a robot through :class:`PolicyAgent` as an agent-controlled
-robot of the population env.
+policy outside the genome (Darwinian only): the engine saves it with the results
+(``<results>/policies/run<r>_robot<id>.pkl``, :func:`save_policy`, referenced from the learning
+record's ``policy`` column) and lets it drive the robot: its offline evaluation (same seed and
+window, the single-robot env with ``controller="agent"``) or its online life (an
+agent-controlled robot of the population env, ``PolicyAgent.act`` on its observation every
+control step). A resumed online run reloads the policies from their files (:func:`load_policy`).
+A ``budget`` below the learner's ``min_budget`` (one learning step) is refused.
 
 Importing this package loads neither pybullet nor torch; they load when a learner runs.
 """
@@ -44,7 +48,14 @@ from evolution.learning.params import (
     evaluate_in_env,
     evaluate_params,
 )
-from evolution.learning.sb3 import PolicyAgent, SB3Learner, rollout_fitness
+from evolution.learning.sb3 import (
+    PolicyAgent,
+    PolicyFileError,
+    SB3Learner,
+    load_policy,
+    rollout_fitness,
+    save_policy,
+)
 
 __all__ = [
     "LEARNERS",
@@ -56,13 +67,16 @@ __all__ = [
     "LearnerError",
     "LearningResult",
     "PolicyAgent",
+    "PolicyFileError",
     "RandomSearchLearner",
     "RobotPolicy",
     "SB3Learner",
     "TrainingCenter",
     "evaluate_in_env",
     "evaluate_params",
+    "load_policy",
     "rollout_fitness",
     "same_body",
+    "save_policy",
     "training_center_from_dict",
 ]

@@ -191,6 +191,13 @@ class TrainingCenter:
             raise TypeError(
                 f"learner must have a learn(robot, budget, rng) method, got {self.learner!r}"
             )
+        minimum = getattr(self.learner, "min_budget", None)
+        if isinstance(minimum, float) and self.budget < minimum - 1e-9:
+            # Otherwise every infant would pay for evaluations and learn nothing, silently.
+            raise ValueError(
+                f"a budget of {self.budget:g} s is too small for one learning step of "
+                f"{type(self.learner).__name__}: it needs at least {minimum:g} s"
+            )
         if self.lamarckian and getattr(self.learner, "learns_policy", False):
             raise ValueError(
                 f"{type(self.learner).__name__} learns a policy outside the genome: it has no "
@@ -257,7 +264,8 @@ class TrainingCenter:
         result = self.run_learner(robot, rng)
         return result.robot, LearningSummary(
             _float_or_none(result.inborn_fitness), _float_or_none(result.best_fitness),
-            int(result.evaluations), float(result.sim_seconds), int(result.failures))
+            int(result.evaluations), float(result.sim_seconds), int(result.failures),
+            result.policy)
 
     def genome_for_children(self, inborn: Robot, learned: Robot) -> Robot:
         """The genome a robot passes on: ``learned`` (Lamarckian) or ``inborn`` (Darwinian)."""

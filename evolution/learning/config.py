@@ -16,6 +16,14 @@ An experiment config with learning is an ordinary experiment TOML (see
     # sb3 only: algorithm = "PPO", action = "modulate", n_envs = 2, vec_env = "subproc",
     #           control_period = 0.0166667, algorithm_kwargs = { n_steps = 256 }
 
+A ``budget`` too small for one learning step is refused here (a ``ValueError``; in an experiment
+config a one-line ``ConfigError``): CMA-ES needs the inborn evaluation and one generation
+(``(1 + popsize) * (insertion + seconds)``), random search the inborn evaluation and one
+candidate, SB3 its two evaluations and one rollout (``n_steps * n_envs`` steps; off-policy:
+``learning_starts`` and one ``train_freq``). Each learner's ``min_budget`` gives the figure.
+With ``learner = "sb3"`` the run saves every trained policy in ``<results>/policies/`` and the
+policy drives the robot (see :mod:`evolution.experiments.engine`).
+
 :class:`~evolution.experiments.config.ExperimentConfig` keeps the table (``config.learning``): it is
 stored with the results, :func:`evolution.run` builds the Training Center from it, and
 :func:`evolution.resume` (``revolve resume``) rebuilds the same one. ``revolve run FILE.toml`` and

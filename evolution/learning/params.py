@@ -233,6 +233,14 @@ class CMAESLearner:
         if self.popsize is not None and (not isinstance(self.popsize, int) or self.popsize < 2):
             raise ValueError(f"popsize must be an integer >= 2 or None, got {self.popsize!r}")
 
+    @property
+    def min_budget(self) -> float:
+        """Seconds: the inborn evaluation and one generation (``None``: CMA-ES's least, 6).
+
+        Less buys no learning step, so the Training Center refuses it.
+        """
+        return (1 + (self.popsize or 6)) * self.evaluation.cost
+
     def learn(self, robot: Robot, budget: float, rng: np.random.Generator) -> LearningResult:
         """Run CMA-ES for ``budget`` simulated seconds (see the class docstring).
 
@@ -299,6 +307,11 @@ class RandomSearchLearner:
             raise ValueError(f"sigma must be a positive fraction of each range, got {self.sigma}")
         if not isinstance(self.batch_size, int) or self.batch_size < 1:
             raise ValueError(f"batch_size must be an integer >= 1, got {self.batch_size!r}")
+
+    @property
+    def min_budget(self) -> float:
+        """Seconds: the inborn evaluation and one candidate (less buys no learning step)."""
+        return 2 * self.evaluation.cost
 
     def learn(self, robot: Robot, budget: float, rng: np.random.Generator) -> LearningResult:
         """Run random search for ``budget`` simulated seconds (see the class docstring)."""

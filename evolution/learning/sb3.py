@@ -14,11 +14,20 @@ therefore drives the robot as an *agent-controlled* robot in the population env
 (``add_robot(robot, controlled_by="agent")``) or in the single-robot env with
 ``controller="agent"``.
 
-Budget: ``budget`` simulated seconds buy ``budget / control_period`` training steps (summed over
-the parallel envs; on-policy algorithms round up to a whole rollout of ``n_steps * n_envs``, and
-:attr:`LearningResult.sim_seconds` reports the steps actually taken). The evaluations of the
-inborn controller and of the trained policy that frame the record are not charged (they are one
-episode each).
+Budget: every simulated second is charged, the learner's own two evaluations (the inborn
+controller and the trained policy, one episode of ``insertion + seconds`` each) included. The
+rest buys ``rest / control_period`` training steps (summed over the parallel envs); on-policy
+algorithms (PPO, A2C) train in whole rollouts of ``n_steps * n_envs`` steps, so the steps are
+rounded *down* to whole rollouts (SB3 itself would round up and overspend). The smallest budget
+(:attr:`SB3Learner.min_budget`) pays for the two evaluations and one rollout (off-policy: the
+``learning_starts`` steps and one ``train_freq``); the Training Center refuses a smaller one.
+:attr:`LearningResult.sim_seconds` reports what was used, never more than the budget.
+
+Saved policies (:func:`save_policy` / :func:`load_policy`): an experiment keeps every trained
+policy in its results folder as a pickle of the :class:`PolicyAgent` (the SB3 policy network,
+the robot it was trained on, the action mode and the control period), written atomically; the
+store references it with a digest of the policy's parameters, and loading checks the file, the
+digest and the body.
 
 The policy lives outside the genome, so an SB3 learner is Darwinian only
 (:class:`~evolution.learning.base.TrainingCenter` refuses ``"lamarckian"`` for it).
@@ -28,22 +37,36 @@ SB3 and torch are imported only when a learner trains (``pip install 'revolve-en
 
 from __future__ import annotations
 
+import hashlib
+import inspect
 import math
+import os
+import pickle
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import partial
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from evolution.learning.base import LearningResult, check_budget
+from evolution.learning.base import LearningResult, check_budget, same_body
 from revolve_env.body.robot import Layer, Robot
 
 if TYPE_CHECKING:
     from revolve_env.brain import BatchController
 
-__all__ = ["Policy", "PolicyAgent", "SB3Learner", "rollout_fitness"]
+__all__ = [
+    "Policy",
+    "PolicyAgent",
+    "PolicyFileError",
+    "SB3Learner",
+    "load_policy",
+    "policy_digest",
+    "rollout_fitness",
+    "save_policy",
+]
 
 ActionMode = Literal["targets", "modulate"]
 
@@ -127,6 +150,7 @@ class PolicyAgent:
         self.n_inputs = len(robot.neurons_of(Layer.INPUT))
         self.n_outputs = len(robot.neurons_of(Layer.OUTPUT))
         self._brain: BatchController | None = None
+        self._handle = 0
         self._out = np.zeros(self.n_outputs)
 
     def __getstate__(self) -> dict[str, Any]:
@@ -141,6 +165,25 @@ class PolicyAgent:
         """Start a new episode: the network's state and time go back to 0."""
         if self._brain is not None:
             self._brain.reset()
+
+    def get_state(self) -> tuple[list[float], float] | None:
+        """The running network's state and time (``"modulate"``), for a snapshot; else ``None``."""
+        if self._brain is None:
+            return None
+        h = self._handle
+        return [float(v) for v in self._brain.get_state(h)], float(self._brain.time(h))
+
+    def set_state(self, state: tuple[list[float], float] | None) -> None:
+        """Continue from :meth:`get_state` (``None``: a network that never ran)."""
+        self._brain = None
+        if state is None:
+            return
+        from revolve_env.brain import BatchController
+
+        self._brain = BatchController(self.control_period)
+        self._handle = self._brain.add(self.robot)
+        self._brain.set_state(self._handle, np.asarray(state[0], dtype=np.float64),
+                              float(state[1]))
 
     def policy_action(self, observation: np.ndarray) -> np.ndarray:
         """The policy's deterministic action (the env's action space) for one observation."""
@@ -168,7 +211,7 @@ class PolicyAgent:
             from revolve_env.brain import BatchController
 
             self._brain = BatchController(self.control_period)
-            self._brain.add(self.robot)
+            self._handle = self._brain.add(self.robot)
         self._brain.step(obs, self._out)
         n = self.n_outputs
         targets: NDArray[np.float64] = np.clip((1.0 + a[:n]) * self._out + a[n:], -1.0, 1.0)
@@ -247,11 +290,47 @@ class SB3Learner:
             )
         _algorithm_class(self.algorithm)  # fail early on an unknown name
 
+    @property
+    def _evaluation_seconds(self) -> float:
+        """The learner's own two evaluations (inborn, trained). Seconds."""
+        return 2 * (self.insertion + self.seconds)
+
+    def _rollout(self) -> tuple[int, int]:
+        """``(steps per env of one rollout, steps before the first update)`` of the algorithm."""
+        cls = _algorithm_class(self.algorithm)
+        defaults = {name: p.default for name, p in inspect.signature(cls).parameters.items()
+                    if p.default is not inspect.Parameter.empty}
+        kwargs = {**defaults, **dict(self.algorithm_kwargs)}
+        from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+
+        if issubclass(cls, OnPolicyAlgorithm):  # PPO, A2C: one rollout, then an update
+            return int(kwargs["n_steps"]), 0
+        freq = kwargs.get("train_freq", 1)
+        freq = int(freq[0] if isinstance(freq, tuple) else freq)
+        return freq, int(kwargs.get("learning_starts", 0))
+
+    def _min_steps(self) -> int:
+        per_env, starts = self._rollout()
+        return per_env * self.n_envs + starts
+
+    def training_steps(self, budget: float) -> int:
+        """Training steps ``budget`` seconds pay for after the two evaluations (whole rollouts)."""
+        steps = math.floor((budget - self._evaluation_seconds) / self.control_period + 1e-9)
+        per_env, starts = self._rollout()
+        if starts == 0:  # on-policy: SB3 rounds up to whole rollouts, so round down here
+            steps -= steps % (per_env * self.n_envs)
+        return max(steps, 0)
+
+    @property
+    def min_budget(self) -> float:
+        """The smallest budget for one learning step: two evaluations and one rollout. Seconds."""
+        return self._min_steps() * self.control_period + self._evaluation_seconds
+
     def learn(self, robot: Robot, budget: float, rng: np.random.Generator) -> LearningResult:
         """Train for ``budget`` simulated seconds; the result carries the :class:`PolicyAgent`.
 
         Raises:
-            ValueError: a budget shorter than one step per env, or a robot the env refuses.
+            ValueError: a budget below :attr:`min_budget`, or a robot the env refuses.
         """
         from stable_baselines3.common.callbacks import BaseCallback
         from stable_baselines3.common.env_util import make_vec_env
@@ -259,10 +338,11 @@ class SB3Learner:
 
         from revolve_env.brain import get_params
 
-        steps = math.floor(check_budget(budget) / self.control_period + 1e-9)
-        if steps < self.n_envs:
-            raise ValueError(f"a budget of {budget} s is {steps} steps: fewer than one per env "
-                             f"({self.n_envs} envs)")
+        steps = self.training_steps(check_budget(budget))
+        if steps < self._min_steps():
+            raise ValueError(f"a budget of {budget} s leaves {steps} training steps after the "
+                             f"learner's two evaluations; one learning step needs "
+                             f"{self._min_steps()} (min_budget: {self.min_budget:g} s)")
         seed = int(rng.integers(0, 2**31 - 1))
         factory = partial(_make_env, robot, self.action, self.insertion, self.seconds,
                           self.control_period, self.engine)
@@ -306,7 +386,86 @@ class SB3Learner:
             inborn_fitness=inborn,
             best_fitness=trained,
             evaluations=len(episodes),
-            sim_seconds=used * self.control_period,
+            sim_seconds=used * self.control_period + self._evaluation_seconds,
             failures=failures[0],
             policy=agent,
         )
+
+
+class PolicyFileError(ValueError):
+    """A saved policy that cannot be used: unreadable, damaged, or for another body."""
+
+
+def policy_digest(agent: PolicyAgent) -> str:
+    """SHA-256 of the policy's parameters (name, shape and bytes of each, in order).
+
+    A function of the trained numbers only, so a deterministic training gives the same digest
+    whatever else SB3 or torch would write into a file.
+    """
+    h = hashlib.sha256(f"{agent.action}:{agent.control_period!r}".encode())
+    state = getattr(agent.policy, "state_dict", None)
+    if state is None:
+        raise TypeError(f"{type(agent.policy).__name__} has no state_dict(): not an SB3 policy")
+    for name, tensor in state().items():
+        values = np.ascontiguousarray(tensor.detach().cpu().numpy())
+        h.update(f"{name}:{values.dtype}:{values.shape}".encode())
+        h.update(values.tobytes())
+    return h.hexdigest()
+
+
+def save_policy(agent: PolicyAgent, path: str | os.PathLike[str]) -> str:
+    """Write ``agent`` (a pickle) atomically to ``path``: a temporary file, then a rename.
+
+    Returns:
+        :func:`policy_digest` of the agent, for the store to keep.
+
+    Raises:
+        OSError: the file cannot be written.
+    """
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    agent.reset()
+    blob = pickle.dumps({"format": 1, "agent": agent}, protocol=5)
+    temporary = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+    try:
+        with open(temporary, "wb") as f:
+            f.write(blob)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(temporary, target)
+    finally:
+        temporary.unlink(missing_ok=True)
+    return policy_digest(agent)
+
+
+def load_policy(path: str | os.PathLike[str], robot: Robot,
+                digest: str | None = None) -> PolicyAgent:
+    """The :class:`PolicyAgent` saved at ``path``, checked against ``robot`` and ``digest``.
+
+    Raises:
+        PolicyFileError: naming the file: missing or unreadable, not a saved policy (damaged),
+            parameters that differ from ``digest``, or trained on another body or network.
+    """
+    name = os.fspath(path)
+    try:
+        with open(name, "rb") as f:
+            content = pickle.load(f)  # noqa: S301 - the run's own results folder
+    except OSError as error:
+        raise PolicyFileError(f"policy file {name}: {error.strerror or error}") from error
+    except Exception as error:  # noqa: BLE001 - any unpickling failure means a damaged file
+        raise PolicyFileError(f"policy file {name} is damaged ({type(error).__name__}: "
+                              f"{error})") from error
+    agent = content.get("agent") if isinstance(content, dict) else None
+    if not isinstance(agent, PolicyAgent) or content.get("format") != 1:
+        raise PolicyFileError(f"policy file {name} does not hold a saved PolicyAgent")
+    if not same_body(agent.robot, robot):
+        raise PolicyFileError(f"policy file {name} was trained on another body or network "
+                              "than this robot's")
+    try:
+        found = policy_digest(agent)
+    except Exception as error:  # noqa: BLE001 - a damaged network
+        raise PolicyFileError(f"policy file {name} is damaged ({error})") from error
+    if digest is not None and found != digest:
+        raise PolicyFileError(f"policy file {name} does not match its record in the store "
+                              "(parameters differ)")
+    return agent

@@ -516,10 +516,11 @@ def test_bad_learning_tables(capsys: pytest.CaptureFixture[str], tmp_path: Path)
                  "--out", str(tmp_path / "out")])
     assert "has no [learning] table" in _error(
         capsys, ["run", "scenario1", "--set", "learning.budget=10", "--out", str(tmp_path / "out")])
-    # A learner the engine cannot honour (a policy outside the genome) is refused up front.
+    # A budget too small for one learning step (SB3: two evaluations and one PPO rollout) is
+    # refused up front, in one line.
     sb3 = _tiny_learning(tmp_path, TINY_LEARNING.split("[learning]")[0]
                          + '[learning]\nlearner = "sb3"\nbudget = 2.0\n')
-    assert "trains a policy outside the genome" in _error(
+    assert "too small for one learning step of SB3Learner" in _error(
         capsys, ["run", str(sb3), "--out", str(tmp_path / "out")])
     assert not (tmp_path / "out").exists()
 
@@ -530,7 +531,7 @@ def test_learning_overrides_merge_into_the_shipped_table() -> None:
     assert config.learning["budget"] == 35.0 and config.learning["learner"] == "cma-es"
     assert config.learning["popsize"] == 4  # the rest of the shipped table is kept
     assert config.training_center().budget == 35.0
-    config = resolve_config("scenario1", {"learning": {"learner": "random-search", "budget": 6.0}})
+    config = resolve_config("scenario1", {"learning": {"learner": "random-search", "budget": 14.0}})
     assert config.training_center().learner.batch_size == 8
 
 

@@ -25,7 +25,7 @@ from experiment_fakes import (
 
 from evolution import experiments
 from evolution.evaluation import LocalEvaluator
-from evolution.experiments import Birth, ExperimentConfig, ProgressEvent
+from evolution.experiments import Birth, ConfigError, ExperimentConfig, ProgressEvent
 from evolution.experiments.store import Store
 from evolution.learning import (
     CandidateEvaluation,
@@ -261,26 +261,38 @@ def test_online_failing_learner_keeps_the_inborn_robot_and_the_run_goes_on(tmp_p
         assert added == [from_json(r.genome) for r in store.robots(0)]
 
 
+class DrawsButKeeps:
+    """A learner that draws from its generator and keeps the inborn controller."""
+
+    def learn(self, robot: Robot, budget: float, rng: np.random.Generator) -> LearningResult:
+        rng.random(5)
+        return LearningResult(robot, get_params(robot), (0.0,), 0.0, 0.0, 1, budget)
+
+
 def test_learning_changes_nothing_else_in_the_run(tmp_path: Path) -> None:
     """A learner that learns nothing leaves the run as it was without learning (the learner's
     generator is not the run's): same robots, same fitness."""
     experiments.run(offline_config(), tmp_path / "plain", evaluator=SERIAL)
-    nothing = TrainingCenter(RandomSearchLearner(evaluation=CANDIDATES), 0.5, "lamarckian")
+    nothing = TrainingCenter(DrawsButKeeps(), 0.5, "lamarckian")
     experiments.run(offline_config(), tmp_path / "learning", evaluator=SERIAL, infancy=nothing)
     plain, learning = (dump(tmp_path / d / "results.sqlite") for d in ("plain", "learning"))
-    assert [len(learning["learning"])] == [16]  # budget below one evaluation: nothing learned
-    # Robots with nothing to learn are learner failures; everything else is the same.
-    learning["failures"] = [f for f in learning["failures"] if f[3] != "learner"]
+    assert len(learning["learning"]) == 16
+    assert all(row[4] is None for row in learning["learning"])  # no learned genome
     assert {k: v for k, v in learning.items() if k != "learning"} == {
         k: v for k, v in plain.items() if k != "learning"}
 
 
-def test_a_policy_learner_is_refused_before_anything_is_written(tmp_path: Path) -> None:
-    from evolution.learning import SB3Learner
-
-    with pytest.raises(ValueError, match="SB3Learner trains a policy outside the genome"):
-        experiments.run(offline_config(), tmp_path / "out", evaluator=SERIAL,
-                       infancy=TrainingCenter(SB3Learner(), 10.0))
+def test_a_budget_below_one_learning_step_is_refused_before_anything_is_written(
+        tmp_path: Path) -> None:
+    """Before, such a budget gave every infant one evaluation of its inborn controller and no
+    learning, without a word."""
+    for learning in ({"learner": "random-search", "budget": 13.0},  # inborn + 1 candidate: 14 s
+                     {"learner": "sb3", "budget": 10.0}):  # 2 evaluations + a 2048-step rollout
+        with pytest.raises(ConfigError, match="too small for one learning step"):
+            experiments.run(offline_config(learning=learning), tmp_path / "out",
+                            evaluator=SERIAL)
+    with pytest.raises(ValueError, match="too small for one learning step"):
+        TrainingCenter(RandomSearchLearner(evaluation=CANDIDATES), 0.5)
     assert not (tmp_path / "out").exists()
 
 

@@ -158,7 +158,7 @@ def test_learning_records_round_trip(store: Store) -> None:
 
 def test_version_1_database_is_upgraded_in_place(tmp_path: Path) -> None:
     """A database written before the learning table existed opens, gains an empty learning
-    table and version 2, and keeps every record."""
+    table (with its policy column) and the current version, and keeps every record."""
     path = tmp_path / "results.sqlite"
     with Store.create(path, {"name": "old"}, 0) as s:
         s.add_run(0, 7)
@@ -169,9 +169,30 @@ def test_version_1_database_is_upgraded_in_place(tmp_path: Path) -> None:
     db.commit()
     db.close()
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == str(SCHEMA_VERSION) == "2"
+        assert s.meta()["schema_version"] == str(SCHEMA_VERSION) == "3"
         assert s.learning(0) == [] and [r.robot_id for r in s.robots(0)] == [0]
         assert set(s.table_counts()) == TABLES
+
+
+def test_version_2_database_gains_the_policy_column(tmp_path: Path) -> None:
+    """A version-2 database (learning table without ``policy``) is upgraded in place: its
+    learning records keep their values and read back with no policy."""
+    path = tmp_path / "results.sqlite"
+    with Store.create(path, {"name": "old"}, 0) as s:
+        s.add_run(0, 7)
+    db = sqlite3.connect(path)
+    db.execute("DROP TABLE learning")
+    db.execute("CREATE TABLE learning (run_id INTEGER NOT NULL, robot_id INTEGER NOT NULL, "
+               "time REAL NOT NULL, inheritance TEXT NOT NULL, learned_genome TEXT, "
+               "inborn_fitness REAL, learned_fitness REAL, evaluations INTEGER, sim_seconds REAL, "
+               "failures INTEGER NOT NULL DEFAULT 0, PRIMARY KEY (run_id, robot_id))")
+    db.execute("INSERT INTO learning VALUES (0, 0, 0.0, 'darwinian', NULL, 0.5, 0.75, 3, 21.0, 0)")
+    db.execute("UPDATE meta SET value = '2' WHERE key = 'schema_version'")
+    db.commit()
+    db.close()
+    with Store.open(path) as s:
+        assert s.meta()["schema_version"] == "3"
+        assert s.learning(0) == [LearningRecord(0, 0.0, "darwinian", None, 0.5, 0.75, 3, 21.0)]
 
 
 def test_infinite_and_missing_fitness(store: Store) -> None:

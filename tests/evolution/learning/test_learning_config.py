@@ -74,9 +74,9 @@ def test_bad_tables_are_config_errors_naming_the_problem(table: object, message:
 def test_toml_files_keep_the_table(tmp_path: Path) -> None:
     path = tmp_path / "mine.toml"
     path.write_text('preset = "scenario1"\nname = "mine"\n[learning]\nlearner = "cma-es"\n'
-                    'budget = 17.0\npopsize = 4\n')
+                    'budget = 35.0\npopsize = 4\n')
     config = ExperimentConfig.from_toml(path)
-    assert config.learning == {"learner": "cma-es", "budget": 17.0, "popsize": 4}
+    assert config.learning == {"learner": "cma-es", "budget": 35.0, "popsize": 4}
     center = config.training_center()
     assert center is not None and center == ExperimentConfig.from_toml(path).training_center()
     assert isinstance(center.learner, CMAESLearner)
@@ -94,7 +94,7 @@ def test_run_stores_the_table_and_resume_reads_it(tmp_path: Path) -> None:
 
 def test_another_training_center_next_to_a_table_is_refused(tmp_path: Path) -> None:
     config = tiny(learning=TABLE)
-    other = TrainingCenter(RandomSearchLearner(batch_size=2), 6.0, "lamarckian")
+    other = TrainingCenter(RandomSearchLearner(batch_size=2), 14.0, "lamarckian")
     with pytest.raises(ConfigError, match="learning table and infancy="):
         experiments.run(config, tmp_path / "x", evaluator=SERIAL, infancy=other)
     assert not (tmp_path / "x").exists()

@@ -84,11 +84,15 @@ def test_ppo_trains_and_its_policy_drives_the_robot_in_the_population_env() -> N
     learner = SB3Learner("PPO", action="modulate", n_envs=2, vec_env="dummy", insertion=0.25,
                          seconds=1.0, control_period=DT,
                          algorithm_kwargs={"n_steps": 40, "batch_size": 40, "n_epochs": 2})
-    budget = 2 * 40 * DT  # one rollout of 40 steps in each of the 2 envs
+    # One rollout of 40 steps in each of the 2 envs, and the learner's own two evaluations of
+    # 1.25 s; 79 more steps buy no second whole rollout (SB3 would round up and overspend).
+    needed = 2 * 40 * DT + 2 * 1.25
+    assert learner.min_budget == pytest.approx(needed)
+    budget = needed + 79 * DT
     result = learner.learn(robot, budget, np.random.default_rng(0))
     # Episodes are 38 steps (1.25 s): each env finished one during 40 steps.
     assert result.evaluations == 2 == len(result.fitness)
-    assert result.sim_seconds == pytest.approx(budget)
+    assert result.sim_seconds == pytest.approx(needed) and result.sim_seconds <= budget
     assert result.robot == robot  # the network is untouched; the policy is the learned part
     agent = result.policy
     assert isinstance(agent, PolicyAgent) and agent.action == "modulate"
@@ -107,9 +111,29 @@ def test_ppo_trains_and_its_policy_drives_the_robot_in_the_population_env() -> N
 
 def test_sb3_learners_cannot_be_lamarckian() -> None:
     learner = SB3Learner("PPO", vec_env="dummy")
-    assert TrainingCenter(learner, 10.0).inheritance == "darwinian"
+    assert TrainingCenter(learner, 100.0).inheritance == "darwinian"
     with pytest.raises(ValueError, match="Lamarckian"):
-        TrainingCenter(learner, 10.0, "lamarckian")
+        TrainingCenter(learner, 100.0, "lamarckian")
+
+
+def test_sb3_budgets_count_every_simulated_second() -> None:
+    """The budget pays for the learner's two evaluations and whole rollouts: too little for one
+    rollout is refused (the Training Center at config time, ``learn`` too), and the training
+    steps never push the total past the budget."""
+    learner = SB3Learner("PPO", n_envs=2, vec_env="dummy", insertion=0.5, seconds=4.0,
+                         control_period=1 / 60, algorithm_kwargs={"n_steps": 256})
+    assert learner.min_budget == pytest.approx(2 * 256 / 60 + 9.0)
+    # The 60 s that once bought 64 s of PPO: 51 s of training is 3060 steps, 5 whole rollouts
+    # of 512; 5 * 512 / 60 + 9 = 51.67 s.
+    assert learner.training_steps(60.0) == 5 * 512
+    assert learner.training_steps(60.0) / 60 + 9.0 <= 60.0
+    with pytest.raises(ValueError, match="too small for one learning step"):
+        TrainingCenter(learner, learner.min_budget - 0.01)
+    with pytest.raises(ValueError, match="one learning step needs 512"):
+        learner.learn(EXAMPLES["gecko"](), 17.0, np.random.default_rng(0))
+    sac = SB3Learner("SAC", n_envs=1, vec_env="dummy", insertion=0.5, seconds=4.0,
+                     control_period=1 / 60, algorithm_kwargs={"learning_starts": 30})
+    assert sac.min_budget == pytest.approx(31 / 60 + 9.0)
     with pytest.raises(ValueError, match="no algorithm"):
         SB3Learner("NotAnAlgorithm")
 
@@ -123,8 +147,9 @@ def test_sac_with_direct_targets_in_subprocess_envs() -> None:
                          seconds=1.0, control_period=DT,
                          algorithm_kwargs={"learning_starts": 20, "batch_size": 32,
                                            "buffer_size": 1000})
-    result = learner.learn(robot, 100 * DT, np.random.default_rng(0))
-    again = learner.learn(robot, 100 * DT, np.random.default_rng(0))
+    budget = 100 * DT + 2 * 1.25  # 100 training steps and the two evaluations
+    result = learner.learn(robot, budget, np.random.default_rng(0))
+    again = learner.learn(robot, budget, np.random.default_rng(0))
     assert result.fitness == again.fitness and result.best_fitness == again.best_fitness
     assert result.evaluations == 2 and result.policy is not None
     assert result.policy.action == "targets"

@@ -98,7 +98,7 @@ def test_learning_columns_are_the_stored_learning_records(results: Path, tmp_pat
     shutil.copytree(results / "scenario1", root / "scenario1")
     config = small(preset("scenario1", births=30, runs=1, diversity_interval=10)).replace(
         name="scenario1_learning",
-        learning={"learner": "random-search", "budget": 2.0, "inheritance": "darwinian"})
+        learning={"learner": "random-search", "budget": 14.0, "inheritance": "darwinian"})
     learning_evaluator = LocalEvaluator(workers=1, function=fake_evaluate_after_infancy)
     center = TrainingCenter(RandomSearchLearner(batch_size=1, evaluation=CANDIDATES), 2.0)
     # The stored table says random search; the stand-in candidate fitness keeps this fast.
