@@ -38,7 +38,9 @@ population env's steps (``lifecycle=``).
   seed + 1, + 2, ...; unseeded before any ``seed`` call) and the initial robots take their slots.
 
 Only on-policy use is supported (PPO, A2C): slots change occupant between steps, which is what
-SB3's auto-resetting ``VecEnv`` contract allows. Wrap with ``VecNormalize`` as usual.
+SB3's auto-resetting ``VecEnv`` contract allows. Wrap with ``VecNormalize`` as usual. Needs
+stable-baselines3 (the ``learn`` or ``test`` extra); ``import revolve_env`` does not import this
+module. Example: ``examples/multi_agent_shared_policy.py``.
 """
 
 from __future__ import annotations
