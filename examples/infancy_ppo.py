@@ -10,8 +10,9 @@ from evolution.learning import SB3Learner, TrainingCenter
 
 # With action="modulate" the robot's network (its CPG) keeps running and the policy scales and
 # offsets its outputs, so the zero action is the inborn gait and training starts from it.
-# A tiny budget so that it runs in seconds: 256 PPO steps of 1/60 s. For real use raise BUDGET
-# (thousands of simulated seconds), n_steps, n_envs, and use vec_env="subproc".
+# A tiny budget so that it runs in seconds: 256 PPO steps of 1/60 s plus the learner's two
+# evaluations of 2.5 s (inborn and trained), which the budget pays for too. For real use raise
+# BUDGET (thousands of simulated seconds), n_steps, n_envs, and use vec_env="subproc".
 learner = SB3Learner(
     "PPO",
     action="modulate",
@@ -21,7 +22,7 @@ learner = SB3Learner(
     seconds=2.0,            # scored seconds of each training episode (and the fitness window)
     algorithm_kwargs={"n_steps": 128, "batch_size": 64, "n_epochs": 2},
 )
-BUDGET = 256 / 60  # simulated seconds of training: 256 env steps of 1/60 s
+BUDGET = 256 / 60 + 2 * (0.5 + 2.0)  # simulated seconds: 256 env steps + two evaluations
 
 # The policy lives outside the genome, so an SB3 learner is Darwinian only.
 center = TrainingCenter(learner, budget=BUDGET, inheritance="darwinian")

@@ -121,3 +121,13 @@ def test_custom_fitness() -> None:
         revolve_env.EXAMPLES)
     for name in revolve_env.EXAMPLES:
         numbers(rf"^{name}\s+{NUMBER}\s+{NUMBER}\s+{NUMBER}\s+{NUMBER}$", out)
+
+
+def test_multi_agent_shared_policy() -> None:
+    """Two short PPO iterations with births every 40 steps: the script runs and compares with
+    the robots' own CPGs (late-born robots' rewards: tests/envs/test_sb3_adapter.py)."""
+    out = run_example("multi_agent_shared_policy", "--iterations", "2", "--n-steps", "120",
+                      "--episode-steps", "120", "--birth-every", "40", "--death-every", "60",
+                      "--slots", "4", "--figure", "")
+    (cpg,) = numbers(rf"own CPGs: {NUMBER} m/s per robot", out)
+    assert cpg > 0
