@@ -11,9 +11,9 @@ depend on the number of workers or on which worker ran what.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
-from typing import Protocol, cast
+from typing import Any, Protocol, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,6 +30,7 @@ __all__ = [
     "LearningSummary",
     "evaluate_after_infancy",
     "evaluate_robot",
+    "episode_outcome",
     "evaluate_task",
     "evaluation_seed",
     "infancy_seed",
@@ -151,6 +152,11 @@ def _evaluate_with_policy(task: EvalTask, policy: DrivingPolicy) -> EvalOutcome:
         info = run_episode(env, task.seed, policy.act)
     finally:
         env.close()
+    return episode_outcome(info)
+
+
+def episode_outcome(info: Mapping[str, Any]) -> EvalOutcome:
+    """The outcome of a finished env episode, from its last info: fitness, or the blow-up."""
     if info["blow_up"] is not None:
         return EvalOutcome(None, failure=f"blow-up: {info['blow_up']}")
     return EvalOutcome(float(info["fitness"]), float(info["fitness_v"]), float(info["fitness_s"]))

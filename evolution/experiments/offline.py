@@ -43,12 +43,7 @@ class OfflineRun(RunState):
 
     def restore(self, checkpoint: Checkpoint) -> None:
         """Continue from a checkpoint: clock, generator and population from the store."""
-        self.births = checkpoint.births
-        self.sim_time = checkpoint.sim_time
-        self.sim_time_at_start = checkpoint.sim_time
-        self.generation = checkpoint.generation
-        self.rng.bit_generator.state = checkpoint.rng_state
-        self.last_diversity_births = checkpoint.engine_state.get("last_diversity_births")
+        self.restore_counters(checkpoint)
         members = checkpoint.engine_state["population"]
         ids = [m[0] for m in members]
         records = {r.robot_id: r for r in self.store.robots(self.run_id, ids)}

@@ -300,12 +300,7 @@ class OnlineRun(RunState):
             _log.warning("run %d: cannot resume from the snapshot at %d births (%s); replaying "
                          "from birth 0", self.run_id, checkpoint.births, e)
             return False
-        self.births = checkpoint.births
-        self.sim_time = checkpoint.sim_time
-        self.sim_time_at_start = checkpoint.sim_time
-        self.generation = checkpoint.generation
-        self.rng.bit_generator.state = checkpoint.rng_state
-        self.last_diversity_births = checkpoint.engine_state.get("last_diversity_births")
+        self.restore_counters(checkpoint)
         self.last_commit_births = checkpoint.births
         self.population = population
         self.dead = []

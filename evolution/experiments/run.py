@@ -455,6 +455,15 @@ class RunState:
 
     # -- commit points -------------------------------------------------------------------------
 
+    def restore_counters(self, checkpoint: Checkpoint) -> None:
+        """Take the clock, counters and generator of a checkpoint (both engines' resume)."""
+        self.births = checkpoint.births
+        self.sim_time = checkpoint.sim_time
+        self.sim_time_at_start = checkpoint.sim_time
+        self.generation = checkpoint.generation
+        self.rng.bit_generator.state = checkpoint.rng_state
+        self.last_diversity_births = checkpoint.engine_state.get("last_diversity_births")
+
     def diversity_due(self) -> bool:
         """True when this commit point should measure the population's diversity."""
         interval = self.config.diversity_interval

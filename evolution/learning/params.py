@@ -29,6 +29,7 @@ from evolution.evaluation import (
     EvalTask,
     EvaluateFunction,
     LocalEvaluator,
+    episode_outcome,
     evaluate_task,
 )
 from evolution.learning.base import LearningResult, check_budget
@@ -59,12 +60,9 @@ def evaluate_in_env(task: EvalTask) -> EvalOutcome:
                         evaluation_time=task.seconds, fitness_window=task.seconds,
                         engine=task.engine)
     try:
-        info = run_episode(env, task.seed)
+        return episode_outcome(run_episode(env, task.seed))
     finally:
         env.close()
-    if info["blow_up"] is not None:
-        return EvalOutcome(None, failure=f"blow-up: {info['blow_up']}")
-    return EvalOutcome(float(info["fitness"]), float(info["fitness_v"]), float(info["fitness_s"]))
 
 
 @dataclass(frozen=True, slots=True)
