@@ -9,14 +9,16 @@ from __future__ import annotations
 
 import hashlib
 import math
+import sqlite3
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from evolution.config import EvolutionConfig
 from evolution.evaluation import EvalOutcome, EvalTask, evaluate_after_infancy
-from evolution.experiments import AgentStatus, Birth, ExperimentConfig
+from evolution.experiments import AgentStatus, Birth, ExperimentConfig, ProgressEvent
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import to_json
 from revolve_env.brain import get_params, param_bounds
@@ -189,3 +191,33 @@ class PickyWorld(FakeWorld):
 
 def picky_world(config: ExperimentConfig, seed: int) -> FakeWorld:
     return PickyWorld(config, seed)
+
+
+# -- comparing and interrupting runs -----------------------------------------------------------
+
+RESULT_TABLES = ("runs", "checkpoints", "robots", "fitness", "transitions", "population",
+                 "diversity", "failures", "learning")
+"""The tables of a results database that a resumed run must reproduce."""
+
+
+def dump_results(db: Path) -> dict[str, list[tuple[Any, ...]]]:
+    """Every row of every results table, in a canonical order."""
+    con = sqlite3.connect(db)
+    try:
+        return {t: sorted(con.execute(f"SELECT * FROM {t}").fetchall(), key=repr)
+                for t in RESULT_TABLES}
+    finally:
+        con.close()
+
+
+class Kill(Exception):
+    """Stands for a kill of the process: raised from a progress callback."""
+
+
+def kill_after(births: int) -> Callable[[ProgressEvent], None]:
+    """A progress callback that stops a run at its first commit point with ``births`` births
+    (replayed commit points do not count)."""
+    def progress(event: ProgressEvent) -> None:
+        if event.births >= births and not event.replaying:
+            raise Kill(f"killed at {event.births} births")
+    return progress

@@ -3,42 +3,20 @@ and a killed MuJoCo run resumes to the uninterrupted run's numbers (real physics
 
 from __future__ import annotations
 
-import sqlite3
 from pathlib import Path
 from typing import Any
 
 import pytest
-from experiment_fakes import small
+from experiment_fakes import Kill, kill_after, small
+from experiment_fakes import dump_results as dump
 
 from evolution import experiments
 from evolution.evaluation import LocalEvaluator
-from evolution.experiments import ConfigError, ExperimentConfig, ProgressEvent, load_config
+from evolution.experiments import ConfigError, ExperimentConfig, load_config
 from evolution.experiments.store import Store
 from evolution.reporting import report
 
 pytest.importorskip("mujoco", reason="the mujoco package is not installed")
-
-TABLES = ("runs", "checkpoints", "robots", "fitness", "transitions", "population", "diversity",
-          "failures", "learning")
-
-
-def dump(db: Path) -> dict[str, list[tuple[Any, ...]]]:
-    con = sqlite3.connect(db)
-    try:
-        return {t: sorted(con.execute(f"SELECT * FROM {t}").fetchall(), key=repr) for t in TABLES}
-    finally:
-        con.close()
-
-
-class Kill(Exception):
-    pass
-
-
-def kill_after(births: int) -> Any:
-    def progress(event: ProgressEvent) -> None:
-        if event.births >= births and not event.replaying:
-            raise Kill(f"killed at {event.births} births")
-    return progress
 
 
 def tiny(name: str, **changes: Any) -> ExperimentConfig:

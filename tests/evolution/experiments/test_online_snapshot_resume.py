@@ -10,7 +10,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from experiment_fakes import small
+from experiment_fakes import Kill, kill_after, small
+from experiment_fakes import dump_results as dump
 
 from evolution import experiments
 from evolution.evaluation import LocalEvaluator
@@ -19,30 +20,7 @@ from evolution.experiments.store import Store
 
 pytest.importorskip("mujoco", reason="the mujoco package is not installed")
 
-TABLES = ("runs", "checkpoints", "robots", "fitness", "transitions", "population", "diversity",
-          "failures", "learning")
 SERIAL = LocalEvaluator(1)
-
-
-def dump(db: Path) -> dict[str, list[tuple[Any, ...]]]:
-    """Every table, rows sorted (a finished run's last checkpoint references no snapshot, so
-    the checkpoints compare whole)."""
-    con = sqlite3.connect(db)
-    try:
-        return {t: sorted(con.execute(f"SELECT * FROM {t}").fetchall(), key=repr) for t in TABLES}
-    finally:
-        con.close()
-
-
-class Kill(Exception):
-    pass
-
-
-def kill_after(births: int) -> Any:
-    def progress(event: ProgressEvent) -> None:
-        if event.births >= births and not event.replaying:
-            raise Kill(f"killed at {event.births} births")
-    return progress
 
 
 def tiny(engine: str = "mujoco", **changes: Any) -> ExperimentConfig:

@@ -7,7 +7,9 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from experiment_fakes import CtrlCEvaluator, fake_evaluate, fake_world, small
+from experiment_fakes import CtrlCEvaluator, Kill, fake_evaluate, fake_world, small
+from experiment_fakes import dump_results as dump
+from experiment_fakes import kill_after as killer
 
 from evolution import experiments
 from evolution.evaluation import LocalEvaluator
@@ -22,28 +24,6 @@ def small_preset(name: str, **kw: object) -> ExperimentConfig:
 
 
 SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
-TABLES = ("runs", "checkpoints", "robots", "fitness", "transitions", "population", "diversity",
-          "failures", "learning")
-
-
-def dump(db: Path) -> dict[str, list[tuple[Any, ...]]]:
-    """Every row of every results table, in a canonical order."""
-    con = sqlite3.connect(db)
-    try:
-        return {t: sorted(con.execute(f"SELECT * FROM {t}").fetchall(), key=repr) for t in TABLES}
-    finally:
-        con.close()
-
-
-class Kill(Exception):
-    pass
-
-
-def killer(after_births: int) -> Any:
-    def progress(event: ProgressEvent) -> None:
-        if event.births >= after_births and not event.replaying:
-            raise Kill(f"killed at {event.births} births")
-    return progress
 
 
 def _uninterrupted(config: ExperimentConfig, out: Path, **kw: Any) -> dict[str, list]:

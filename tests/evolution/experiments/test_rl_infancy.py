@@ -11,6 +11,9 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from experiment_fakes import Kill
+from experiment_fakes import dump_results as dump
+from experiment_fakes import kill_after as killer
 
 from evolution import experiments
 from evolution.evaluation import LocalEvaluator, evaluate_task
@@ -19,32 +22,11 @@ from evolution.experiments.store import Store, StoreError
 
 pytest.importorskip("stable_baselines3")
 
-TABLES = ("runs", "checkpoints", "robots", "fitness", "transitions", "population", "diversity",
-          "failures", "learning")
 SERIAL = LocalEvaluator(workers=1, function=evaluate_task)
 # One PPO rollout of 16 steps (1/60 s each) and the learner's two 1.5 s evaluations: 3.27 s.
 LEARNING = {"learner": "sb3", "algorithm": "PPO", "n_envs": 1, "vec_env": "dummy",
             "insertion": 0.5, "seconds": 1.0, "budget": 3.3,
             "algorithm_kwargs": {"n_steps": 16, "batch_size": 16, "n_epochs": 1}}
-
-
-def dump(db: Path) -> dict[str, list[tuple[Any, ...]]]:
-    con = sqlite3.connect(db)
-    try:
-        return {t: sorted(con.execute(f"SELECT * FROM {t}").fetchall(), key=repr) for t in TABLES}
-    finally:
-        con.close()
-
-
-class Kill(Exception):
-    pass
-
-
-def killer(after_births: int) -> Any:
-    def progress(event: ProgressEvent) -> None:
-        if event.births >= after_births and not event.replaying:
-            raise Kill(f"killed at {event.births} births")
-    return progress
 
 
 def offline_config() -> ExperimentConfig:
