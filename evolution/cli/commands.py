@@ -504,8 +504,8 @@ def _add_demo(sub: _Subparsers) -> None:
     p = sub.add_parser(
         "demo", help="check the installation: evaluate a robot, evolve a few",
         description="Evaluate the example spider and print its fitness, then evolve a small "
-                    "population for a few births and print the best fitness (about 8 s on two "
-                    "cores).",
+                    "population for a few births and print the best fitness (3 to 8 s on two "
+                    "cores, measured).",
     )
     p.add_argument("--births", type=_positive_int, default=30, help="births")
     p.add_argument("--population", type=_positive_int, default=6,
