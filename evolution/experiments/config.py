@@ -258,31 +258,12 @@ class ExperimentConfig:
                 f"unknown experiment config key(s): {', '.join(unknown)}; known keys: "
                 f"{', '.join(sorted(known | {'preset'}))}"
             )
-        evolution = dict(base.pop("evolution", {}))
-        evolution_data = data.pop("evolution", {})
-        if not isinstance(evolution_data, Mapping):
-            raise ConfigError(f"evolution must be a table of parameters, got {evolution_data!r}")
-        evolution.update(evolution_data)
-        evolution_known = {f.name for f in fields(EvolutionConfig)}
-        unknown = sorted(set(evolution) - evolution_known)
-        if unknown:
-            raise ConfigError(
-                f"unknown evolution config key(s): {', '.join(unknown)}; known keys: "
-                f"{', '.join(sorted(evolution_known))}"
-            )
+        evolution = _table("evolution", base, data, EvolutionConfig)
         try:
             evolution_config = EvolutionConfig(**evolution)
         except (TypeError, ValueError, ArithmeticError) as error:  # 10**400 -> float: Overflow
             raise ConfigError(f"evolution: {error}") from error
-        world = dict(base.pop("world", {}))
-        world_data = data.pop("world", {})
-        if not isinstance(world_data, Mapping):
-            raise ConfigError(f"world must be a table (engine = ...), got {world_data!r}")
-        world.update(world_data)
-        unknown = sorted(set(world) - {f.name for f in fields(WorldSettings)})
-        if unknown:
-            raise ConfigError(f"unknown world config key(s): {', '.join(unknown)}; known: engine")
-        world_settings = WorldSettings(**world)
+        world_settings = WorldSettings(**_table("world", base, data, WorldSettings))
         merged = {**base, **data}
         try:
             return cls(**merged, evolution=evolution_config, world=world_settings)
@@ -324,6 +305,26 @@ class ExperimentConfig:
     def seconds_per_evaluation(self) -> float:
         """Simulated seconds of one offline evaluation (insertion + window)."""
         return self.insertion + self.evaluation_time
+
+
+def _table(name: str, base: dict[str, Any], data: dict[str, Any],
+           kind: type[EvolutionConfig] | type[WorldSettings]) -> dict[str, Any]:
+    """A nested config table: the preset's keys (``base``) updated with ``data``'s, both popped.
+
+    Raises:
+        ConfigError: the table is not a table, or holds a key ``kind`` does not have.
+    """
+    table = dict(base.pop(name, {}))
+    given = data.pop(name, {})
+    if not isinstance(given, Mapping):
+        raise ConfigError(f"{name} must be a table of parameters, got {given!r}")
+    table.update(given)
+    known = {f.name for f in fields(kind)}
+    unknown = sorted(set(table) - known)
+    if unknown:
+        raise ConfigError(f"unknown {name} config key(s): {', '.join(unknown)}; known keys: "
+                          f"{', '.join(sorted(known))}")
+    return table
 
 
 def load_config(name_or_path: str | os.PathLike[str],
