@@ -200,12 +200,13 @@ RESULT_TABLES = ("runs", "checkpoints", "robots", "fitness", "transitions", "pop
 """The tables of a results database that a resumed run must reproduce."""
 
 
-def dump_results(db: Path) -> dict[str, list[tuple[Any, ...]]]:
-    """Every row of every results table, in a canonical order."""
+def dump_results(db: Path, tables: tuple[str, ...] = RESULT_TABLES
+                 ) -> dict[str, list[tuple[Any, ...]]]:
+    """Every row of ``tables`` (default: every results table), in a canonical order."""
     con = sqlite3.connect(db)
     try:
         return {t: sorted(con.execute(f"SELECT * FROM {t}").fetchall(), key=repr)
-                for t in RESULT_TABLES}
+                for t in tables}
     finally:
         con.close()
 

@@ -13,10 +13,9 @@ import json
 import sqlite3
 import xml.etree.ElementTree as ET
 from pathlib import Path
-from typing import Any
 
 import pytest
-from experiment_fakes import CtrlCEvaluator, fake_evaluate
+from experiment_fakes import CtrlCEvaluator, dump_results, fake_evaluate
 
 from evolution.cli import ProgressBar, build_parser, main
 from evolution.evaluation import LocalEvaluator, evaluate_task
@@ -457,14 +456,6 @@ def _tiny_learning(tmp_path: Path, text: str = TINY_LEARNING) -> Path:
     return path
 
 
-def _learning_dump(db: Path) -> dict[str, list[tuple[Any, ...]]]:
-    con = sqlite3.connect(db)
-    try:
-        return {t: sorted(con.execute(f"SELECT * FROM {t}").fetchall(), key=repr)
-                for t in LEARNING_TABLES}
-    finally:
-        con.close()
-
 
 def test_learning_config_runs_stores_its_table_and_is_reported(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -546,7 +537,7 @@ def test_learning_run_ctrl_c_then_resume_rebuilds_the_learner(
         monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     config = _tiny_learning(tmp_path)
     assert main(["run", str(config), "--out", str(tmp_path / "reference")]) == 0
-    reference = _learning_dump(tmp_path / "reference" / "tiny_learning" / DB_NAME)
+    reference = dump_results(tmp_path / "reference" / "tiny_learning" / DB_NAME, LEARNING_TABLES)
 
     real = api.make_evaluator
     monkeypatch.setattr(api, "make_evaluator",
@@ -559,7 +550,7 @@ def test_learning_run_ctrl_c_then_resume_rebuilds_the_learner(
     monkeypatch.setattr(api, "make_evaluator", real)
     # `revolve resume` takes nothing but the folder: the learner comes from the stored table.
     assert main(["resume", str(killed)]) == 0
-    resumed = _learning_dump(killed / DB_NAME)
+    resumed = dump_results(killed / DB_NAME, LEARNING_TABLES)
     assert {r[1] for r in resumed["learning"]} | {r[1] for r in resumed["failures"]} >= {2, 3}
     assert resumed == reference
 

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import os
-import sqlite3
 from pathlib import Path
 from typing import Any
 
 import pytest
-from experiment_fakes import fake_evaluate, small
+from experiment_fakes import dump_results, fake_evaluate, small
 
 from evolution import experiments
 from evolution.evaluation import EvalTask, LocalEvaluator, evaluation_seed
@@ -20,11 +19,7 @@ TABLES = ("robots", "fitness", "transitions", "population", "diversity", "failur
 
 
 def dump(db: Path) -> dict[str, list[tuple[Any, ...]]]:
-    con = sqlite3.connect(db)
-    try:
-        return {t: sorted(con.execute(f"SELECT * FROM {t}").fetchall(), key=repr) for t in TABLES}
-    finally:
-        con.close()
+    return dump_results(db, TABLES)
 
 
 def _robot(i: int) -> Robot:
