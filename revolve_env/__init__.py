@@ -32,6 +32,7 @@ from revolve_env.body import (
     to_json,
     validate,
 )
+from revolve_env.conditions import IDEAL, EvaluationConditions
 
 __version__ = "0.1.0"
 
@@ -75,10 +76,12 @@ def __dir__() -> list[str]:
 __all__ = [
     "ENGINES",
     "EXAMPLES",
+    "IDEAL",
     "LOCOMOTION_ID",
     "Activation",
     "BatchController",
     "Connection",
+    "EvaluationConditions",
     "EvaluationResult",
     "Layer",
     "Limits",

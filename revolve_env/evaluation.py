@@ -15,10 +15,23 @@ from numpy.typing import NDArray
 from revolve_env.body.robot import Robot
 from revolve_env.body.validate import Limits, validate
 from revolve_env.brain import BatchController
+from revolve_env.conditions import IDEAL, EvaluationConditions, Start
 from revolve_env.fitness import DEFAULT_S_WEIGHT, fitness_terms
 from revolve_env.world import World, WorldConfig
 
-__all__ = ["EvaluationResult", "evaluate"]
+__all__ = ["EvaluationResult", "evaluate", "start_generator"]
+
+_START_STREAM = 0x57A27
+"""Tags the generator of a start, apart from the noise generator of the same seed."""
+
+
+def start_generator(seed: int) -> np.random.Generator:
+    """The generator an evaluation of ``seed`` draws its start (heading, jitter) from.
+
+    Apart from ``default_rng(seed)``, which draws the noise: turning the random heading on or off
+    changes no noise draw.
+    """
+    return np.random.default_rng(np.random.SeedSequence([seed, _START_STREAM]))
 
 
 @dataclass(frozen=True)
@@ -52,30 +65,39 @@ def evaluate(
     config: WorldConfig | None = None,
     limits: Limits | None = None,
     engine: str | None = None,
+    conditions: EvaluationConditions | None = None,
 ) -> EvaluationResult:
     """Run ``robot`` on its own controller in a fresh world and measure its fitness.
 
-    The robot is validated, dropped at the origin, left ``insertion`` seconds to settle (its
-    controller already runs) and then followed for ``seconds``; the fitness is ``v + 5 s`` over
-    that span (:mod:`revolve_env.fitness`). The network is stepped by the compiled
-    :class:`~revolve_env.brain.BatchController` once per control period.
+    The robot is validated, dropped at the origin (or where ``conditions`` draw its start), left
+    ``insertion`` seconds to settle (its controller already runs) and then followed for
+    ``seconds``; the fitness is ``v + 5 s`` over that span (:mod:`revolve_env.fitness`). The
+    network is stepped by the compiled :class:`~revolve_env.brain.BatchController` once per
+    control period.
 
     Args:
         robot: The robot, with its neural network.
         seconds: Evaluation time (the fitness window). Seconds.
         insertion: Settling time before the evaluation. Seconds.
-        seed: Seeds the sensor and actuator noise (the physics itself is deterministic).
-        sensor_noise: Standard deviation of Gaussian noise on every sensor value.
-        actuator_noise: Standard deviation of Gaussian noise on every normalized hinge target.
+        seed: Seeds the start (heading, jitter) and the noise that ``conditions`` ask for (the
+            physics itself is deterministic): two generators, ``default_rng(seed)`` for the noise
+            and :func:`start_generator` for the start.
+        sensor_noise: Standard deviation of Gaussian noise on every sensor value (a shortcut for
+            ``conditions=EvaluationConditions(sensor_noise=...)``; not with ``conditions``).
+        actuator_noise: Standard deviation of Gaussian noise on every normalized hinge target
+            (likewise).
         config: Physics settings; ``WorldConfig()`` by default.
         limits: Validation limits.
         engine: Physics engine (``"pybullet"`` or ``"mujoco"``); None keeps ``config.engine``
             (pybullet by default).
+        conditions: Start heading and position jitter around the origin, sensor and actuator
+            noise (:class:`~revolve_env.conditions.EvaluationConditions`); default
+            :data:`~revolve_env.conditions.IDEAL` (heading 0 at the origin, no noise).
 
     Raises:
         RobotError: the robot is invalid (before any physics runs).
-        ValueError: a bad timing or noise argument, an unknown engine, or a network whose inputs
-            do not match the body's sensors.
+        ValueError: a bad timing or noise argument, noise given both ways, an unknown engine, or
+            a network whose inputs do not match the body's sensors.
         EngineUnavailableError: the engine's package is not installed.
     """
     validate(robot, limits)
@@ -83,6 +105,12 @@ def evaluate(
                         ("sensor_noise", sensor_noise), ("actuator_noise", actuator_noise)):
         if not (math.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+    if conditions is None:
+        conditions = IDEAL if sensor_noise == 0 and actuator_noise == 0 else \
+            EvaluationConditions(sensor_noise=sensor_noise, actuator_noise=actuator_noise)
+    elif sensor_noise or actuator_noise:
+        raise ValueError("give the noise either in conditions or as sensor_noise/actuator_noise, "
+                         "not both")
     cfg = (config if config is not None else WorldConfig()).with_engine(engine)
     dt = cfg.control_period
     insertion_ticks = round(insertion / dt)
@@ -90,9 +118,10 @@ def evaluate(
     if evaluation_ticks < 1:
         raise ValueError(f"seconds ({seconds}) must cover at least one control period ({dt} s)")
     rng = np.random.default_rng(seed)
+    start = conditions.start(start_generator(seed))
     with World(cfg) as world:
         path, reason = _rollout(world, robot, insertion_ticks, evaluation_ticks, rng,
-                                sensor_noise, actuator_noise)
+                                conditions.sensor_noise, conditions.actuator_noise, start)
     if reason is not None:
         return EvaluationResult(0.0, 0.0, 0.0, path, reason)
     terms = fitness_terms(path, DEFAULT_S_WEIGHT)
@@ -101,9 +130,9 @@ def evaluate(
 
 def _rollout(
     world: World, robot: Robot, insertion_ticks: int, evaluation_ticks: int,
-    rng: np.random.Generator, sensor_noise: float, actuator_noise: float,
+    rng: np.random.Generator, sensor_noise: float, actuator_noise: float, start: Start,
 ) -> tuple[NDArray[np.float64], str | None]:
-    """Drop ``robot`` into ``world`` and let its own network drive it.
+    """Drop ``robot`` into ``world`` at ``start`` and let its own network drive it.
 
     Returns:
         The core's path over the evaluation ticks (read-only, metres) and the blow-up reason
@@ -114,7 +143,7 @@ def _rollout(
     inputs = np.zeros(brain.n_inputs)
     outputs = np.zeros(brain.n_outputs)
     trajectory = np.empty((evaluation_ticks + 1, 3))
-    h = world.add_robot(robot)
+    h = world.add_robot(robot, start.position, start.yaw)
     if world.n_inputs(h) != len(inputs) or world.n_outputs(h) != len(outputs):
         raise ValueError(
             f"the network has {len(inputs)} inputs / {len(outputs)} outputs but the body has "

@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from evolution.lifecycle import InfancyHook, LearningSummary, SummarizingInfancyHook
 from revolve_env.body.robot import Robot
+from revolve_env.conditions import IDEAL, EvaluationConditions
 
 __all__ = [
     "DrivingPolicy",
@@ -64,6 +65,8 @@ class EvalTask:
         engine: The physics engine (``"pybullet"`` or ``"mujoco"``).
         policy: A learned policy that drives the robot instead of its network (set by
             :func:`evaluate_after_infancy` after an SB3 infancy).
+        conditions: Start heading and jitter, sensor and actuator noise, drawn from ``seed``
+            (:class:`~revolve_env.conditions.EvaluationConditions`).
     """
 
     robot_id: int
@@ -74,6 +77,7 @@ class EvalTask:
     infancy: InfancyHook | None = None
     engine: str = "pybullet"
     policy: DrivingPolicy | None = None
+    conditions: EvaluationConditions = IDEAL
 
 
 @dataclass(frozen=True, slots=True)
@@ -134,7 +138,7 @@ def evaluate_robot(task: EvalTask) -> EvalOutcome:
     from revolve_env.evaluation import evaluate
 
     result = evaluate(task.robot, seconds=task.seconds, insertion=task.insertion, seed=task.seed,
-                      engine=task.engine)
+                      engine=task.engine, conditions=task.conditions)
     if result.blow_up is not None:
         return EvalOutcome(None, failure=f"blow-up: {result.blow_up}")
     return EvalOutcome(float(result.fitness), float(result.v), float(result.s))

@@ -1,0 +1,134 @@
+"""Evaluation conditions: how a robot starts (heading, position) and the noise it lives with.
+
+One :class:`EvaluationConditions` describes the conditions of every evaluation of an experiment,
+offline (:func:`revolve_env.evaluate`, the single-robot env) and online (newborns of the
+population env), so both draw from the same distribution:
+
+* ``heading``: a fixed heading (radians) or ``"random"``, uniform in ``[0, 2 pi)``;
+* ``position_jitter``: the start is drawn uniformly from a disc of this radius (metres) around
+  the nominal start (the origin offline, a requested position online);
+* ``sensor_noise`` / ``actuator_noise``: standard deviations of Gaussian noise added to every
+  sensor value (in each sensor's units) and every normalised hinge target (in ``[-1, 1]``), as
+  RoboGen's simulator does with its sensor and motor noise levels.
+
+Every draw comes from a generator the caller seeds from its run's seed tree, so the conditions
+are random across evaluations but every evaluation is reproducible to the bit. With the default
+(:data:`IDEAL`: heading 0, no jitter, no noise) an evaluation draws nothing at all.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
+from typing import Any, Literal, NamedTuple
+
+import numpy as np
+
+__all__ = ["IDEAL", "RANDOM_HEADING", "EvaluationConditions", "Start"]
+
+RANDOM_HEADING: Literal["random"] = "random"
+"""The ``heading`` value that draws a heading uniformly in ``[0, 2 pi)``."""
+
+
+def _finite(value: object) -> bool:
+    """A finite int or float (a bool is not a number here)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
+class Start(NamedTuple):
+    """Where and how a robot starts: core ``position`` ``(x, y)`` in metres, ``yaw`` in radians."""
+
+    position: tuple[float, float]
+    yaw: float
+
+
+@dataclass(frozen=True, slots=True)
+class EvaluationConditions:
+    """The conditions of an evaluation (module docstring); frozen, plain-data round-trippable.
+
+    Attributes:
+        heading: Start heading. Radians; or ``"random"`` (uniform in ``[0, 2 pi)``).
+        position_jitter: Radius of the disc the start is drawn from, around the nominal start.
+            Metres; 0: exactly the nominal start.
+        sensor_noise: Standard deviation of Gaussian noise on every sensor value (its units).
+        actuator_noise: Standard deviation of Gaussian noise on every normalised hinge target.
+
+    Raises:
+        ValueError: a heading that is neither a finite number nor ``"random"``, or a negative or
+            non-finite jitter or noise (the message names the field).
+    """
+
+    heading: float | Literal["random"] = 0.0
+    position_jitter: float = 0.0
+    sensor_noise: float = 0.0
+    actuator_noise: float = 0.0
+
+    def __post_init__(self) -> None:
+        heading = self.heading
+        if heading != RANDOM_HEADING and not _finite(heading):
+            raise ValueError(
+                f"heading must be a number of radians or {RANDOM_HEADING!r}, got {heading!r}")
+        if heading != RANDOM_HEADING:
+            object.__setattr__(self, "heading", float(heading))
+        for name in ("position_jitter", "sensor_noise", "actuator_noise"):
+            value = getattr(self, name)
+            if not (_finite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+            object.__setattr__(self, name, float(value))
+
+    @property
+    def random_heading(self) -> bool:
+        """Whether the heading is drawn."""
+        return self.heading == RANDOM_HEADING
+
+    @property
+    def noisy(self) -> bool:
+        """Whether sensor or actuator noise is on."""
+        return self.sensor_noise > 0 or self.actuator_noise > 0
+
+    def start(self, rng: np.random.Generator,
+              nominal: tuple[float, float] = (0.0, 0.0)) -> Start:
+        """Draw a start around ``nominal`` (metres): the jitter first, then the heading.
+
+        Nothing is drawn from ``rng`` for a fixed heading and no jitter.
+        """
+        x, y = float(nominal[0]), float(nominal[1])
+        if self.position_jitter > 0:
+            radius = self.position_jitter * math.sqrt(float(rng.uniform(0.0, 1.0)))
+            angle = float(rng.uniform(0.0, 2.0 * math.pi))
+            x, y = x + radius * math.cos(angle), y + radius * math.sin(angle)
+        if self.heading == RANDOM_HEADING:
+            yaw = float(rng.uniform(0.0, 2.0 * math.pi))
+        else:
+            yaw = float(self.heading)
+        return Start((x, y), yaw)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data (JSON/TOML-compatible)."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> EvaluationConditions:
+        """Build from plain data; missing keys take the defaults.
+
+        Raises:
+            ValueError: an unknown key (the known ones are listed) or a bad value.
+        """
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ValueError(f"unknown evaluation condition(s): {', '.join(unknown)}; known: "
+                             f"{', '.join(sorted(known))}")
+        return cls(**dict(data))
+
+
+IDEAL = EvaluationConditions()
+"""Heading 0 at the nominal start, no noise: the conditions of every offline evaluation before
+conditions existed (and the default of :func:`revolve_env.evaluate`)."""
+
