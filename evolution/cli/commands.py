@@ -26,12 +26,16 @@ import math
 import sys
 import tempfile
 import time
-import tomllib
 import traceback
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TypeAlias
 
+from evolution.cli.options import CliError
+from evolution.cli.options import non_negative_int as _non_negative_int
+from evolution.cli.options import parse_set as _parse_set
+from evolution.cli.options import positive_float as _positive_float
+from evolution.cli.options import positive_int as _positive_int
 from evolution.cli.progress import ProgressBar, duration, metres
 from evolution.config import EvolutionConfig
 from evolution.evaluation import EvalTask, evaluate_robot
@@ -68,10 +72,6 @@ EXIT_INTERRUPTED = 130
 FIGURE_FORMATS = ("png", "pdf", "svg")
 
 
-class CliError(ValueError):
-    """Bad command-line input (reported on one line, exit status 2)."""
-
-
 # --------------------------------------------------------------------------------------------
 # Configurations
 
@@ -83,34 +83,6 @@ def _describe_learning(config: ExperimentConfig) -> str:
     table = config.learning
     return (f"infancy learning: {table['learner']}, {float(table['budget']):g} s per infant, "
             f"{table.get('inheritance', 'darwinian')}")
-
-
-def _parse_set(items: Sequence[str]) -> dict[str, Any]:
-    """``KEY=VALUE`` overrides as nested config data.
-
-    VALUE is read as TOML, else as a string; ``evolution.KEY``, ``learning.KEY`` and
-    ``world.KEY`` nest.
-    """
-    data: dict[str, Any] = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        key = key.strip()
-        if not sep or not key:
-            raise CliError(f"--set expects KEY=VALUE, got {item!r}")
-        parts = key.split(".")
-        if any(not p.replace("_", "").isalnum() for p in parts):
-            raise CliError(f"--set: {key!r} is not a config key")
-        try:
-            parsed = tomllib.loads(f"v = {value.strip()}")["v"]
-        except tomllib.TOMLDecodeError:
-            parsed = value.strip()
-        target = data
-        for p in parts[:-1]:
-            target = target.setdefault(p, {})
-            if not isinstance(target, dict):
-                raise CliError(f"--set: {key!r} conflicts with another --set")
-        target[parts[-1]] = parsed
-    return data
 
 
 # --------------------------------------------------------------------------------------------
@@ -332,29 +304,6 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 # Parser
 
 
-def _number(kind: type[int | float], low: float, strict: bool) -> Callable[[str], Any]:
-    """An argparse type: ``kind`` parsed from text, finite, above ``low``.
-
-    With ``strict`` false, ``low`` itself is allowed.
-    """
-    noun = "an integer" if kind is int else "a number"
-
-    def parse(text: str) -> int | float:
-        try:
-            value = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"not {noun}: {text!r}") from None
-        if not math.isfinite(value) or (value <= low if strict else value < low):
-            bound = f"> {low:g}" if strict else f">= {low:g}"
-            raise argparse.ArgumentTypeError(f"must be {bound}, got {text}")
-        return value
-
-    return parse
-
-
-_positive_int = _number(int, 1, strict=False)
-_non_negative_int = _number(int, 0, strict=False)
-_positive_float = _number(float, 0.0, strict=True)
 
 
 def _robot_arguments(parser: argparse.ArgumentParser) -> None:
