@@ -37,6 +37,7 @@ from evolution.cli.options import parse_set as _parse_set
 from evolution.cli.options import positive_float as _positive_float
 from evolution.cli.options import positive_int as _positive_int
 from evolution.cli.progress import ProgressBar, duration, metres
+from evolution.cli.study import add_study
 from evolution.config import EvolutionConfig
 from evolution.evaluation import EvalTask, evaluate_robot
 from evolution.experiments import (
@@ -348,7 +349,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
                                 parser_class=_DefaultsParser)
-    for add in (_add_run, _add_resume, _add_report, _add_show, _add_export, _add_demo):
+    for add in (_add_run, _add_resume, _add_report, _add_show, _add_export, _add_demo,
+                add_study):
         add(sub)
     return parser
 

@@ -340,8 +340,9 @@ def _configs(experiments: Sequence[str], settings: Mapping[str, Any],
                    **{k: settings[k] for k in _STUDY_KEYS}}
         try:
             config = load_config(name, changes)
-        except ConfigError as error:
-            raise ConfigError(f"{name}: {error}") from None
+        except ConfigError as error:  # name the experiment, unless the error does
+            text = str(error)
+            raise ConfigError(text if str(name) in text else f"{name}: {text}") from None
         if any(c.name == config.name for c in configs):
             raise ConfigError(f"experiment {config.name!r} is given twice")
         if Path(config.name).name != config.name or config.name in (".", ".."):
@@ -363,7 +364,9 @@ def _check_study_file(out: Path, settings: Mapping[str, Any], names: list[str]) 
     try:
         stored = json.loads(path.read_text(encoding="utf-8"))
         known = list(stored["experiments"])
-        differ = _flat_differences({k: stored[k] for k in settings}, dict(settings))
+        differ = [f"{k}: {stored[k]!r} stored, {settings[k]!r} now" for k in _STUDY_KEYS
+                  if stored[k] != settings[k]]
+        differ += _flat_differences(stored["overrides"], settings["overrides"])
     except (OSError, ValueError, KeyError, TypeError) as error:
         raise StoreError(f"{path} is not a study's settings file ({error!r}); choose another "
                          "folder") from None
@@ -393,7 +396,7 @@ def _check_existing(folder: Path, config: ExperimentConfig) -> ExperimentConfig:
 
 
 def _flat_differences(stored: Mapping[str, Any], wanted: Mapping[str, Any]) -> list[str]:
-    """``key: stored, now`` for every differing value (nested tables flattened)."""
+    """``--set key: stored, now`` for every differing override (nested tables flattened)."""
     def flat(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
         out: dict[str, Any] = {}
         for key, value in data.items():
@@ -404,7 +407,7 @@ def _flat_differences(stored: Mapping[str, Any], wanted: Mapping[str, Any]) -> l
         return out
 
     a, b = flat(stored), flat(wanted)
-    return [f"{k}: {_shown(a, k)} stored, {_shown(b, k)} now" for k in sorted(set(a) | set(b))
+    return [f"--set {k}: {_shown(a, k)} stored, {_shown(b, k)} now" for k in sorted(set(a) | set(b))
             if a.get(k, _UNSET) != b.get(k, _UNSET)]
 
 
