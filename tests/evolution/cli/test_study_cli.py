@@ -11,7 +11,7 @@ import shlex
 from pathlib import Path
 
 import pytest
-from experiment_fakes import CtrlCEvaluator, fake_evaluate, fake_world
+from experiment_fakes import CtrlCEvaluator, dump_results, fake_evaluate, fake_world
 
 from evolution.cli import main
 from evolution.evaluation import LocalEvaluator
@@ -129,3 +129,15 @@ def test_study_with_real_physics(tmp_path: Path, capsys: pytest.CaptureFixture[s
         with Store.open(out / name / DB_NAME) as store:
             assert [(r.status, r.births) for r in store.runs()] == [("finished", 16)] * 2
     assert (out / "report" / "fitness_over_births.png").stat().st_size > 0
+
+
+@pytest.mark.slow
+def test_study_on_ray_gives_the_local_databases(tmp_path: Path) -> None:
+    pytest.importorskip("ray")
+    common = ["--runs", "2", "--births", "16", "--workers", "2", *TINY]
+    assert main(["study", "--out", str(tmp_path / "ray"), "--evaluator", "ray", *common]) == 0
+    assert main(["study", "--out", str(tmp_path / "local"), *common]) == 0
+    tables = ("robots", "fitness", "transitions", "population", "diversity", "failures")
+    for name in PAPER_EXPERIMENTS:
+        assert (dump_results(tmp_path / "ray" / name / DB_NAME, tables)
+                == dump_results(tmp_path / "local" / name / DB_NAME, tables)), name
