@@ -162,12 +162,14 @@ CREATE TABLE reevaluations (
     v REAL,
     s REAL,
     failure TEXT,
-    PRIMARY KEY (run_id, kind, robot_id, conditions, insertion, shared_world, repeat)
+    PRIMARY KEY (run_id, kind, robot_id, conditions, insertion, shared_world, repeat, seed)
 );
 """
-"""Schema version 4: robots evaluated again after their run (:mod:`evolution.experiments.reevaluate`).
+"""Schema version 4: robots evaluated again after their run
+(:mod:`evolution.experiments.reevaluate`).
 
-The primary key holds no timestamp, so repeating a reevaluation finds its rows and adds none."""
+The primary key holds no timestamp (the seed is derived from the experiment, run, robot and
+repeat), so repeating a reevaluation finds its rows and adds none."""
 
 CONDITIONS_OF_OLD_RUNS = """
 UPDATE meta SET value = json_set(value, '$.evaluation', json(
@@ -356,10 +358,10 @@ class ReevaluationRecord:
     failure: str | None = None
 
     @property
-    def key(self) -> tuple[int, str, int, str, float, bool, int]:
+    def key(self) -> tuple[int, str, int, str, float, bool, int, int]:
         """The primary key: what makes two reevaluations the same one."""
-        return (self.run_id, self.kind, self.robot_id, self.conditions, self.insertion,
-                self.shared_world, self.repeat)
+        return (self.run_id, self.kind, self.robot_id, self.conditions, float(self.insertion),
+                bool(self.shared_world), self.repeat, self.seed)
 
 
 @dataclass(frozen=True, slots=True)

@@ -363,8 +363,9 @@ class Store:
             args = (kind,)
         rows = self._db.execute(
             query + " ORDER BY run_id, kind, robot_id, conditions, insertion, shared_world, "
-            "repeat", args).fetchall()
-        return [ReevaluationRecord(*row[:7], bool(row[7]), *row[8:]) for row in rows]
+            "repeat, seed", args).fetchall()
+        return [ReevaluationRecord(r[0], r[1], r[2], r[3], r[4], r[5], r[6], bool(r[7]), r[8],
+                                   r[9], r[10], r[11], r[12], r[13], r[14]) for r in rows]
 
     def checkpoint(self, run_id: int) -> Checkpoint | None:
         """The latest commit point of a run, ``None`` before the first."""
