@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any, TypeAlias
 
 from evolution.cli.progress import ProgressBar, duration, metres
+from evolution.cli.reevaluate import add_reevaluate
 from evolution.config import EvolutionConfig
 from evolution.evaluation import EvalTask, evaluate_robot
 from evolution.experiments import (
@@ -399,7 +400,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
                                 parser_class=_DefaultsParser)
-    for add in (_add_run, _add_resume, _add_report, _add_show, _add_export, _add_demo):
+    for add in (_add_run, _add_resume, add_reevaluate, _add_report, _add_show, _add_export,
+                _add_demo):
         add(sub)
     return parser
 

@@ -180,11 +180,13 @@ class ReevaluationSummary:
     Attributes:
         databases: The databases reevaluated.
         planned: Evaluations the arguments ask for (robots x repeats x settings).
-        added: Rows written by this call (the others were stored already).
+        evaluated: Of those, evaluations run by this call (the others were stored already).
+        added: Rows written by this call.
     """
 
     databases: tuple[Path, ...]
     planned: int
+    evaluated: int
     added: int
 
 
@@ -251,11 +253,11 @@ def reevaluate(
                          f"{list(window_offsets)!r}")
     plans = [_plan(db, k, which, offsets, shared_world, conditions, seed)
              for db in _databases(Path(path))]
-    total = sum(len(todo) for _, todo in plans)
+    total = sum(len(todo) for _, _, todo in plans)
     used = evaluator or make_evaluator("local", workers)
     done = added = 0
     try:
-        for db, todo in plans:
+        for db, _, todo in plans:
             with Store.open(db) as store:
                 for records in _evaluate(todo, used, shared_world, db.parent):
                     added += store.add_reevaluations(records)
@@ -265,7 +267,8 @@ def reevaluate(
     finally:
         if evaluator is None:
             used.close()
-    return ReevaluationSummary(tuple(db for db, _ in plans), total, added)
+    return ReevaluationSummary(tuple(db for db, _, _ in plans),
+                               sum(asked for _, asked, _ in plans), total, added)
 
 
 def _databases(path: Path) -> list[Path]:
@@ -286,8 +289,8 @@ _Todo = tuple[Chosen, _Setting, int, int]
 
 def _plan(db: Path, k: int, which: str, offsets: tuple[float, ...], shared_world: bool,
           conditions: EvaluationConditions | None, seed: int | None
-          ) -> tuple[Path, list[_Todo]]:
-    """The evaluations of one database that are not stored yet (the database is checked)."""
+          ) -> tuple[Path, int, list[_Todo]]:
+    """The database, the evaluations asked of it, and those not stored yet (checked first)."""
     with Store.open(db) as store:
         verify(store)
         check_writable(store)
@@ -301,8 +304,10 @@ def _plan(db: Path, k: int, which: str, offsets: tuple[float, ...], shared_world
                     for o in offsets]
         stored = {r.key for r in store.reevaluations(which)}
         todo: list[_Todo] = []
+        asked = 0
         for run in store.runs():
             chosen = choose(store, run.run_id, which)
+            asked += len(chosen) * k * len(settings)
             for setting in settings:
                 for repeat in range(k):
                     for c in chosen:
@@ -312,7 +317,7 @@ def _plan(db: Path, k: int, which: str, offsets: tuple[float, ...], shared_world
                                setting.insertion, shared_world, repeat, s)
                         if key not in stored:
                             todo.append((c, setting, repeat, s))
-    return db, todo
+    return db, asked, todo
 
 
 def _record(c: Chosen, setting: _Setting, repeat: int, seed: int, outcome: EvalOutcome,
