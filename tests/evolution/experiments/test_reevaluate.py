@@ -260,3 +260,12 @@ def test_cli_bad_numbers(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> 
             main(["reevaluate", str(tmp_path), *argv])
         assert exit_info.value.code == 2
         assert "error: argument" in capsys.readouterr().err
+
+
+def test_cli_help_shows_the_defaults(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["reevaluate", "--help"])
+    assert exit_info.value.code == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "reevaluations per robot (default: 10)" in out
+    assert "worker processes, 0: all cores (default: 0)" in out
