@@ -9,7 +9,9 @@ more under fresh conditions, writing every result into the experiment's own data
 Which robots (``which``)
     ``"final"``: the last committed population of every run; ``"best"``: the best robot of each
     commit point (an offline generation, an online birth), each robot once, with the highest
-    fitness it was best with. Robots without a stored fitness are left out (nothing to compare).
+    fitness it was best with. Robots without a stored fitness are left out (nothing to compare),
+    and so are online robots younger than ``fertile_age`` at the snapshot (their window was not
+    full; selection did not see them either).
 
 How (one *setting* per window offset)
     * conditions: the run's own (its config's ``evaluation`` table; a database from before
@@ -138,24 +140,34 @@ class Chosen:
     policy: str | None = None
 
 
-def choose(store: Store, run_id: int, which: str) -> list[Chosen]:
+def choose(store: Store, run_id: int, which: str, mature_age: float = 0.0) -> list[Chosen]:
     """The robots of run ``run_id`` that ``which`` names (module docstring), by id.
+
+    Args:
+        store: The open database.
+        run_id: The run.
+        which: ``"final"`` or ``"best"``.
+        mature_age: Only robots at least this old at a snapshot count in it (online runs:
+            ``fertile_age``; an infant's window is not full yet). Seconds.
 
     Raises:
         ValueError: an unknown ``which``.
     """
     if which not in KINDS:
         raise ValueError(f"which must be one of {', '.join(map(repr, KINDS))}, got {which!r}")
-    stored: dict[int, float] = {}
+    born = {r.robot_id: r.birth_time for r in store.robots(run_id) if r.birth_time is not None}
+    snapshots = store.population_snapshots(run_id)
     if which == "final":
-        stored = {rid: f for rid, f in store.final_population(run_id)
-                  if f is not None and math.isfinite(f)}
-    else:
-        for _, _, members in store.population_snapshots(run_id):
-            finite = [(f, rid) for rid, f in members if f is not None and math.isfinite(f)]
-            if finite:
-                fitness, rid = max(finite, key=lambda p: (p[0], -p[1]))
-                stored[rid] = max(fitness, stored.get(rid, -math.inf))
+        snapshots = snapshots[-1:]
+    stored: dict[int, float] = {}
+    for _, sim_time, members in snapshots:
+        finite = [(f, rid) for rid, f in members if f is not None and math.isfinite(f)
+                  and rid in born and sim_time - born[rid] >= mature_age - 1e-9]
+        if which == "final":
+            stored.update((rid, f) for f, rid in finite)
+        elif finite:
+            fitness, rid = max(finite, key=lambda p: (p[0], -p[1]))
+            stored[rid] = max(fitness, stored.get(rid, -math.inf))
     ids = sorted(stored)
     learned = {r.robot_id: r for r in store.learning(run_id, ids)}
     chosen = []
@@ -302,11 +314,13 @@ def _plan(db: Path, k: int, which: str, offsets: tuple[float, ...], shared_world
         seconds = float(config.get("evaluation_time", 12.0))
         settings = [_Setting(which, used, insertion + o, seconds, shared_world, engine)
                     for o in offsets]
+        mature_age = float(config.get("fertile_age", 15.0)) if config.get("engine") == "online" \
+            else 0.0
         stored = {r.key for r in store.reevaluations(which)}
         todo: list[_Todo] = []
         asked = 0
         for run in store.runs():
-            chosen = choose(store, run.run_id, which)
+            chosen = choose(store, run.run_id, which, mature_age)
             asked += len(chosen) * k * len(settings)
             for setting in settings:
                 for repeat in range(k):

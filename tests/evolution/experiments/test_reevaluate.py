@@ -16,7 +16,7 @@ from dataclasses import fields
 from pathlib import Path
 
 import pytest
-from experiment_fakes import Kill, dump_results, kill_after
+from experiment_fakes import Kill, dump_results, fake_world, kill_after, small
 
 from evolution.cli import main
 from evolution.evaluation import evaluation_seed
@@ -143,6 +143,22 @@ def test_best_of_each_generation_later_windows_and_a_shared_world(results: Path)
     for row in shared:  # one world per run and repeat, all its robots in it
         assert row.seed == shared_world_seed(CONFIG.seed, row.run_id, row.repeat)
         assert row.fitness is not None or row.failure is not None
+
+
+def test_online_infants_are_left_out(tmp_path: Path) -> None:
+    """An online robot younger than fertile_age at the last snapshot has no full window: it is
+    not chosen. The online runs' robots (here made by the fast stand-in world) reevaluate like
+    offline ones, alone or together."""
+    config = small(preset("scenario3", births=20, runs=1, insertion=0.5, evaluation_time=1.0,
+                          fertile_age=1.5, conception_interval=1.0, diversity_interval=10))
+    run(config, tmp_path / "s3", world_factory=fake_world)
+    with Store.open(tmp_path / "s3" / DB_NAME) as store:
+        _, sim_time, members = store.population_snapshots(0)[-1]
+        born = {r.robot_id: r.birth_time for r in store.robots(0)}
+        adults = [rid for rid, f in members if f is not None and sim_time - born[rid] >= 1.5]
+        everyone = [rid for rid, f in members if f is not None]
+        assert [c.robot_id for c in choose(store, 0, "final", 1.5)] == adults != everyone
+    assert reevaluate(tmp_path, k=1, shared_world=True, workers=1).added == len(adults)
 
 
 def test_run_conditions_with_a_random_heading() -> None:
