@@ -234,14 +234,16 @@ def test_version_3_run_is_upgraded_and_keeps_every_row(study: Path, tmp_path: Pa
 def test_version_3_run_resumes_and_reevaluates_after_the_upgrade(tmp_path: Path) -> None:
     """An interrupted v3 run is upgraded, resumes to the numbers of an uninterrupted run under
     the conditions it lived (heading 0), and can then be reevaluated."""
+    # What a v3 database holds: a run under heading 0 (offline before conditions), its config
+    # without the evaluation table.
+    lived = ExperimentConfig.from_dict({**CONFIG.to_dict(), "evaluation": {"heading": 0.0}})
     killed = tmp_path / "killed" / "quick"
     with pytest.raises(Kill):
-        run(CONFIG, killed, kill_after(11))
+        run(lived, killed, kill_after(11))
     _as_version_3(killed / DB_NAME)
     resume(killed)
     whole = tmp_path / "whole" / "quick"
-    lived = {**CONFIG.to_dict(), "evaluation": {"heading": 0.0}}
-    run(ExperimentConfig.from_dict(lived), whole)
+    run(lived, whole)
     assert dump_results(killed / DB_NAME) == dump_results(whole / DB_NAME)
     assert reevaluate(killed, k=1, workers=1).added > 0
 
