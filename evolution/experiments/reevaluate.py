@@ -23,9 +23,9 @@ How (one *setting* per window offset)
       with the run's other chosen robots in one population env world (placed by its placement
       rule), each robot's sliding-window fitness read at the end;
     * as it lived: a robot whose infancy learned a genome is evaluated with it (``"learned"``),
-      one driven by a saved SB3 policy with that policy (``"policy"``: the single-robot env,
-      which applies no conditions yet, so these rows measure the window only) or, in a shared
-      world, with its inborn network (``"inborn (policy not used)"``).
+      one driven by a saved SB3 policy with that policy (``"policy"``, in the single-robot
+      env) or, in a shared world, with its inborn network (``"inborn (policy not used)"``:
+      the table's ``controller`` column says so).
 
 Seeds: repeat ``r`` of robot ``i`` of run ``j`` uses :func:`reevaluation_seed` of (``seed``,
 ``j``, ``i``, ``r``), a stream apart from the run's evaluation seeds; the same repeat of every

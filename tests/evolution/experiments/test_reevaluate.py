@@ -287,3 +287,36 @@ def test_cli_help_shows_the_defaults(capsys: pytest.CaptureFixture[str]) -> None
     out = " ".join(capsys.readouterr().out.split())
     assert "reevaluations per robot (default: 10)" in out
     assert "worker processes, 0: all cores (default: 0)" in out
+
+
+@pytest.mark.slow
+def test_a_robot_driven_by_a_saved_policy_is_reevaluated_with_it(tmp_path: Path) -> None:
+    """An SB3 infant lived driven by its saved policy: its reevaluation loads the policy and
+    gives what the policy gives (not the inborn network), under the same conditions and seed."""
+    pytest.importorskip("stable_baselines3")
+    from evolution.evaluation import EvalTask, evaluate_robot
+    from evolution.learning import load_policy
+
+    learning = {"learner": "sb3", "algorithm": "PPO", "n_envs": 1, "vec_env": "dummy",
+                "insertion": 0.5, "seconds": 1.0, "budget": 3.3,
+                "algorithm_kwargs": {"n_steps": 16, "batch_size": 16, "n_epochs": 1}}
+    config = preset("scenario1", runs=1, births=6, population_size=4, offspring_size=2,
+                    insertion=0.5, evaluation_time=1.0, fertile_age=1.0, workers=1,
+                    learning=learning)
+    run(config, tmp_path / "rl")
+    ideal = EvaluationConditions()
+    reevaluate(tmp_path, k=1, conditions=ideal, workers=1)
+    with Store.open(tmp_path / "rl" / DB_NAME) as store:
+        rows = {r.robot_id: r for r in store.reevaluations()}
+        learned = {r.robot_id: r for r in store.learning(0, list(rows)) if r.policy is not None}
+        robots = {r.robot_id: r.robot() for r in store.robots(0, list(learned))}
+    assert learned, "no robot of the final population learned a policy"
+    for robot_id, record in learned.items():
+        row = rows[robot_id]
+        assert row.controller == "policy" and record.policy is not None
+        ref = json.loads(record.policy)
+        agent = load_policy(tmp_path / "rl" / ref["file"], robots[robot_id], ref["digest"])
+        task = EvalTask(robot_id, robots[robot_id], 0.5, 1.0, row.seed, conditions=ideal)
+        assert row.fitness == evaluate_robot(EvalTask(
+            robot_id, robots[robot_id], 0.5, 1.0, row.seed, policy=agent,
+            conditions=ideal)).fitness != evaluate_robot(task).fitness
