@@ -324,14 +324,21 @@ def _plan(db: Path, k: int, which: str, offsets: tuple[float, ...], shared_world
             asked += len(chosen) * k * len(settings)
             for setting in settings:
                 for repeat in range(k):
-                    for c in chosen:
-                        s = (shared_world_seed(base, c.run_id, repeat) if shared_world
-                             else reevaluation_seed(base, c.run_id, c.robot_id, repeat))
-                        key = (c.run_id, which, c.robot_id, setting.conditions_json,
-                               setting.insertion, shared_world, repeat, s)
-                        if key not in stored:
-                            todo.append((c, setting, repeat, s))
+                    items = [(c, setting, repeat,
+                              shared_world_seed(base, c.run_id, repeat) if shared_world
+                              else reevaluation_seed(base, c.run_id, c.robot_id, repeat))
+                             for c in chosen]
+                    missing = [item for item in items if _key(item) not in stored]
+                    # A shared world is lived again whole: its robots meet the same neighbours.
+                    todo += items if shared_world and missing else missing
     return db, asked, todo
+
+
+def _key(item: _Todo) -> tuple[int, str, int, str, float, bool, int, int]:
+    """The store key of a planned evaluation (:attr:`ReevaluationRecord.key`)."""
+    c, setting, repeat, seed = item
+    return (c.run_id, setting.kind, c.robot_id, setting.conditions_json, setting.insertion,
+            setting.shared_world, repeat, seed)
 
 
 def _record(c: Chosen, setting: _Setting, repeat: int, seed: int, outcome: EvalOutcome,

@@ -140,6 +140,7 @@ def test_best_of_each_generation_later_windows_and_a_shared_world(results: Path)
         shared = [r for r in store.reevaluations("final") if r.shared_world]
         finals = {r.run_id: len(store.final_population(r.run_id)) for r in store.runs()}
     assert len(shared) == 2 * sum(finals.values())
+    assert reevaluate(results, k=2, shared_world=True, workers=1).evaluated == 0
     for row in shared:  # one world per run and repeat, all its robots in it
         assert row.seed == shared_world_seed(CONFIG.seed, row.run_id, row.repeat)
         assert row.fitness is not None or row.failure is not None
@@ -190,6 +191,9 @@ def test_a_robot_that_learned_is_reevaluated_with_its_learned_genome(tmp_path: P
 
 
 def test_bad_arguments(results: Path, tmp_path: Path) -> None:
+    import evolution
+
+    assert evolution.reevaluate is reevaluate  # the lazy facade
     with pytest.raises(ValueError, match="k must be an integer >= 1"):
         reevaluate(results, k=0)
     with pytest.raises(ValueError, match="window offsets"):
