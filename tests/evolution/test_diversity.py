@@ -172,8 +172,7 @@ def test_brain_aware_distance_properties(seed_a: int, seed_b: int, weight: float
     d = brain_aware_distance(a, b, weight)
     assert d == pytest.approx(brain_aware_distance(b, a, weight))
     assert d >= tree_edit_distance(a, b)
-    if weight > 0 and a.connections != b.connections:
-        assert d > tree_edit_distance(a, b) or neural_distance(a, b) == 0
+    assert d == pytest.approx(tree_edit_distance(a, b) + weight * neural_distance(a, b))
 
 
 def test_brain_aware_diversity_is_the_mean_pairwise_distance() -> None:
