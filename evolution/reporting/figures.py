@@ -83,7 +83,7 @@ def _figure(width: float, height: float, caption: str, ncols: int = 1, nrows: in
     """
     from matplotlib.figure import Figure
 
-    lines = textwrap.wrap(caption, width=int(width * 16))
+    lines = textwrap.wrap(caption, width=int(width * 16), break_on_hyphens=False)
     caption_height = 0.16 * len(lines) + 0.12
     figure = Figure(figsize=(width, height + caption_height), layout="constrained")
     parts = figure.subfigures(2, 1, height_ratios=[height, caption_height])
