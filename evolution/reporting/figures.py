@@ -59,7 +59,8 @@ ONLINE_FITNESS = ("Online: sliding-window fitness f = v + 5 s (m) over the robot
 BIRTHS = ("Births: robots delivered; a robot lost before its first fitness (blow-up, unbuildable "
           "body, non-finite fitness) is a failed birth, left out of the births axis and counted "
           "in failed_births.png.")
-BAND = "Line: median over runs; band: interquartile range (25th-75th percentile) over runs."
+BAND = ("Line: median over runs; band: interquartile range (25th-75th percentile) over runs; "
+        "dashed: births only some runs reached (a run that lost robots ends at fewer births).")
 
 
 def colors(experiments: Sequence[ExperimentData]) -> dict[str, str]:
@@ -210,9 +211,9 @@ def final_fitness(experiments: Sequence[ExperimentData]) -> Figure:
 def diversity_over_births(experiments: Sequence[ExperimentData]) -> Figure:
     """Population diversity over births (and the brain-aware one when it was computed)."""
     brain = any(r.brain_diversity.size for e in experiments for r in e.runs)
-    panels = [("diversity", "body: mean pairwise tree edit distance (edits)")]
+    panels = [("diversity", "Body diversity (tree edit distance)")]
     if brain:
-        panels.append(("brain_diversity", "brain-aware: body + neural distance (edits)"))
+        panels.append(("brain_diversity", "Brain-aware diversity (body + neural distance)"))
     caption = ("Genetic diversity of the population over births: mean pairwise tree edit "
                "distance of the bodies (the paper's costs: insert, remove, change type, change "
                "slot each cost 1)"
@@ -230,8 +231,8 @@ def diversity_over_births(experiments: Sequence[ExperimentData]) -> Figure:
                                         [getattr(r, field) for r in runs])
             _band(ax, grid, values, palette[e.label], e.title, steps=not e.online)
         ax.set_xlabel("births")
-        ax.set_ylabel(f"diversity, {what}")
-        ax.set_title(what.split(":")[0].capitalize() + " diversity", fontsize="medium")
+        ax.set_ylabel("mean pairwise distance (edits)")
+        ax.set_title(what, fontsize="medium")
         ax.grid(alpha=0.3)
         if ax.lines:
             ax.legend(fontsize="small")
@@ -247,11 +248,11 @@ def final_diversity(experiments: Sequence[ExperimentData]) -> Figure:
         panels.append(("brain-aware", [e.final_brain_diversities() for e in experiments]))
     caption = ("Diversity of the final populations, one value per run (diamonds; the box "
                "summarises them): mean pairwise tree edit distance of the bodies"
-               + ("; right: body plus neural distance" if brain else "") + ", in edits.")
-    figure, axes = _figure(max(5.5, 1.5 * len(experiments) + 2.5) * len(panels), 4.2,
-                           caption, len(panels))
+               + ("; below: body plus neural distance" if brain else "") + ", in edits.")
+    figure, axes = _figure(max(5.5, 1.5 * len(experiments) + 2.5), 4.2 * len(panels),
+                           caption, 1, len(panels))
     palette = [colors(experiments)[e.label] for e in experiments]
-    for (what, data), ax in zip(panels, axes[0], strict=True):
+    for (what, data), (ax,) in zip(panels, axes, strict=True):
         _boxes(ax, data, data, [f"{e.title}\n(n={d.size})" for e, d in
                                 zip(experiments, data, strict=True)], palette)
         ax.set_ylabel(f"{what} diversity (edits)")
