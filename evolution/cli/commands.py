@@ -207,7 +207,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     if not formats or any(f not in FIGURE_FORMATS for f in formats):
         raise CliError(f"--formats takes a comma-separated list of {', '.join(FIGURE_FORMATS)}; "
                        f"got {args.formats!r}")
-    result = report(args.dir, args.out, formats)
+    result = report(args.dir, args.out, formats, brain_aware=args.brain_aware)
     _say(f"{len(result.experiments)} experiment(s): "
          + ", ".join(f"{e.label} ({len(e.runs)} runs)" for e in result.experiments))
     for path in (*result.figures, *result.tables):
@@ -456,17 +456,21 @@ def _add_report(sub: _Subparsers) -> None:
     p = sub.add_parser(
         "report", help="figures and tables comparing experiments",
         description="Compare every experiment at or below DIR. Writes fitness_over_births, "
-                    "final_fitness, diversity_over_births and final_diversity (PNG and PDF), "
-                    "summary.csv, mann_whitney.csv (Mann-Whitney U tests between experiments) "
-                    "and summary.md into DIR/report (or --out). When an experiment learns (a "
-                    "[learning] table), summary.csv/summary.md also give the mean inborn and "
-                    "learned fitness and the learner failures, and learning_gain (PNG/PDF) "
-                    "compares inborn and learned fitness.",
+                    "final_fitness, diversity_over_births, final_diversity, failed_births and "
+                    "curve_tests (PNG and PDF), summary.csv, tests_per_run.csv (Mann-Whitney "
+                    "U, A12 and Holm on one value per run), tests_pooled_descriptive.csv, "
+                    "curve_tests.csv and summary.md into DIR/report (or --out). When an "
+                    "experiment learns (a [learning] table), summary.csv/summary.md also give "
+                    "the mean inborn and learned fitness and the learner failures, and "
+                    "learning_gain (PNG/PDF) compares inborn and learned fitness. "
+                    "--brain-aware adds the brain-aware diversity.",
     )
     p.add_argument("dir", metavar="DIR", help="results folder (as given to `revolve run --out`)")
     p.add_argument("--out", metavar="DIR", help="output folder")
     p.add_argument("--formats", default="png,pdf",
                    help="figure formats, comma-separated: png, pdf, svg")
+    p.add_argument("--brain-aware", action="store_true",
+                   help="also the brain-aware diversity (body + neural distance; slower)")
     p.set_defaults(handler=_cmd_report)
 
 
