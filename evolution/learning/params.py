@@ -58,7 +58,7 @@ def evaluate_in_env(task: EvalTask) -> EvalOutcome:
 
     env = LocomotionEnv(task.robot, controller="brain", insertion_time=task.insertion,
                         evaluation_time=task.seconds, fitness_window=task.seconds,
-                        engine=task.engine)
+                        engine=task.engine, conditions=task.conditions)
     try:
         return episode_outcome(run_episode(env, task.seed))
     finally:
