@@ -332,7 +332,8 @@ class ExperimentConfig:
         if self.learning is None:
             return None
         try:
-            return training_center_from_dict(self.learning, engine=self.world.engine)
+            return training_center_from_dict(self.learning, engine=self.world.engine,
+                                             conditions=self.evaluation)
         except (TypeError, ValueError, ArithmeticError) as error:  # int(inf): OverflowError
             raise ConfigError(f"learning: {error}") from error
 
