@@ -293,7 +293,9 @@ class ExperimentConfig:
         except (TypeError, ValueError, ArithmeticError) as error:  # 10**400 -> float: Overflow
             raise ConfigError(f"evolution: {error}") from error
         world_settings = WorldSettings(**_table("world", base, data, WorldSettings))
-        evaluation = _table("evaluation", base, data, EvaluationConditions)
+        # Missing keys take DEFAULT_EVALUATION's values (not the class defaults: IDEAL).
+        evaluation = {**DEFAULT_EVALUATION.to_dict(),
+                      **_table("evaluation", base, data, EvaluationConditions)}
         try:
             conditions = EvaluationConditions(**evaluation)
         except ValueError as error:  # its messages start with the field's name
