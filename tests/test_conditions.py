@@ -59,7 +59,7 @@ def test_integers_become_floats_and_ideal_is_the_default() -> None:
     assert c.to_dict() == {"heading": 1.0, "position_jitter": 0.0, "sensor_noise": 2.0,
                            "actuator_noise": 0.0}
     assert all(type(v) is float for v in c.to_dict().values())
-    assert IDEAL == EvaluationConditions(0.0, 0.0, 0.0, 0.0)
+    assert EvaluationConditions(0.0, 0.0, 0.0, 0.0) == IDEAL
     assert not IDEAL.random_heading and not IDEAL.noisy
 
 

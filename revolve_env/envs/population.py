@@ -8,9 +8,9 @@ The robots' bookkeeping and the five dicts are in :mod:`revolve_env.envs.members
 uniform spaces and masks in :mod:`revolve_env.envs.agent_spaces`, a birth's checks in
 :mod:`revolve_env.envs.births`, the snapshots' plain data in
 :mod:`revolve_env.envs.population_snapshot`. This module is over 600 lines on purpose: it is the
-env's reference documentation too. About 310 of its lines are docstrings (the class docstring
-alone, some 185 lines, is the documentation of the agents, spaces, infos, rewards and the five
-dicts on births and deaths); the code is about 400 lines.
+env's reference documentation too. About 340 of its lines are docstrings (the class docstring
+alone, some 210 lines, is the documentation of the agents, spaces, infos, rewards, conditions
+and the five dicts on births and deaths); the code is about 470 lines.
 """
 
 from __future__ import annotations

@@ -54,7 +54,7 @@ def _equal(a: list[Any], b: list[Any]) -> bool:
 def test_the_default_is_a_random_heading_without_noise() -> None:
     env = _env()
     assert env.conditions is ONLINE_CONDITIONS
-    assert ONLINE_CONDITIONS == EvaluationConditions(heading="random")
+    assert EvaluationConditions(heading="random") == ONLINE_CONDITIONS
     assert _equal(_play(env, 3), _play(_env(EvaluationConditions(heading="random")), 3))
     with pytest.raises(TypeError, match="conditions must be an EvaluationConditions"):
         _env({"heading": "random"})  # type: ignore[arg-type]
