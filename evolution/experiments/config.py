@@ -234,14 +234,7 @@ class ExperimentConfig:
             )
         if self.ray_address is not None and not isinstance(self.ray_address, str):
             raise ConfigError(f"ray_address must be a string, got {self.ray_address!r}")
-        if not isinstance(self.world, WorldSettings):
-            raise ConfigError(f"world must be a WorldSettings, got {type(self.world).__name__}")
-        if not isinstance(self.evaluation, EvaluationConditions):
-            raise ConfigError(f"evaluation must be an EvaluationConditions, got "
-                              f"{type(self.evaluation).__name__}")
-        if not isinstance(self.evolution, EvolutionConfig):
-            raise ConfigError(
-                f"evolution must be an EvolutionConfig, got {type(self.evolution).__name__}")
+        _check_tables(self)
         if not isinstance(self.name, str) or not self.name:
             raise ConfigError(f"name must be a non-empty string, got {self.name!r}")
         if self.learning is not None:
@@ -343,6 +336,19 @@ class ExperimentConfig:
     def seconds_per_evaluation(self) -> float:
         """Simulated seconds of one offline evaluation (insertion + window)."""
         return self.insertion + self.evaluation_time
+
+
+def _check_tables(config: ExperimentConfig) -> None:
+    """Refuse a nested table of the wrong type (ConfigError naming it)."""
+    tables: tuple[tuple[str, type], ...] = (
+        ("world", WorldSettings), ("evaluation", EvaluationConditions),
+        ("evolution", EvolutionConfig))
+    for key, kind in tables:
+        value = getattr(config, key)
+        if not isinstance(value, kind):
+            article = "an" if kind.__name__[0] in "AEIOU" else "a"
+            raise ConfigError(f"{key} must be {article} {kind.__name__}, got "
+                              f"{type(value).__name__}")
 
 
 def _table(name: str, base: dict[str, Any], data: dict[str, Any],
