@@ -57,6 +57,7 @@ from evolution.experiments import DB_NAME, ExperimentConfig, RunJob, Store, exec
 from evolution.experiments.config import WorldSettings
 from evolution.experiments.integrity import verify
 from evolution.experiments.online_world import PopulationWorld
+from evolution.experiments.records import FitnessSample, RobotRecord
 from evolution.experiments.run import ReplayError, run_seed
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import from_json
@@ -334,13 +335,28 @@ def replay_online(config: ExperimentConfig, run_id: int, stored: Store | None, e
         execute_run(job, LocalEvaluator(workers=1), lambda event: None)
         with Store.open(db) as store:
             replayed = store.robots(run_id)
+            samples = store.fitness_samples(run_id)
     if stored is not None:
-        kept = {r.robot_id: r.genome for r in stored.robots(run_id)}
-        for record in replayed:
-            if kept.get(record.robot_id) != record.genome:
-                raise ReplayError(f"the replay of run {run_id} made a different robot "
-                                  f"{record.robot_id} than the stored one")
+        _check_replay(stored, run_id, replayed, samples)
     return len(replayed)
+
+
+def _check_replay(stored: Store, run_id: int, robots: list[RobotRecord],
+                  samples: list[FitnessSample]) -> None:
+    """Refuse a replay whose robots or fitness samples differ from the stored run's.
+
+    Raises:
+        ReplayError: they differ (the simulation did not repeat itself: a bug).
+    """
+    kept = {r.robot_id: (r.genome, r.birth_time) for r in stored.robots(run_id)}
+    for record in robots:
+        if kept.get(record.robot_id) != (record.genome, record.birth_time):
+            raise ReplayError(f"the replay of run {run_id} made a different robot "
+                              f"{record.robot_id} than the stored one")
+    end = max((s.time for s in samples), default=-math.inf)
+    if [s for s in stored.fitness_samples(run_id) if s.time <= end] != samples:
+        raise ReplayError(f"the replay of run {run_id} measured other fitness than the stored "
+                          "run")
 
 
 class _Window:
@@ -409,7 +425,15 @@ def _watch_results(args: argparse.Namespace, folder: Path) -> int:
         dt = WorldConfig().with_engine(config.world.engine).control_period
         every = max(1, round(1.0 / (args.fps * dt)))
         frames: list[NDArray[np.uint8]] = []
-        sink: FrameSink = (lambda frame, t: frames.append(frame)) if args.record else _Window()
+        show: FrameSink = (lambda frame, t: frames.append(frame)) if args.record else _Window()
+        end = math.inf if args.seconds is None else args.seconds - 0.5 * dt
+
+        def sink(frame: NDArray[np.uint8], t: float) -> None:
+            # A frame shows [t, t + period). The engine stops at its first commit point after
+            # --seconds: no frame beyond.
+            if t < end:
+                show(frame, t)
+
         _say(f"replaying run {args.run} of {config.name} ({config.world.engine}) from its seed"
              + ("" if args.seconds is None else f" for {args.seconds:g} s"))
         same = args.engine in (None, config.world.engine)
