@@ -16,34 +16,12 @@ import sys
 import time
 from typing import Any, Literal
 
+from evolution.cli.robots import non_negative_int, number, positive_int
 from evolution.experiments.reevaluate import reevaluate
 from evolution.reporting import find_experiments
 from evolution.reporting.optimism import EXPLANATION, markdown, optimism_rows, read_reevaluations
 
 __all__ = ["add_reevaluate"]
-
-
-def _count(low: int) -> Any:
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-        if value < low:
-            raise argparse.ArgumentTypeError(f"must be >= {low}, got {text}")
-        return value
-
-    return parse
-
-
-def _offset(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not (math.isfinite(value) and value >= 0):
-        raise argparse.ArgumentTypeError(f"must be a number of seconds >= 0, got {text}")
-    return value
 
 
 class _Count:
@@ -100,13 +78,15 @@ def add_reevaluate(sub: Any) -> None:
     )
     p.add_argument("results", metavar="RESULTS",
                    help="results folder (as given to `revolve run --out`), or one experiment's")
-    p.add_argument("--k", type=_count(1), default=10, help="reevaluations per robot")
+    p.add_argument("--k", type=positive_int, default=10, help="reevaluations per robot")
     p.add_argument("--best", action="store_true",
                    help="the best robot of each commit point instead of the final population")
-    p.add_argument("--window-offset", type=_offset, action="append", metavar="S",
+    p.add_argument("--window-offset", type=number(float, 0.0, strict=False), action="append",
+                   metavar="S",
                    help="seconds lived before the fitness window, one setting each (repeatable; "
                         "default: 0, the run's own window)")
     p.add_argument("--shared-world", action="store_true",
                    help="evaluate a run's robots together in one world per repeat")
-    p.add_argument("--workers", type=_count(0), default=0, help="worker processes, 0: all cores")
+    p.add_argument("--workers", type=non_negative_int, default=0,
+                   help="worker processes, 0: all cores")
     p.set_defaults(handler=_cmd_reevaluate)

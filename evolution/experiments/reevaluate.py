@@ -447,14 +447,9 @@ def run_shared_world(job: SharedWorldJob, evaluator: Evaluator,
     # Imported here: it loads the physics engine.
     from revolve_env.envs.population import PopulationEnv
 
-    extra: dict[str, Any] = {}
-    if job.conditions != EvaluationConditions(heading=RANDOM_HEADING):
-        # The population env's default is a random heading without noise; other conditions
-        # go to it explicitly.
-        extra["conditions"] = job.conditions
     env = PopulationEnv(max_births=len(job.robots), initial_robots=list(job.robots),
                         insertion_time=job.insertion, maturity_age=job.insertion + job.seconds,
-                        fitness_window=job.seconds, engine=job.engine, **extra)
+                        fitness_window=job.seconds, engine=job.engine, conditions=job.conditions)
     try:
         _, infos = env.reset(seed=job.seed)
         agents = list(env.agents)

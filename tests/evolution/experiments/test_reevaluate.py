@@ -141,6 +141,14 @@ def test_best_of_each_generation_later_windows_and_a_shared_world(results: Path)
         finals = {r.run_id: len(store.final_population(r.run_id)) for r in store.runs()}
     assert len(shared) == 2 * sum(finals.values())
     assert reevaluate(results, k=2, shared_world=True, workers=1).evaluated == 0
+    # Conditions reach the shared world: the same worlds with actuator noise move otherwise.
+    noisy = EvaluationConditions(heading="random", actuator_noise=0.3)
+    reevaluate(results, k=1, shared_world=True, conditions=noisy, workers=1)
+    with Store.open(results / "quick" / DB_NAME) as store:
+        rows = [r for r in store.reevaluations("final") if r.shared_world and r.repeat == 0]
+    plain = {(r.run_id, r.robot_id): r.fitness for r in rows if r.conditions == RANDOM}
+    loud = {(r.run_id, r.robot_id): r.fitness for r in rows if r.conditions != RANDOM}
+    assert plain.keys() == loud.keys() and plain != loud
     for row in shared:  # one world per run and repeat, all its robots in it
         assert row.seed == shared_world_seed(CONFIG.seed, row.run_id, row.repeat)
         assert row.fitness is not None or row.failure is not None
