@@ -315,10 +315,11 @@ class ProgressDisplay:
             _log.debug("%s: new failures at %d births: %s", run.name, event.births, _kinds(new))
         run.failures = counts
         if event.finished:
-            _log.info("%s: finished, %d births, best %s m, mean %s m, %d alive%s", run.name,
+            run.births, run.event = event.births, event
+            _log.info("%s: finished, %d births, best %s m, mean %s m, %d alive, %s; %s", run.name,
                       event.births, metres(event.best), metres(event.mean),
                       event.population_size,
-                      f"; failures: {_kinds(counts)}" if counts else "; no failures")
+                      f"failures: {_kinds(counts)}" if counts else "no failures", self.summary())
 
     def eta(self) -> float:
         """Wall-clock seconds left for all runs (from their birth rate; ``inf`` before it)."""
@@ -342,7 +343,9 @@ class ProgressDisplay:
 
     def _line(self, run: _Run, now: float) -> None:
         bucket = int(100 * run.births / max(1, run.target) // self.step)
-        if bucket > run.bucket or now - self.last_line >= self.interval or run.finished:
+        if run.finished:  # its end is logged by _note
+            return
+        if bucket > run.bucket or now - self.last_line >= self.interval:
             run.bucket = bucket
             self.last_line = now
             _log.info("%s: %d/%d births (%.0f%%), %s; %s", run.name, run.births, run.target,
