@@ -220,13 +220,9 @@ class ProgressDisplay:
         self.slots: list[RunKey | None] = [None] * max(1, max_bars or rows - 2)
         self.started = clock()
         self.live_since = math.nan
-        self.live_births = 0
         self.last_line = -math.inf
         self.label = label
         self._redirect = contextlib.ExitStack()
-        if self.bars_on:
-            self._redirect.enter_context(logging_redirect_tqdm([logging.getLogger()]))
-            self.bars[0] = self._bar(0, "all runs", 0, 0)
         if targets:
             self.add_runs(targets, done, label=label)
 
@@ -265,6 +261,8 @@ class ProgressDisplay:
         now = self.clock()
         self._note(run, event, now)
         run.births, run.event = event.births, event
+        if self.bars_on and not self.bars:  # drawn from the first event on, below what the
+            self._start_bars()  # command printed before the runs started
         if run.slot is None and not event.finished:
             self._place(run, steal=True)
         _log.debug("%s: %d/%d births, %s", run.name, run.births, run.target, run.status(now))
@@ -307,7 +305,7 @@ class ProgressDisplay:
         if not event.replaying and run.live_births is None:
             run.live_births, run.live_since = event.births, now
             if not math.isfinite(self.live_since):
-                self.live_since, self.live_births = now, self.done - run.births + event.births
+                self.live_since = now
         counts = dict(event.failures)
         new = {k: n - run.failures.get(k, 0) for k, n in counts.items()
                if n > run.failures.get(k, 0)}
@@ -322,8 +320,13 @@ class ProgressDisplay:
                       f"failures: {_kinds(counts)}" if counts else "no failures", self.summary())
 
     def eta(self) -> float:
-        """Wall-clock seconds left for all runs (from their birth rate; ``inf`` before it)."""
-        gained = self.done - self.live_births
+        """Wall-clock seconds left for all runs (``inf`` before births were counted).
+
+        The rate is that of all runs together since the first live event, counting each run's
+        births from its own first live event (a replay or a resumed start is not a birth rate).
+        """
+        gained = sum(r.births - r.live_births for r in self.runs.values()
+                     if r.live_births is not None)
         elapsed = self.clock() - self.live_since
         if not math.isfinite(elapsed) or elapsed <= 0 or gained <= 0:
             return math.inf
@@ -353,9 +356,16 @@ class ProgressDisplay:
 
     # -- on a terminal: bars -------------------------------------------------------------------
 
+    def _start_bars(self) -> None:
+        """Draw the total bar and a bar for each registered run (while there are lines)."""
+        self._redirect.enter_context(logging_redirect_tqdm([logging.getLogger()]))
+        self.bars[0] = self._bar(0, "all runs", self.total, self.done)
+        for run in self.runs.values():
+            self._place(run, steal=False)
+
     def _place(self, run: _Run, steal: bool) -> None:
         """Give ``run`` a free line; with ``steal``, also a finished or idle run's line."""
-        if not self.bars_on:
+        if not self.bars:
             return
         free = [i for i, key in enumerate(self.slots) if key is None]
         if not free and steal:

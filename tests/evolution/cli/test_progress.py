@@ -55,12 +55,12 @@ def test_bars_keep_their_lines_and_the_total_is_the_sum(log: io.StringIO) -> Non
     clock = Clock()
     display = ProgressDisplay({0: 100, 1: 100, 2: 100}, stream=io.StringIO(), tty=True,
                               max_bars=2, clock=clock)
-    assert [display.runs[("", r)].slot for r in (0, 1, 2)] == [0, 1, None]  # 2 lines for runs
+    assert not display.bars  # nothing drawn before the first event
     for births in (10, 20, 30):
         for run_id in (1, 0):  # interleaved, in another order than the lines
             clock.now += 1.0
             display(_event(run_id, births))
-            assert [display.runs[("", r)].slot for r in (0, 1)] == [0, 1]
+            assert [display.runs[("", r)].slot for r in (0, 1, 2)] == [0, 1, None]  # 2 lines
             assert display.bars[0].n == display.done == sum(display.bars[s].n for s in (1, 2))
     assert "30/100 births" in _bar_text(display, 0) and "best 2.500 m" in _bar_text(display, 0)
     display(_event(0, 100, finished=True))
@@ -75,7 +75,8 @@ def test_bars_keep_their_lines_and_the_total_is_the_sum(log: io.StringIO) -> Non
 
 def test_no_eta_or_fitness_before_there_is_data(log: io.StringIO) -> None:
     clock = Clock()
-    display = ProgressDisplay({0: 100}, stream=io.StringIO(), tty=True, clock=clock)
+    display = ProgressDisplay({0: 100, 1: 100}, stream=io.StringIO(), tty=True, clock=clock)
+    display(_event(1, 10, best=NAN))
     assert "waiting" in _bar_text(display, 0) and "ETA" not in str(display.bars[0])
     display(_event(0, 10, best=NAN))
     text = _bar_text(display, 0)
@@ -83,8 +84,8 @@ def test_no_eta_or_fitness_before_there_is_data(log: io.StringIO) -> None:
     assert "ETA" not in text and "best" not in text and " - " not in text
     clock.now = 10.0
     display(_event(0, 30))
-    # 20 births in 10 s: 70 left take 35 s
-    assert "ETA 0m35s" in _bar_text(display, 0) and "ETA 0m35s" in str(display.bars[0])
+    # 20 births in 10 s: 70 left take 35 s; all runs: 20 births in 10 s, 160 left take 80 s
+    assert "ETA 0m35s" in _bar_text(display, 0) and "ETA 1m20s" in str(display.bars[0])
     display.close()
 
 
@@ -172,6 +173,7 @@ def test_logging_is_given_back_after_the_command() -> None:
     before = (list(root.handlers), root.level, ours.level)
     with cli_logging(1):
         display = ProgressDisplay({0: 10}, stream=io.StringIO(), tty=True)
+        display(_event(0, 5, target=10))
         assert ours.level == logging.DEBUG and root.level == logging.WARNING
         # an error leaves the display open: its redirection of the handlers is undone too
     assert (list(root.handlers), root.level, ours.level) == before
