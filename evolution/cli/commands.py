@@ -49,7 +49,11 @@ from evolution.experiments import (
     run,
     shipped_configs,
 )
-from evolution.experiments.callbacks import TensorBoardLogger, combine
+from evolution.experiments.callbacks import (
+    TensorBoardLogger,
+    TensorBoardUnavailableError,
+    combine,
+)
 from evolution.experiments.integrity import check_writable, verify
 from evolution.random_robot import RandomRobotError
 from evolution.reporting import report
@@ -543,6 +547,7 @@ def _add_demo(sub: _Subparsers) -> None:
 
 INPUT_ERRORS: tuple[type[Exception], ...] = (
     ConfigError, StoreError, RobotError, CliError, RandomRobotError, OSError,
+    TensorBoardUnavailableError,  # an optional extra, named with its pip command
 )
 """Bad input: reported on one line (exit status 2). :class:`ReplayError` is a
 :class:`StoreError` but means a bug (a non-deterministic simulation), so it is not among them."""

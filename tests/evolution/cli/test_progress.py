@@ -7,6 +7,7 @@ from __future__ import annotations
 import io
 import logging
 import math
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -214,3 +215,14 @@ def test_run_then_resume_write_tensorboard_scalars(fake_physics: None, tmp_path:
     assert main(["resume", str(tmp_path / "out"), "--tensorboard", str(tb)]) == 0
     assert list((tb / "scenario1" / "run0").glob("events.out.tfevents.*"))
     assert "nothing to resume" in capsys.readouterr().out
+
+
+def test_a_missing_tensorboard_is_one_line_before_anything_runs(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setitem(sys.modules, "torch.utils.tensorboard", None)
+    out = tmp_path / "out"
+    assert main(["run", "quick", "--out", str(out), "--tensorboard", str(tmp_path / "tb")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].endswith('pip install "revolve-env[tensorboard]"')
+    assert not out.exists()
