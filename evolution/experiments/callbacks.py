@@ -21,7 +21,8 @@ tag                    value
 ``failures/total``     failures recorded since the run (re)started (blow-ups, learners...).
 =====================  ==================================================================
 
-Events of an online run replaying to its last commit point (on resume) are not written again.
+Events of an online run replaying to its last commit point (on resume) are not written again;
+the commit point a resumed run continues from is (the same values at the same step).
 View them with ``tensorboard --logdir LOG_DIR``. It needs ``pip install "revolve-env[tensorboard]"``
 (the ``tensorboard`` package and PyTorch, whose ``SummaryWriter`` writes the files); without them
 making a logger raises :class:`TensorBoardUnavailableError` (an ``ImportError``) saying so.

@@ -7,7 +7,8 @@ import sys
 from pathlib import Path
 
 import pytest
-from experiment_fakes import fake_evaluate, fake_world_with_blow_ups, small
+from experiment_fakes import Kill, fake_evaluate, fake_world, fake_world_with_blow_ups, small
+from experiment_fakes import kill_after as killer
 
 from evolution import experiments
 from evolution.evaluation import LocalEvaluator
@@ -98,3 +99,27 @@ def test_events_count_the_failures_of_the_run(tmp_path: Path) -> None:
     assert sum(counts.values()) == len(stored)
     totals = [sum(n for _, n in e.failures) for e in events]
     assert totals == sorted(totals) and totals[0] < totals[-1]
+
+
+def test_a_resumed_online_run_continues_its_curves_without_the_replay(tmp_path: Path) -> None:
+    config = small(preset("scenario3", runs=1, births=60, checkpoint_interval=5))
+    out, tb = tmp_path / "out", tmp_path / "tb"
+    with TensorBoardLogger(tb) as tensorboard, pytest.raises(Kill):
+        experiments.run(config, out, combine(tensorboard, killer(33)), evaluator=SERIAL,
+                        world_factory=fake_world)
+    first = [step for step, _ in _scalars(tb / "run0")["population/size"]]
+    events: list[ProgressEvent] = []
+    with TensorBoardLogger(tb) as tensorboard:
+        experiments.resume(out, combine(tensorboard, events.append), evaluator=SERIAL,
+                           world_factory=fake_world)
+    assert any(e.replaying for e in events)
+    scalars = _scalars(tb / "run0")
+    steps = [step for step, _ in scalars["population/size"]]
+    assert steps[:len(first)] == first and first[-1] == 35  # the kill came at its commit point
+    resumed = steps[len(first):]
+    # The replayed births are not written again; the commit point the run continues from is,
+    # with the same values.
+    assert resumed[0] == 35 and resumed[1] > 35 and resumed == sorted(resumed)
+    assert resumed[-1] == 60
+    at_35 = [value for step, value in scalars["fitness/best"] if step == 35]
+    assert len(at_35) == 2 and at_35[0] == at_35[1]
