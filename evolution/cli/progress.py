@@ -218,7 +218,6 @@ class ProgressDisplay:
         self.bars: dict[int, tqdm[NoReturn]] = {}  # slot -> bar; slot 0 is the total
         rows = shutil.get_terminal_size((100, 24)).lines
         self.slots: list[RunKey | None] = [None] * max(1, max_bars or rows - 2)
-        self.started = clock()
         self.live_since = math.nan
         self.last_line = -math.inf
         self.label = label
@@ -358,7 +357,10 @@ class ProgressDisplay:
 
     def _start_bars(self) -> None:
         """Draw the total bar and a bar for each registered run (while there are lines)."""
-        self._redirect.enter_context(logging_redirect_tqdm([logging.getLogger()]))
+        root = logging.getLogger()
+        if any(isinstance(h, logging.StreamHandler) and h.stream in (sys.stdout, sys.stderr)
+               for h in root.handlers):  # records to the terminal are written above the bars
+            self._redirect.enter_context(logging_redirect_tqdm([root]))
         self.bars[0] = self._bar(0, "all runs", self.total, self.done)
         for run in self.runs.values():
             self._place(run, steal=False)
