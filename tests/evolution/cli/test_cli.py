@@ -61,7 +61,7 @@ def test_every_subcommand_has_help(command: str, capsys: pytest.CaptureFixture[s
     assert exit_info.value.code == 0
     out = capsys.readouterr().out
     assert out.startswith(f"usage: revolve {command}")
-    expected = {"run": "--births", "resume": "DIR", "report": "mann_whitney.csv",
+    expected = {"run": "--births", "resume": "DIR", "report": "tests_per_run.csv",
                 "show": "--robot", "export": "--format", "demo": "--births"}[command]
     assert expected in out
 
@@ -233,7 +233,7 @@ def test_run_then_report(fake_physics: None, tmp_path: Path,
         assert store.config["seed"] == 3 and store.config["evolution"]["max_parts"] == 12
         assert [(r.status, r.births) for r in store.runs()] == [("finished", 18)] * 2
 
-    assert main(["report", str(out), "--formats", "png"]) == 0
+    assert main(["report", str(out), "--formats", "png", "--brain-aware"]) == 0
     report_dir = out / "report"
     for stem in ("fitness_over_births", "final_fitness", "diversity_over_births",
                  "final_diversity"):
@@ -243,10 +243,11 @@ def test_run_then_report(fake_physics: None, tmp_path: Path,
         summary = list(csv.DictReader(f))
     assert [r["experiment"] for r in summary] == ["scenario1", "baseline_a"]
     assert all(r["runs"] == "2" and r["finished_runs"] == "2" for r in summary)
-    with open(report_dir / "mann_whitney.csv", newline="") as f:
+    with open(report_dir / "tests_per_run.csv", newline="") as f:
         tests = list(csv.DictReader(f))
-    assert {r["sample"] for r in tests} == {"final_fitness", "run_mean_fitness", "final_diversity"}
-    assert len(tests) == 3
+    assert {r["sample"] for r in tests} == {"run_mean_fitness", "run_best_fitness",
+                                            "final_diversity", "final_brain_diversity"}
+    assert len(tests) == 4
     assert all(0.0 <= float(r["p_value"]) <= 1.0 for r in tests)
     assert (report_dir / "summary.md").is_file()
 
@@ -358,7 +359,7 @@ def test_run_and_report_with_real_physics(tmp_path: Path) -> None:
     assert main(["run", "scenario1", *argv]) == 0
     assert main(["run", "baseline_b", *argv]) == 0
     assert main(["report", str(tmp_path), "--formats", "png"]) == 0
-    with open(tmp_path / "report" / "mann_whitney.csv", newline="") as f:
+    with open(tmp_path / "report" / "tests_per_run.csv", newline="") as f:
         assert all(0 <= float(r["p_value"]) <= 1 for r in csv.DictReader(f))
 
 
