@@ -61,6 +61,7 @@ from evolution.experiments.records import FitnessSample, RobotRecord
 from evolution.experiments.run import ReplayError, run_seed
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import from_json
+from revolve_env.conditions import IDEAL, EvaluationConditions
 
 if TYPE_CHECKING:
     from revolve_env.envs.recording import Video
@@ -91,6 +92,7 @@ class _Plan:
     seed: int
     stored: StoredRobot | None = None
     learned: bool = False
+    conditions: EvaluationConditions = IDEAL
 
 
 def _plan(args: argparse.Namespace) -> _Plan:
@@ -109,7 +111,8 @@ def _plan(args: argparse.Namespace) -> _Plan:
     return _Plan(robot, stored.name, args.seconds or config.evaluation_time,
                  config.insertion if args.insertion is None else args.insertion,
                  args.engine or config.world.engine,
-                 evaluation_seed(stored.run_seed, stored.record.robot_id), stored, learned)
+                 evaluation_seed(stored.run_seed, stored.record.robot_id), stored, learned,
+                 config.evaluation)
 
 
 def _no_robot() -> tuple[Robot, str]:
@@ -124,16 +127,6 @@ def _stored_kind(stored: StoredRobot) -> str:
                 f"online world{when}")
     return (f"isolated {config.evaluation_time:g} s evaluation after {config.insertion:g} s "
             f"settling, {config.world.engine}")
-
-
-def _conditions(raw: dict[str, Any]) -> str | None:
-    """The stored evaluation conditions when they are not ideal (``None`` when they are)."""
-    table = raw.get("evaluation")
-    if not isinstance(table, dict):
-        return None
-    active = {k: v for k, v in sorted(table.items())
-              if v not in (None, False, 0, 0.0, "", "none", "fixed", "ideal")}
-    return ", ".join(f"{k} = {v}" for k, v in active.items()) or None
 
 
 def fitness_reasons(plan: _Plan) -> list[str]:
@@ -156,10 +149,9 @@ def fitness_reasons(plan: _Plan) -> list[str]:
     if (plan.seconds, plan.insertion) != (config.evaluation_time, config.insertion):
         reasons.append(f"re-simulated over {plan.insertion:g} + {plan.seconds:g} s, stored over "
                        f"{config.insertion:g} + {config.evaluation_time:g} s")
-    conditions = _conditions(stored.raw_config)
-    if conditions is not None:
-        reasons.append(f"it was evaluated under noisy conditions ({conditions}); the "
-                       "re-simulation is ideal")
+    if plan.conditions != config.evaluation:
+        reasons.append(f"re-simulated under other conditions ({plan.conditions}) than stored "
+                       f"({config.evaluation})")
     return reasons
 
 
@@ -204,7 +196,8 @@ def _cmd_show(args: argparse.Namespace) -> int:
         with warnings.catch_warnings(record=True) as notes:
             warnings.simplefilter("always", UserWarning)
             video = record_robot(plan.robot, out, seconds=plan.seconds, insertion=plan.insertion,
-                                 fps=args.fps, engine=plan.engine, seed=plan.seed)
+                                 fps=args.fps, engine=plan.engine, seed=plan.seed,
+                                 conditions=plan.conditions)
     except ValueError as error:  # bad timing, a robot without hinges, a blow-up: the input
         raise CliError(f"cannot show {plan.name}: {error}") from None
     for note in notes:

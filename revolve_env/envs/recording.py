@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.body.robot import Robot
+from revolve_env.conditions import EvaluationConditions
 from revolve_env.envs.episode import run_episode
 from revolve_env.envs.locomotion import LocomotionEnv
 from revolve_env.envs.video import write_video
@@ -87,6 +88,7 @@ def record_robot(
     *,
     engine: str | None = None,
     seed: int = 0,
+    conditions: EvaluationConditions | None = None,
 ) -> Video:
     """Simulate ``robot`` driven by its own brain and write a video of it.
 
@@ -99,6 +101,9 @@ def record_robot(
             frame period is a whole number of control periods, the nearest to ``1 / fps``.
         engine: Physics engine (``"pybullet"`` or ``"mujoco"``); None: pybullet.
         seed: Seed of the episode (:func:`revolve_env.evaluate`'s ``seed``).
+        conditions: Start heading, jitter and noise (default
+            :data:`~revolve_env.conditions.IDEAL`); with the same ``seed`` the robot starts and
+            moves exactly as in ``evaluate(..., seed=seed, conditions=conditions)``.
 
     Raises:
         ValueError: bad timing, or a robot the environment cannot drive (no hinge).
@@ -107,7 +112,7 @@ def record_robot(
         raise ValueError(f"fps must be a positive number, got {fps}")
     env = LocomotionEnv(robot, render_mode="rgb_array", insertion_time=insertion,
                         evaluation_time=seconds, fitness_window=seconds, controller="brain",
-                        engine=engine)
+                        engine=engine, conditions=conditions)
     try:
         dt = env.config.control_period
         every = max(1, round(1.0 / (fps * dt)))
