@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -101,6 +102,8 @@ class ProgressEvent:
         wall_time: Wall-clock seconds since the run (re)started.
         replaying: True while an online run replays up to its last commit point.
         finished: True on the last event of a run.
+        failures: Failures recorded since the run (re)started (blow-ups, learner failures,
+            crossovers...), as sorted ``(kind, count)`` pairs.
     """
 
     run_id: int
@@ -114,6 +117,7 @@ class ProgressEvent:
     wall_time: float
     replaying: bool = False
     finished: bool = False
+    failures: tuple[tuple[str, int], ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -313,6 +317,7 @@ class RunState:
         self.sim_time_at_start = 0.0
         self.replay_until: Checkpoint | None = None
         self.stored_genomes: dict[int, str] = {}
+        self.failure_counts: Counter[str] = Counter()
         check_infancy(job.infancy)
         self.infancy = job.infancy
         self.lamarckian = bool(getattr(job.infancy, "lamarckian", False))
@@ -503,6 +508,7 @@ class RunState:
             self.sim_time_at_start = self.sim_time
             self._progress()
             return
+        self.failure_counts.update(f.kind for f in self.batch.failures)
         written = self.save_snapshot()
         if written is not None:
             checkpoint.engine_state["snapshot"] = written
@@ -537,7 +543,8 @@ class RunState:
         best, mean = self._stats()
         speed = (self.sim_time - self.sim_time_at_start) / wall if wall > 0 else math.nan
         return ProgressEvent(self.run_id, self.births, self.config.births, self.sim_time, best,
-                             mean, len(self.population), speed, wall, replaying, finished)
+                             mean, len(self.population), speed, wall, replaying, finished,
+                             tuple(sorted(self.failure_counts.items())))
 
     def _progress(self, replaying: bool = False) -> None:
         self.emit(self.event(replaying=replaying))
