@@ -34,6 +34,7 @@ import numpy as np
 
 from evolution.evaluation import evaluation_seed, run_infancy
 from evolution.experiments import snapshot
+from evolution.experiments.remote_store import RunStore
 from evolution.experiments.run import (
     Member,
     OnlineWorld,
@@ -50,7 +51,6 @@ from evolution.experiments.store import (
     FailureRecord,
     FitnessSample,
     LearningRecord,
-    Store,
 )
 from evolution.lifecycle import LearningSummary, Lifecycle, Stage
 from evolution.selection import online_survivors
@@ -63,7 +63,7 @@ _log = logging.getLogger(__name__)
 class OnlineRun(RunState):
     """One online run: the whole population in ``world``, a birth every conception interval."""
 
-    def __init__(self, job: RunJob, store: Store, emit: Callable[[ProgressEvent], None],
+    def __init__(self, job: RunJob, store: RunStore, emit: Callable[[ProgressEvent], None],
                  world: OnlineWorld) -> None:
         super().__init__(job, store, emit)
         self.world = world

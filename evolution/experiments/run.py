@@ -14,8 +14,9 @@ from __future__ import annotations
 import json
 import math
 import time
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
@@ -24,13 +25,13 @@ import numpy as np
 from evolution.diversity import diversity
 from evolution.evaluation import LearningSummary
 from evolution.experiments.config import ExperimentConfig
+from evolution.experiments.remote_store import RunStore, host_store
 from evolution.experiments.store import (
     Batch,
     Checkpoint,
     FailureRecord,
     LearningRecord,
     RobotRecord,
-    Store,
     StoreError,
 )
 from evolution.lifecycle import InfancyHook, Lifecycle, LifecycleTiming
@@ -223,7 +224,11 @@ WorldFactory = Callable[[ExperimentConfig, int], OnlineWorld]
 
 @dataclass(frozen=True, slots=True)
 class RunJob:
-    """Everything a worker needs to execute (or continue) one run."""
+    """Everything a worker needs to execute (or continue) one run.
+
+    ``store``: where the run reads and writes its records; ``None``: it opens ``db_path``
+    itself. A job sent to another machine carries a remote one (:meth:`for_remote_worker`).
+    """
 
     db_path: str
     run_id: int
@@ -231,6 +236,18 @@ class RunJob:
     world_factory: WorldFactory | None = None
     infancy: InfancyHook | None = None
     stop_after_commits: int | None = None
+    store: RunStore | None = None
+
+    @contextmanager
+    def for_remote_worker(self) -> Iterator[RunJob]:
+        """This job for a Ray worker on any node: the database stays on this one.
+
+        Call in the Ray driver; the copy's store is a
+        :class:`~evolution.experiments.remote_store.RemoteStore` of this node's database,
+        valid until the context exits.
+        """
+        with host_store(self.db_path) as store:
+            yield replace(self, store=store)
 
 
 @dataclass(slots=True)
@@ -292,7 +309,8 @@ def _finite(values: Sequence[float | None]) -> np.ndarray:
 class RunState:
     """State and shared steps of one run (both engines)."""
 
-    def __init__(self, job: RunJob, store: Store, emit: Callable[[ProgressEvent], None]) -> None:
+    def __init__(self, job: RunJob, store: RunStore,
+                 emit: Callable[[ProgressEvent], None]) -> None:
         self.job = job
         self.config = job.config
         self.run_id = job.run_id
