@@ -1,14 +1,16 @@
-"""A run's store on another machine: the driver owns the database, workers call it over Ray.
+"""Where a run keeps its results: its database and the files beside it, here or over Ray.
 
-A run reads and writes its results through a :class:`RunStore`: the
-:class:`~evolution.experiments.store.Store` itself where the run executes beside its database
-(in this process, or in a local worker process), or a :class:`RemoteStore` where it executes as
-a Ray task, possibly on another machine. Every call of a :class:`RemoteStore` goes to a
-:class:`StoreHost` Ray actor that the driver starts on its own node
-(:func:`host_store`, used by :meth:`~evolution.experiments.run.RunJob.for_remote_worker`) and
-that alone opens the SQLite file. So a multi-node cluster needs no shared filesystem: workers
-send their commit points (robots, fitness, transitions, checkpoints) to the driver's node and
-read what a resume needs from there.
+A run reads and writes its results through a :class:`RunStore`: its records (the
+:class:`~evolution.experiments.store.Store`'s methods) and the files beside the database
+(online snapshots, :mod:`~evolution.experiments.snapshot`; trained SB3 policies,
+``<results>/policies/``). Where the run executes beside its database (in this process, or in
+a local worker process) that is a :class:`LocalRunStore`; where it executes as a Ray task,
+possibly on another machine, a :class:`RemoteStore`, every call of which goes to a
+:class:`StoreHost` Ray actor that the driver starts on its own node (:func:`host_store`, used
+by :meth:`~evolution.experiments.run.RunJob.for_remote_worker`). The host alone opens the
+SQLite file and writes the files. So a multi-node cluster needs no shared filesystem: workers
+send their commit points (robots, fitness, transitions, checkpoints), snapshots and policies
+to the driver's node and read what a resume needs from there.
 
 The commit point stays one transaction: the host writes the batch and the checkpoint with
 :meth:`Store.commit <evolution.experiments.store.Store.commit>` before the call returns, so a
@@ -17,17 +19,28 @@ run killed anywhere loses at most the work since its last commit, as locally.
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager, suppress
+from pathlib import Path
 from typing import Any, Protocol
 
-from evolution.experiments.store import Batch, Checkpoint, LearningRecord, RobotRecord, Store
+from evolution.experiments import snapshot
+from evolution.experiments.store import (
+    Batch,
+    Checkpoint,
+    LearningRecord,
+    RobotRecord,
+    Store,
+    StoreError,
+)
+from revolve_env.body.robot import Robot
 
-__all__ = ["RemoteStore", "RunStore", "StoreHost", "host_store"]
+__all__ = ["LocalRunStore", "RemoteStore", "RunStore", "StoreHost", "host_store"]
 
 
 class RunStore(Protocol):
-    """What a run reads and writes in its experiment's database (see :class:`Store`)."""
+    """What a run reads and writes: its records (see :class:`Store`) and files beside them."""
 
     def set_status(self, run_id: int, status: str) -> None:
         """Set a run's status (``pending``, ``running``, ``interrupted``, ``finished``)."""
@@ -44,39 +57,142 @@ class RunStore(Protocol):
     def learning(self, run_id: int, ids: Sequence[int] | None = None) -> list[LearningRecord]:
         """Infancy learning records of a run (only of ``ids`` if given), in birth order."""
 
+    def write_snapshot(self, run_id: int, births: int, data: dict[str, Any]) -> dict[str, Any]:
+        """Write a snapshot file (:func:`snapshot.write`); the checkpoint's reference to it.
+
+        Raises:
+            OSError: the file cannot be written.
+        """
+
+    def read_snapshot(self, run_id: int, ref: object, births: int) -> dict[str, Any]:
+        """The data of a checkpoint's snapshot (:func:`snapshot.read`).
+
+        Raises:
+            SnapshotError: missing, damaged, or not the checkpoint's.
+        """
+
+    def prune_snapshots(self, run_id: int, keep: str | None) -> None:
+        """Delete the run's snapshot files but ``keep`` (:func:`snapshot.prune`)."""
+
+    def save_policy(self, run_id: int, robot_id: int, policy: Any) -> str:
+        """Write an SB3 policy (reset first) before the commit that references it.
+
+        Returns:
+            The learning record's reference: JSON ``{"file": ..., "digest": ...}``.
+        """
+
+    def load_policy(self, run_id: int, robot: Robot, reference: str) -> Any:
+        """The policy a learning record references, checked against ``robot``.
+
+        Raises:
+            StoreError: one line naming the file: missing, damaged, of another body, or not
+                the one the store recorded.
+        """
+
     def close(self) -> None:
         """Release the store (for a remote one: nothing; the driver owns the database)."""
 
 
+class LocalRunStore:
+    """A :class:`RunStore` on this machine: an open :class:`Store` and its results folder.
+
+    Args:
+        store: The open database; its folder holds the files.
+    """
+
+    def __init__(self, store: Store) -> None:
+        self.store = store
+        self.folder = store.path.parent
+
+    @classmethod
+    def open(cls, db_path: str | Path) -> LocalRunStore:
+        """Open the database at ``db_path`` (as :meth:`Store.open`, raising its errors)."""
+        return cls(Store.open(db_path))
+
+    def set_status(self, run_id: int, status: str) -> None:
+        """As :meth:`Store.set_status`."""
+        self.store.set_status(run_id, status)
+
+    def commit(self, run_id: int, batch: Batch, checkpoint: Checkpoint) -> None:
+        """As :meth:`Store.commit`."""
+        self.store.commit(run_id, batch, checkpoint)
+
+    def checkpoint(self, run_id: int) -> Checkpoint | None:
+        """As :meth:`Store.checkpoint`."""
+        return self.store.checkpoint(run_id)
+
+    def robots(self, run_id: int, ids: Sequence[int] | None = None) -> list[RobotRecord]:
+        """As :meth:`Store.robots`."""
+        return self.store.robots(run_id, ids)
+
+    def learning(self, run_id: int, ids: Sequence[int] | None = None) -> list[LearningRecord]:
+        """As :meth:`Store.learning`."""
+        return self.store.learning(run_id, ids)
+
+    def write_snapshot(self, run_id: int, births: int, data: dict[str, Any]) -> dict[str, Any]:
+        """Write ``<results>/checkpoints/run<id>.b<births>.snapshot``; its reference."""
+        path = snapshot.snapshot_path(self.store.path, run_id, births)
+        return snapshot.reference(path, snapshot.write(path, data), births)
+
+    def read_snapshot(self, run_id: int, ref: object, births: int) -> dict[str, Any]:
+        """As :func:`snapshot.read` in the results folder."""
+        return snapshot.read(self.store.path, run_id, ref, births)
+
+    def prune_snapshots(self, run_id: int, keep: str | None) -> None:
+        """As :func:`snapshot.prune` in the results folder."""
+        snapshot.prune(self.store.path, run_id, keep)
+
+    def save_policy(self, run_id: int, robot_id: int, policy: Any) -> str:
+        """Write ``<results>/policies/run<r>_robot<id>.pkl``; the learning record's reference."""
+        from evolution.learning.sb3 import save_policy
+
+        relative = f"policies/run{run_id}_robot{robot_id}.pkl"
+        digest = save_policy(policy, self.folder / relative)
+        return json.dumps({"file": relative, "digest": digest}, sort_keys=True)
+
+    def load_policy(self, run_id: int, robot: Robot, reference: str) -> Any:
+        """The policy file ``reference`` names in the results folder, checked."""
+        from evolution.learning.sb3 import PolicyFileError, load_policy
+
+        try:
+            ref = json.loads(reference)
+            path = self.folder / str(ref["file"])
+            digest = str(ref["digest"])
+        except (ValueError, KeyError, TypeError) as error:
+            raise StoreError(f"run {run_id}: malformed policy reference {reference!r}"
+                             ) from error
+        try:
+            return load_policy(path, robot, digest)
+        except PolicyFileError as error:
+            raise StoreError(f"run {run_id}: {error}") from error
+
+    def close(self) -> None:
+        """Close the database."""
+        self.store.close()
+
+
+_HOSTED = frozenset({
+    "set_status", "commit", "checkpoint", "robots", "learning", "write_snapshot",
+    "read_snapshot", "prune_snapshots", "save_policy", "load_policy",
+})
+"""The :class:`RunStore` methods a :class:`StoreHost` serves."""
+
+
 class StoreHost:
-    """The driver-side end of a :class:`RemoteStore`: a Ray actor owning one open database.
+    """The driver-side end of a :class:`RemoteStore`: a Ray actor owning one results folder.
 
     Args:
         db_path: The database, on the node the actor runs on (the driver's).
     """
 
     def __init__(self, db_path: str) -> None:
-        self._store = Store.open(db_path)
+        self._store = LocalRunStore.open(db_path)
 
-    def set_status(self, run_id: int, status: str) -> None:
-        """As :meth:`Store.set_status`."""
-        self._store.set_status(run_id, status)
-
-    def commit(self, run_id: int, batch: Batch, checkpoint: Checkpoint) -> None:
-        """As :meth:`Store.commit` (of the worker's batch, received as a copy)."""
-        self._store.commit(run_id, batch, checkpoint)
-
-    def checkpoint(self, run_id: int) -> Checkpoint | None:
-        """As :meth:`Store.checkpoint`."""
-        return self._store.checkpoint(run_id)
-
-    def robots(self, run_id: int, ids: Sequence[int] | None = None) -> list[RobotRecord]:
-        """As :meth:`Store.robots`."""
-        return self._store.robots(run_id, ids)
-
-    def learning(self, run_id: int, ids: Sequence[int] | None = None) -> list[LearningRecord]:
-        """As :meth:`Store.learning`."""
-        return self._store.learning(run_id, ids)
+    def call(self, method: str, *args: Any) -> Any:
+        """``method(*args)`` of the :class:`LocalRunStore` (one of the run's methods)."""
+        if method not in _HOSTED:
+            raise AttributeError(f"a store host serves no {method!r}")
+        return getattr(self._store, method)(*args)
 
     def close(self) -> None:
         """Close the database."""
@@ -84,11 +200,12 @@ class StoreHost:
 
 
 class RemoteStore:
-    """A :class:`RunStore` whose database is on the driver's machine, behind a :class:`StoreHost`.
+    """A :class:`RunStore` whose folder is on the driver's machine, behind a :class:`StoreHost`.
 
     Picklable (it holds the actor's handle), so it travels with the job to any node. Errors
-    raised by the host (a :class:`~evolution.experiments.store.StoreError`, say) are raised
-    here as the same exception type.
+    raised by the host (a :class:`~evolution.experiments.store.StoreError`, an ``OSError``, a
+    :class:`~evolution.experiments.snapshot.SnapshotError`) are raised here as instances of
+    the same type.
     """
 
     def __init__(self, host: Any) -> None:
@@ -97,8 +214,7 @@ class RemoteStore:
     def _call(self, method: str, *args: Any) -> Any:
         import ray
 
-        # ray.get raises the host's own exception type (StoreError, ...), wrapped by Ray.
-        return ray.get(getattr(self._host, method).remote(*args))
+        return ray.get(self._host.call.remote(method, *args))
 
     def set_status(self, run_id: int, status: str) -> None:
         """Set a run's status in the driver's database."""
@@ -126,6 +242,33 @@ class RemoteStore:
         """The run's learning records, from the driver's database."""
         result: list[LearningRecord] = self._call("learning", run_id, ids)
         return result
+
+    def write_snapshot(self, run_id: int, births: int, data: dict[str, Any]) -> dict[str, Any]:
+        """Write the snapshot file in the driver's results folder; its reference."""
+        result: dict[str, Any] = self._call("write_snapshot", run_id, births, data)
+        return result
+
+    def read_snapshot(self, run_id: int, ref: object, births: int) -> dict[str, Any]:
+        """A snapshot from the driver's results folder."""
+        result: dict[str, Any] = self._call("read_snapshot", run_id, ref, births)
+        return result
+
+    def prune_snapshots(self, run_id: int, keep: str | None) -> None:
+        """Delete the run's older snapshots in the driver's results folder."""
+        self._call("prune_snapshots", run_id, keep)
+
+    def save_policy(self, run_id: int, robot_id: int, policy: Any) -> str:
+        """Write the policy in the driver's results folder; the learning record's reference.
+
+        The policy here is reset as a local save resets it (it drives the robot next).
+        """
+        policy.reset()
+        result: str = self._call("save_policy", run_id, robot_id, policy)
+        return result
+
+    def load_policy(self, run_id: int, robot: Robot, reference: str) -> Any:
+        """A policy from the driver's results folder, checked there."""
+        return self._call("load_policy", run_id, robot, reference)
 
     def close(self) -> None:
         """Nothing to release here: the driver closes the database (:func:`host_store`)."""

@@ -17,7 +17,6 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
-from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -420,22 +419,13 @@ class RunState:
             member.robot = learned
             member.learned = True
 
-    def policy_path(self, robot_id: int) -> Path:
-        """Where the policy of robot ``robot_id`` is saved: ``<results>/policies/``."""
-        return Path(self.job.db_path).parent / "policies" / f"run{self.run_id}_robot{robot_id}.pkl"
-
     def save_policy(self, member: Member) -> str:
         """Write ``member.policy`` beside the database (before the commit that references it).
 
         Returns:
             The learning record's reference: JSON ``{"file": ..., "digest": ...}``.
         """
-        from evolution.learning.sb3 import save_policy
-
-        path = self.policy_path(member.robot_id)
-        digest = save_policy(member.policy, path)
-        relative = path.relative_to(Path(self.job.db_path).parent).as_posix()
-        return json.dumps({"file": relative, "digest": digest}, sort_keys=True)
+        return self.store.save_policy(self.run_id, member.robot_id, member.policy)
 
     def load_policy(self, robot: Robot, reference: str) -> Any:
         """The policy a learning record references, checked against ``robot``.
@@ -444,19 +434,7 @@ class RunState:
             StoreError: one line naming the file: missing, damaged, of another body, or not the
                 one the store recorded.
         """
-        from evolution.learning.sb3 import PolicyFileError, load_policy
-
-        try:
-            ref = json.loads(reference)
-            path = Path(self.job.db_path).parent / str(ref["file"])
-            digest = str(ref["digest"])
-        except (ValueError, KeyError, TypeError) as error:
-            raise StoreError(f"run {self.run_id}: malformed policy reference {reference!r}"
-                             ) from error
-        try:
-            return load_policy(path, robot, digest)
-        except PolicyFileError as error:
-            raise StoreError(f"run {self.run_id}: {error}") from error
+        return self.store.load_policy(self.run_id, robot, reference)
 
     # -- deaths ------------------------------------------------------------------------------
 

@@ -5,6 +5,9 @@ worker process starts with :func:`refuse_sqlite_off_the_host`, which makes openi
 database fail except in an actor on the driver's node (the store host): a run task that opened
 the results file itself, as before, fails the tests. Results must equal a local run's, row for
 row, and so must the progress events (but for their wall-clock fields).
+
+About 20 s by default (the cluster, the guard, an offline and an online study); the crash,
+interrupt and snapshot tests are marked slow (about 10 s each): ``-m slow``.
 """
 
 from __future__ import annotations
@@ -17,11 +20,28 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from experiment_fakes import RESULT_TABLES, Kill, dump_results, fake_evaluate, fake_world, small
+from experiment_fakes import (
+    RESULT_TABLES,
+    Kill,
+    dump_results,
+    fake_evaluate,
+    fake_world,
+    kill_after,
+    small,
+)
 
 from evolution import experiments
 from evolution.evaluation import EvalOutcome, EvalTask, LocalEvaluator, RayEvaluator
-from evolution.experiments import ExperimentConfig, ProgressEvent, Store, load_config, preset
+from evolution.experiments import (
+    AgentStatus,
+    ExperimentConfig,
+    OnlineWorld,
+    ProgressEvent,
+    Store,
+    load_config,
+    preset,
+)
+from evolution.experiments.online_world import PopulationWorld
 
 ray = pytest.importorskip("ray")
 
@@ -29,18 +49,29 @@ _HOST_NODE = "REVOLVE_TEST_DB_NODE"
 """Environment variable (set for the Ray workers): the only node whose actors may open SQLite."""
 
 
-def refuse_sqlite_off_the_host() -> None:
-    """Ray worker setup hook: ``sqlite3.connect`` works only in an actor on the driver's node."""
-    connect = sqlite3.connect
+def _on_the_host() -> bool:
+    context = ray.get_runtime_context()
+    return context.get_actor_id() is not None and context.get_node_id() == os.environ[_HOST_NODE]
 
-    def guarded(*args: Any, **kwargs: Any) -> sqlite3.Connection:
-        context = ray.get_runtime_context()
-        if context.get_actor_id() is None or context.get_node_id() != os.environ[_HOST_NODE]:
+
+def refuse_sqlite_off_the_host() -> None:
+    """Ray worker setup hook: only an actor on the driver's node may open SQLite or put a
+    written file in place (``os.replace``: how snapshots and policies are written)."""
+    connect, replace = sqlite3.connect, os.replace
+
+    def guarded_connect(*args: Any, **kwargs: Any) -> sqlite3.Connection:
+        if not _on_the_host():
             raise RuntimeError(f"a Ray worker opened SQLite {args[:1]}: only the driver's store "
                                "host may")
         return connect(*args, **kwargs)
 
-    sqlite3.connect = guarded  # type: ignore[assignment]
+    def guarded_replace(source: Any, target: Any, **kwargs: Any) -> None:
+        if not _on_the_host():
+            raise RuntimeError(f"a Ray worker wrote {target}: only the driver's store host may")
+        replace(source, target, **kwargs)
+
+    sqlite3.connect = guarded_connect  # type: ignore[assignment]
+    os.replace = guarded_replace
 
 
 def slow_fake_evaluate(task: EvalTask) -> EvalOutcome:
@@ -116,6 +147,9 @@ def test_the_guard_refuses_sqlite_in_ray_tasks(cluster: None) -> None:
     opened = ray.remote(lambda: sqlite3.connect(":memory:").close())
     with pytest.raises(RuntimeError, match="only the driver's store host"):
         ray.get(opened.remote())
+    moved = ray.remote(lambda: os.replace("/nonexistent/a", "/nonexistent/b"))
+    with pytest.raises(RuntimeError, match="only the driver's store host"):
+        ray.get(moved.remote())
 
 
 @pytest.mark.parametrize("make_config", [_offline, _online], ids=["offline", "online"])
@@ -133,6 +167,7 @@ def test_a_study_on_two_nodes_equals_the_local_one(
     assert _progress(events) == _progress(local_events)  # every event, in each run's order
 
 
+@pytest.mark.slow  # about 10 s on two cores
 def test_a_crashed_ray_study_keeps_its_commits_and_resumes_to_the_local_result(
         cluster: None, tmp_path: Path) -> None:
     config = _offline()
@@ -148,6 +183,7 @@ def test_a_crashed_ray_study_keeps_its_commits_and_resumes_to_the_local_result(
         tmp_path / "local" / "results.sqlite")
 
 
+@pytest.mark.slow  # about 10 s on two cores
 def test_an_interrupted_ray_study_stops_its_runs_and_resumes(
         cluster: None, tmp_path: Path) -> None:
     """A progress callback raising in the driver (as Ctrl-C would) stops the remote runs."""
@@ -168,3 +204,49 @@ def test_an_interrupted_ray_study_stops_its_runs_and_resumes(
     experiments.resume(out, evaluator=_ray(fake_evaluate))
     assert dump_results(out / "results.sqlite", RESULT_TABLES) == dump_results(
         tmp_path / "local" / "results.sqlite", RESULT_TABLES)
+
+
+def _mujoco() -> ExperimentConfig:
+    """A tiny online MuJoCo study: its checkpoints write snapshot files for an exact resume."""
+    return small(load_config("scenario3", {
+        "world": {"engine": "mujoco"}, "runs": 1, "births": 12, "population_size": 3,
+        "insertion": 0.5, "evaluation_time": 1.0, "fertile_age": 1.5, "min_alive": 2,
+        "max_alive": 5, "conception_interval": 1.0, "checkpoint_interval": 2,
+        "diversity_interval": 3, "workers": 1}))
+
+
+class _SlowWorld(PopulationWorld):
+    """The MuJoCo population world, 0.3 s of wall-clock time per conception tick."""
+
+    def advance_to(self, t: float) -> dict[str, AgentStatus]:
+        time.sleep(0.3)
+        return super().advance_to(t)
+
+
+def slow_world(config: ExperimentConfig, seed: int) -> OnlineWorld:
+    """A world factory (picklable) of :class:`_SlowWorld`: a run to interrupt."""
+    return _SlowWorld(config, seed)
+
+
+@pytest.mark.slow  # about 10 s on two cores
+def test_snapshots_of_a_ray_run_reach_the_driver_and_resume_exactly(
+        cluster: None, tmp_path: Path) -> None:
+    pytest.importorskip("mujoco")
+    config = _mujoco()
+    experiments.run(config, tmp_path / "local", evaluator=LocalEvaluator(1))
+    out = tmp_path / "ray"
+    with pytest.raises(Kill):
+        experiments.run(config, out, kill_after(7), evaluator=_ray(fake_evaluate),
+                        world_factory=slow_world)
+    with Store.open(out / "results.sqlite") as store:
+        checkpoint = store.checkpoint(0)
+    assert checkpoint is not None and checkpoint.births < 12
+    (written,) = (out / "checkpoints").iterdir()  # written and pruned by the driver's host
+    assert written.name == checkpoint.engine_state["snapshot"]["file"]
+    events: list[ProgressEvent] = []
+    experiments.resume(out, events.append, evaluator=_ray(fake_evaluate))
+    assert not any(e.replaying for e in events)  # from the snapshot, not a replay
+    assert events[0].births == checkpoint.births
+    assert dump_results(out / "results.sqlite") == dump_results(
+        tmp_path / "local" / "results.sqlite")
+    assert not list((out / "checkpoints").iterdir())
