@@ -20,6 +20,7 @@ run killed anywhere loses at most the work since its last commit, as locally.
 from __future__ import annotations
 
 import json
+import pickle
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager, suppress
 from pathlib import Path
@@ -188,11 +189,17 @@ class StoreHost:
     def __init__(self, db_path: str) -> None:
         self._store = LocalRunStore.open(db_path)
 
-    def call(self, method: str, *args: Any) -> Any:
-        """``method(*args)`` of the :class:`LocalRunStore` (one of the run's methods)."""
+    def call(self, request: bytes) -> bytes:
+        """Serve one pickled ``(method, args)`` :class:`RunStore` call; its pickled result.
+
+        Both ways are pickles, not Ray's own transfer of the objects: that gives zero-copy
+        NumPy arrays, read-only, which would be pickled differently into a policy or snapshot
+        file than on the worker, and a loaded policy could not run.
+        """
+        method, args = pickle.loads(request)  # noqa: S301 - from this experiment's own runs
         if method not in _HOSTED:
             raise AttributeError(f"a store host serves no {method!r}")
-        return getattr(self._store, method)(*args)
+        return pickle.dumps(getattr(self._store, method)(*args), protocol=5)
 
     def close(self) -> None:
         """Close the database."""
@@ -214,7 +221,9 @@ class RemoteStore:
     def _call(self, method: str, *args: Any) -> Any:
         import ray
 
-        return ray.get(self._host.call.remote(method, *args))
+        # ray.get raises the host's own exception types (see StoreHost.call on the pickles).
+        request = pickle.dumps((method, args), protocol=5)
+        return pickle.loads(ray.get(self._host.call.remote(request)))  # noqa: S301
 
     def set_status(self, run_id: int, status: str) -> None:
         """Set a run's status in the driver's database."""
@@ -276,11 +285,13 @@ class RemoteStore:
 
 @contextmanager
 def host_store(db_path: str) -> Iterator[RemoteStore]:
-    """Open ``db_path`` in a :class:`StoreHost` actor on this node; its remote handle.
+    """The :class:`StoreHost` of ``db_path`` on this node (started if need be); its handle.
 
     Must be called in the driver (Ray initialised). The actor needs no CPU of the cluster and
-    is pinned to this node, whose filesystem holds the database; it is closed and ended when
-    the context exits.
+    is pinned to this node, whose filesystem holds the database. Runs of one database share
+    one host (a named actor of this driver's namespace), which serves them one call at a time;
+    it is closed and ended when the first of their contexts exits (all of a
+    :meth:`~evolution.evaluation.RayEvaluator.run_jobs` exit together, after the runs).
 
     Raises:
         StoreError: the database cannot be opened (as :meth:`Store.open`).
@@ -290,12 +301,14 @@ def host_store(db_path: str) -> Iterator[RemoteStore]:
 
     here = NodeAffinitySchedulingStrategy(ray.get_runtime_context().get_node_id(), soft=False)
     remote_class: Any = ray.remote(StoreHost)
-    actor = remote_class.options(num_cpus=0, scheduling_strategy=here).remote(db_path)
+    actor = remote_class.options(
+        num_cpus=0, scheduling_strategy=here, get_if_exists=True,
+        name=f"revolve-store:{Path(db_path).resolve()}").remote(db_path)
     store = RemoteStore(actor)
     try:
         store.checkpoint(-1)  # waits for the actor, raising its StoreError if it cannot open
         yield store
     finally:
-        with suppress(Exception):  # the actor may already be gone (a dead node, a shutdown)
+        with suppress(Exception):  # the actor may already be gone (closed, a dead node)
             ray.get(actor.close.remote())
-        ray.kill(actor)
+            ray.kill(actor)

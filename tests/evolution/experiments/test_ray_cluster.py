@@ -31,7 +31,7 @@ from experiment_fakes import (
 )
 
 from evolution import experiments
-from evolution.evaluation import EvalOutcome, EvalTask, LocalEvaluator, RayEvaluator
+from evolution.evaluation import EvalOutcome, EvalTask, LocalEvaluator, RayEvaluator, evaluate_task
 from evolution.experiments import (
     AgentStatus,
     ExperimentConfig,
@@ -250,3 +250,37 @@ def test_snapshots_of_a_ray_run_reach_the_driver_and_resume_exactly(
     assert dump_results(out / "results.sqlite") == dump_results(
         tmp_path / "local" / "results.sqlite")
     assert not list((out / "checkpoints").iterdir())
+
+
+@pytest.mark.slow  # about 30 s on two cores: PPO in the infants' Training Center
+def test_policies_of_a_ray_run_reach_the_driver_and_serve_its_replay(
+        cluster: None, tmp_path: Path) -> None:
+    """Online SB3 infancy on pybullet: the policies are written on the driver's node, and a
+    resume (a replay) reads them back from there."""
+    pytest.importorskip("stable_baselines3")
+    config = preset("scenario3", runs=1, births=6, population_size=4, min_alive=2,
+                    max_alive=8, insertion=0.5, evaluation_time=1.0, fertile_age=1.0,
+                    conception_interval=0.5, checkpoint_interval=1, learning={
+                        "learner": "sb3", "algorithm": "PPO", "n_envs": 1, "vec_env": "dummy",
+                        "insertion": 0.5, "seconds": 1.0, "budget": 3.3,
+                        "algorithm_kwargs": {"n_steps": 16, "batch_size": 16, "n_epochs": 1}})
+    torch = pytest.importorskip("torch")
+    threads = torch.get_num_threads()
+    # PPO's numbers depend on torch's thread count; Ray runs a task with one thread.
+    torch.set_num_threads(1)
+    try:
+        experiments.run(config, tmp_path / "local", evaluator=LocalEvaluator(1))
+    finally:
+        torch.set_num_threads(threads)
+    out = tmp_path / "ray"
+    with pytest.raises(Kill):
+        experiments.run(config, out, kill_after(5), evaluator=_ray(evaluate_task),
+                        world_factory=slow_world)
+    assert list((out / "policies").iterdir())
+    events: list[ProgressEvent] = []
+    experiments.resume(out, events.append, evaluator=_ray(evaluate_task))
+    assert any(e.replaying for e in events)
+    assert dump_results(out / "results.sqlite") == dump_results(
+        tmp_path / "local" / "results.sqlite")
+    assert (sorted(p.name for p in (out / "policies").iterdir())
+            == sorted(p.name for p in (tmp_path / "local" / "policies").iterdir()))
