@@ -3,7 +3,8 @@
 An evaluator does two things:
 
 * ``evaluate(tasks)``: evaluate robots in isolation (offline scenarios), results in task order;
-* ``run_jobs(fn, jobs, on_event)``: run whole experiment runs side by side.
+* ``run_jobs(fn, jobs, on_event)``: run whole experiment runs side by side, forwarding their
+  progress events to ``on_event`` in this process.
 
 :class:`LocalEvaluator` uses worker processes on this machine (``forkserver`` start method: a
 clean interpreter per worker, no inherited physics state). :class:`RayEvaluator` runs the same
@@ -12,6 +13,26 @@ The local processes die with the process that made them, SIGKILL included
 (:mod:`evolution.evaluation.lifeline`).
 Both run any picklable evaluation function (default :func:`~evolution.evaluation.evaluate_task`:
 the Training Center, then the robot alone at the origin).
+
+A cluster without a shared filesystem. Under Ray the driver (the process that called
+``run``/``resume``, e.g. ``revolve run``) alone touches the results folder: a run task
+gets its job's :meth:`RemoteJob.for_remote_worker` copy, whose store is a Ray actor on the
+driver's node owning the SQLite database, the online snapshots and the SB3 policies
+(:mod:`evolution.experiments.remote_store`); the task sends its commit points there and reads
+what a resume needs from there. Its progress events go to another actor on the driver's node,
+from which :meth:`RayEvaluator.run_jobs` hands them to ``on_event`` as they come. Results are
+the local ones, row for row (``tests/evolution/experiments/test_ray_cluster.py`` checks it on
+a two-node cluster). To run on machines A (head, results) and B, C, ...::
+
+    A$ ray start --head --port 6379
+    B$ ray start --address A:6379          # and so on, on every other machine
+    A$ revolve run scenario1 --set evaluator=ray --set ray_address=auto --out results
+
+Every node needs revolve-env installed (same version; the workers import it), nothing else:
+no shared folder. Start the driver on a node of the cluster (``auto``), not through Ray Client
+(``ray://``), whose driver runs on the head node and would write the results there. Ctrl-C in
+the driver cancels the runs; each stops after its last commit point, and ``revolve resume``
+continues (under Ray or locally).
 """
 
 from __future__ import annotations
@@ -217,10 +238,20 @@ def _ray_run_job(
 
     def emit(event: EventT) -> None:
         # Waits for the inbox, so every event is there before the job's result.
-        ray.get(inbox.put.remote(event))
+        if inbox is not None:
+            ray.get(inbox.put.remote(event))
 
     inner = LocalEvaluator(workers=1, function=function)
     return fn(job, inner, emit)
+
+
+def _take(inbox: Any, on_event: Callable[[EventT], None] | None) -> None:
+    """Hand the events waiting in ``inbox`` to ``on_event``."""
+    if inbox is not None and on_event is not None:
+        import ray
+
+        for event in ray.get(inbox.take.remote()):
+            on_event(event)
 
 
 @runtime_checkable
@@ -317,21 +348,20 @@ class RayEvaluator:
         from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
 
         here = NodeAffinitySchedulingStrategy(ray.get_runtime_context().get_node_id(), soft=False)
-        emit = on_event or (lambda event: None)
         with ExitStack() as hosts:
             sent = [hosts.enter_context(job.for_remote_worker()) if isinstance(job, RemoteJob)
                     else job for job in jobs]
-            inbox = ray.remote(_Inbox).options(num_cpus=0, scheduling_strategy=here).remote()
-            hosts.callback(ray.kill, inbox)
+            inbox = None
+            if on_event is not None:
+                inbox = ray.remote(_Inbox).options(num_cpus=0, scheduling_strategy=here).remote()
+                hosts.callback(ray.kill, inbox)
             refs = [self._run_job.remote(fn, job, self.function, inbox) for job in sent]
             try:
                 pending = list(refs)
                 while pending:
                     _, pending = ray.wait(pending, num_returns=len(pending), timeout=0.2)
-                    for event in ray.get(inbox.take.remote()):
-                        emit(event)
-                for event in ray.get(inbox.take.remote()):
-                    emit(event)
+                    _take(inbox, on_event)
+                _take(inbox, on_event)
                 return list(ray.get(refs))
             except BaseException:
                 for ref in refs:
