@@ -31,7 +31,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TypeAlias
 
-from evolution.cli.progress import ProgressBar, duration, metres
+from evolution.cli.progress import ProgressBar, cli_logging, duration, metres
 from evolution.cli.reevaluate import add_reevaluate
 from evolution.cli.robots import (
     CliError,
@@ -57,6 +57,11 @@ from evolution.experiments import (
     resume,
     run,
     shipped_configs,
+)
+from evolution.experiments.callbacks import (
+    TensorBoardLogger,
+    TensorBoardUnavailableError,
+    combine,
 )
 from evolution.experiments.integrity import check_writable, verify
 from evolution.random_robot import RandomRobotError
@@ -141,7 +146,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if Path(config.name).name != config.name or config.name in (".", ".."):
         raise CliError(f"experiment name {config.name!r} cannot be a folder name inside --out")
     out = Path(args.out) / config.name
-    bar = ProgressBar({i: config.births for i in range(config.runs)})
+    bar = combine(ProgressBar({i: config.births for i in range(config.runs)}, label=config.name),
+                  *_tensorboard(args, config.name))
     _say(f"{config.name}: {config.runs} run(s) x {config.births} births ({config.engine}) -> {out}")
     if config.learning is not None:
         _say(_describe_learning(config))
@@ -159,6 +165,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
     _print_runs(summary)
     _say(f"results: {summary.db_path}\nnext: revolve report {args.out}")
     return 0
+
+
+def _tensorboard(args: argparse.Namespace, name: str) -> list[TensorBoardLogger]:
+    """The TensorBoard logger of ``--tensorboard DIR`` (in ``DIR/<name>``), if asked for."""
+    return [TensorBoardLogger(Path(args.tensorboard) / name)] if args.tensorboard else []
 
 
 def _experiment_dirs(root: Path) -> list[Path]:
@@ -188,8 +199,9 @@ def _cmd_resume(args: argparse.Namespace) -> int:
         return 0
     for folder, config, runs in todo:
         left = [r for r in runs if r.status != "finished"]
-        bar = ProgressBar({r.run_id: config.births for r in left},
-                          {r.run_id: r.births for r in left})
+        bar = combine(ProgressBar({r.run_id: config.births for r in left},
+                                  {r.run_id: r.births for r in left}, label=config.name),
+                      *_tensorboard(args, config.name))
         _say(f"{config.name}: resuming {len(left)} run(s) in {folder}")
         if config.learning is not None:
             _say(_describe_learning(config) + " (rebuilt from the stored learning table)")
@@ -300,6 +312,11 @@ def build_parser() -> argparse.ArgumentParser:
         description="Online and offline evolution of modular robots (the Revolve experiments).",
         epilog="Start with `revolve demo`; then `revolve run quick` and `revolve report results`.",
     )
+    chatter = parser.add_mutually_exclusive_group()
+    chatter.add_argument("-v", "--verbose", action="store_true",
+                         help="also log every commit point and every failure (DEBUG)")
+    chatter.add_argument("-q", "--quiet", action="store_true",
+                         help="no progress display, only warnings and errors (on stderr)")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
                                 parser_class=_DefaultsParser)
     for add in (_add_run, _add_resume, add_reevaluate, _add_report, add_show, add_watch,
@@ -342,6 +359,7 @@ def _add_run(sub: _Subparsers) -> None:
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="change any config key, e.g. --set evaluation_time=6, "
                         "--set evolution.max_parts=20 or --set learning.budget=35 (repeatable)")
+    _tensorboard_argument(p)
     p.set_defaults(handler=_cmd_run)
 
 
@@ -353,7 +371,15 @@ def _add_resume(sub: _Subparsers) -> None:
                     "uninterrupted run would have given.",
     )
     p.add_argument("dir", metavar="DIR", help="an experiment's results folder, or a folder of them")
+    _tensorboard_argument(p)
     p.set_defaults(handler=_cmd_resume)
+
+
+def _tensorboard_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--tensorboard", metavar="DIR",
+                        help="also write each run's fitness, population size and speed against "
+                             "births for TensorBoard to DIR/<name>/run<N> (needs "
+                             'pip install "revolve-env[tensorboard]")')
 
 
 def _add_report(sub: _Subparsers) -> None:
@@ -411,6 +437,7 @@ def _add_demo(sub: _Subparsers) -> None:
 
 INPUT_ERRORS: tuple[type[Exception], ...] = (
     ConfigError, StoreError, RobotError, CliError, RandomRobotError, OSError,
+    TensorBoardUnavailableError,  # an optional extra, named with its pip command
 )
 """Bad input: reported on one line (exit status 2). :class:`ReplayError` is a
 :class:`StoreError` but means a bug (a non-deterministic simulation), so it is not among them."""
@@ -426,7 +453,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return int(args.handler(args))
+        with cli_logging(int(args.verbose) - int(args.quiet)):
+            return int(args.handler(args))
     except KeyboardInterrupt:
         print("revolve: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

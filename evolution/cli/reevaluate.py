@@ -2,7 +2,8 @@
 
 A thin layer over :func:`evolution.experiments.reevaluate.reevaluate` (what is evaluated, with
 which seeds and conditions, how rows are keyed) and :mod:`evolution.reporting.optimism` (what the
-table means). Progress is a count of evaluations on stderr; at the end the optimism table of
+table means). Progress is a count of evaluations on stderr (a tqdm bar on a terminal, log lines
+otherwise, nothing with ``--quiet``); at the end the optimism table of
 every experiment below RESULTS is printed, and ``revolve report RESULTS`` adds it to the report.
 Running the same command again evaluates only what is missing (nothing, or the repeats a larger
 ``--k`` adds); after Ctrl-C it continues where the last commit left off.
@@ -11,10 +12,13 @@ Running the same command again evaluates only what is missing (nothing, or the r
 from __future__ import annotations
 
 import argparse
+import logging
 import math
 import sys
 import time
-from typing import Any, Literal
+from typing import Any, Literal, NoReturn
+
+from tqdm import tqdm
 
 from evolution.cli.robots import non_negative_int, number, positive_int
 from evolution.experiments.reevaluate import reevaluate
@@ -23,19 +27,39 @@ from evolution.reporting.optimism import EXPLANATION, markdown, optimism_rows, r
 
 __all__ = ["add_reevaluate"]
 
+_log = logging.getLogger(__name__)
+
 
 class _Count:
-    """Prints ``reevaluated done/total`` to stderr at most every ``interval`` seconds."""
+    """Evaluations done out of planned, on stderr.
 
-    def __init__(self, interval: float = 5.0) -> None:
+    A tqdm bar on a terminal, else an ``INFO`` log line at most every ``interval`` seconds;
+    nothing with ``revolve --quiet`` (as the runs' progress display).
+    """
+
+    def __init__(self, interval: float = 10.0) -> None:
         self.interval = interval
         self.last = -math.inf
+        self.bar: tqdm[NoReturn] | None = None
 
     def __call__(self, done: int, total: int) -> None:
+        if not _log.isEnabledFor(logging.INFO):
+            return
+        if sys.stderr.isatty():
+            if self.bar is None:
+                self.bar = tqdm(total=total, desc="reevaluated", unit=" evaluations",
+                                file=sys.stderr, leave=True)
+            self.bar.update(done - self.bar.n)
+            return
         now = time.monotonic()
         if now - self.last >= self.interval or done == total:
-            print(f"reevaluated {done}/{total}", file=sys.stderr, flush=True)
+            _log.info("reevaluated %d/%d", done, total)
             self.last = now
+
+    def close(self) -> None:
+        """End the bar (if one was drawn)."""
+        if self.bar is not None:
+            self.bar.close()
 
 
 def _cmd_reevaluate(args: argparse.Namespace) -> int:
@@ -45,14 +69,17 @@ def _cmd_reevaluate(args: argparse.Namespace) -> int:
     print(f"reevaluating the {chosen} below {args.results}: K = {args.k}, window offsets "
           f"{', '.join(f'{o:g}' for o in offsets)} s"
           f"{', in one shared world per run' if args.shared_world else ''}", flush=True)
+    count = _Count()
     try:
         summary = reevaluate(args.results, k=args.k, which=which, window_offsets=offsets,
                              shared_world=args.shared_world, workers=args.workers,
-                             progress=_Count())
+                             progress=count)
     except KeyboardInterrupt:
+        count.close()
         print("revolve reevaluate: interrupted; finished reevaluations are saved; run the same "
               "command again to continue", file=sys.stderr)
         return 130
+    count.close()
     print(f"{summary.planned} reevaluation(s) asked for in {len(summary.databases)} "
           f"database(s): {summary.added} new, {summary.planned - summary.evaluated} stored "
           "already", flush=True)

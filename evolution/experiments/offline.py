@@ -19,13 +19,13 @@ from typing import Any
 import numpy as np
 
 from evolution.evaluation import EvalOutcome, EvalTask, Evaluator, evaluation_seed
+from evolution.experiments.remote_store import RunStore
 from evolution.experiments.run import Member, ProgressEvent, RunJob, RunState, decode
 from evolution.experiments.store import (
     Checkpoint,
     FailureRecord,
     FitnessSample,
     RobotRecord,
-    Store,
     StoreError,
 )
 from evolution.lifecycle import Lifecycle, Stage
@@ -37,7 +37,7 @@ __all__ = ["OfflineRun"]
 class OfflineRun(RunState):
     """One offline run: generations evaluated by ``evaluator``, (mu + lambda) survivors."""
 
-    def __init__(self, job: RunJob, store: Store, emit: Callable[[ProgressEvent], None],
+    def __init__(self, job: RunJob, store: RunStore, emit: Callable[[ProgressEvent], None],
                  evaluator: Evaluator) -> None:
         super().__init__(job, store, emit)
         self.evaluator = evaluator
