@@ -32,6 +32,7 @@ from pathlib import Path
 from typing import Any, TypeAlias
 
 from evolution.cli.progress import ProgressBar, cli_logging, duration, metres
+from evolution.cli.reevaluate import add_reevaluate
 from evolution.cli.robots import (
     CliError,
     load_robot,
@@ -318,7 +319,8 @@ def build_parser() -> argparse.ArgumentParser:
                          help="no progress display, only warnings and errors (on stderr)")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
                                 parser_class=_DefaultsParser)
-    for add in (_add_run, _add_resume, _add_report, add_show, add_watch, _add_export, _add_demo):
+    for add in (_add_run, _add_resume, add_reevaluate, _add_report, add_show, add_watch,
+                _add_export, _add_demo):
         add(sub)
     return parser
 

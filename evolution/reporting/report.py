@@ -54,6 +54,7 @@ from pathlib import Path
 
 from evolution.reporting.data import ExperimentData, find_experiments
 from evolution.reporting.figures import FIGURES, write_figures
+from evolution.reporting.optimism import with_optimism
 from evolution.reporting.tables import write_tables
 
 __all__ = ["REPORT_DIR", "Report", "report"]
@@ -114,4 +115,5 @@ def report(
     figures = write_figures(experiments, out_dir, formats)
     assert len(figures) >= len(FIGURES) * len(formats)
     tables = write_tables(experiments, out_dir)
+    figures, tables = with_optimism(experiments, out_dir, formats, figures, tables)
     return Report(out_dir, tuple(experiments), figures, tables)
