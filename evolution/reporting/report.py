@@ -30,6 +30,11 @@ file                                    content
 ``summary.md``                          the tables in Markdown, with what each means
 ``learning_gain.{png,pdf}``             only when an experiment learns (a ``[learning]`` table):
                                         the learner's inborn vs learned fitness of every infant
+``optimism.{png,pdf}``                  only after ``revolve reevaluate``: stored vs re-evaluated
+                                        fitness, and the optimism of a single evaluation with
+                                        its 95 % bootstrap CI over runs
+``optimism.csv``                        one row per experiment and re-evaluation setting
+                                        (:mod:`evolution.reporting.optimism`)
 ====================================== ============================================================
 
 Births are counted the same way in every experiment and figure: failed births (robots lost
