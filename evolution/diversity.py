@@ -9,6 +9,15 @@ slot (the order of :meth:`Robot.walk`), so this is the ordered tree edit distanc
 passed explicitly: zss's default label distance depends on whether ``editdist`` is installed).
 :func:`tree_edit_distance`, :func:`pairwise_distances` and :func:`diversity` use the exact
 compiled Zhang-Shasha of ``evolution._treedit``; tests check both agree on random trees.
+
+Brain-aware distance (optional, not the paper's): :func:`brain_aware_distance` is the body tree
+edit distance plus ``weight`` times :func:`neural_distance`, which matches parts by their slot
+path from the core (the same path in both bodies is the same part) and neurons of a part by
+layer, activation and order. Its unit is one edit: each neuron present in one brain only costs 1
+and each connection between matched neurons costs the absolute difference of its weights
+(dimensionless; a connection present in one brain only counts its whole weight). With
+``weight = 1`` (:data:`BRAIN_WEIGHT`) one missing neuron costs as much as one missing part.
+:func:`brain_aware_diversity` is its population mean, as :func:`diversity` is the body one.
 """
 
 from __future__ import annotations
@@ -24,8 +33,12 @@ from evolution import _treedit
 from revolve_env.body.robot import PartType, Robot
 
 __all__ = [
+    "BRAIN_WEIGHT",
     "TreeArrays",
+    "brain_aware_distance",
+    "brain_aware_diversity",
     "diversity",
+    "neural_distance",
     "pairwise_distances",
     "tree_arrays",
     "tree_edit_distance",
@@ -146,3 +159,80 @@ def diversity(robots: Sequence[Robot]) -> float:
         return 0.0
     d = pairwise_distances(robots)
     return float(d[np.triu_indices(n, k=1)].mean())
+
+
+# -- brain-aware distance -----------------------------------------------------------------------
+
+BRAIN_WEIGHT = 1.0
+"""Default weight of the neural distance in :func:`brain_aware_distance` (edits per unit)."""
+
+_NeuronKey = tuple[tuple[int, ...], str, str, int]
+_Weights = dict[tuple[_NeuronKey, _NeuronKey], float]
+
+
+def _brain(robot: Robot) -> tuple[dict[_NeuronKey, int], _Weights]:
+    """Neurons keyed by (part path, layer, activation, rank on the part) and connections by keys."""
+    keys: dict[str, _NeuronKey] = {}
+    for path, node in robot.walk():
+        seen: dict[tuple[str, str], int] = {}
+        for neuron in node.neurons:
+            kind = (neuron.layer.value, neuron.activation.value)
+            rank = seen.get(kind, 0)
+            seen[kind] = rank + 1
+            keys[neuron.id] = (path, kind[0], kind[1], rank)
+    neurons = dict.fromkeys(keys.values(), 1)
+    weights: _Weights = {}
+    for c in robot.connections:
+        key = (keys[c.src], keys[c.dst])
+        weights[key] = weights.get(key, 0.0) + c.weight
+    return neurons, weights
+
+
+def neural_distance(a: Robot, b: Robot) -> float:
+    """Distance between two brains over parts matched by slot path (see the module docstring).
+
+    Returns:
+        Neurons present in one brain only, plus the summed absolute weight differences of the
+        connections (a missing connection has weight 0). Non-negative, symmetric, 0 for equal
+        brains on equal bodies.
+    """
+    neurons_a, weights_a = _brain(a)
+    neurons_b, weights_b = _brain(b)
+    unmatched = len(neurons_a.keys() ^ neurons_b.keys())
+    keys = sorted(weights_a.keys() | weights_b.keys())
+    delta = sum(abs(weights_a.get(k, 0.0) - weights_b.get(k, 0.0)) for k in keys)
+    return float(unmatched + delta)
+
+
+def _check_weight(weight: float) -> None:
+    if not (weight >= 0.0 and np.isfinite(weight)):
+        raise ValueError(f"brain weight must be finite and >= 0, got {weight}")
+
+
+def brain_aware_distance(a: Robot, b: Robot, weight: float = BRAIN_WEIGHT) -> float:
+    """Body tree edit distance plus ``weight`` times :func:`neural_distance`. Edits.
+
+    Raises:
+        ValueError: a negative or non-finite ``weight``.
+    """
+    _check_weight(weight)
+    body = float(tree_edit_distance(a, b))
+    return body + weight * neural_distance(a, b) if weight > 0.0 else body
+
+
+def brain_aware_diversity(robots: Sequence[Robot], weight: float = BRAIN_WEIGHT) -> float:
+    """Mean pairwise :func:`brain_aware_distance` of a population (0 for fewer than two).
+
+    Raises:
+        ValueError: a negative or non-finite ``weight``.
+    """
+    _check_weight(weight)
+    n = len(robots)
+    if n < 2:
+        return 0.0
+    body = pairwise_distances(robots)
+    total = 0.0
+    for i in range(n):
+        for j in range(i + 1, n):
+            total += float(body[i, j]) + weight * neural_distance(robots[i], robots[j])
+    return total / (n * (n - 1) / 2)

@@ -6,6 +6,6 @@ The API is :mod:`evolution.experiments`, :mod:`evolution.reporting` and :mod:`re
 from __future__ import annotations
 
 from evolution.cli.commands import CliError, build_parser, main
-from evolution.cli.progress import ProgressBar
+from evolution.cli.progress import ProgressBar, ProgressDisplay, cli_logging
 
-__all__ = ["CliError", "ProgressBar", "build_parser", "main"]
+__all__ = ["CliError", "ProgressBar", "ProgressDisplay", "build_parser", "cli_logging", "main"]

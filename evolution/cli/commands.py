@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import tempfile
 import time
@@ -31,13 +30,19 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TypeAlias
 
-from evolution.cli.options import CliError
-from evolution.cli.options import non_negative_int as _non_negative_int
 from evolution.cli.options import parse_set as _parse_set
-from evolution.cli.options import positive_float as _positive_float
-from evolution.cli.options import positive_int as _positive_int
-from evolution.cli.progress import ProgressBar, duration, metres
+from evolution.cli.progress import ProgressBar, cli_logging, duration, metres
+from evolution.cli.reevaluate import add_reevaluate
+from evolution.cli.robots import (
+    CliError,
+    load_robot,
+    non_negative_int,
+    positive_float,
+    positive_int,
+    robot_arguments,
+)
 from evolution.cli.study import add_study
+from evolution.cli.viewer import add_show, add_watch
 from evolution.config import EvolutionConfig
 from evolution.evaluation import EvalTask, evaluate_robot
 from evolution.experiments import (
@@ -54,13 +59,16 @@ from evolution.experiments import (
     run,
     shipped_configs,
 )
+from evolution.experiments.callbacks import (
+    TensorBoardLogger,
+    TensorBoardUnavailableError,
+    combine,
+)
 from evolution.experiments.integrity import check_writable, verify
 from evolution.random_robot import RandomRobotError
 from evolution.reporting import report
-from revolve_env.body.examples import EXAMPLES, example, spider
+from revolve_env.body.examples import spider
 from revolve_env.body.export import bill_of_materials, to_sdf, to_urdf
-from revolve_env.body.robot import Robot
-from revolve_env.body.serialize import load
 from revolve_env.body.validate import RobotError
 
 __all__ = ["CliError", "build_parser", "main"]
@@ -111,7 +119,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if Path(config.name).name != config.name or config.name in (".", ".."):
         raise CliError(f"experiment name {config.name!r} cannot be a folder name inside --out")
     out = Path(args.out) / config.name
-    bar = ProgressBar({i: config.births for i in range(config.runs)})
+    bar = combine(ProgressBar({i: config.births for i in range(config.runs)}, label=config.name),
+                  *_tensorboard(args, config.name))
     _say(f"{config.name}: {config.runs} run(s) x {config.births} births ({config.engine}) -> {out}")
     if config.learning is not None:
         _say(_describe_learning(config))
@@ -129,6 +138,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
     _print_runs(summary)
     _say(f"results: {summary.db_path}\nnext: revolve report {args.out}")
     return 0
+
+
+def _tensorboard(args: argparse.Namespace, name: str) -> list[TensorBoardLogger]:
+    """The TensorBoard logger of ``--tensorboard DIR`` (in ``DIR/<name>``), if asked for."""
+    return [TensorBoardLogger(Path(args.tensorboard) / name)] if args.tensorboard else []
 
 
 def _experiment_dirs(root: Path) -> list[Path]:
@@ -158,8 +172,9 @@ def _cmd_resume(args: argparse.Namespace) -> int:
         return 0
     for folder, config, runs in todo:
         left = [r for r in runs if r.status != "finished"]
-        bar = ProgressBar({r.run_id: config.births for r in left},
-                          {r.run_id: r.births for r in left})
+        bar = combine(ProgressBar({r.run_id: config.births for r in left},
+                                  {r.run_id: r.births for r in left}, label=config.name),
+                      *_tensorboard(args, config.name))
         _say(f"{config.name}: resuming {len(left)} run(s) in {folder}")
         if config.learning is not None:
             _say(_describe_learning(config) + " (rebuilt from the stored learning table)")
@@ -180,7 +195,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     if not formats or any(f not in FIGURE_FORMATS for f in formats):
         raise CliError(f"--formats takes a comma-separated list of {', '.join(FIGURE_FORMATS)}; "
                        f"got {args.formats!r}")
-    result = report(args.dir, args.out, formats)
+    result = report(args.dir, args.out, formats, brain_aware=args.brain_aware)
     _say(f"{len(result.experiments)} experiment(s): "
          + ", ".join(f"{e.label} ({len(e.runs)} runs)" for e in result.experiments))
     for path in (*result.figures, *result.tables):
@@ -188,69 +203,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
-def _load_robot(args: argparse.Namespace) -> tuple[Robot, str]:
-    """The robot named on the command line and a short name for it."""
-    if args.db is not None:
-        if args.robot is not None:
-            raise CliError("give either a robot file/example or --db, not both")
-        if (args.robot_id is None) == (not args.best):
-            raise CliError("with --db, give --robot ID or --best")
-        db = Path(args.db)
-        db = db if db.name == DB_NAME else db / DB_NAME
-        with Store.open(db) as store:
-            verify(store)
-            if args.run not in {r.run_id for r in store.runs()}:
-                raise CliError(f"{db} has no run {args.run}")
-            if args.best:
-                final = [(f, rid) for rid, f in store.final_population(args.run)
-                         if f is not None and math.isfinite(f)]
-                if not final:
-                    raise CliError(f"run {args.run} of {db} has no evaluated population yet")
-                robot_id = max(final)[1]
-            else:
-                robot_id = args.robot_id
-            try:
-                record = store.robot(args.run, robot_id)
-            except KeyError as error:
-                raise CliError(str(error.args[0])) from None
-            try:
-                robot = record.robot()
-            except ValueError as error:  # RobotError, or a genome that is not JSON
-                raise StoreError(f"{db} is damaged: robot {robot_id} of run {args.run} does not "
-                                 f"decode ({error})") from None
-            return robot, f"run{args.run}_robot{robot_id}"
-    if args.robot is None:
-        raise CliError("give a robot JSON file, an example name "
-                       f"({', '.join(EXAMPLES)}) or --db DIR --robot ID")
-    if args.robot in EXAMPLES and not Path(args.robot).exists():
-        return example(args.robot), args.robot
-    path = Path(args.robot)
-    if not path.is_file():
-        raise CliError(f"no such robot file: {path} (examples: {', '.join(EXAMPLES)})")
-    try:
-        return load(path), path.stem
-    except ValueError as error:
-        raise CliError(f"{path}: {error}") from None
-
-
-def _cmd_show(args: argparse.Namespace) -> int:
-    # Imported here: it loads the physics engine, which the other commands never need.
-    from revolve_env.envs.recording import record_robot
-
-    robot, name = _load_robot(args)
-    out = Path(args.out) if args.out else Path(f"{name}.gif")
-    try:
-        video = record_robot(robot, out, seconds=args.seconds, insertion=args.insertion,
-                             fps=args.fps)
-    except ValueError as error:  # bad timing, a robot without hinges, a blow-up: the input
-        raise CliError(f"cannot show {name}: {error}") from None
-    _say(f"{video.path}: {video.frames} frames, {video.seconds:.1f} s simulated, fitness "
-         f"{video.fitness:.3f} m, {video.distance:.3f} m from the start")
-    return 0
-
-
 def _cmd_export(args: argparse.Namespace) -> int:
-    robot, _ = _load_robot(args)
+    robot, _ = load_robot(args)
     if args.format == "urdf":
         text = to_urdf(robot)
     elif args.format == "sdf":
@@ -305,22 +259,6 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 # Parser
 
 
-
-
-def _robot_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("robot", nargs="?", metavar="ROBOT",
-                        help="robot JSON file, or an example name (spider, gecko, snake, "
-                             "sensor_crawler, bar_walker)")
-    parser.add_argument("--db", metavar="DIR",
-                        help="take the robot from this experiment's results directory instead")
-    parser.add_argument("--run", type=_non_negative_int, default=0,
-                        help="run of --db")
-    parser.add_argument("--robot", dest="robot_id", type=_non_negative_int, metavar="ID",
-                        help="robot id (birth index) within the run of --db")
-    parser.add_argument("--best", action="store_true",
-                        help="with --db: the fittest robot of the run's final population")
-
-
 class _DefaultsFormatter(argparse.HelpFormatter):
     """Help that ends every option's text with its default (options without one say so)."""
 
@@ -347,10 +285,15 @@ def build_parser() -> argparse.ArgumentParser:
         description="Online and offline evolution of modular robots (the Revolve experiments).",
         epilog="Start with `revolve demo`; then `revolve run quick` and `revolve report results`.",
     )
+    chatter = parser.add_mutually_exclusive_group()
+    chatter.add_argument("-v", "--verbose", action="store_true",
+                         help="also log every commit point and every failure (DEBUG)")
+    chatter.add_argument("-q", "--quiet", action="store_true",
+                         help="no progress display, only warnings and errors (on stderr)")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
                                 parser_class=_DefaultsParser)
-    for add in (_add_run, _add_resume, _add_report, _add_show, _add_export, _add_demo,
-                add_study):
+    for add in (_add_run, _add_resume, add_reevaluate, _add_report, add_show, add_watch,
+                _add_export, _add_demo, add_study):
         add(sub)
     return parser
 
@@ -377,11 +320,11 @@ def _add_run(sub: _Subparsers) -> None:
     p.add_argument("config", metavar="CONFIG_OR_SCENARIO",
                    help=f"a shipped config ({names}; {learning_list}) or the path of a TOML "
                         "config file")
-    p.add_argument("--runs", type=_positive_int, help="independent repeats (default: the config's)")
-    p.add_argument("--births", type=_positive_int,
+    p.add_argument("--runs", type=positive_int, help="independent repeats (default: the config's)")
+    p.add_argument("--births", type=positive_int,
                    help="stop each run after this many births (default: the config's)")
-    p.add_argument("--seed", type=_non_negative_int, help="experiment seed (default: the config's)")
-    p.add_argument("--workers", type=_non_negative_int,
+    p.add_argument("--seed", type=non_negative_int, help="experiment seed (default: the config's)")
+    p.add_argument("--workers", type=non_negative_int,
                    help="worker processes, 0: all cores (default: the config's)")
     p.add_argument("--name", help="experiment name, the folder inside OUT (default: the config's)")
     p.add_argument("--out", default="results", metavar="DIR",
@@ -389,6 +332,7 @@ def _add_run(sub: _Subparsers) -> None:
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="change any config key, e.g. --set evaluation_time=6, "
                         "--set evolution.max_parts=20 or --set learning.budget=35 (repeatable)")
+    _tensorboard_argument(p)
     p.set_defaults(handler=_cmd_run)
 
 
@@ -400,43 +344,37 @@ def _add_resume(sub: _Subparsers) -> None:
                     "uninterrupted run would have given.",
     )
     p.add_argument("dir", metavar="DIR", help="an experiment's results folder, or a folder of them")
+    _tensorboard_argument(p)
     p.set_defaults(handler=_cmd_resume)
+
+
+def _tensorboard_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--tensorboard", metavar="DIR",
+                        help="also write each run's fitness, population size and speed against "
+                             "births for TensorBoard to DIR/<name>/run<N> (needs "
+                             'pip install "revolve-env[tensorboard]")')
 
 
 def _add_report(sub: _Subparsers) -> None:
     p = sub.add_parser(
         "report", help="figures and tables comparing experiments",
         description="Compare every experiment at or below DIR. Writes fitness_over_births, "
-                    "final_fitness, diversity_over_births and final_diversity (PNG and PDF), "
-                    "summary.csv, mann_whitney.csv (Mann-Whitney U tests between experiments) "
-                    "and summary.md into DIR/report (or --out). When an experiment learns (a "
-                    "[learning] table), summary.csv/summary.md also give the mean inborn and "
-                    "learned fitness and the learner failures, and learning_gain (PNG/PDF) "
-                    "compares inborn and learned fitness.",
+                    "final_fitness, diversity_over_births, final_diversity, failed_births and "
+                    "curve_tests (PNG and PDF), summary.csv, tests_per_run.csv (Mann-Whitney "
+                    "U, A12 and Holm on one value per run), tests_pooled_descriptive.csv, "
+                    "curve_tests.csv and summary.md into DIR/report (or --out). When an "
+                    "experiment learns (a [learning] table), summary.csv/summary.md also give "
+                    "the mean inborn and learned fitness and the learner failures, and "
+                    "learning_gain (PNG/PDF) compares inborn and learned fitness. "
+                    "--brain-aware adds the brain-aware diversity.",
     )
     p.add_argument("dir", metavar="DIR", help="results folder (as given to `revolve run --out`)")
     p.add_argument("--out", metavar="DIR", help="output folder")
     p.add_argument("--formats", default="png,pdf",
                    help="figure formats, comma-separated: png, pdf, svg")
+    p.add_argument("--brain-aware", action="store_true",
+                   help="also the brain-aware diversity (body + neural distance; slower)")
     p.set_defaults(handler=_cmd_report)
-
-
-def _add_show(sub: _Subparsers) -> None:
-    p = sub.add_parser(
-        "show", help="render a GIF of a robot walking",
-        description="Simulate a robot driven by its own brain and write an animated GIF (with "
-                    "time, fitness and a map of its path). The robot is a JSON file, an example "
-                    "name, or a robot of a results database (--db DIR --robot ID / --best).",
-    )
-    _robot_arguments(p)
-    p.add_argument("--out", metavar="FILE", help="GIF to write")
-    p.add_argument("--seconds", type=_positive_float, default=12.0,
-                   help="evaluation time after insertion, seconds")
-    p.add_argument("--insertion", type=float, default=3.0,
-                   help="settling time shown first, seconds")
-    p.add_argument("--fps", type=_positive_float, default=15.0,
-                   help="frames per simulated second")
-    p.set_defaults(handler=_cmd_show)
 
 
 def _add_export(sub: _Subparsers) -> None:
@@ -445,7 +383,7 @@ def _add_export(sub: _Subparsers) -> None:
         description="Write a robot as URDF or SDF, or its bill of materials (bom: a table; "
                     "bom-json: JSON). The robot is given as for `revolve show`.",
     )
-    _robot_arguments(p)
+    robot_arguments(p)
     p.add_argument("--format", required=True, choices=("urdf", "sdf", "bom", "bom-json"))
     p.add_argument("--out", metavar="FILE", help="file to write")
     p.set_defaults(handler=_cmd_export)
@@ -458,13 +396,13 @@ def _add_demo(sub: _Subparsers) -> None:
                     "population for a few births and print the best fitness (3 to 8 s on two "
                     "cores, measured).",
     )
-    p.add_argument("--births", type=_positive_int, default=30, help="births")
-    p.add_argument("--population", type=_positive_int, default=6,
+    p.add_argument("--births", type=positive_int, default=30, help="births")
+    p.add_argument("--population", type=positive_int, default=6,
                    help="population size and children per generation")
-    p.add_argument("--seconds", type=_positive_float, default=12.0,
+    p.add_argument("--seconds", type=positive_float, default=12.0,
                    help="evaluation time per robot after 3 s insertion, seconds")
-    p.add_argument("--seed", type=_non_negative_int, default=0, help="seed")
-    p.add_argument("--workers", type=_non_negative_int, default=0,
+    p.add_argument("--seed", type=non_negative_int, default=0, help="seed")
+    p.add_argument("--workers", type=non_negative_int, default=0,
                    help="worker processes")
     p.add_argument("--out", metavar="DIR", help="keep the demo's results in DIR/demo")
     p.set_defaults(handler=_cmd_demo)
@@ -472,6 +410,7 @@ def _add_demo(sub: _Subparsers) -> None:
 
 INPUT_ERRORS: tuple[type[Exception], ...] = (
     ConfigError, StoreError, RobotError, CliError, RandomRobotError, OSError,
+    TensorBoardUnavailableError,  # an optional extra, named with its pip command
 )
 """Bad input: reported on one line (exit status 2). :class:`ReplayError` is a
 :class:`StoreError` but means a bug (a non-deterministic simulation), so it is not among them."""
@@ -487,7 +426,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return int(args.handler(args))
+        with cli_logging(int(args.verbose) - int(args.quiet)):
+            return int(args.handler(args))
     except KeyboardInterrupt:
         print("revolve: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

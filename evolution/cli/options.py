@@ -1,23 +1,18 @@
-"""Command-line input shared by the subcommands: ``--set KEY=VALUE`` and checked numbers.
+"""Command-line input shared by the experiment subcommands: ``--set KEY=VALUE``.
 
-Bad input raises :class:`CliError` (or argparse's own error for a bad number), which ``revolve``
-reports on one line with exit status 2.
+Bad input raises :class:`~evolution.cli.robots.CliError`, which ``revolve`` reports on one line
+with exit status 2.
 """
 
 from __future__ import annotations
 
-import argparse
-import math
 import tomllib
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
-__all__ = ["CliError", "non_negative_int", "number", "parse_set", "positive_float",
-           "positive_int"]
+from evolution.cli.robots import CliError
 
-
-class CliError(ValueError):
-    """Bad command-line input (reported on one line, exit status 2)."""
+__all__ = ["parse_set"]
 
 
 def parse_set(items: Sequence[str]) -> dict[str, Any]:
@@ -46,28 +41,3 @@ def parse_set(items: Sequence[str]) -> dict[str, Any]:
                 raise CliError(f"--set: {key!r} conflicts with another --set")
         target[parts[-1]] = parsed
     return data
-
-
-def number(kind: type[int | float], low: float, strict: bool) -> Callable[[str], Any]:
-    """An argparse type: ``kind`` parsed from text, finite, above ``low``.
-
-    With ``strict`` false, ``low`` itself is allowed.
-    """
-    noun = "an integer" if kind is int else "a number"
-
-    def parse(text: str) -> int | float:
-        try:
-            value = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"not {noun}: {text!r}") from None
-        if not math.isfinite(value) or (value <= low if strict else value < low):
-            bound = f"> {low:g}" if strict else f">= {low:g}"
-            raise argparse.ArgumentTypeError(f"must be {bound}, got {text}")
-        return value
-
-    return parse
-
-
-positive_int = number(int, 1, strict=False)
-non_negative_int = number(int, 0, strict=False)
-positive_float = number(float, 0.0, strict=True)

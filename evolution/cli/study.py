@@ -18,13 +18,13 @@ pybullet and 45 s with MuJoCo, an offline run 0.5 to 1 min and 5 to 10 s.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import shlex
 import sys
 from typing import Any
 
-from evolution.cli.options import CliError, non_negative_int, parse_set, positive_int
-from evolution.cli.progress import ProgressBar, duration, metres
+from evolution.cli.options import parse_set
+from evolution.cli.progress import ProgressDisplay, duration, metres
+from evolution.cli.robots import CliError, non_negative_int, positive_int
 from evolution.experiments import ProgressEvent
 from evolution.experiments.study import PAPER_EXPERIMENTS, StudyPlan, prepare_study, run_study
 from evolution.reporting import report
@@ -35,35 +35,28 @@ EXIT_INTERRUPTED = 130
 
 
 class StudyDisplay:
-    """The progress of every run of a study on one display, each event tagged with its experiment.
-
-    The runs of all experiments are numbered ``0 .. n-1`` (experiment by experiment, as listed
-    when the study starts) so that one :class:`~evolution.cli.progress.ProgressBar` shows them.
+    """The progress of every run of a study on one display, each run labelled by its experiment.
 
     Args:
-        plan: The prepared study.
+        plan: The prepared study (its unfinished runs are registered, experiment by experiment).
         stream: Where to draw (default stderr).
     """
 
     def __init__(self, plan: StudyPlan, stream: Any = None) -> None:
-        self.keys: dict[tuple[str, int], int] = {}
-        targets: dict[int, int] = {}
-        done: dict[int, int] = {}
+        self.display = ProgressDisplay(stream=stream)
         for experiment in plan.experiments:
-            for job in experiment.jobs:
-                key = len(self.keys)
-                self.keys[(experiment.name, job.run_id)] = key
-                targets[key] = experiment.config.births
-                done[key] = experiment.done[job.run_id]
-        self.bar = ProgressBar(targets, done, stream)
+            if experiment.jobs:
+                self.display.add_runs({job.run_id: experiment.config.births
+                                       for job in experiment.jobs},
+                                      experiment.done, label=experiment.name)
 
     def __call__(self, experiment: str, event: ProgressEvent) -> None:
         """Take one event of run ``event.run_id`` of ``experiment``."""
-        self.bar(dataclasses.replace(event, run_id=self.keys[(experiment, event.run_id)]))
+        self.display(event, label=experiment)
 
     def close(self) -> None:
         """End the display."""
-        self.bar.close()
+        self.display.close()
 
 
 def _say(text: str) -> None:

@@ -3,7 +3,8 @@
 An evaluator does two things:
 
 * ``evaluate(tasks)``: evaluate robots in isolation (offline scenarios), results in task order;
-* ``run_jobs(fn, jobs, on_event)``: run whole experiment runs side by side.
+* ``run_jobs(fn, jobs, on_event)``: run whole experiment runs side by side, forwarding their
+  progress events to ``on_event`` in this process.
 
 :class:`LocalEvaluator` uses worker processes on this machine (``forkserver`` start method: a
 clean interpreter per worker, no inherited physics state). :class:`RayEvaluator` runs the same
@@ -12,6 +13,26 @@ The local processes die with the process that made them, SIGKILL included
 (:mod:`evolution.evaluation.lifeline`).
 Both run any picklable evaluation function (default :func:`~evolution.evaluation.evaluate_task`:
 the Training Center, then the robot alone at the origin).
+
+A cluster without a shared filesystem. Under Ray the driver (the process that called
+``run``/``resume``, e.g. ``revolve run``) alone touches the results folder: a run task
+gets its job's :meth:`RemoteJob.for_remote_worker` copy, whose store is a Ray actor on the
+driver's node owning the SQLite database, the online snapshots and the SB3 policies
+(:mod:`evolution.experiments.remote_store`); the task sends its commit points there and reads
+what a resume needs from there. Its progress events go to another actor on the driver's node,
+from which :meth:`RayEvaluator.run_jobs` hands them to ``on_event`` as they come. Results are
+the local ones, row for row (``tests/evolution/experiments/test_ray_cluster.py`` checks it on
+a two-node cluster). To run on machines A (head, results) and B, C, ...::
+
+    A$ ray start --head --port 6379
+    B$ ray start --address A:6379          # and so on, on every other machine
+    A$ revolve run scenario1 --set evaluator=ray --set ray_address=auto --out results
+
+Every node needs revolve-env installed (same version; the workers import it), nothing else:
+no shared folder. Start the driver on a node of the cluster (``auto``), not through Ray Client
+(``ray://``), whose driver runs on the head node and would write the results there. Ctrl-C in
+the driver cancels the runs; each stops after its last commit point, and ``revolve resume``
+continues (under Ray or locally).
 """
 
 from __future__ import annotations
@@ -21,13 +42,19 @@ import os
 import queue
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from contextlib import AbstractContextManager, ExitStack
 from multiprocessing.managers import SyncManager
-from typing import Any, Protocol, Self, TypeVar
+from typing import Any, Protocol, Self, TypeVar, runtime_checkable
 
 from evolution.evaluation.lifeline import guard_worker
 from evolution.evaluation.tasks import EvalOutcome, EvalTask, EvaluateFunction, evaluate_task
 
-__all__ = ["Evaluator", "JobFunction", "LocalEvaluator", "RayEvaluator", "make_evaluator"]
+__all__ = [
+    "Evaluator", "JobFunction", "LocalEvaluator", "RayEvaluator", "RemoteJob", "make_evaluator",
+]
+
+_CANCEL_WAIT = 60.0
+"""Seconds to wait for cancelled run tasks to record their status. Seconds."""
 
 JobT = TypeVar("JobT")
 """What one job is (for the engine: a run to execute)."""
@@ -190,19 +217,71 @@ def _ray_evaluate(function: EvaluateFunction, task: EvalTask) -> EvalOutcome:
     return function(task)
 
 
+class _Inbox:
+    """Ray actor on the driver's node: the progress events of remote jobs, in arrival order."""
+
+    def __init__(self) -> None:
+        self._events: list[Any] = []
+
+    def put(self, event: Any) -> None:
+        self._events.append(event)
+
+    def take(self) -> list[Any]:
+        events, self._events = self._events, []
+        return events
+
+
 def _ray_run_job(
-    fn: JobFunction[JobT, EventT, ResultT], job: JobT, function: EvaluateFunction
+    fn: JobFunction[JobT, EventT, ResultT], job: JobT, function: EvaluateFunction, inbox: Any
 ) -> ResultT:
+    import ray
+
+    def emit(event: EventT) -> None:
+        # Waits for the inbox, so every event is there before the job's result.
+        if inbox is not None:
+            ray.get(inbox.put.remote(event))
+
     inner = LocalEvaluator(workers=1, function=function)
-    return fn(job, inner, lambda event: None)
+    return fn(job, inner, emit)
+
+
+def _take(inbox: Any, on_event: Callable[[EventT], None] | None) -> None:
+    """Hand the events waiting in ``inbox`` to ``on_event``."""
+    if inbox is not None and on_event is not None:
+        import ray
+
+        for event in ray.get(inbox.take.remote()):
+            on_event(event)
+
+
+@runtime_checkable
+class RemoteJob(Protocol):
+    """A job that reads and writes files of the driver's machine (a run: its database).
+
+    :class:`RayEvaluator` sends the job's :meth:`for_remote_worker` copy to the cluster
+    (e.g. :meth:`evolution.experiments.RunJob.for_remote_worker`: the database stays on the
+    driver's node and the worker calls it), so no node needs the driver's files.
+    """
+
+    def for_remote_worker(self) -> AbstractContextManager[Any]:
+        """A copy of the job that any node can run, valid until the context exits."""
 
 
 class RayEvaluator:
     """Ray tasks, on a local instance or an existing cluster.
 
     Offline evaluations become one task each; whole runs become one task each (each run then
-    evaluates its robots inside its task). Runs write to the experiment's SQLite database, so
-    on a multi-node cluster the results directory must be on a filesystem all nodes share.
+    evaluates its robots inside its task; tasks spread over the nodes). A run task never opens
+    the database: a job that is a :class:`RemoteJob` (an experiment run) goes out as its
+    :meth:`~RemoteJob.for_remote_worker` copy, whose store is an actor on the driver's node
+    owning the SQLite file (:mod:`evolution.experiments.remote_store`), so a multi-node
+    cluster needs nothing shared: no results folder on a shared filesystem. Progress events
+    go to an actor on the driver's node too, and reach ``on_event`` while the runs go on.
+
+    Run on a cluster: ``ray start --head`` on one machine, ``ray start --address HEAD:6379`` on
+    the others, then on the head machine (where the results folder is written)
+    ``revolve run scenario1 --evaluator ray --ray-address auto``. The driver must run on a
+    node of the cluster (``ray://`` client mode would write the results on the head node).
 
     Args:
         address: ``ray.init(address=...)``: ``None`` starts (or joins) a local instance,
@@ -240,7 +319,7 @@ class RayEvaluator:
             self._started_here = True
         self._evaluate = ray.remote(_ray_evaluate)
         # Any: a remote function of the generic _ray_run_job, whose types are fixed per call.
-        self._run_job: Any = ray.remote(_ray_run_job)
+        self._run_job: Any = ray.remote(_ray_run_job).options(scheduling_strategy="SPREAD")
 
     @property
     def workers(self) -> int:
@@ -259,14 +338,36 @@ class RayEvaluator:
         jobs: Sequence[JobT],
         on_event: Callable[[EventT], None] | None = None,
     ) -> list[ResultT]:
-        """One Ray task per run (progress events are not forwarded from Ray tasks)."""
-        refs = [self._run_job.remote(fn, job, self.function) for job in jobs]
-        try:
-            return list(self._ray.get(refs))
-        except BaseException:
-            for ref in refs:
-                self._ray.cancel(ref)
-            raise
+        """One Ray task per run; progress events reach ``on_event`` here while they run.
+
+        On an error or Ctrl-C here (``on_event`` raising included) the tasks are cancelled
+        (a KeyboardInterrupt in each run: it stops after its last commit point) and waited for,
+        so each run records its status before the exception propagates.
+        """
+        ray = self._ray
+        from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
+
+        here = NodeAffinitySchedulingStrategy(ray.get_runtime_context().get_node_id(), soft=False)
+        with ExitStack() as hosts:
+            sent = [hosts.enter_context(job.for_remote_worker()) if isinstance(job, RemoteJob)
+                    else job for job in jobs]
+            inbox = None
+            if on_event is not None:
+                inbox = ray.remote(_Inbox).options(num_cpus=0, scheduling_strategy=here).remote()
+                hosts.callback(ray.kill, inbox)
+            refs = [self._run_job.remote(fn, job, self.function, inbox) for job in sent]
+            try:
+                pending = list(refs)
+                while pending:
+                    _, pending = ray.wait(pending, num_returns=len(pending), timeout=0.2)
+                    _take(inbox, on_event)
+                _take(inbox, on_event)
+                return list(ray.get(refs))
+            except BaseException:
+                for ref in refs:
+                    ray.cancel(ref)
+                ray.wait(refs, num_returns=len(refs), timeout=_CANCEL_WAIT)
+                raise
 
     def close(self) -> None:
         """Shut down the Ray instance if this evaluator started it."""

@@ -150,7 +150,8 @@ def _evaluate_with_policy(task: EvalTask, policy: DrivingPolicy) -> EvalOutcome:
 
     env = LocomotionEnv(task.robot, insertion_time=task.insertion, evaluation_time=task.seconds,
                         fitness_window=task.seconds, control_period=policy.control_period,
-                        controller="agent", action="targets", engine=task.engine)
+                        controller="agent", action="targets", engine=task.engine,
+                        conditions=task.conditions)
     try:
         policy.reset()
         info = run_episode(env, task.seed, policy.act)

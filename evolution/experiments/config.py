@@ -19,6 +19,22 @@ evaluations parallelise over all cores) and directly comparable to scenario 1, w
 paper's sanity check needs. Set ``engine = "online"`` to run a baseline in the online world
 instead (random survivor selection then kills as many robots as the online rule would, chosen
 uniformly).
+
+The ``[evaluation]`` table (:class:`~revolve_env.conditions.EvaluationConditions`) gives the
+conditions of every evaluation of a run, offline (each robot's isolated evaluation, seeded by
+:func:`~evolution.evaluation.evaluation_seed`) and online (every newborn in the population env,
+seeded from the run's world seed)::
+
+    [evaluation]
+    heading = "random"       # radians, or "random" (uniform in [0, 2 pi))
+    position_jitter = 0.0    # start drawn from a disc of this radius, metres
+    sensor_noise = 0.0       # std of Gaussian noise on every sensor value
+    actuator_noise = 0.0     # std of Gaussian noise on every normalised hinge target
+
+The default is a random heading and no noise: online newborns face random headings, so offline
+robots do too, and the two engines' fitness are comparable (the fitness ``v + 5 s`` itself does
+not depend on the heading, but a robot's gait meets the world in another direction). Override
+on the command line with ``--set evaluation.heading=0``.
 """
 
 from __future__ import annotations
@@ -37,10 +53,12 @@ from evolution.config import EvolutionConfig
 from evolution.experiments.errors import ConfigError
 from evolution.experiments.registry import read_toml, shipped_config, shipped_configs
 from evolution.learning import TrainingCenter, training_center_from_dict
+from revolve_env.conditions import EvaluationConditions
 
-__all__ = ["ConfigError", "ExperimentConfig", "WorldSettings", "load_config", "preset"]
+__all__ = ["DEFAULT_EVALUATION", "ConfigError", "ExperimentConfig", "WorldSettings",
+           "load_config", "preset"]
 
-_NESTED = ("evolution", "learning", "world")
+_NESTED = ("evaluation", "evolution", "learning", "world")
 """Config keys that are tables, merged key by key by presets and overrides."""
 
 
@@ -62,6 +80,10 @@ class WorldSettings:
             raise ConfigError(f"world.engine must be one of {', '.join(map(repr, engines))}, "
                               f"got {self.engine!r}")
 
+
+DEFAULT_EVALUATION = EvaluationConditions(heading="random")
+"""The conditions of an experiment without an ``[evaluation]`` table: random heading, no noise
+(offline as online; the module docstring says why)."""
 
 _CHOICES: dict[str, tuple[str, ...]] = {
     "engine": ("offline", "online"),
@@ -107,6 +129,9 @@ class ExperimentConfig:
         ray_address: Ray cluster address (``None``: start or join a local one).
         evolution: Random robot and reproduction parameters.
         world: The ``[world]`` table (:class:`WorldSettings`): the physics engine.
+        evaluation: The ``[evaluation]`` table: start heading and jitter, sensor and actuator
+            noise of every evaluation, offline and online (module docstring;
+            :data:`DEFAULT_EVALUATION` by default).
         learning: The ``[learning]`` table (:mod:`evolution.learning.config`): infancy learning
             in a Training Center that :func:`run` and :func:`resume` build from it; ``None``: no
             learning. Stored with the results, so a resumed run learns the same way.
@@ -142,6 +167,7 @@ class ExperimentConfig:
     evolution: EvolutionConfig = field(default_factory=EvolutionConfig)
     learning: Mapping[str, Any] | None = field(default=None, hash=False)
     world: WorldSettings = field(default_factory=WorldSettings)
+    evaluation: EvaluationConditions = DEFAULT_EVALUATION
 
     def __post_init__(self) -> None:
         for key, choices in _CHOICES.items():
@@ -208,11 +234,7 @@ class ExperimentConfig:
             )
         if self.ray_address is not None and not isinstance(self.ray_address, str):
             raise ConfigError(f"ray_address must be a string, got {self.ray_address!r}")
-        if not isinstance(self.world, WorldSettings):
-            raise ConfigError(f"world must be a WorldSettings, got {type(self.world).__name__}")
-        if not isinstance(self.evolution, EvolutionConfig):
-            raise ConfigError(
-                f"evolution must be an EvolutionConfig, got {type(self.evolution).__name__}")
+        _check_tables(self)
         if not isinstance(self.name, str) or not self.name:
             raise ConfigError(f"name must be a non-empty string, got {self.name!r}")
         if self.learning is not None:
@@ -229,7 +251,7 @@ class ExperimentConfig:
         data: dict[str, Any] = {}
         for f in fields(self):
             value = getattr(self, f.name)
-            if f.name in ("evolution", "world"):
+            if f.name in ("evaluation", "evolution", "world"):
                 value = {g.name: getattr(value, g.name) for g in fields(value)}
             elif f.name == "learning" and value is not None:
                 value = _json_roundtrip(dict(value))
@@ -264,9 +286,17 @@ class ExperimentConfig:
         except (TypeError, ValueError, ArithmeticError) as error:  # 10**400 -> float: Overflow
             raise ConfigError(f"evolution: {error}") from error
         world_settings = WorldSettings(**_table("world", base, data, WorldSettings))
+        # Missing keys take DEFAULT_EVALUATION's values (not the class defaults: IDEAL).
+        evaluation = {**DEFAULT_EVALUATION.to_dict(),
+                      **_table("evaluation", base, data, EvaluationConditions)}
+        try:
+            conditions = EvaluationConditions(**evaluation)
+        except ValueError as error:  # its messages start with the field's name
+            raise ConfigError(f"evaluation.{error}") from error
         merged = {**base, **data}
         try:
-            return cls(**merged, evolution=evolution_config, world=world_settings)
+            return cls(**merged, evolution=evolution_config, world=world_settings,
+                       evaluation=conditions)
         except TypeError as error:
             raise ConfigError(str(error)) from error
 
@@ -297,7 +327,8 @@ class ExperimentConfig:
         if self.learning is None:
             return None
         try:
-            return training_center_from_dict(self.learning, engine=self.world.engine)
+            return training_center_from_dict(self.learning, engine=self.world.engine,
+                                             conditions=self.evaluation)
         except (TypeError, ValueError, ArithmeticError) as error:  # int(inf): OverflowError
             raise ConfigError(f"learning: {error}") from error
 
@@ -307,8 +338,22 @@ class ExperimentConfig:
         return self.insertion + self.evaluation_time
 
 
+def _check_tables(config: ExperimentConfig) -> None:
+    """Refuse a nested table of the wrong type (ConfigError naming it)."""
+    tables: tuple[tuple[str, type], ...] = (
+        ("world", WorldSettings), ("evaluation", EvaluationConditions),
+        ("evolution", EvolutionConfig))
+    for key, kind in tables:
+        value = getattr(config, key)
+        if not isinstance(value, kind):
+            article = "an" if kind.__name__[0] in "AEIOU" else "a"
+            raise ConfigError(f"{key} must be {article} {kind.__name__}, got "
+                              f"{type(value).__name__}")
+
+
 def _table(name: str, base: dict[str, Any], data: dict[str, Any],
-           kind: type[EvolutionConfig] | type[WorldSettings]) -> dict[str, Any]:
+           kind: type[EvolutionConfig] | type[WorldSettings] | type[EvaluationConditions],
+           ) -> dict[str, Any]:
     """A nested config table: the preset's keys (``base``) updated with ``data``'s, both popped.
 
     Raises:
@@ -335,8 +380,8 @@ def load_config(name_or_path: str | os.PathLike[str],
         name_or_path: A shipped config name (``scenario1``, ..., ``quick``,
             ``scenario1_learning``, ...; :mod:`~evolution.experiments.registry`) or a TOML file
             (with an optional ``[learning]`` table).
-        overrides: Config keys to change (``evolution`` and ``learning`` as nested tables,
-            merged key by key into the config's).
+        overrides: Config keys to change (``evaluation``, ``evolution``, ``learning`` and
+            ``world`` as nested tables, merged key by key into the config's).
 
     Raises:
         ConfigError: unknown name, unreadable file, unknown key or value out of range.

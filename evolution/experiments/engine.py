@@ -93,6 +93,7 @@ from evolution.experiments.config import ExperimentConfig
 from evolution.experiments.offline import OfflineRun
 from evolution.experiments.online import OnlineRun
 from evolution.experiments.online_world import PopulationWorld
+from evolution.experiments.remote_store import LocalRunStore, RunStore
 from evolution.experiments.run import (
     OnlineWorld,
     ProgressEvent,
@@ -103,7 +104,6 @@ from evolution.experiments.run import (
     run_seed,
     world_seed,
 )
-from evolution.experiments.store import Store
 
 __all__ = ["default_world", "execute_run"]
 
@@ -112,10 +112,12 @@ def execute_run(job: RunJob, evaluator: Evaluator,
                 emit: Callable[[ProgressEvent], None]) -> RunSummary:
     """Execute (or continue) one run to its end, writing to ``job.db_path``.
 
+    The run writes through ``job.store`` when the job has one (a Ray worker: the driver's
+    database, :mod:`~evolution.experiments.remote_store`), else it opens ``job.db_path``.
     A KeyboardInterrupt (or any error) stops the run after the last commit point; the run's
     status becomes ``interrupted`` and the exception propagates.
     """
-    store = Store.open(job.db_path)
+    store: RunStore = job.store if job.store is not None else LocalRunStore.open(job.db_path)
     run: RunState | None = None
     world: OnlineWorld | None = None
     try:

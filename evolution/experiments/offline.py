@@ -2,7 +2,8 @@
 
 Generation 0 is ``population_size`` random robots. Each later generation conceives
 ``offspring_size`` children (the last one fewer, to stop at exactly ``births``), evaluates them in
-parallel (each alone at the origin, ``insertion`` + ``evaluation_time`` seconds), and keeps
+parallel (each alone, ``insertion`` + ``evaluation_time`` seconds, under the config's
+``[evaluation]`` conditions: by default a random heading at the origin), and keeps
 ``population_size`` of parents + children (fitness: the fittest; random: uniformly). The simulated
 clock advances by one evaluation per child, as if the robots were evaluated one after another as
 in the paper. A commit point is one generation. Resume reloads the population from the store and
@@ -18,13 +19,13 @@ from typing import Any
 import numpy as np
 
 from evolution.evaluation import EvalOutcome, EvalTask, Evaluator, evaluation_seed
+from evolution.experiments.remote_store import RunStore
 from evolution.experiments.run import Member, ProgressEvent, RunJob, RunState, decode
 from evolution.experiments.store import (
     Checkpoint,
     FailureRecord,
     FitnessSample,
     RobotRecord,
-    Store,
     StoreError,
 )
 from evolution.lifecycle import Lifecycle, Stage
@@ -36,7 +37,7 @@ __all__ = ["OfflineRun"]
 class OfflineRun(RunState):
     """One offline run: generations evaluated by ``evaluator``, (mu + lambda) survivors."""
 
-    def __init__(self, job: RunJob, store: Store, emit: Callable[[ProgressEvent], None],
+    def __init__(self, job: RunJob, store: RunStore, emit: Callable[[ProgressEvent], None],
                  evaluator: Evaluator) -> None:
         super().__init__(job, store, emit)
         self.evaluator = evaluator
@@ -93,7 +94,7 @@ class OfflineRun(RunState):
         tasks = [
             EvalTask(m.robot_id, m.robot, config.insertion, config.evaluation_time,
                      evaluation_seed(self.seed, m.robot_id), self.job.infancy,
-                     engine=config.world.engine)
+                     engine=config.world.engine, conditions=config.evaluation)
             for m in members
         ]
         outcomes = self.evaluator.evaluate(tasks)

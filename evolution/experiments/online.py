@@ -34,6 +34,7 @@ import numpy as np
 
 from evolution.evaluation import evaluation_seed, run_infancy
 from evolution.experiments import snapshot
+from evolution.experiments.remote_store import RunStore
 from evolution.experiments.run import (
     Member,
     OnlineWorld,
@@ -50,7 +51,6 @@ from evolution.experiments.store import (
     FailureRecord,
     FitnessSample,
     LearningRecord,
-    Store,
 )
 from evolution.lifecycle import LearningSummary, Lifecycle, Stage
 from evolution.selection import online_survivors
@@ -63,7 +63,7 @@ _log = logging.getLogger(__name__)
 class OnlineRun(RunState):
     """One online run: the whole population in ``world``, a birth every conception interval."""
 
-    def __init__(self, job: RunJob, store: Store, emit: Callable[[ProgressEvent], None],
+    def __init__(self, job: RunJob, store: RunStore, emit: Callable[[ProgressEvent], None],
                  world: OnlineWorld) -> None:
         super().__init__(job, store, emit)
         self.world = world
@@ -208,7 +208,7 @@ class OnlineRun(RunState):
             tick += 1
             next_tick = tick * config.conception_interval
             self._commit_online(force=self.done())
-        snapshot.prune(self.job.db_path, self.run_id, keep=None)
+        self.store.prune_snapshots(self.run_id, keep=None)
 
     # -- snapshots ---------------------------------------------------------------------------
 
@@ -242,18 +242,18 @@ class OnlineRun(RunState):
         }
         path = snapshot.snapshot_path(self.job.db_path, self.run_id, self.births)
         try:
-            digest = snapshot.write(path, {"engine": engine, "world": world.snapshot()})
+            return self.store.write_snapshot(self.run_id, self.births,
+                                             {"engine": engine, "world": world.snapshot()})
         except OSError as e:
             # The results matter more than a fast resume: commit without a snapshot.
             _log.warning("run %d: cannot write the snapshot %s (%s); a resume from this "
                          "checkpoint will replay", self.run_id, path, e.strerror or e)
             return None
-        return snapshot.reference(path, digest, self.births)
 
     def committed(self, written: dict[str, Any] | None) -> None:
         """Delete the run's older snapshot files once a newer one is referenced."""
         if written is not None:
-            snapshot.prune(self.job.db_path, self.run_id, keep=str(written["file"]))
+            self.store.prune_snapshots(self.run_id, keep=str(written["file"]))
 
     def _restore(self, checkpoint: Checkpoint) -> bool:
         """Continue from the checkpoint's snapshot; False (with a logged note) to replay."""
@@ -270,7 +270,7 @@ class OnlineRun(RunState):
                          self.run_id, checkpoint.births)
             return False
         try:
-            data = snapshot.read(self.job.db_path, self.run_id, ref, checkpoint.births)
+            data = self.store.read_snapshot(self.run_id, ref, checkpoint.births)
             engine = data["engine"]
             if (engine["births"] != checkpoint.births
                     or engine["generation"] != checkpoint.generation

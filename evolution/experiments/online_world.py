@@ -36,8 +36,9 @@ class PopulationWorld:
 
     Args:
         config: The experiment (timing, birth disc, robot limits).
-        seed: Seeds the env's generator (birth positions and headings); the engine spawns it
-            from the run's seed sequence, independent of the engine's own generator.
+        seed: Seeds the env's generator (birth positions and headings) and its noise generator
+            (``config.evaluation``'s sensor and actuator noise); the engine spawns it from the
+            run's seed sequence, independent of the engine's own generator.
     """
 
     def __init__(self, config: ExperimentConfig, seed: int) -> None:
@@ -50,7 +51,8 @@ class PopulationWorld:
             max_births=max(config.births, 1), initial_robots=(), insertion_time=config.insertion,
             maturity_age=config.fertile_age, fitness_window=config.evaluation_time,
             birth_radius=config.birth_radius, birth_clearance=config.birth_clearance,
-            limits=config.evolution.limits, engine=config.world.engine)
+            limits=config.evolution.limits, engine=config.world.engine,
+            conditions=config.evaluation)
         self._seed = seed
         self._env.reset(seed=seed)
         self._last: dict[str, dict[str, Any]] = {}

@@ -21,6 +21,7 @@ if TYPE_CHECKING:
     from revolve_env.body.robot import Robot
 
 __all__ = [
+    "CONDITIONS_OF_OLD_RUNS",
     "LEARNING_TABLE",
     "MIGRATIONS",
     "SCHEMA",
@@ -35,11 +36,13 @@ __all__ = [
     "FitnessSeries",
     "LearningRecord",
     "PopulationSnapshot",
+    "REEVALUATIONS_TABLE",
+    "ReevaluationRecord",
     "RobotRecord",
     "RunRecord",
 ]
 
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 4
 """Version of the database layout; a database with a newer one is refused, an older one is
 upgraded when opened (see the module docstring)."""
 
@@ -142,13 +145,55 @@ ALTER TABLE learning ADD COLUMN policy TEXT;
 """Schema version 3: the learning record's reference to a saved policy (JSON), for learners
 whose controller is a policy outside the genome (SB3)."""
 
-SCHEMA = SCHEMA_V1 + LEARNING_TABLE + POLICY_COLUMN
+REEVALUATIONS_TABLE = """
+CREATE TABLE reevaluations (
+    run_id INTEGER NOT NULL,
+    robot_id INTEGER NOT NULL,
+    kind TEXT NOT NULL,
+    repeat INTEGER NOT NULL,
+    conditions TEXT NOT NULL,
+    insertion REAL NOT NULL,
+    seconds REAL NOT NULL,
+    shared_world INTEGER NOT NULL,
+    seed INTEGER NOT NULL,
+    controller TEXT NOT NULL,
+    stored_fitness REAL,
+    fitness REAL,
+    v REAL,
+    s REAL,
+    failure TEXT,
+    PRIMARY KEY (run_id, kind, robot_id, conditions, insertion, shared_world, repeat, seed)
+);
+"""
+"""Schema version 4: robots evaluated again after their run
+(:mod:`evolution.experiments.reevaluate`).
+
+The primary key holds no timestamp (the seed is derived from the experiment, run, robot and
+repeat), so repeating a reevaluation finds its rows and adds none."""
+
+CONDITIONS_OF_OLD_RUNS = """
+UPDATE meta SET value = json_set(value, '$.evaluation', json(
+    CASE WHEN json_extract(value, '$.engine') = 'online'
+    THEN '{"heading": "random", "position_jitter": 0.0, "sensor_noise": 0.0, "actuator_noise": 0.0}'
+    ELSE '{"heading": 0.0, "position_jitter": 0.0, "sensor_noise": 0.0, "actuator_noise": 0.0}'
+    END))
+WHERE key = 'config' AND json_valid(value) AND json_type(value) = 'object'
+    AND json_type(value, '$.evaluation') IS NULL;
+"""
+"""Schema version 4, for a stored config without an ``evaluation`` table: the conditions its runs
+actually lived under, before conditions were configurable. Offline evaluations started at
+heading 0 at the origin; online newborns at a random heading (the population env's draw); nothing
+was noisy. Written out literally on purpose: a migration must not change when the code's
+defaults do, and this statement is the one home of that rule."""
+
+SCHEMA = SCHEMA_V1 + LEARNING_TABLE + POLICY_COLUMN + REEVALUATIONS_TABLE
 """The current layout (version :data:`SCHEMA_VERSION`)."""
 
 TABLES = frozenset(re.findall(r"CREATE TABLE (\w+)", SCHEMA))
 """The tables of the current layout (an opened database must have them all)."""
 
-MIGRATIONS: dict[int, str] = {1: LEARNING_TABLE, 2: POLICY_COLUMN}
+MIGRATIONS: dict[int, str] = {1: LEARNING_TABLE, 2: POLICY_COLUMN,
+                               3: REEVALUATIONS_TABLE + CONDITIONS_OF_OLD_RUNS}
 """For each old version, the statements that bring it to the next one."""
 
 
@@ -269,6 +314,54 @@ class LearningRecord:
         if self.inborn_fitness is None or self.learned_fitness is None:
             return None
         return self.learned_fitness - self.inborn_fitness
+
+
+@dataclass(frozen=True, slots=True)
+class ReevaluationRecord:
+    """One evaluation of a stored robot after its run (:mod:`evolution.experiments.reevaluate`).
+
+    Attributes:
+        run_id: Run (repeat index).
+        robot_id: The robot.
+        kind: Which robots were chosen: ``"final"`` (the final population) or ``"best"`` (the
+            best robot of each commit point: an offline generation, an online birth).
+        repeat: Index of the repeat, ``0 .. K - 1``.
+        conditions: The evaluation conditions as JSON
+            (:meth:`~revolve_env.conditions.EvaluationConditions.to_dict`, sorted keys).
+        insertion: Start of the fitness window after the robot's drop. Seconds.
+        seconds: Length of the fitness window. Seconds.
+        shared_world: True when the robot lived with its run's other chosen robots in one world.
+        seed: Seed of the evaluation (or of the shared world).
+        controller: ``"inborn"``, ``"learned"`` (a learned genome), ``"policy"`` (a saved SB3
+            policy drove it) or ``"inborn (policy not used)"``.
+        stored_fitness: The fitness the run stored for it (what selection saw). Metres.
+        fitness: ``v + 5 s`` over the window; ``None`` when the evaluation failed. Metres.
+        v: Path length over the window. Metres.
+        s: Straight-line displacement over the window. Metres.
+        failure: ``None``, or why the evaluation failed (a blow-up).
+    """
+
+    run_id: int
+    robot_id: int
+    kind: str
+    repeat: int
+    conditions: str
+    insertion: float
+    seconds: float
+    shared_world: bool
+    seed: int
+    controller: str
+    stored_fitness: float | None
+    fitness: float | None
+    v: float | None = None
+    s: float | None = None
+    failure: str | None = None
+
+    @property
+    def key(self) -> tuple[int, str, int, str, float, bool, int, int]:
+        """The primary key: what makes two reevaluations the same one."""
+        return (self.run_id, self.kind, self.robot_id, self.conditions, float(self.insertion),
+                bool(self.shared_world), self.repeat, self.seed)
 
 
 @dataclass(frozen=True, slots=True)

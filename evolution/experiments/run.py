@@ -14,9 +14,10 @@ from __future__ import annotations
 import json
 import math
 import time
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from pathlib import Path
+from collections import Counter
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -24,13 +25,13 @@ import numpy as np
 from evolution.diversity import diversity
 from evolution.evaluation import LearningSummary
 from evolution.experiments.config import ExperimentConfig
+from evolution.experiments.remote_store import RunStore, host_store
 from evolution.experiments.store import (
     Batch,
     Checkpoint,
     FailureRecord,
     LearningRecord,
     RobotRecord,
-    Store,
     StoreError,
 )
 from evolution.lifecycle import InfancyHook, Lifecycle, LifecycleTiming
@@ -101,6 +102,8 @@ class ProgressEvent:
         wall_time: Wall-clock seconds since the run (re)started.
         replaying: True while an online run replays up to its last commit point.
         finished: True on the last event of a run.
+        failures: Failures recorded since the run (re)started (blow-ups, learner failures,
+            crossovers...), as sorted ``(kind, count)`` pairs.
     """
 
     run_id: int
@@ -114,6 +117,7 @@ class ProgressEvent:
     wall_time: float
     replaying: bool = False
     finished: bool = False
+    failures: tuple[tuple[str, int], ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -223,7 +227,11 @@ WorldFactory = Callable[[ExperimentConfig, int], OnlineWorld]
 
 @dataclass(frozen=True, slots=True)
 class RunJob:
-    """Everything a worker needs to execute (or continue) one run."""
+    """Everything a worker needs to execute (or continue) one run.
+
+    ``store``: where the run reads and writes its records; ``None``: it opens ``db_path``
+    itself. A job sent to another machine carries a remote one (:meth:`for_remote_worker`).
+    """
 
     db_path: str
     run_id: int
@@ -231,6 +239,18 @@ class RunJob:
     world_factory: WorldFactory | None = None
     infancy: InfancyHook | None = None
     stop_after_commits: int | None = None
+    store: RunStore | None = None
+
+    @contextmanager
+    def for_remote_worker(self) -> Iterator[RunJob]:
+        """This job for a Ray worker on any node: the database stays on this one.
+
+        Call in the Ray driver; the copy's store is a
+        :class:`~evolution.experiments.remote_store.RemoteStore` of this node's database,
+        valid until the context exits.
+        """
+        with host_store(self.db_path) as store:
+            yield replace(self, store=store)
 
 
 @dataclass(slots=True)
@@ -292,7 +312,8 @@ def _finite(values: Sequence[float | None]) -> np.ndarray:
 class RunState:
     """State and shared steps of one run (both engines)."""
 
-    def __init__(self, job: RunJob, store: Store, emit: Callable[[ProgressEvent], None]) -> None:
+    def __init__(self, job: RunJob, store: RunStore,
+                 emit: Callable[[ProgressEvent], None]) -> None:
         self.job = job
         self.config = job.config
         self.run_id = job.run_id
@@ -313,6 +334,7 @@ class RunState:
         self.sim_time_at_start = 0.0
         self.replay_until: Checkpoint | None = None
         self.stored_genomes: dict[int, str] = {}
+        self.failure_counts: Counter[str] = Counter()
         check_infancy(job.infancy)
         self.infancy = job.infancy
         self.lamarckian = bool(getattr(job.infancy, "lamarckian", False))
@@ -402,22 +424,13 @@ class RunState:
             member.robot = learned
             member.learned = True
 
-    def policy_path(self, robot_id: int) -> Path:
-        """Where the policy of robot ``robot_id`` is saved: ``<results>/policies/``."""
-        return Path(self.job.db_path).parent / "policies" / f"run{self.run_id}_robot{robot_id}.pkl"
-
     def save_policy(self, member: Member) -> str:
         """Write ``member.policy`` beside the database (before the commit that references it).
 
         Returns:
             The learning record's reference: JSON ``{"file": ..., "digest": ...}``.
         """
-        from evolution.learning.sb3 import save_policy
-
-        path = self.policy_path(member.robot_id)
-        digest = save_policy(member.policy, path)
-        relative = path.relative_to(Path(self.job.db_path).parent).as_posix()
-        return json.dumps({"file": relative, "digest": digest}, sort_keys=True)
+        return self.store.save_policy(self.run_id, member.robot_id, member.policy)
 
     def load_policy(self, robot: Robot, reference: str) -> Any:
         """The policy a learning record references, checked against ``robot``.
@@ -426,19 +439,7 @@ class RunState:
             StoreError: one line naming the file: missing, damaged, of another body, or not the
                 one the store recorded.
         """
-        from evolution.learning.sb3 import PolicyFileError, load_policy
-
-        try:
-            ref = json.loads(reference)
-            path = Path(self.job.db_path).parent / str(ref["file"])
-            digest = str(ref["digest"])
-        except (ValueError, KeyError, TypeError) as error:
-            raise StoreError(f"run {self.run_id}: malformed policy reference {reference!r}"
-                             ) from error
-        try:
-            return load_policy(path, robot, digest)
-        except PolicyFileError as error:
-            raise StoreError(f"run {self.run_id}: {error}") from error
+        return self.store.load_policy(self.run_id, robot, reference)
 
     # -- deaths ------------------------------------------------------------------------------
 
@@ -503,6 +504,7 @@ class RunState:
             self.sim_time_at_start = self.sim_time
             self._progress()
             return
+        self.failure_counts.update(f.kind for f in self.batch.failures)
         written = self.save_snapshot()
         if written is not None:
             checkpoint.engine_state["snapshot"] = written
@@ -537,7 +539,8 @@ class RunState:
         best, mean = self._stats()
         speed = (self.sim_time - self.sim_time_at_start) / wall if wall > 0 else math.nan
         return ProgressEvent(self.run_id, self.births, self.config.births, self.sim_time, best,
-                             mean, len(self.population), speed, wall, replaying, finished)
+                             mean, len(self.population), speed, wall, replaying, finished,
+                             tuple(sorted(self.failure_counts.items())))
 
     def _progress(self, replaying: bool = False) -> None:
         self.emit(self.event(replaying=replaying))

@@ -24,6 +24,10 @@ failures    crossover failures, blow-ups, learner failures, ... with their time
 learning    infancy learning in the Training Center: the learned genome, the learner's inborn
             and learned fitness, its evaluations and simulated seconds (one row per infant
             whose learner ran without failing; failed learners are in ``failures``)
+reevaluations robots evaluated again after their run (``revolve reevaluate``): kind (``final``
+            or ``best``), repeat, conditions (JSON), window, shared world or not, seed, the
+            stored and the new fitness; keyed without a timestamp, so a repeated reevaluation
+            adds no rows (:mod:`evolution.experiments.reevaluate`)
 ========== ===================================================================================
 
 The ``robots`` table always holds the genome *as conceived* (the inborn one). With Lamarckian
@@ -32,9 +36,13 @@ inheritance the genome a robot passes to its children is its learned genome
 with it (``"learned"``), so a resumed run continues with the same genomes.
 
 Schema versions: 1 had no ``learning`` table; 2 had no ``learning.policy`` column (the reference
-to a saved SB3 policy in ``<results>/policies/``). An older database is upgraded in place when
-opened (the empty ``learning`` table and the ``policy`` column, NULL in old rows, are added and
-the version set to 3; nothing else changes); a database newer than this package is refused.
+to a saved SB3 policy in ``<results>/policies/``); 3 had no ``reevaluations`` table, and its
+stored configs no ``evaluation`` table. An older database is upgraded in place when opened, in
+one transaction (the empty ``learning`` and ``reevaluations`` tables and the ``policy`` column,
+NULL in old rows, are added; a stored config without ``evaluation`` gains the conditions its runs
+lived under, :data:`~evolution.experiments.records.CONDITIONS_OF_OLD_RUNS`: heading 0 offline,
+a random heading online, no noise; the version is set to 4; nothing else changes); a database
+newer than this package is refused.
 
 The query functions at the bottom (``fitness_over_births``, ``final_population``, ...) are what
 reports and plots read.
@@ -64,6 +72,7 @@ from evolution.experiments.records import (
     FitnessSeries,
     LearningRecord,
     PopulationSnapshot,
+    ReevaluationRecord,
     RobotRecord,
     RunRecord,
 )
@@ -79,6 +88,7 @@ __all__ = [
     "FitnessSample",
     "FitnessSeries",
     "LearningRecord",
+    "ReevaluationRecord",
     "RobotRecord",
     "RunRecord",
     "Store",
@@ -325,7 +335,37 @@ class Store:
             )
         batch.clear()
 
+    def add_reevaluations(self, records: Sequence[ReevaluationRecord]) -> int:
+        """Write reevaluations in one transaction; rows whose key is stored already are kept.
+
+        Returns:
+            How many rows were new.
+        """
+        with _transaction(self._db):
+            before = self._db.total_changes
+            self._db.executemany(
+                f"INSERT OR IGNORE INTO reevaluations ({_REEVALUATION_COLUMNS}) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                [(r.run_id, r.robot_id, r.kind, r.repeat, r.conditions, float(r.insertion),
+                  float(r.seconds), int(r.shared_world), r.seed, r.controller,
+                  _nullable(r.stored_fitness), _nullable(r.fitness), _nullable(r.v),
+                  _nullable(r.s), r.failure) for r in records])
+            return self._db.total_changes - before
+
     # -- reading ---------------------------------------------------------------------------
+
+    def reevaluations(self, kind: str | None = None) -> list[ReevaluationRecord]:
+        """Stored reevaluations (of one kind if given), by run, kind, robot, setting, repeat."""
+        query = f"SELECT {_REEVALUATION_COLUMNS} FROM reevaluations"
+        args: tuple[str, ...] = ()
+        if kind is not None:
+            query += " WHERE kind = ?"
+            args = (kind,)
+        rows = self._db.execute(
+            query + " ORDER BY run_id, kind, robot_id, conditions, insertion, shared_world, "
+            "repeat, seed", args).fetchall()
+        return [ReevaluationRecord(r[0], r[1], r[2], r[3], r[4], r[5], r[6], bool(r[7]), r[8],
+                                   r[9], r[10], r[11], r[12], r[13], r[14]) for r in rows]
 
     def checkpoint(self, run_id: int) -> Checkpoint | None:
         """The latest commit point of a run, ``None`` before the first."""
@@ -464,6 +504,12 @@ class Store:
 _ROBOT_COLUMNS = (
     "run_id, robot_id, genome, parent_a, parent_b, origin, generation, conceived_time, "
     "birth_time, death_time, death_cause, fitness"
+)
+
+
+_REEVALUATION_COLUMNS = (
+    "run_id, robot_id, kind, repeat, conditions, insertion, seconds, shared_world, seed, "
+    "controller, stored_fitness, fitness, v, s, failure"
 )
 
 

@@ -37,8 +37,9 @@ from __future__ import annotations
 import json
 import os
 import time
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -148,6 +149,15 @@ class StudyJob:
 
     experiment: str
     run: RunJob
+
+    @contextmanager
+    def for_remote_worker(self) -> Iterator[StudyJob]:
+        """This job for a Ray worker on any node: the database stays on this one.
+
+        See :meth:`evolution.experiments.RunJob.for_remote_worker`.
+        """
+        with self.run.for_remote_worker() as run:
+            yield replace(self, run=run)
 
 
 @dataclass(frozen=True, slots=True)

@@ -41,6 +41,7 @@ from typing import Any
 from evolution.learning.base import Learner, TrainingCenter
 from evolution.learning.params import CandidateEvaluation, CMAESLearner, RandomSearchLearner
 from evolution.learning.sb3 import SB3Learner
+from revolve_env.conditions import IDEAL, EvaluationConditions
 
 __all__ = ["LEARNERS", "training_center_from_dict"]
 
@@ -56,11 +57,14 @@ _KEYS = {
 }
 
 
-def training_center_from_dict(data: Mapping[str, Any], engine: str = "pybullet") -> TrainingCenter:
+def training_center_from_dict(data: Mapping[str, Any], engine: str = "pybullet",
+                              conditions: EvaluationConditions = IDEAL) -> TrainingCenter:
     """The Training Center a ``[learning]`` table describes (keys: module docstring).
 
     ``engine`` is the physics engine the learner simulates in (an experiment's
-    ``world.engine``: infants learn in the engine their run lives in).
+    ``world.engine``: infants learn in the engine their run lives in); ``conditions`` the
+    conditions of its evaluations and episodes (an experiment's ``[evaluation]`` table: infants
+    learn under the conditions they are evaluated and live in).
 
     Raises:
         ValueError: unknown learner or key (named, with the known ones), a missing budget, or a
@@ -82,11 +86,11 @@ def training_center_from_dict(data: Mapping[str, Any], engine: str = "pybullet")
     if name == "sb3":
         kwargs = {k: data[k] for k in ("algorithm", "policy", "action", "n_envs", "vec_env",
                                        "control_period") if k in data}
-        learner = SB3Learner(**kwargs, **timing, engine=engine,
+        learner = SB3Learner(**kwargs, **timing, engine=engine, conditions=conditions,
                              algorithm_kwargs=dict(data.get("algorithm_kwargs", {})))
     else:
         evaluation = CandidateEvaluation(**timing, workers=int(data.get("workers", 1)),
-                                         engine=engine)
+                                         engine=engine, conditions=conditions)
         if name == "cma-es":
             learner = CMAESLearner(sigma0=float(data.get("sigma", 0.15)),
                                    popsize=data.get("popsize", 8), evaluation=evaluation)

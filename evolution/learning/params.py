@@ -35,6 +35,7 @@ from evolution.evaluation import (
 from evolution.learning.base import LearningResult, check_budget
 from revolve_env.body.robot import Robot
 from revolve_env.brain import get_params, param_bounds, set_params
+from revolve_env.conditions import IDEAL, EvaluationConditions
 
 __all__ = [
     "CMAESLearner",
@@ -58,7 +59,7 @@ def evaluate_in_env(task: EvalTask) -> EvalOutcome:
 
     env = LocomotionEnv(task.robot, controller="brain", insertion_time=task.insertion,
                         evaluation_time=task.seconds, fitness_window=task.seconds,
-                        engine=task.engine)
+                        engine=task.engine, conditions=task.conditions)
     try:
         return episode_outcome(run_episode(env, task.seed))
     finally:
@@ -77,6 +78,9 @@ class CandidateEvaluation:
             :func:`~evolution.evaluation.evaluate_task`).
         engine: The physics engine of the candidates' evaluations (``"pybullet"``,
             ``"mujoco"``).
+        conditions: Start heading and jitter, sensor and actuator noise of every candidate
+            evaluation (an experiment's ``[evaluation]`` table). All candidates of one learning
+            run share one seed, so they start alike and meet the same noise draws.
     """
 
     insertion: float = 1.0
@@ -84,6 +88,7 @@ class CandidateEvaluation:
     workers: int = 1
     function: EvaluateFunction = field(default=evaluate_task)
     engine: str = "pybullet"
+    conditions: EvaluationConditions = IDEAL
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.insertion) and self.insertion >= 0):
@@ -117,7 +122,8 @@ def evaluate_params(
     """
     tasks = [
         EvalTask(i, set_params(robot, p), evaluation.insertion,
-                 evaluation.seconds, seed, engine=evaluation.engine)
+                 evaluation.seconds, seed, engine=evaluation.engine,
+                 conditions=evaluation.conditions)
         for i, p in enumerate(candidates)
     ]
     own = evaluator is None

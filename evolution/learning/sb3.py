@@ -53,6 +53,7 @@ from numpy.typing import NDArray
 
 from evolution.learning.base import LearningResult, check_budget, same_body
 from revolve_env.body.robot import Layer, Robot
+from revolve_env.conditions import IDEAL, EvaluationConditions
 
 if TYPE_CHECKING:
     from revolve_env.brain import BatchController
@@ -100,7 +101,8 @@ def _algorithm_class(algorithm: type | str) -> type:
 
 
 def _make_env(robot: Robot, action: ActionMode, insertion: float, seconds: float,
-              control_period: float, engine: str = "pybullet") -> Any:
+              control_period: float, engine: str = "pybullet",
+              conditions: EvaluationConditions = IDEAL) -> Any:
     """The infant's single-robot env (module level, so that worker processes can build it).
 
     Returns a :class:`~revolve_env.envs.LocomotionEnv`, typed ``Any`` because its declared
@@ -118,6 +120,7 @@ def _make_env(robot: Robot, action: ActionMode, insertion: float, seconds: float
         controller="brain" if action == "modulate" else "agent",
         action=action,
         engine=engine,
+        conditions=conditions,
     )
 
 
@@ -221,16 +224,19 @@ class PolicyAgent:
 
 
 def rollout_fitness(agent: PolicyAgent | None, robot: Robot, insertion: float, seconds: float,
-                    control_period: float, seed: int, engine: str = "pybullet") -> float:
+                    control_period: float, seed: int, engine: str = "pybullet",
+                    conditions: EvaluationConditions = IDEAL) -> float:
     """Fitness of one episode of ``robot`` driven by ``agent`` (``None``: by its own network).
 
     The agent drives the single-robot env with ``controller="agent"``: the same path as an
     agent-controlled robot in the population env. Metres; 0 after a blow-up.
     """
     if agent is None:
-        env = _make_env(robot, "modulate", insertion, seconds, control_period, engine)
+        env = _make_env(robot, "modulate", insertion, seconds, control_period, engine,
+                        conditions)
     else:
-        env = _make_env(robot, "targets", insertion, seconds, control_period, engine)
+        env = _make_env(robot, "targets", insertion, seconds, control_period, engine,
+                        conditions)
         agent.reset()
     from revolve_env.envs.episode import run_episode  # loads the physics engine: when used
 
@@ -257,6 +263,8 @@ class SB3Learner:
         seconds: Scored part of each training episode (and the fitness window). Seconds.
         control_period: Time per env step. Seconds (a multiple of the physics timestep).
         engine: The physics engine of the training envs (``"pybullet"`` or ``"mujoco"``).
+        conditions: Start heading and jitter, sensor and actuator noise of every training
+            episode and of the two evaluations (an experiment's ``[evaluation]`` table).
         algorithm_kwargs: Extra keyword arguments of the algorithm (``n_steps``, ...).
     """
 
@@ -270,6 +278,7 @@ class SB3Learner:
     control_period: float = 1.0 / 60.0
     engine: str = "pybullet"
     algorithm_kwargs: Mapping[str, Any] = field(default_factory=dict)
+    conditions: EvaluationConditions = IDEAL
 
     learns_policy = True  # class constant: the controller is the policy, not the genome's network
 
@@ -345,7 +354,7 @@ class SB3Learner:
                              f"{self._min_steps()} (min_budget: {self.min_budget:g} s)")
         seed = int(rng.integers(0, 2**31 - 1))
         factory = partial(_make_env, robot, self.action, self.insertion, self.seconds,
-                          self.control_period, self.engine)
+                          self.control_period, self.engine, self.conditions)
         cls = SubprocVecEnv if self.vec_env == "subproc" and self.n_envs > 1 else DummyVecEnv
         kwargs = {"start_method": "forkserver"} if cls is SubprocVecEnv else None
         venv = make_vec_env(factory, n_envs=self.n_envs, seed=seed, vec_env_cls=cls,
@@ -375,9 +384,9 @@ class SB3Learner:
         agent = PolicyAgent(model.policy, robot, self.action, self.control_period)
         eval_seed = int(rng.integers(0, 2**31 - 1))
         inborn = rollout_fitness(None, robot, self.insertion, self.seconds, self.control_period,
-                                 eval_seed, self.engine)
+                                 eval_seed, self.engine, self.conditions)
         trained = rollout_fitness(agent, robot, self.insertion, self.seconds, self.control_period,
-                                  eval_seed, self.engine)
+                                  eval_seed, self.engine, self.conditions)
         agent.reset()
         return LearningResult(
             robot=robot,

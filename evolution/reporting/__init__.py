@@ -2,6 +2,7 @@
 
 Modules: :mod:`~evolution.reporting.data` (stored experiments read back),
 :mod:`~evolution.reporting.tables` (summary table and significance tests),
+:mod:`~evolution.reporting.stats` (Mann-Whitney U, A12 and its bootstrap interval, Holm),
 :mod:`~evolution.reporting.figures` (the paper's figures) and :mod:`~evolution.reporting.report`
 (:func:`report`, all of them written into one folder).
 """
@@ -9,9 +10,12 @@ Modules: :mod:`~evolution.reporting.data` (stored experiments read back),
 from __future__ import annotations
 
 from evolution.reporting.data import (
+    FAILED_BIRTH_KINDS,
+    LABELS,
     PAPER_ORDER,
     ExperimentData,
     RunData,
+    births_axis,
     find_experiments,
     load_experiment,
     runs_on_grid,
@@ -21,12 +25,16 @@ from evolution.reporting.report import REPORT_DIR, Report, report
 from evolution.reporting.tables import (
     LEARNING_COLUMNS,
     TESTED_SAMPLES,
+    curve_rows,
     mann_whitney_rows,
+    pooled_rows,
     summary_rows,
     write_tables,
 )
 
 __all__ = [
+    "FAILED_BIRTH_KINDS",
+    "LABELS",
     "LEARNING_COLUMNS",
     "PAPER_ORDER",
     "REPORT_DIR",
@@ -34,9 +42,12 @@ __all__ = [
     "ExperimentData",
     "Report",
     "RunData",
+    "births_axis",
+    "curve_rows",
     "find_experiments",
     "load_experiment",
     "mann_whitney_rows",
+    "pooled_rows",
     "report",
     "runs_on_grid",
     "step_on_grid",

@@ -1,27 +1,43 @@
-"""Stored experiments read back for reporting: runs, populations, fitness and diversity series."""
+"""Stored experiments read back for reporting: runs, populations, fitness and diversity series.
+
+Births. A birth is a robot conceived and delivered whose life produced a fitness or is still
+going: a robot lost before its first fitness (a blow-up during its isolated evaluation or
+before its first sample in the shared world, a body the engine could not build, a non-finite
+fitness: the failure kinds of :data:`FAILED_BIRTH_KINDS`) is a *failed birth*. The engines count
+failed births in their births counter (an offline generation 0 with two blow-ups ends at 17);
+the report does not: every births axis counts births as defined here (so generation 0 ends at
+15 and the next at 30 in scenario 1), and failed births are counted apart
+(:attr:`RunData.failed_births`, the ``failed_births`` column, the ``failed_births`` figure).
+Robots lost after they had a fitness (online blow-ups of living robots) stay births; they are
+counted in :attr:`RunData.lost_robots` with the failed ones.
+"""
 
 from __future__ import annotations
 
 import math
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from evolution.diversity import diversity
+from evolution.diversity import brain_aware_diversity, diversity
 from evolution.experiments.integrity import verify
-from evolution.experiments.store import DB_NAME, FitnessSeries, Store, StoreError
+from evolution.experiments.store import DB_NAME, FitnessSeries, RunRecord, Store, StoreError
+from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import from_json
 
 __all__ = [
+    "FAILED_BIRTH_KINDS",
+    "LABELS",
     "PAPER_ORDER",
     "ExperimentData",
     "RunData",
     "find_experiments",
+    "births_axis",
     "load_experiment",
     "runs_on_grid",
     "step_on_grid",
@@ -29,6 +45,30 @@ __all__ = [
 
 PAPER_ORDER = ("scenario1", "scenario2", "scenario3", "baseline_a", "baseline_b")
 """Experiments named like this are listed in this order, the others after them by name."""
+
+LABELS: dict[str, str] = {
+    "scenario1": "Scenario 1 (15+15)",
+    "scenario2": "Scenario 2 (15+1)",
+    "scenario3": "Scenario 3 (online)",
+    "baseline_a": "Baseline A (random robots)",
+    "baseline_b": "Baseline B (random survivors)",
+}
+"""Readable labels of the paper's experiments in figures and tables (others show their name)."""
+
+FAILED_BIRTH_KINDS = ("evaluation", "blow-up", "birth")
+"""Failure kinds that lose a robot: a failed evaluation offline (blow-up or non-finite fitness),
+a blow-up in the shared world, a body the world could not build."""
+
+
+def births_axis(engine_births: NDArray[Any], failed_ids: NDArray[Any]) -> NDArray[np.int64]:
+    """Births as the report counts them, from the engine's counter and the failed births' ids.
+
+    Robot ids are given in birth order from 0, so the engine's count ``b`` covers ids ``< b``;
+    the failed births among them are taken off.
+    """
+    b = np.asarray(engine_births, dtype=np.int64)
+    failed = np.sort(np.asarray(failed_ids, dtype=np.int64))
+    return b - np.searchsorted(failed, b, side="left").astype(np.int64)
 
 @dataclass(frozen=True, slots=True)
 class RunData:
@@ -48,6 +88,16 @@ class RunData:
         learned_fitness: Each infant's learned-controller fitness as its learner measured it
             (same records, same order). Metres.
         learner_failures: Infancies whose learner failed (the infant kept its inborn brain).
+        failed_births: Ids of the robots lost before their first fitness (not births).
+        lost_robots: Robots lost to a failure of :data:`FAILED_BIRTH_KINDS`, failed births and
+            robots lost later in life together.
+        brain_diversity: Brain-aware diversity at ``diversity_births`` (empty unless asked
+            for; see :func:`evolution.diversity.brain_aware_diversity`).
+        final_brain_diversity: Brain-aware diversity of the last population (``nan`` unless
+            asked for or with fewer than 2 robots).
+
+    ``births``, ``fitness.births`` and ``diversity_births`` count births as the module
+    docstring defines them (failed births left out).
     """
 
     run_id: int
@@ -61,6 +111,16 @@ class RunData:
     inborn_fitness: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     learned_fitness: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     learner_failures: int = 0
+    failed_births: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
+    lost_robots: int = 0
+    brain_diversity: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    final_brain_diversity: float = math.nan
+
+    def failed_births_over_births(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """Cumulative failed births (y) against births (x) at each failure."""
+        ids = np.sort(self.failed_births)
+        x = births_axis(ids, ids)
+        return x, np.arange(1, ids.size + 1, dtype=np.int64)
 
 
 @dataclass(frozen=True, slots=True)
@@ -86,6 +146,22 @@ class ExperimentData:
         """The configuration's name."""
         return str(self.config.get("name", self.path.name))
 
+    @property
+    def title(self) -> str:
+        """Readable label: :data:`LABELS` for the paper's five, else the label.
+
+        A paper label gets the path label appended when two experiments share a name.
+        """
+        readable = LABELS.get(self.name)
+        if readable is None:
+            return self.label
+        return readable if self.label == self.name else f"{readable} [{self.label}]"
+
+    @property
+    def online(self) -> bool:
+        """True for the online engine (fitness is a sliding window in the shared world)."""
+        return self.config.get("engine") == "online"
+
     def final_fitness(self) -> NDArray[np.float64]:
         """Fitness of every robot of every run's final population, pooled. Metres."""
         parts = [r.final_fitness for r in self.runs]
@@ -98,6 +174,15 @@ class ExperimentData:
     def final_diversities(self) -> NDArray[np.float64]:
         """Final-population diversity of each run (undefined ones left out)."""
         values = np.array([r.final_diversity for r in self.runs], dtype=np.float64)
+        return values[np.isfinite(values)]
+
+    def final_bests(self) -> NDArray[np.float64]:
+        """Best fitness of each run's final population (runs without fitness left out). Metres."""
+        return np.array([r.final_fitness.max() for r in self.runs if r.final_fitness.size])
+
+    def final_brain_diversities(self) -> NDArray[np.float64]:
+        """Final-population brain-aware diversity of each run (undefined ones left out)."""
+        values = np.array([r.final_brain_diversity for r in self.runs], dtype=np.float64)
         return values[np.isfinite(values)]
 
     @property
@@ -118,51 +203,101 @@ class ExperimentData:
 # Reading
 
 
-def _final_diversity(store: Store, run_id: int, members: Sequence[int]) -> float:
+def _robots(store: Store, run_id: int, members: Sequence[int]) -> list[Robot]:
+    # Stored genomes were validated when they were born; the overlap check is the slow part.
+    return [from_json(r.genome, check=False) for r in store.robots(run_id, list(members))]
 
+
+def _final_diversity(store: Store, run_id: int, members: Sequence[int]) -> float:
     if len(members) < 2:
         return math.nan
-    # Stored genomes were validated when they were born; the overlap check is the slow part.
-    robots = [from_json(r.genome, check=False) for r in store.robots(run_id, list(members))]
-    return float(diversity(robots))
+    return float(diversity(_robots(store, run_id, members)))
 
 
-def load_experiment(path: str | os.PathLike[str], label: str | None = None) -> ExperimentData:
+def _failed_births(store: Store, run_id: int) -> tuple[NDArray[np.int64], int]:
+    """Ids of the robots lost before their first fitness, and how many robots were lost."""
+    lost = sorted({f.robot_id for f in store.failures(run_id)
+                   if f.kind in FAILED_BIRTH_KINDS and f.robot_id is not None})
+    if not lost:
+        return np.zeros(0, np.int64), 0
+    fitness = {r.robot_id: r.fitness for r in store.robots(run_id, lost)}
+    failed = [i for i in lost if fitness.get(i) is None]
+    return np.array(failed, dtype=np.int64), len(lost)
+
+
+def _brain_diversity(store: Store, run_id: int, engine_births: NDArray[np.int64]
+                     ) -> tuple[NDArray[np.float64], float]:
+    """Brain-aware diversity of the stored populations at ``engine_births``, and of the last."""
+    snapshots = {b: [rid for rid, _ in members]
+                 for b, _, members in store.population_snapshots(run_id)}
+
+    def of(members: Sequence[int]) -> float:
+        if len(members) < 2:
+            return math.nan
+        return brain_aware_diversity(_robots(store, run_id, members))
+
+    series = np.array([of(snapshots.get(int(b), [])) for b in engine_births], dtype=float)
+    final = of(snapshots[max(snapshots)]) if snapshots else math.nan
+    return series, final
+
+
+def _load_run(store: Store, record: RunRecord, brain_aware: bool) -> RunData | None:
+    """One run read back, births counted as the module docstring says.
+
+    ``None`` for a run that never reached its first commit point (nothing to show).
+    """
+    run_id = record.run_id
+    series = store.fitness_over_births(run_id)
+    if series.births.size == 0:
+        return None
+    failed, lost = _failed_births(store, run_id)
+    final = store.final_population(run_id)
+    final_fitness = np.array(
+        [f for _, f in final if f is not None and math.isfinite(f)], dtype=float)
+    points = store.diversity_over_births(run_id)
+    engine_births = np.array([p.births for p in points], dtype=np.int64)
+    pairs = [(x.inborn_fitness, x.learned_fitness) for x in store.learning(run_id)
+             if x.inborn_fitness is not None and x.learned_fitness is not None
+             and math.isfinite(x.inborn_fitness) and math.isfinite(x.learned_fitness)]
+    brain, final_brain = (_brain_diversity(store, run_id, engine_births) if brain_aware
+                          else (np.zeros(0), math.nan))
+    return RunData(
+        run_id, record.status, int(births_axis(np.array([record.births]), failed)[0]),
+        replace(series, births=births_axis(series.births, failed)),
+        births_axis(engine_births, failed),
+        np.array([p.value for p in points], dtype=float),
+        final_fitness,
+        _final_diversity(store, run_id, [rid for rid, _ in final]),
+        np.array([a for a, _ in pairs], dtype=float),
+        np.array([b for _, b in pairs], dtype=float),
+        len(store.failures(run_id, "learner")),
+        failed, lost, brain, final_brain,
+    )
+
+
+def load_experiment(path: str | os.PathLike[str], label: str | None = None,
+                    brain_aware: bool = False) -> ExperimentData:
     """Read one experiment from a results directory (or its ``results.sqlite``).
+
+    Args:
+        path: The results directory or database.
+        label: Its label; default the configuration's name.
+        brain_aware: Also compute the brain-aware diversity of the stored populations at each
+            diversity point (slower: every stored genome of those populations is decoded).
 
     Raises:
         StoreError: no usable database there (missing, corrupt, newer schema).
     """
     path = Path(path)
     db = path if path.name == DB_NAME else path / DB_NAME
-    runs: list[RunData] = []
     with Store.open(db) as store:
         verify(store)
         config = store.config
         records = store.runs()
-        for record in records:
-            series = store.fitness_over_births(record.run_id)
-            if series.births.size == 0:
-                continue  # never reached its first commit point: nothing to show
-            final = store.final_population(record.run_id)
-            final_fitness = np.array(
-                [f for _, f in final if f is not None and math.isfinite(f)], dtype=float)
-            points = store.diversity_over_births(record.run_id)
-            pairs = [(x.inborn_fitness, x.learned_fitness) for x in store.learning(record.run_id)
-                     if x.inborn_fitness is not None and x.learned_fitness is not None
-                     and math.isfinite(x.inborn_fitness) and math.isfinite(x.learned_fitness)]
-            runs.append(RunData(
-                record.run_id, record.status, record.births, series,
-                np.array([p.births for p in points], dtype=np.int64),
-                np.array([p.value for p in points], dtype=float),
-                final_fitness,
-                _final_diversity(store, record.run_id, [rid for rid, _ in final]),
-                np.array([a for a, _ in pairs], dtype=float),
-                np.array([b for _, b in pairs], dtype=float),
-                len(store.failures(record.run_id, "learner")),
-            ))
+        loaded = [_load_run(store, record, brain_aware) for record in records]
+    runs = tuple(r for r in loaded if r is not None)
     name = str(config.get("name", db.parent.name))
-    return ExperimentData(label or name, db.parent, config, tuple(runs), len(records))
+    return ExperimentData(label or name, db.parent, config, runs, len(records))
 
 
 def _order_key(experiment: ExperimentData) -> tuple[int, str]:
@@ -171,8 +306,11 @@ def _order_key(experiment: ExperimentData) -> tuple[int, str]:
     return rank, experiment.label
 
 
-def find_experiments(root: str | os.PathLike[str]) -> list[ExperimentData]:
+def find_experiments(root: str | os.PathLike[str], brain_aware: bool = False
+                     ) -> list[ExperimentData]:
     """Every experiment at or below ``root``, in report order (the paper's five first).
+
+    ``brain_aware`` is passed to :func:`load_experiment`.
 
     Labels are the experiments' names; where two databases share a name, their paths relative
     to ``root`` are used instead.
@@ -190,7 +328,7 @@ def find_experiments(root: str | os.PathLike[str]) -> list[ExperimentData]:
         paths = sorted(root.rglob(DB_NAME))
     if not paths:
         raise StoreError(f"no results database ({DB_NAME}) at or below {root}")
-    experiments = [load_experiment(p) for p in paths]
+    experiments = [load_experiment(p, brain_aware=brain_aware) for p in paths]
     counts: dict[str, int] = {}
     for e in experiments:
         counts[e.label] = counts.get(e.label, 0) + 1

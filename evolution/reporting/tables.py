@@ -1,4 +1,9 @@
-"""The summary table and the significance tests of a report (CSV and Markdown)."""
+"""The summary table and the significance tests of a report (CSV and Markdown).
+
+Primary tests take one value per run (:func:`mann_whitney_rows`), whole curves are compared at
+equal births (:func:`curve_rows`), and tests on pooled robots are kept only as a descriptive
+table (:func:`pooled_rows`); the statistics are in :mod:`evolution.reporting.stats`.
+"""
 
 from __future__ import annotations
 
@@ -10,16 +15,23 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.stats import mannwhitneyu
 
-from evolution.reporting.data import ExperimentData
+from evolution.reporting.data import ExperimentData, step_on_grid
+from evolution.reporting.stats import ALPHA, CURVE_FRACTIONS, compare, curve_summary, holm
 
 __all__ = [
+    "CURVE_COLUMNS",
+    "TABLE_FILES",
+    "CURVE_SUMMARY_COLUMNS",
     "LEARNING_COLUMNS",
     "MANN_WHITNEY_COLUMNS",
+    "POOLED_SAMPLES",
     "SUMMARY_COLUMNS",
     "TESTED_SAMPLES",
+    "curve_rows",
+    "curve_summary_rows",
     "mann_whitney_rows",
+    "pooled_rows",
     "summary_columns",
     "summary_rows",
     "write_tables",
@@ -38,10 +50,10 @@ def _describe(values: NDArray[np.float64]) -> tuple[float, float, float, float]:
 
 
 SUMMARY_COLUMNS = (
-    "experiment", "engine", "runs", "runs_in_database", "finished_runs", "births_mean",
+    "experiment", "label", "engine", "runs", "runs_in_database", "finished_runs", "births_mean",
     "final_population_size_mean", "final_fitness_mean", "final_fitness_median",
     "final_fitness_sd", "final_fitness_max", "run_mean_fitness_mean", "run_mean_fitness_sd",
-    "final_diversity_mean", "final_diversity_sd",
+    "final_diversity_mean", "final_diversity_sd", "failed_births", "lost_robots",
 )
 """Columns of ``summary.csv``."""
 
@@ -91,6 +103,9 @@ def summary_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Cell]]
 
     ``final_fitness_*`` describe the pooled final populations, ``run_mean_fitness_*`` the
     per-run means of the final populations, ``final_diversity_*`` the per-run final diversity.
+    ``births_mean`` counts births as :mod:`evolution.reporting.data` defines them;
+    ``failed_births`` (robots lost before their first fitness, all runs) are not among them;
+    ``lost_robots`` counts every robot lost to a failure (blow-ups and failed evaluations).
     """
     rows: list[dict[str, Cell]] = []
     for e in experiments:
@@ -99,6 +114,7 @@ def summary_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Cell]]
         div = _describe(e.final_diversities())
         rows.append({
             "experiment": e.label,
+            "label": e.title,
             "engine": e.config.get("engine", ""),
             "runs": len(e.runs),
             "runs_in_database": e.registered_runs,
@@ -114,6 +130,8 @@ def summary_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Cell]]
             "run_mean_fitness_sd": run_means[2],
             "final_diversity_mean": div[0],
             "final_diversity_sd": div[2],
+            "failed_births": sum(int(r.failed_births.size) for r in e.runs),
+            "lost_robots": sum(r.lost_robots for r in e.runs),
         })
     if any(e.learns for e in experiments):
         for row, e in zip(rows, experiments, strict=True):
@@ -122,64 +140,135 @@ def summary_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Cell]]
 
 
 TESTED_SAMPLES: dict[str, str] = {
-    "final_fitness": "fitness of every robot of the final populations, all runs pooled",
     "run_mean_fitness": "mean fitness of each run's final population (one value per run)",
-    "final_diversity": "diversity of each run's final population (one value per run)",
+    "run_best_fitness": "best fitness of each run's final population (one value per run)",
+    "final_diversity": "body diversity of each run's final population (one value per run)",
+    "final_brain_diversity": ("brain-aware diversity of each run's final population (one value "
+                              "per run; only with --brain-aware)"),
 }
-"""The samples compared by :func:`mann_whitney_rows`. The pooled one follows the paper's figure
-(robots of one run are not independent, so read its p-values as descriptive); the per-run ones
-are independent samples but need several runs (with 3 runs each, p >= 0.1)."""
+"""The primary samples of :func:`mann_whitney_rows`: one value per run."""
+
+POOLED_SAMPLES: dict[str, str] = {
+    "final_fitness": "fitness of every robot of the final populations, all runs pooled",
+}
+"""The descriptive samples of :func:`pooled_rows`: robots of one run are not independent, so
+their p-values describe the pooled populations and test nothing about the experiments."""
 
 MANN_WHITNEY_COLUMNS = ("sample", "experiment_a", "experiment_b", "n_a", "n_b", "median_a",
-                        "median_b", "u_statistic", "p_value", "p_holm")
-"""Columns of ``mann_whitney.csv``."""
+                        "median_b", "u_statistic", "p_value", "p_min", "p_holm", "a12",
+                        "a12_ci_low", "a12_ci_high")
+"""Columns of ``tests_per_run.csv`` and ``tests_pooled_descriptive.csv``: ``p_min`` is the
+smallest p the group sizes allow, ``p_holm`` Holm-Bonferroni over the pairs of one sample,
+``a12`` the Vargha-Delaney effect size of A over B with its 95 % bootstrap interval."""
+
+CURVE_COLUMNS = ("experiment_a", "experiment_b", "point", "births", "n_a", "n_b", "median_a",
+                 "median_b", "p_value", "p_min", "p_holm", "a12")
+"""Columns of ``curve_tests.csv``: per-run population mean fitness at equal births, ``p_holm``
+Holm-Bonferroni over the births of one pair; ``point`` indexes :data:`CURVE_FRACTIONS`."""
 
 
 def _samples(e: ExperimentData) -> dict[str, NDArray[np.float64]]:
     return {"final_fitness": e.final_fitness(), "run_mean_fitness": e.final_run_means(),
-            "final_diversity": e.final_diversities()}
+            "run_best_fitness": e.final_bests(), "final_diversity": e.final_diversities(),
+            "final_brain_diversity": e.final_brain_diversities()}
 
 
-def _holm(p: Sequence[float]) -> list[float]:
-    """Holm-Bonferroni adjusted p-values (step-down, monotone, capped at 1)."""
-    order = np.argsort(p)
-    m = len(p)
-    adjusted = np.empty(m)
-    running = 0.0
-    for rank, i in enumerate(order):
-        running = max(running, min(1.0, (m - rank) * p[i]))
-        adjusted[i] = running
-    return adjusted.tolist()
+_holm = holm  # the name the tests knew
 
 
-def mann_whitney_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Cell]]:
-    """Two-sided Mann-Whitney U tests between every pair of experiments, per sample.
-
-    Samples are described in :data:`TESTED_SAMPLES`; a pair is left out when either side has
-    no value. ``p_holm`` is Holm's correction over the pairs of the same sample.
-    """
+def _test_rows(experiments: Sequence[ExperimentData], names: Sequence[str],
+               rng: np.random.Generator) -> list[dict[str, Cell]]:
     rows: list[dict[str, Cell]] = []
     samples = {e.label: _samples(e) for e in experiments}
-    for sample in TESTED_SAMPLES:
+    for sample in names:
         block: list[dict[str, Cell]] = []
         for a, b in combinations([e.label for e in experiments], 2):
             xa, xb = samples[a][sample], samples[b][sample]
             if xa.size == 0 or xb.size == 0:
                 continue
-            if np.ptp(np.concatenate([xa, xb])) == 0:
-                u, p = xa.size * xb.size / 2.0, 1.0  # all tied: no evidence of a difference
-            else:
-                result = mannwhitneyu(xa, xb, alternative="two-sided")
-                u, p = float(result.statistic), float(result.pvalue)
+            c = compare(xa, xb, rng)
             block.append({"sample": sample, "experiment_a": a, "experiment_b": b,
-                          "n_a": int(xa.size), "n_b": int(xb.size),
-                          "median_a": float(np.median(xa)), "median_b": float(np.median(xb)),
-                          "u_statistic": u, "p_value": min(1.0, max(0.0, p))})
-        adjusted_p = _holm([float(r["p_value"]) for r in block])
-        for row, adjusted in zip(block, adjusted_p, strict=True):
+                          "n_a": c.n_a, "n_b": c.n_b, "median_a": c.median_a,
+                          "median_b": c.median_b, "u_statistic": c.u, "p_value": c.p,
+                          "p_min": c.p_floor, "a12": c.a12, "a12_ci_low": c.a12_low,
+                          "a12_ci_high": c.a12_high})
+        for row, adjusted in zip(block, holm([float(r["p_value"]) for r in block]), strict=True):
             row["p_holm"] = adjusted
         rows += block
     return rows
+
+
+def mann_whitney_rows(experiments: Sequence[ExperimentData], seed: int = 0
+                      ) -> list[dict[str, Cell]]:
+    """The primary tests: one value per run, every pair, per sample of :data:`TESTED_SAMPLES`.
+
+    Two-sided Mann-Whitney U, Holm-Bonferroni over the pairs of one sample, A12 with a 95 %
+    bootstrap interval from ``numpy.random.default_rng(seed)``. A pair is left out when either
+    side has no value (e.g. brain-aware diversity when it was not computed).
+    """
+    return _test_rows(experiments, list(TESTED_SAMPLES), np.random.default_rng(seed))
+
+
+def pooled_rows(experiments: Sequence[ExperimentData], seed: int = 0) -> list[dict[str, Cell]]:
+    """Descriptive tests on the pooled final populations (:data:`POOLED_SAMPLES`)."""
+    return _test_rows(experiments, list(POOLED_SAMPLES), np.random.default_rng(seed))
+
+
+def _curve_values(e: ExperimentData, births: int) -> NDArray[np.float64]:
+    values = np.array([step_on_grid(r.fitness.births, r.fitness.mean, np.array([births]))[0]
+                       for r in e.runs], dtype=np.float64)
+    finite: NDArray[np.float64] = values[np.isfinite(values)]
+    return finite
+
+
+def curve_rows(experiments: Sequence[ExperimentData], seed: int = 0) -> list[dict[str, Cell]]:
+    """Whole-curve tests: every pair at :data:`CURVE_FRACTIONS` of the births both reached.
+
+    Each run gives its population mean fitness at those births; a point where either side has
+    no value (before the first commit point, or no fitness yet) is left out.
+    """
+    rng = np.random.default_rng(seed)
+    rows: list[dict[str, Cell]] = []
+    for a, b in combinations(experiments, 2):
+        if not a.runs or not b.runs:
+            continue
+        reached = min(r.births for r in (*a.runs, *b.runs))
+        block: list[dict[str, Cell]] = []
+        for point, fraction in enumerate(CURVE_FRACTIONS):
+            births = round(fraction * reached)
+            xa, xb = _curve_values(a, births), _curve_values(b, births)
+            if xa.size == 0 or xb.size == 0:
+                continue
+            c = compare(xa, xb, rng)
+            block.append({"experiment_a": a.label, "experiment_b": b.label, "point": point,
+                          "births": births,
+                          "n_a": c.n_a, "n_b": c.n_b, "median_a": c.median_a,
+                          "median_b": c.median_b, "p_value": c.p, "p_min": c.p_floor,
+                          "a12": c.a12})
+        for row, adjusted in zip(block, holm([float(r["p_value"]) for r in block]), strict=True):
+            row["p_holm"] = adjusted
+        rows += block
+    return rows
+
+
+def curve_summary_rows(rows: Sequence[dict[str, Cell]]) -> list[dict[str, Cell]]:
+    """Per pair of :func:`curve_rows`: points tested, fractions with A above and below B."""
+    pairs: dict[tuple[str, str], list[dict[str, Cell]]] = {}
+    for row in rows:
+        pairs.setdefault((str(row["experiment_a"]), str(row["experiment_b"])), []).append(row)
+    out: list[dict[str, Cell]] = []
+    for (a, b), block in pairs.items():
+        above, below = curve_summary([float(r["a12"]) for r in block],
+                                     [float(r["p_holm"]) for r in block])
+        out.append({"experiment_a": a, "experiment_b": b, "points": len(block),
+                    "births_from": int(block[0]["births"]), "births_to": int(block[-1]["births"]),
+                    "fraction_a_above": above, "fraction_b_above": below})
+    return out
+
+
+CURVE_SUMMARY_COLUMNS = ("experiment_a", "experiment_b", "points", "births_from", "births_to",
+                         "fraction_a_above", "fraction_b_above")
+"""Columns of the whole-curve summary in ``summary.md``."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -211,17 +300,35 @@ def _markdown(columns: Sequence[str], rows: Sequence[dict[str, Cell]]) -> list[s
     return lines
 
 
-def write_tables(experiments: Sequence[ExperimentData], out_dir: Path) -> tuple[Path, ...]:
-    """Write ``summary.csv``, ``mann_whitney.csv`` and ``summary.md`` into ``out_dir``."""
-    summary = summary_rows(experiments)
-    tests = mann_whitney_rows(experiments)
-    paths = (out_dir / "summary.csv", out_dir / "mann_whitney.csv", out_dir / "summary.md")
-    columns = summary_columns(experiments)
-    _write_csv(paths[0], columns, summary)
-    _write_csv(paths[1], MANN_WHITNEY_COLUMNS, tests)
-    lines = ["# Summary", "", ("Fitness in metres (f = v + 5 s); diversity = mean pairwise "
-                               "tree edit distance of the bodies."), ""]
-    lines += _markdown(columns, summary)
+TABLE_FILES = ("summary.csv", "tests_per_run.csv", "tests_pooled_descriptive.csv",
+               "curve_tests.csv", "summary.md")
+"""Files written by :func:`write_tables`, in order."""
+
+_FITNESS_NOTE = (
+    "Fitness in metres (f = v + 5 s). Offline experiments: the fitness of each robot's isolated "
+    "evaluation. Online (scenario 3): the robot's sliding-window fitness over its last "
+    "evaluation window in the shared, crowded world: a different measurement, so offline and "
+    "online values are not directly comparable. Diversity: mean pairwise tree edit distance of "
+    "the bodies (edits). Births: robots delivered, failed births (lost before their first "
+    "fitness) left out and counted in `failed_births`; `lost_robots` counts every robot lost to "
+    "a blow-up or a failed evaluation.")
+
+
+def _test_lines(tests: Sequence[dict[str, Cell]], samples: dict[str, str]) -> list[str]:
+    lines = [f"- `{name}`: {text}" for name, text in samples.items()]
+    lines += ["- `p_min`: the smallest p Mann-Whitney can give with these n (0.1 with 3 runs "
+              "against 3): a p at its floor is the strongest result the study can show",
+              "- `p_holm`: Holm-Bonferroni correction over the pairs of one sample",
+              "- `a12`: Vargha-Delaney A12 of A over B (0.5: no effect; 1: every A above every "
+              "B), [a12_ci_low, a12_ci_high] its 95 % percentile bootstrap interval", ""]
+    return lines + (_markdown(MANN_WHITNEY_COLUMNS, tests) if tests
+                    else ["(fewer than two experiments with values)"])
+
+
+def _markdown_lines(experiments: Sequence[ExperimentData], columns: Sequence[str],
+                    tables: dict[str, list[dict[str, Cell]]]) -> list[str]:
+    lines = ["# Summary", "", _FITNESS_NOTE, ""]
+    lines += _markdown(columns, tables["summary"])
     if columns != SUMMARY_COLUMNS:
         lines += ["", ("Learning: `inborn_fitness_mean` and `learned_fitness_mean` are the "
                        "infants' fitness with their inborn and learned controllers as the "
@@ -229,9 +336,40 @@ def write_tables(experiments: Sequence[ExperimentData], out_dir: Path) -> tuple[
                        "`learning_gain_mean` is their mean difference; `learner_failures` "
                        "counts infants that kept their inborn controller because the learner "
                        "failed.")]
-    lines += ["", "## Mann-Whitney U tests (two-sided)", ""]
-    lines += [f"- `{name}`: {text}" for name, text in TESTED_SAMPLES.items()]
-    lines += ["- `p_holm`: Holm-corrected over the pairs of one sample", ""]
-    lines += _markdown(MANN_WHITNEY_COLUMNS, tests) if tests else ["(fewer than two experiments)"]
-    paths[2].write_text("\n".join(lines) + "\n", encoding="utf-8")
+    lines += ["", "## Primary tests: one value per run (two-sided Mann-Whitney U, "
+              "Holm-Bonferroni)", ""]
+    lines += _test_lines(tables["per_run"], TESTED_SAMPLES)
+    lines += ["", "## Whole curves at equal births (per run, Mann-Whitney U, Holm-Bonferroni "
+              "over the births of a pair)", "",
+              "Population mean fitness of each run at 10 %, 20 %, ... 100 % of the births both "
+              f"experiments reached; a point counts when p_holm < {ALPHA} (A12 says the side). "
+              "Point by point: `curve_tests.csv`.", ""]
+    summary = curve_summary_rows(tables["curve"])
+    lines += _markdown(CURVE_SUMMARY_COLUMNS, summary) if summary else ["(no pair to compare)"]
+    lines += ["", "## Descriptive only: pooled final populations", "",
+              "Robots of one run share their ancestry and world, so they are not independent "
+              "samples; these p-values describe the pooled populations and are no test of the "
+              "experiments.", ""]
+    lines += _test_lines(tables["pooled"], POOLED_SAMPLES)
+    return lines
+
+
+def write_tables(experiments: Sequence[ExperimentData], out_dir: Path, seed: int = 0
+                 ) -> tuple[Path, ...]:
+    """Write the files of :data:`TABLE_FILES` into ``out_dir``.
+
+    ``seed`` seeds the bootstrap intervals of the effect sizes.
+    """
+    tables = {"summary": summary_rows(experiments),
+              "per_run": mann_whitney_rows(experiments, seed),
+              "pooled": pooled_rows(experiments, seed),
+              "curve": curve_rows(experiments, seed)}
+    paths = tuple(out_dir / name for name in TABLE_FILES)
+    columns = summary_columns(experiments)
+    _write_csv(paths[0], columns, tables["summary"])
+    _write_csv(paths[1], MANN_WHITNEY_COLUMNS, tables["per_run"])
+    _write_csv(paths[2], MANN_WHITNEY_COLUMNS, tables["pooled"])
+    _write_csv(paths[3], CURVE_COLUMNS, tables["curve"])
+    lines = _markdown_lines(experiments, columns, tables)
+    paths[4].write_text("\n".join(lines) + "\n", encoding="utf-8")
     return paths

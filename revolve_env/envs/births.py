@@ -16,9 +16,10 @@ from numpy.typing import NDArray
 from revolve_env.body.robot import Robot
 from revolve_env.body.validate import Limits, validate
 from revolve_env.brain.spec import NetworkSpec
+from revolve_env.conditions import EvaluationConditions
 from revolve_env.envs.members import sensor_bounds
 
-__all__ = ["check_birth", "initial_births"]
+__all__ = ["check_birth", "initial_births", "jittered"]
 
 INITIAL_KEYS = frozenset({"robot", "position", "controlled_by", "yaw"})
 """The keys of a mapping among ``reset``'s robots (``robot`` required)."""
@@ -53,6 +54,16 @@ def check_birth(
             raise ValueError(f"add_robot ({agent}): the network has {spec.n_inputs} input "
                              f"neurons but the body has {len(low)} sensor values")
     return spec, low, high
+
+
+def jittered(xy: tuple[float, float], jitter: float,
+             rng: np.random.Generator) -> tuple[float, float]:
+    """``xy`` moved to a point drawn uniformly from the disc of radius ``jitter`` around it.
+
+    The draw of :meth:`EvaluationConditions.start` (metres), so that a requested birth position
+    is jittered as an offline start is; nothing is drawn for ``jitter == 0``.
+    """
+    return EvaluationConditions(position_jitter=jitter).start(rng, xy).position
 
 
 def initial_births(entries: Iterable[Robot | Mapping[str, Any]]) -> Iterator[dict[str, Any]]:

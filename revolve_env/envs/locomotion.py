@@ -2,7 +2,10 @@
 
 One RoboGen robot on a flat plane; the episode is an insertion phase followed by an evaluation
 phase, and the return is the robot's locomotion fitness ``f = v + 5 s``
-(:mod:`revolve_env.fitness`).
+(:mod:`revolve_env.fitness`). The start (heading, position jitter) and the noise follow
+``conditions`` (:class:`~revolve_env.conditions.EvaluationConditions`), drawn as
+:func:`revolve_env.evaluate` draws them, so an episode reset with seed ``k`` starts where
+``evaluate(robot, seed=k, conditions=...)`` starts.
 """
 
 from __future__ import annotations
@@ -22,7 +25,9 @@ from revolve_env.body.robot import Layer, Robot
 from revolve_env.body.serialize import load
 from revolve_env.body.validate import Limits, validate
 from revolve_env.brain import BatchController
+from revolve_env.conditions import IDEAL, EvaluationConditions
 from revolve_env.envs.observations import proprio_bounds, read_proprio, saturated_sensor_bounds
+from revolve_env.evaluation import start_generator
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
 from revolve_env.world import World, WorldConfig
 
@@ -69,6 +74,22 @@ def _check_arguments(render_mode: str | None, render_modes: list[str], insertion
         raise ValueError(
             "action='modulate' scales the brain's outputs: it needs controller='brain'"
         )
+
+
+def _conditions(conditions: EvaluationConditions | None, sensor_noise: float,
+                actuator_noise: float) -> EvaluationConditions:
+    """The env's conditions: ``conditions``, or the noise shortcuts (ValueError if both)."""
+    if conditions is None:
+        if sensor_noise == 0 and actuator_noise == 0:
+            return IDEAL
+        return EvaluationConditions(sensor_noise=sensor_noise, actuator_noise=actuator_noise)
+    if not isinstance(conditions, EvaluationConditions):
+        raise TypeError(f"conditions must be an EvaluationConditions, got "
+                        f"{type(conditions).__name__}")
+    if sensor_noise or actuator_noise:
+        raise ValueError("give the noise either in conditions or as sensor_noise/actuator_noise, "
+                         "not both")
+    return conditions
 
 
 class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
@@ -120,9 +141,18 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     robot's own network (``controller="brain"``) still reads RoboGen's sensors only.
 
     Readings saturate at the bounds (the IMU's full-scale range, as on the real board).
-    ``sensor_noise`` adds Gaussian noise of that standard deviation to every value (then clipped
-    to the bounds); ``actuator_noise`` adds Gaussian noise to every normalized hinge target.
-    Both draw from the generator seeded by ``reset(seed=...)``.
+    ``conditions.sensor_noise`` adds Gaussian noise of that standard deviation to every value
+    (then clipped to the bounds); ``conditions.actuator_noise`` adds Gaussian noise to every
+    normalized hinge target. Both draw from the generator seeded by ``reset(seed=...)``
+    (``np_random``).
+
+    ## Starting state
+    The robot is dropped at the origin with heading 0, or where ``conditions`` put it: a random
+    heading (``heading="random"``, uniform in ``[0, 2 pi)``) and/or a position drawn uniformly
+    from a disc of radius ``position_jitter`` metres around the origin. The start is drawn at
+    every reset: from :func:`revolve_env.evaluation.start_generator` of the reset's seed (so the
+    env and :func:`revolve_env.evaluate` start alike for the same seed), or from ``np_random``
+    when reset gets no seed. Nothing is drawn for a fixed heading without jitter.
 
     ## Rewards
     ``reward = fitness(t) - fitness(t - control_period)``: 0 during insertion. If the simulation
@@ -153,8 +183,12 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     | control_period     | None      | time per env step. Seconds (a multiple of the timestep);   |
     |                    |           | None: ``world_config``'s (1/60 s by default)               |
     | fitness_window     | 12.0      | sliding window of the fitness. Seconds                     |
-    | sensor_noise       | 0.0       | std of Gaussian sensor noise (units of each sensor)        |
-    | actuator_noise     | 0.0       | std of Gaussian noise on normalized targets                |
+    | conditions         | None      | start heading, jitter and noise (an                        |
+    |                    |           | :class:`~revolve_env.conditions.EvaluationConditions`);    |
+    |                    |           | None: ``IDEAL`` (heading 0 at the origin, no noise)        |
+    | sensor_noise       | 0.0       | std of Gaussian sensor noise (units of each sensor); a     |
+    |                    |           | shortcut for ``conditions``, not with it                   |
+    | actuator_noise     | 0.0       | std of Gaussian noise on normalized targets (likewise)     |
     | controller         | "agent"   | "agent": the action drives; "brain": the robot's network   |
     | action             | "targets" | "targets" or "modulate" (scale/offset the brain's outputs) |
     | proprioception     | False     | observe hinge angles and velocities (True in ``-v1``)      |
@@ -182,11 +216,13 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         limits: Limits | None = None,
         proprioception: bool = False,
         engine: str | None = None,
+        conditions: EvaluationConditions | None = None,
     ) -> None:
         robot = _checked_robot(robot, limits)
         _check_arguments(render_mode, self.metadata["render_modes"], insertion_time,
                          evaluation_time, fitness_window, sensor_noise, actuator_noise,
                          controller, action)
+        self.conditions = _conditions(conditions, sensor_noise, actuator_noise)
 
         config = world_config if world_config is not None else WorldConfig()
         if control_period is not None:  # replace() validates it against the timestep
@@ -198,8 +234,8 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self.insertion_time = float(insertion_time)
         self.evaluation_time = float(evaluation_time)
         self.fitness_window = float(fitness_window)
-        self.sensor_noise = float(sensor_noise)
-        self.actuator_noise = float(actuator_noise)
+        self.sensor_noise = self.conditions.sensor_noise
+        self.actuator_noise = self.conditions.actuator_noise
         self.controller = controller
         self.action_mode = action
         self.proprioception = bool(proprioception)
@@ -242,13 +278,18 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[NDArray[np.float64], dict[str, Any]]:
-        """Start an episode (``seed`` seeds the noise); return the first observation and info."""
+        """Start an episode (``seed`` seeds the start and the noise); the first observation, info.
+
+        The start is drawn as the class doc (Starting state) says.
+        """
         super().reset(seed=seed)
         if self._world is None:
             self._world = self._make_world()
         else:
             self._world.reset()
-        self._handle = self._world.add_robot(self.robot)
+        start = self.conditions.start(start_generator(seed) if seed is not None
+                                      else self.np_random)
+        self._handle = self._world.add_robot(self.robot, start.position, start.yaw)
         if self.controller == "brain":
             self._brain = BatchController(self.config.control_period)
             self._brain.add(self.robot)

@@ -17,13 +17,28 @@ from revolve_env.body.parts import PART_SPECS
 from revolve_env.body.robot import PartType, Robot
 from revolve_env.fitness import FitnessTerms, SlidingWindowFitness
 
-__all__ = ["NO_TERMS", "Controller", "Dicts", "Lifetimes", "Member", "Report", "sensor_bounds"]
+__all__ = ["NO_TERMS", "Controller", "Dicts", "Lifetimes", "Member", "Report", "noise_generator",
+           "sensor_bounds"]
 
 Controller = Literal["brain", "agent"]
 NO_TERMS = FitnessTerms(0.0, 0.0, 0.0)
 Dicts = tuple[dict[str, NDArray[np.float64]], dict[str, float], dict[str, bool],
               dict[str, bool], dict[str, dict[str, Any]]]
 """The five dicts of a step: observations, rewards, terminations, truncations, infos."""
+
+_NOISE_STREAM = 0x4E015E
+"""Tags the noise generator apart from the env's generator of the same reset seed."""
+
+
+def noise_generator(seed: int | None) -> np.random.Generator:
+    """The generator of a population episode's sensor and actuator noise, from its reset seed.
+
+    Apart from the env's own generator (births, headings): turning noise on draws nothing from
+    that one, so births and headings stay where they were.
+    """
+    if seed is None:
+        return np.random.default_rng()
+    return np.random.default_rng(np.random.SeedSequence([seed, _NOISE_STREAM]))
 
 
 def sensor_bounds(robot: Robot) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -77,6 +92,20 @@ class Member:
     n_outputs: int = 0  # active hinges
     padded: bool = False  # observed and driven through the uniform spaces
     view: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))  # what the agent sees
+    # Bounds that noisy sensor values are clipped to (sensor_bounds of the robot).
+    sensor_low: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    sensor_high: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+
+    def sense(self, values: NDArray[np.float64], noise: float,
+              rng: np.random.Generator) -> None:
+        """Take fresh sensor values as :attr:`obs`, with Gaussian noise of std ``noise`` if > 0.
+
+        Noisy values are clipped to the sensors' bounds (touch and light stay in [0, 1]).
+        """
+        if noise > 0:
+            values = values + rng.normal(0.0, noise, values.shape)
+            values = np.minimum(np.maximum(values, self.sensor_low), self.sensor_high)
+        self.obs = values
 
     def record(self, position: NDArray[np.float64]) -> None:
         """Append a core position to the trajectory (grown by doubling)."""

@@ -8,9 +8,9 @@ The robots' bookkeeping and the five dicts are in :mod:`revolve_env.envs.members
 uniform spaces and masks in :mod:`revolve_env.envs.agent_spaces`, a birth's checks in
 :mod:`revolve_env.envs.births`, the snapshots' plain data in
 :mod:`revolve_env.envs.population_snapshot`. This module is over 600 lines on purpose: it is the
-env's reference documentation too. About 310 of its lines are docstrings (the class docstring
-alone, some 185 lines, is the documentation of the agents, spaces, infos, rewards and the five
-dicts on births and deaths); the code is about 400 lines.
+env's reference documentation too. About 340 of its lines are docstrings (the class docstring
+alone, some 210 lines, is the documentation of the agents, spaces, infos, rewards, conditions
+and the five dicts on births and deaths); the code is about 470 lines.
 """
 
 from __future__ import annotations
@@ -30,16 +30,28 @@ from revolve_env.body.examples import EXAMPLES
 from revolve_env.body.robot import Layer, Robot
 from revolve_env.body.validate import Limits
 from revolve_env.brain import BatchController
+from revolve_env.conditions import EvaluationConditions
 from revolve_env.envs.agent_spaces import AgentSpaces, SpaceMode
-from revolve_env.envs.births import check_birth, initial_births
-from revolve_env.envs.members import Controller, Dicts, Lifetimes, Member, Report, sensor_bounds
+from revolve_env.envs.births import check_birth, initial_births, jittered
+from revolve_env.envs.members import (
+    Controller,
+    Dicts,
+    Lifetimes,
+    Member,
+    Report,
+    noise_generator,
+    sensor_bounds,
+)
 from revolve_env.envs.placement import Disc, clash, footprint_radius, place
 from revolve_env.envs.population_snapshot import member_snapshot, read_snapshot
 from revolve_env.fitness import DEFAULT_WINDOW, SlidingWindowFitness
 from revolve_env.world import World, WorldConfig
 
-__all__ = ["Controller", "Lifecycle", "PopulationEnv", "SpaceMode", "footprint_radius",
-           "population_env", "sensor_bounds"]
+__all__ = ["ONLINE_CONDITIONS", "Controller", "Lifecycle", "PopulationEnv", "SpaceMode",
+           "footprint_radius", "population_env", "sensor_bounds"]
+
+ONLINE_CONDITIONS = EvaluationConditions(heading="random")
+"""The population env's default conditions: random headings, no jitter, no noise (as always)."""
 
 Lifecycle = Callable[["PopulationEnv", int], None]
 """Called as ``lifecycle(env, k)`` inside step ``k`` (1, 2, ... since reset), before the physics;
@@ -218,14 +230,36 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     ## Birth placement
     :meth:`add_robot` drops a robot (lowest point ``world_config.drop_height`` above the ground)
     at the given ``(x, y)``, or at a uniformly random position within ``birth_radius`` of the
-    origin, with a random heading. A robot occupies a disc of radius :func:`footprint_radius`
-    about its core; a new robot's disc must keep ``birth_clearance`` from every living robot's
-    disc (about its current core position). The rule is :func:`revolve_env.envs.placement.place`,
-    which the evolution engine's online world uses too: after ``max_placement_tries`` random
-    draws in a crowded birth disc, the robot goes to the nearest free position outside it, and
-    ``infos[agent]["born_inside_disc"]`` is False; a birth never fails for lack of room. A given
-    position that overlaps is a ``ValueError``. Draws come from the generator seeded by
-    ``reset(seed=...)``.
+    origin, with a heading from ``conditions`` (random by default). A robot occupies a disc of
+    radius :func:`footprint_radius` about its core; a new robot's disc must keep
+    ``birth_clearance`` from every living robot's disc (about its current core position). The
+    rule is :func:`revolve_env.envs.placement.place`, which the evolution engine's online world
+    uses too: after ``max_placement_tries`` random draws in a crowded birth disc, the robot goes
+    to the nearest free position outside it, and ``infos[agent]["born_inside_disc"]`` is False;
+    a birth never fails for lack of room. A given position that overlaps is a ``ValueError``.
+    Draws come from the generator seeded by ``reset(seed=...)``.
+
+    ## Conditions
+    ``conditions`` (:class:`~revolve_env.conditions.EvaluationConditions`, default
+    :data:`ONLINE_CONDITIONS`: random heading, no jitter, no noise) are the conditions every
+    newborn lives in, the same object an offline evaluation takes:
+
+    * heading: a robot added without ``yaw`` gets ``conditions.heading``, or with ``"random"`` a
+      heading drawn uniformly in ``[0, 2 pi)`` from the env's generator;
+    * position jitter: a robot added at a given position is moved to a point drawn uniformly
+      from the disc of radius ``position_jitter`` around it (env's generator; an overlap at the
+      jittered point is the ``ValueError`` above). A robot placed by the placement rule is
+      already at a random point of the birth disc: no jitter is added on top;
+    * sensor noise: Gaussian noise of std ``sensor_noise`` on every sensor value read after a
+      step and at birth (clipped to the sensors' bounds), so on what brains read and agents
+      observe; the opt-in hinge values (proprioception) carry none;
+    * actuator noise: Gaussian noise of std ``actuator_noise`` on every hinge target set, from an
+      action or a brain (an agent-controlled robot missing from ``actions`` keeps its last,
+      noisy, targets).
+
+    The noise draws from a generator of its own, seeded at ``reset`` from the reset's seed
+    (:func:`~revolve_env.envs.members.noise_generator`), so births and headings do not depend
+    on the noise, and without noise nothing is drawn from it. Snapshots hold its state.
 
     ## Reset
     ``reset(seed, options)`` builds a fresh world and adds the initial robots:
@@ -260,6 +294,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     | proprioception      | False    | observe hinge angles and velocities                         |
     | lifecycle           | None     | births and deaths inside a step (see above)                 |
     | engine              | None     | "pybullet" or "mujoco"; None: world_config's (pybullet)     |
+    | conditions          | random   | heading, jitter and noise of newborns (see Conditions);     |
+    |                     | heading  | :data:`ONLINE_CONDITIONS` by default                        |
 
     Bad input raises before anything changes, naming the agent: an action for an agent not alive
     (never born, removed, blown up) is a ``KeyError``; an action of the wrong shape (the uniform
@@ -294,7 +330,11 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         proprioception: bool = False,
         lifecycle: Lifecycle | None = None,
         engine: str | None = None,
+        conditions: EvaluationConditions = ONLINE_CONDITIONS,
     ) -> None:
+        if not isinstance(conditions, EvaluationConditions):
+            raise TypeError(f"conditions must be an EvaluationConditions, got "
+                            f"{type(conditions).__name__}")
         times = {"insertion_time": insertion_time, "maturity_age": maturity_age,
                  "birth_radius": birth_radius, "birth_clearance": birth_clearance}
         _check_arguments(max_births, render_mode, render_view, render_size, times, fitness_window,
@@ -321,6 +361,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self.space_mode: SpaceMode = space_mode
         self.proprioception = bool(proprioception)
         self.lifecycle = lifecycle
+        self.conditions = conditions
         self._spaces = AgentSpaces(max_births, space_mode, self.proprioception, limits, config)
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.config.control_period)}
         dt = self.config.control_period
@@ -339,6 +380,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self._brain_members: list[Member] = []
         self._np_random: np.random.Generator | None = None
         self._np_random_seed: int | None = None
+        self._noise: np.random.Generator | None = None  # sensor and actuator noise
 
     # -- spaces ----------------------------------------------------------------------------------
     def observation_space(self, agent: str) -> spaces.Box:
@@ -449,8 +491,11 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, NDArray[np.float64]], dict[str, dict[str, Any]]]:
         """Start a new episode in a fresh world and add the initial robots (see the class doc)."""
-        if seed is not None or self._np_random is None:
+        reseed = seed is not None or self._np_random is None
+        if reseed:
             self._np_random, self._np_random_seed = seeding.np_random(seed)
+        if reseed or self._noise is None:
+            self._noise = noise_generator(self._np_random_seed)
         if self._world is not None:
             self._world.close()
         self._world = World(self.config)
@@ -524,9 +569,11 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
 
     def _physics(self, world: World, checked: list[tuple[Member, NDArray[np.float64]]]) -> None:
         """Set every hinge target (actions, then one batch step of the brains); step the world."""
-        brain = self._brain
-        assert brain is not None
+        brain, noise, sd = self._brain, self._noise, self.conditions.actuator_noise
+        assert brain is not None and noise is not None
         for member, a in checked:
+            if sd > 0:
+                a = a + noise.normal(0.0, sd, a.shape)
             world.set_targets(member.handle, a)  # clips to [-1, 1]
         if self._brain_members:
             brain_in = self._brain_in
@@ -534,7 +581,10 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
                 brain_in[m.in_slice] = m.obs
             brain.step(brain_in, self._brain_out)
             for m in self._brain_members:
-                world.set_targets(m.handle, self._brain_out[m.out_slice])
+                targets = self._brain_out[m.out_slice]
+                if sd > 0:
+                    targets = targets + noise.normal(0.0, sd, targets.shape)
+                world.set_targets(m.handle, targets)
         world.step(1)
         self._steps += 1
 
@@ -558,8 +608,9 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
 
     def _sense(self, world: World, m: Member) -> None:
         """A robot's sensors, view, position, trajectory and fitness after a step."""
-        # No clipping needed: touch and light sensors read in [0, 1] by construction.
-        m.obs = world.read_sensors(m.handle)
+        # No clipping needed without noise: touch and light sensors read in [0, 1].
+        assert self._noise is not None
+        m.sense(world.read_sensors(m.handle), self.conditions.sensor_noise, self._noise)
         m.view = self._spaces.view(m, world)
         position = world.core_position(m.handle)
         m.position = position
@@ -643,6 +694,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             "world": world.snapshot(),
             "rng": dict(self.np_random.bit_generator.state),
             "rng_seed": self._np_random_seed,
+            "noise_rng": None if self._noise is None else dict(self._noise.bit_generator.state),
             "births": self._births, "steps": self._steps,
             "members": [member_snapshot(m, brain, with_robot=False)
                         for m in self._members.values()],
@@ -670,6 +722,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         restored = read_snapshot(snapshot, self.config)
         self._world, self._brain = restored.world, restored.brain
         self._np_random, self._np_random_seed = restored.rng, snapshot["rng_seed"]
+        self._noise = restored.noise if restored.noise is not None else \
+            noise_generator(self._np_random_seed)  # a snapshot from before noise existed
         self._births, self._steps = restored.births, restored.steps
         self._members = {m.agent: m for m in restored.members}
         self.agents = [m.agent for m in restored.members]
@@ -694,11 +748,12 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             position: Core ``(x, y)``. Metres; None draws a free position within
                 ``birth_radius`` of the origin.
             controlled_by: ``"brain"`` (its own network) or ``"agent"`` (actions from ``step``).
-            yaw: Heading. Radians; None draws one uniformly.
+            yaw: Heading. Radians; None: ``conditions.heading`` (random: drawn uniformly).
 
         Raises:
-            ValueError: invalid robot or network, a position overlapping a living robot, no free
-                position found, or ``max_births`` reached. Nothing changes then.
+            ValueError: invalid robot or network, a position (after the jitter of
+                ``conditions``) overlapping a living robot, or ``max_births`` reached. Nothing
+                changes then.
         """
         world, brain = self._world, self._brain
         if world is None or brain is None:
@@ -710,7 +765,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         spec, low, high = check_birth(agent, robot, position, controlled_by, yaw, self.limits)
         radius = footprint_radius(robot)
         xy, inside = self._birth_position(agent, position, radius)
-        heading = float(self.np_random.uniform(0.0, 2.0 * math.pi)) if yaw is None else float(yaw)
+        heading = self._heading(yaw)
 
         # All checks passed: from here on nothing can fail on bad input.
         n_outputs = len(robot.neurons_of(Layer.OUTPUT))
@@ -722,9 +777,10 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             birth_position=xy, born_inside=inside, yaw=heading, radius=radius,
             obs=np.zeros(len(low)),
             position=world.core_position(handle), fitness=SlidingWindowFitness(self.fitness_window),
-            n_outputs=n_outputs, padded=padded,
+            n_outputs=n_outputs, padded=padded, sensor_low=low, sensor_high=high,
         )
-        member.obs = world.read_sensors(handle)
+        assert self._noise is not None
+        member.sense(world.read_sensors(handle), self.conditions.sensor_noise, self._noise)
         member.view = self._spaces.view(member, world)
         member.record(member.position)
         if self._life.insertion_steps == 0:
@@ -747,13 +803,24 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         xy = (float(position[0]), float(position[1]))
         if not (math.isfinite(xy[0]) and math.isfinite(xy[1])):
             raise ValueError(f"add_robot ({agent}): position must be finite, got {position!r}")
+        rng = self.np_random
+        before = rng.bit_generator.state
+        xy = jittered(xy, self.conditions.position_jitter, rng)
         clash = self._clash(xy, radius)
         if clash is not None:
+            rng.bit_generator.state = before  # a refused birth changes nothing
             raise ValueError(f"add_robot ({agent}): position {xy} overlaps {clash}: a robot "
                              f"of footprint radius {radius:.3f} m needs "
                              f"{self.birth_clearance} m clearance")
         return xy, True
 
+    def _heading(self, yaw: float | None) -> float:
+        """A newborn's heading: ``yaw``, or the conditions' (drawn when random). Radians."""
+        if yaw is not None:
+            return float(yaw)
+        if self.conditions.random_heading:
+            return float(self.np_random.uniform(0.0, 2.0 * math.pi))
+        return float(self.conditions.heading)
 
     def remove_robot(self, agent: str) -> None:
         """Take a living robot out of the world (between steps); its bodies are deleted at once.

@@ -18,7 +18,7 @@ from revolve_env.body.serialize import from_json, to_json
 from revolve_env.brain import BatchController
 from revolve_env.brain.spec import NetworkSpec
 from revolve_env.envs.agent_spaces import Masks
-from revolve_env.envs.members import Controller, Member
+from revolve_env.envs.members import Controller, Member, sensor_bounds
 from revolve_env.fitness import FitnessTerms, SlidingWindowFitness
 from revolve_env.world import World, WorldConfig
 from revolve_env.world.backend import SnapshotMismatchError
@@ -61,6 +61,7 @@ def member_restore(e: dict[str, Any], robot: Robot, brain: BatchController | Non
     fitness, v, s = (float(x) for x in e["terms"])
     x, y = (float(c) for c in e["birth_position"])
     controlled_by: Controller = "brain" if e["controlled_by"] == "brain" else "agent"
+    low, high = sensor_bounds(robot)
     return Member(
         agent=str(e["agent"]), robot=robot, controlled_by=controlled_by,
         handle=int(e["handle"]), brain=handle, birth_step=int(e["birth_step"]),
@@ -71,7 +72,7 @@ def member_restore(e: dict[str, Any], robot: Robot, brain: BatchController | Non
         terms=FitnessTerms(fitness, v, s), age_steps=int(e["age_steps"]),
         trajectory=stored, n_trajectory=len(trajectory), blow_up=e["blow_up"],
         n_outputs=int(e["n_outputs"]), padded=bool(e["padded"]),
-        view=np.array(e["view"], dtype=np.float64),
+        view=np.array(e["view"], dtype=np.float64), sensor_low=low, sensor_high=high,
     )
 
 
@@ -84,6 +85,7 @@ class Restored:
     members: list[Member]
     dead: list[tuple[Member, str]]
     rng: np.random.Generator
+    noise: np.random.Generator | None  # None: a snapshot from before the noise generator
     masks: dict[str, Masks]
     spaces: dict[str, tuple[NDArray[np.float64], NDArray[np.float64], int]]
     births: int
@@ -108,6 +110,10 @@ def read_snapshot(snapshot: dict[str, Any], config: WorldConfig) -> Restored:
                 for e, death in snapshot["dead"]]
         rng = np.random.Generator(np.random.PCG64())
         rng.bit_generator.state = snapshot["rng"]
+        noise: np.random.Generator | None = None
+        if snapshot.get("noise_rng") is not None:
+            noise = np.random.Generator(np.random.PCG64())
+            noise.bit_generator.state = snapshot["noise_rng"]
         masks = {str(a): (np.array(o, dtype=bool), np.array(act, dtype=bool))
                  for a, (o, act) in snapshot["masks"].items()}
         spaces_ = {str(a): (np.array(low, dtype=np.float64), np.array(high, dtype=np.float64),
@@ -121,4 +127,5 @@ def read_snapshot(snapshot: dict[str, Any], config: WorldConfig) -> Restored:
         if isinstance(e, (KeyError, TypeError, ValueError, IndexError)):
             raise SnapshotMismatchError(f"damaged population snapshot: {e!r}") from e
         raise
-    return Restored(world, brain, members, dead, rng, masks, spaces_, births, steps, uniform)
+    return Restored(world, brain, members, dead, rng, noise, masks, spaces_, births, steps,
+                    uniform)

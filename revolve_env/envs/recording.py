@@ -4,7 +4,13 @@ The camera of :class:`revolve_env.envs.LocomotionEnv` follows the robot over a p
 every frame is annotated with the simulated time, the fitness so far and a small map of the
 path the core has travelled (north up, 1 m scale bar), which is what shows the robot moving.
 Written by :func:`revolve_env.envs.video.write_video`: GIF with Pillow (a dependency), MP4 needs
-``imageio-ffmpeg`` too (without it a GIF is written instead).
+``imageio-ffmpeg`` too (without it a GIF is written instead). The video plays in real time: a
+frame every ``round(1 / (fps * control_period))`` control periods, written at exactly that frame
+rate (GIF delays in centiseconds that add up to the simulated time).
+
+The fitness window is the whole evaluation (``seconds``), as in :func:`revolve_env.evaluate`, so
+the fitness a video reports is the one an isolated evaluation of the same robot, timing, engine
+and seed gives.
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.body.robot import Robot
+from revolve_env.conditions import EvaluationConditions
 from revolve_env.envs.episode import run_episode
 from revolve_env.envs.locomotion import LocomotionEnv
 from revolve_env.envs.video import write_video
@@ -78,6 +85,10 @@ def record_robot(
     seconds: float = 12.0,
     insertion: float = 3.0,
     fps: float = 15.0,
+    *,
+    engine: str | None = None,
+    seed: int = 0,
+    conditions: EvaluationConditions | None = None,
 ) -> Video:
     """Simulate ``robot`` driven by its own brain and write a video of it.
 
@@ -86,7 +97,13 @@ def record_robot(
         path: Where to write the video (``.gif`` or ``.mp4``).
         seconds: Evaluation time after insertion. Seconds.
         insertion: Settling time shown first. Seconds.
-        fps: Frames per simulated second (the GIF plays in real time; 480x360 pixels).
+        fps: Frames per simulated second (the GIF plays in real time; 480x360 pixels). The
+            frame period is a whole number of control periods, the nearest to ``1 / fps``.
+        engine: Physics engine (``"pybullet"`` or ``"mujoco"``); None: pybullet.
+        seed: Seed of the episode (:func:`revolve_env.evaluate`'s ``seed``).
+        conditions: Start heading, jitter and noise (default
+            :data:`~revolve_env.conditions.IDEAL`); with the same ``seed`` the robot starts and
+            moves exactly as in ``evaluate(..., seed=seed, conditions=conditions)``.
 
     Raises:
         ValueError: bad timing, or a robot the environment cannot drive (no hinge).
@@ -94,7 +111,8 @@ def record_robot(
     if not (math.isfinite(fps) and fps > 0):
         raise ValueError(f"fps must be a positive number, got {fps}")
     env = LocomotionEnv(robot, render_mode="rgb_array", insertion_time=insertion,
-                        evaluation_time=seconds, controller="brain")
+                        evaluation_time=seconds, fitness_window=seconds, controller="brain",
+                        engine=engine, conditions=conditions)
     try:
         dt = env.config.control_period
         every = max(1, round(1.0 / (fps * dt)))
@@ -115,7 +133,7 @@ def record_robot(
             if step % every == 0:
                 frame(step, info)
 
-        info = run_episode(env, 0, on_step=record)
+        info = run_episode(env, seed, on_step=record)
         if steps[0] % every != 0:  # the last frame shows the end of the episode
             frame(steps[0], info)
         if info.get("blow_up"):

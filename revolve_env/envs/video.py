@@ -1,8 +1,17 @@
-"""Write videos of a run: GIF through Pillow, MP4 through imageio's ffmpeg plugin when present."""
+"""Write videos of a run: GIF through Pillow, MP4 through imageio's ffmpeg plugin when present.
+
+Timing is exact: a GIF stores each frame's delay in whole centiseconds, so a frame period that is
+not a whole number of them (1/15 s = 6.67 cs) is written as a mix of delays whose running sum
+follows the true clock (:func:`gif_delays`: 7, 7, 6, 7, 7, 6, ... cs at 15 fps): the whole GIF
+lasts the simulated time within one centisecond. (Writing every frame with the rounded delay of
+6 cs, as Pillow would, plays 11 % fast.) GIF players do not show frames faster than 50 per
+second (2 cs), so a faster GIF is refused. MP4 is written at the exact frame rate.
+"""
 
 from __future__ import annotations
 
 import importlib.util
+import math
 import os
 import warnings
 from collections.abc import Callable, Sequence
@@ -14,13 +23,29 @@ from numpy.typing import NDArray
 
 from revolve_env.envs.population import PopulationEnv
 
-__all__ = ["mp4_available", "record_video", "write_video"]
+__all__ = ["GIF_MAX_FPS", "gif_delays", "mp4_available", "record_video", "write_video"]
+
+GIF_MAX_FPS = 50.0
+"""The fastest frame rate a GIF can play (2 cs per frame; players slow shorter delays)."""
 
 
 def mp4_available() -> bool:
     """Whether MP4 can be written here (imageio with its ffmpeg plugin installed)."""
     return (importlib.util.find_spec("imageio") is not None
             and importlib.util.find_spec("imageio_ffmpeg") is not None)
+
+
+def gif_delays(frames: int, fps: float) -> list[int]:
+    """Per-frame GIF delays, whole centiseconds, whose running sum follows ``k / fps`` seconds.
+
+    Frame ``k`` is shown from ``round(100 k / fps)`` to ``round(100 (k + 1) / fps)`` cs, so the
+    total is ``round(100 frames / fps)`` cs: exact within half a centisecond.
+
+    Returns:
+        The delays in milliseconds (multiples of 10, as Pillow takes them).
+    """
+    edges = [round(100.0 * k / fps) for k in range(frames + 1)]
+    return [10 * (b - a) for a, b in zip(edges, edges[1:], strict=False)]
 
 
 def write_video(
@@ -52,8 +77,8 @@ def write_video(
         if a.dtype != np.uint8:
             # A float image in [0, 1] cast to uint8 would come out black: refuse, do not guess.
             raise ValueError(f"frame {k} must be uint8 RGB (0-255), got dtype {a.dtype}")
-    if not fps > 0:
-        raise ValueError(f"fps must be positive, got {fps}")
+    if not (math.isfinite(fps) and fps > 0):
+        raise ValueError(f"fps must be a positive number, got {fps}")
     suffix = out.suffix.lower()
     if suffix not in (".gif", ".mp4"):
         raise ValueError(f"video path must end in .gif or .mp4, got {out.name!r}")
@@ -68,11 +93,15 @@ def write_video(
         out = out.with_suffix(".gif")
         warnings.warn(f"MP4 needs ffmpeg (pip install imageio-ffmpeg), which is not installed: "
                       f"writing a GIF instead, to {out}", UserWarning, stacklevel=2)
+    if fps > GIF_MAX_FPS:
+        raise ValueError(f"a GIF cannot play {fps:g} frames per second (at most "
+                         f"{GIF_MAX_FPS:g}): take fewer frames, or write an MP4")
     from PIL import Image
 
     images = [Image.fromarray(np.asarray(f, dtype=np.uint8)) for f in frames]
+    # A list of delays, not one: Pillow truncates a single delay to whole centiseconds.
     images[0].save(out, save_all=True, append_images=images[1:],
-                   duration=max(20, round(1000.0 / fps)), loop=0)
+                   duration=gif_delays(len(images), fps), loop=0)
     return out
 
 

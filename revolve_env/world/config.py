@@ -34,8 +34,9 @@ def require_engine(engine: str) -> None:
     """
     if engine not in _REGISTRY:
         raise ValueError(f"unknown physics engine {engine!r}: choose one of {', '.join(ENGINES)}")
-    package = _REGISTRY[engine][2]
-    try:
+    module, _, package = _REGISTRY[engine]
+    try:  # the backend module first: it imports pybullet without its build banner
+        importlib.import_module(module)
         importlib.import_module(package)
     except ImportError as e:
         raise EngineUnavailableError(

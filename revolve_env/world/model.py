@@ -21,10 +21,43 @@ from revolve_env.body.geometry import Assembly, PlacedBox, assemble, mass_proper
 from revolve_env.body.parts import PART_SPECS, SLOT_THICKNESS
 from revolve_env.body.robot import PartType, Robot
 
-__all__ = ["LightSensorModel", "LinkModel", "RobotModel", "TouchSensorModel", "build_model"]
+__all__ = [
+    "PART_SHADES",
+    "LightSensorModel",
+    "LinkModel",
+    "RobotModel",
+    "TouchSensorModel",
+    "build_model",
+    "drawn_colors",
+    "part_color",
+]
 
 Vec3 = NDArray[np.float64]
 Mat3 = NDArray[np.float64]
+
+PART_SHADES: dict[PartType, tuple[tuple[float, float, float], float]] = {
+    PartType.CORE: ((0.0, 0.0, 0.0), 0.0),
+    PartType.BRICK: ((1.0, 1.0, 1.0), 0.45),
+    PartType.PARAMETRIC_BAR: ((1.0, 1.0, 1.0), 0.7),
+    PartType.ACTIVE_HINGE: ((0.0, 0.0, 0.0), 0.5),
+    PartType.PASSIVE_HINGE: ((0.0, 0.0, 0.0), 0.3),
+    PartType.TOUCH_SENSOR: ((0.1, 0.1, 0.1), 0.75),
+    PartType.LIGHT_SENSOR: ((1.0, 0.85, 0.1), 0.7),
+}
+"""How each part type is drawn: ``(shade, weight)`` mixed into the part's own colour."""
+
+
+def part_color(part_type: PartType, color: tuple[float, float, float]
+               ) -> tuple[float, float, float]:
+    """``color`` shaded for ``part_type`` (:data:`PART_SHADES`; the core's colour as is).
+
+    Args:
+        part_type: The part's type.
+        color: The part's own colour, RGB in [0, 1].
+    """
+    shade, weight = PART_SHADES[part_type]
+    r, g, b = ((1.0 - weight) * c + weight * s for c, s in zip(color, shade, strict=True))
+    return (r, g, b)
 
 
 @dataclass(frozen=True)
@@ -41,7 +74,7 @@ class LinkModel:
         box_centers: (k, 3) box centres in the link frame. Metres.
         box_rotations: (k, 3, 3) box axes in the link frame.
         box_half_extents: (k, 3) half edge lengths. Metres.
-        box_colors: (k, 3) RGB of the part each box belongs to.
+        box_colors: (k, 3) RGB each box is drawn in (:func:`drawn_colors` of its part).
         joint_axis: Unit hinge axis in the link frame (unused for the root and fixed links).
         active: Whether the hinge is driven by a servo.
         fixed: Welded to its parent (a touch sensor half) rather than hinged.
@@ -118,6 +151,27 @@ class RobotModel:
         return len(self.active_links)
 
 
+def drawn_colors(asm: Assembly) -> list[tuple[float, float, float]]:
+    """The colour each part of ``asm`` is drawn in (both engines draw these).
+
+    A part is drawn in its own colour (``Node.color``: what the robot's JSON gives it), except
+    when it has the colour of the part it is attached to: then it is shaded by its type
+    (:func:`part_color`: bricks and bars lighter, hinges darker, touch sensors near black,
+    light sensors yellow). An evolved robot's parts all carry their lineage's colour, inherited
+    so that a picture shows descent, and drawn as is it would be one blob; shaded, its hue
+    stays and its parts stand apart. A designed robot whose neighbouring parts have colours of
+    their own keeps them. Nothing physical depends on colours.
+    """
+    by_path = {part.path: part.node.color for part in asm.parts}
+    out = []
+    for part in asm.parts:
+        color = part.node.color
+        if part.path and by_path.get(part.path[:-1]) == color:
+            color = part_color(part.node.type, color)
+        out.append(color)
+    return out
+
+
 def _link(
     parent: int, origin: Vec3, boxes: list[PlacedBox], colors: list[tuple[float, float, float]],
     joint_axis: Vec3, active: bool,
@@ -157,13 +211,14 @@ def build_model(robot: Robot, assembly: Assembly | None = None) -> RobotModel:
         k for k, b in enumerate(asm.boxes)
         if asm.parts[b.part].node.type == PartType.TOUCH_SENSOR and b.name in ("left", "right")
     }
+    colors = drawn_colors(asm)
     links: list[LinkModel] = []
     for body in asm.bodies:
         origin = np.zeros(3) if body.parent < 0 else np.asarray(body.joint_anchor, float)
         keep = [k for k in body.boxes if k not in touch_halves]
         links.append(_link(
             body.parent, origin, [asm.boxes[k] for k in keep],
-            [asm.parts[asm.boxes[k].part].node.color for k in keep],
+            [colors[asm.boxes[k].part] for k in keep],
             body.joint_axis, bool(body.active), fixed=False,
         ))
 
@@ -181,7 +236,7 @@ def build_model(robot: Robot, assembly: Assembly | None = None) -> RobotModel:
             for name in ("left", "right"):
                 box = halves[name]
                 links.append(_link(
-                    carrier, box.center, [box], [part.node.color], np.array([0.0, 0.0, 1.0]),
+                    carrier, box.center, [box], [colors[part_index]], np.array([0.0, 0.0, 1.0]),
                     active=False, fixed=True,
                 ))
                 indices.append(len(links) - 1)

@@ -16,6 +16,11 @@ with the same robots (in Bullet's own body order, which a removal permutes) rest
 and velocity exactly, but the continuation drifts (4.2 cm on a core after 2 s, measured with four
 example robots after a death): the file does not hold the solver's warm-start and contact
 caches. Online runs on pybullet therefore resume by deterministic replay.
+
+pybullet's C code prints a build banner ("pybullet build time: ...") when it is imported, in
+every process (on the installed 3.2 wheels to file descriptor 2, stderr); it is imported here with
+descriptors 1 and 2 pointed at ``/dev/null`` so that our commands and workers print only their
+own output.
 """
 
 from __future__ import annotations
@@ -29,7 +34,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import pybullet as pb
 from numpy.typing import NDArray
 
 from revolve_env.world._rotations import matrix_to_quat, quat_to_matrix
@@ -38,6 +42,39 @@ from revolve_env.world.config import WorldConfig
 from revolve_env.world.model import RobotModel
 
 __all__ = ["PybulletBackend"]
+
+
+def _import_pybullet() -> Any:
+    """Import pybullet without its build banner (see the module doc).
+
+    The descriptors are restored even when the import fails.
+    """
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(AttributeError, OSError, ValueError):
+            stream.flush()
+    try:
+        saved = [os.dup(1), os.dup(2)]
+    except OSError:  # no descriptors 1 and 2 to silence (a daemon): a plain import
+        import pybullet
+
+        return pybullet
+    try:
+        null = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(null, 1)
+            os.dup2(null, 2)
+        finally:
+            os.close(null)
+        import pybullet
+    finally:
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        os.close(saved[0])
+        os.close(saved[1])
+    return pybullet
+
+
+pb = _import_pybullet()
 
 _ROBOT_FRICTION = 1.0  # pybullet multiplies the two bodies' coefficients; the ground sets the value
 

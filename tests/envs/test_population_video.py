@@ -24,12 +24,13 @@ def _painted(robot: Robot, color: tuple[float, float, float]) -> Robot:
 
 
 def _share(img: np.ndarray, channel: int) -> float:
-    """Fraction of pixels strongly of one primary colour."""
+    """Fraction of pixels strongly of one primary colour's hue (parts are drawn lighter or
+    darker by type, :func:`revolve_env.world.model.drawn_colors`)."""
     c = img.astype(int)
+    main = c[..., channel]
     others = [k for k in range(3) if k != channel]
-    return float(
-        np.mean((c[..., channel] > 120) & (c[..., others[0]] < 60) & (c[..., others[1]] < 60))
-    )
+    return float(np.mean((main > 120) & (c[..., others[0]] < 0.6 * main)
+                         & (c[..., others[1]] < 0.6 * main)))
 
 
 @pytest.mark.parametrize("view", ["top", "chase"])

@@ -11,7 +11,10 @@ from evolution import _treedit
 from evolution.config import EvolutionConfig
 from evolution.diversity import (
     TreeArrays,
+    brain_aware_distance,
+    brain_aware_diversity,
     diversity,
+    neural_distance,
     pairwise_distances,
     tree_arrays,
     tree_edit_distance,
@@ -19,7 +22,7 @@ from evolution.diversity import (
     zss_distance_arrays,
 )
 from evolution.random_robot import random_robot
-from revolve_env.body.robot import Activation, Layer, Neuron, Node, PartType, Robot
+from revolve_env.body.robot import Activation, Connection, Layer, Neuron, Node, PartType, Robot
 
 T = PartType
 
@@ -131,3 +134,52 @@ def test_pairwise_refuses_bad_offsets(offsets: list[int], match: str) -> None:
     parents = np.asarray([-1, -1], dtype=np.int32)
     with pytest.raises(ValueError, match=match):
         _treedit.pairwise(z, z, parents, np.asarray(offsets, dtype=np.int32))
+
+
+# -- brain-aware distance -----------------------------------------------------------------------
+
+def _hinge_brain(weight: float, extra: bool = False) -> Robot:
+    """A core with one active hinge: its output neuron, an oscillator on the core driving it."""
+    core_neurons = [Neuron("osc", Layer.HIDDEN, Activation.OSCILLATOR)]
+    if extra:
+        core_neurons.append(Neuron("h", Layer.HIDDEN, Activation.LINEAR))
+    hinge = n(T.ACTIVE_HINGE, neurons=(Neuron("out", Layer.OUTPUT, Activation.LINEAR),))
+    return Robot(Node(T.CORE, neurons=tuple(core_neurons), children=((0, hinge),)),
+                 (Connection("osc", "out", weight),))
+
+
+def test_neural_distance_by_hand() -> None:
+    a, b = _hinge_brain(0.5), _hinge_brain(-0.25)
+    assert neural_distance(a, b) == pytest.approx(0.75)  # one connection, |0.5 - -0.25|
+    c = _hinge_brain(0.5, extra=True)
+    assert neural_distance(a, c) == pytest.approx(1.0)  # one neuron in c only
+    assert brain_aware_distance(a, body({0: n(T.ACTIVE_HINGE)})) == pytest.approx(
+        0 + 2 + 0.5)  # same body; 2 neurons and the 0.5 connection in a only
+    assert brain_aware_distance(a, b, weight=2.0) == pytest.approx(1.5)
+    assert brain_aware_distance(a, b, weight=0.0) == tree_edit_distance(a, b) == 0
+    with pytest.raises(ValueError, match="brain weight"):
+        brain_aware_distance(a, b, weight=-1.0)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(0, 2**32 - 1),
+       st.floats(0.0, 10.0, allow_nan=False))
+def test_brain_aware_distance_properties(seed_a: int, seed_b: int, weight: float) -> None:
+    config = EvolutionConfig(max_parts=12)
+    a = random_robot(np.random.default_rng(seed_a), config)
+    b = random_robot(np.random.default_rng(seed_b), config)
+    assert brain_aware_distance(a, a, weight) == 0.0
+    d = brain_aware_distance(a, b, weight)
+    assert d == pytest.approx(brain_aware_distance(b, a, weight))
+    assert d >= tree_edit_distance(a, b)
+    assert d == pytest.approx(tree_edit_distance(a, b) + weight * neural_distance(a, b))
+
+
+def test_brain_aware_diversity_is_the_mean_pairwise_distance() -> None:
+    rng = np.random.default_rng(1)
+    robots = [random_robot(rng, EvolutionConfig(max_parts=12)) for _ in range(4)]
+    pairs = [brain_aware_distance(robots[i], robots[j], 0.5)
+             for i in range(4) for j in range(i + 1, 4)]
+    assert brain_aware_diversity(robots, 0.5) == pytest.approx(np.mean(pairs))
+    assert brain_aware_diversity(robots, 0.0) == pytest.approx(diversity(robots))
+    assert brain_aware_diversity(robots[:1]) == 0.0

@@ -1,5 +1,6 @@
 """The ``revolve`` command line: help, bad input (one line, exit 2, nothing overwritten),
-run -> report end to end, resume after Ctrl-C, export, show, shipped configs, progress bar.
+run -> report end to end, resume after Ctrl-C, export, show, shipped configs (the progress
+display: test_progress.py).
 
 Experiments run on the fast physics stand-ins of ``experiment_fakes`` (``make_evaluator`` is
 patched); the tests marked slow use the real physics.
@@ -8,7 +9,6 @@ patched); the tests marked slow use the real physics.
 from __future__ import annotations
 
 import csv
-import io
 import json
 import sqlite3
 import xml.etree.ElementTree as ET
@@ -17,12 +17,11 @@ from pathlib import Path
 import pytest
 from experiment_fakes import CtrlCEvaluator, dump_results, fake_evaluate
 
-from evolution.cli import ProgressBar, build_parser, main
+from evolution.cli import build_parser, main
 from evolution.evaluation import LocalEvaluator, evaluate_task
 from evolution.experiments import (
     ConfigError,
     ExperimentConfig,
-    ProgressEvent,
     api,
     preset,
     shipped_configs,
@@ -62,7 +61,7 @@ def test_every_subcommand_has_help(command: str, capsys: pytest.CaptureFixture[s
     assert exit_info.value.code == 0
     out = capsys.readouterr().out
     assert out.startswith(f"usage: revolve {command}")
-    expected = {"run": "--births", "resume": "DIR", "report": "mann_whitney.csv",
+    expected = {"run": "--births", "resume": "DIR", "report": "tests_per_run.csv",
                 "show": "--robot", "export": "--format", "demo": "--births"}[command]
     assert expected in out
 
@@ -229,12 +228,12 @@ def test_run_then_report(fake_physics: None, tmp_path: Path,
                      "--out", str(out), *SMALL]) == 0
     captured = capsys.readouterr()
     assert "run 1: finished, 18 births" in captured.out
-    assert "births 36/36" in captured.err  # the progress bar's last line
+    assert "all runs: 36/36 births (100%), 2/2 runs finished" in captured.err  # progress log
     with Store.open(out / "scenario1" / DB_NAME) as store:
         assert store.config["seed"] == 3 and store.config["evolution"]["max_parts"] == 12
         assert [(r.status, r.births) for r in store.runs()] == [("finished", 18)] * 2
 
-    assert main(["report", str(out), "--formats", "png"]) == 0
+    assert main(["report", str(out), "--formats", "png", "--brain-aware"]) == 0
     report_dir = out / "report"
     for stem in ("fitness_over_births", "final_fitness", "diversity_over_births",
                  "final_diversity"):
@@ -244,10 +243,11 @@ def test_run_then_report(fake_physics: None, tmp_path: Path,
         summary = list(csv.DictReader(f))
     assert [r["experiment"] for r in summary] == ["scenario1", "baseline_a"]
     assert all(r["runs"] == "2" and r["finished_runs"] == "2" for r in summary)
-    with open(report_dir / "mann_whitney.csv", newline="") as f:
+    with open(report_dir / "tests_per_run.csv", newline="") as f:
         tests = list(csv.DictReader(f))
-    assert {r["sample"] for r in tests} == {"final_fitness", "run_mean_fitness", "final_diversity"}
-    assert len(tests) == 3
+    assert {r["sample"] for r in tests} == {"run_mean_fitness", "run_best_fitness",
+                                            "final_diversity", "final_brain_diversity"}
+    assert len(tests) == 4
     assert all(0.0 <= float(r["p_value"]) <= 1.0 for r in tests)
     assert (report_dir / "summary.md").is_file()
 
@@ -333,57 +333,6 @@ def test_show_writes_a_gif_of_the_robot_walking(tmp_path: Path,
         assert gif.convert("RGB").tobytes() != first  # the robot moved (and the clock ran)
 
 
-# -- progress bar -------------------------------------------------------------------------------
-
-
-def _event(run_id: int, births: int, finished: bool = False) -> ProgressEvent:
-    return ProgressEvent(run_id, births, 100, births * 15.0, 2.5, 1.25, 15, 40.0, 1.0,
-                         finished=finished)
-
-
-def test_progress_bar_plain_lines_off_a_terminal() -> None:
-    now = [0.0]
-    stream = io.StringIO()
-    bar = ProgressBar({0: 100, 1: 100}, stream=stream, tty=False, interval=10.0,
-                      clock=lambda: now[0])
-    now[0] = 5.0
-    bar(_event(0, 30))  # first event: printed
-    now[0] = 8.0
-    bar(_event(1, 30))  # within the interval: not printed
-    now[0] = 20.0
-    bar(_event(0, 100, finished=True))  # a run finished: printed
-    lines = stream.getvalue().splitlines()
-    assert len(lines) == 2
-    assert "births 30/200" in lines[0] and "15%" in lines[0]
-    assert "births 130/200" in lines[1] and "runs done 1/2" in lines[1]
-    assert "best 2.500 m mean 1.250 m pop 15" in lines[1]
-    assert "sim 40.0x" in lines[1]  # run 0 finished; run 1 still simulates 40 s per second
-    # 130 births in 20 s -> 70 left take 10.8 s
-    assert "ETA 0m11s" in lines[1]
-    bar.close()
-    assert "\r" not in stream.getvalue()
-
-
-def test_progress_bar_redraws_one_line_on_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv("COLUMNS", "60")
-    now = [0.0]
-    stream = io.StringIO()
-    bar = ProgressBar({0: 100}, {0: 40}, stream=stream, tty=True, redraw=0.5,
-                      clock=lambda: now[0])
-    for k, t in enumerate((1.0, 1.1, 2.0)):
-        now[0] = t
-        bar(_event(0, 50 + 10 * k))
-    bar.close()
-    text = stream.getvalue()
-    assert text.count("\r") == 2 and text.endswith("\n")  # the event at 1.1 s was not drawn
-    drawn = text.strip("\n").split("\r")[1:]
-    assert all(len(line) == 59 for line in drawn)  # cut to the terminal, no wrapping
-    assert "births 70/100" in drawn[1]
-    # 30 births since the (resumed) start at 40, in 2 s -> 30 left take 2 s
-    monkeypatch.setenv("COLUMNS", "200")
-    assert bar.line().endswith("ETA 0m02s")
-
-
 def test_parser_defaults() -> None:
     args = build_parser().parse_args(["run", "quick"])
     assert args.out == "results" and args.runs is None and args.births is None
@@ -410,7 +359,7 @@ def test_run_and_report_with_real_physics(tmp_path: Path) -> None:
     assert main(["run", "scenario1", *argv]) == 0
     assert main(["run", "baseline_b", *argv]) == 0
     assert main(["report", str(tmp_path), "--formats", "png"]) == 0
-    with open(tmp_path / "report" / "mann_whitney.csv", newline="") as f:
+    with open(tmp_path / "report" / "tests_per_run.csv", newline="") as f:
         assert all(0 <= float(r["p_value"]) <= 1 for r in csv.DictReader(f))
 
 

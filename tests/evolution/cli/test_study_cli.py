@@ -52,12 +52,15 @@ def test_help_shows_every_default(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_study_then_report(fake_physics: None, tmp_path: Path,
-                           capsys: pytest.CaptureFixture[str]) -> None:
+                           capsys: pytest.CaptureFixture[str],
+                           caplog: pytest.LogCaptureFixture) -> None:
     out = tmp_path / "study"
     assert main(["study", "--out", str(out), "--runs", "2", "--births", "16", *TINY]) == 0
     captured = capsys.readouterr()
     assert f"study in {out}: 5 experiment(s), 10 unfinished run(s)" in captured.out
-    assert "births 160/160" in captured.err  # the progress display's last line
+    # The progress display labels each run with its experiment.
+    assert "scenario3 run 0: finished, 16 births" in caplog.text
+    assert "all runs: 160/160 births (100%), 10/10 runs finished" in caplog.text
     for name in PAPER_EXPERIMENTS:
         assert f"{name} run 1: finished, 16 births" in captured.out
         with Store.open(out / name / DB_NAME) as store:

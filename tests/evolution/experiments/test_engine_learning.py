@@ -317,7 +317,8 @@ def test_real_physics_run_with_learning_measures_the_learned_robot(tmp_path: Pat
         for robot in store.robots(0):
             genome = learned.get(robot.robot_id) or robot.genome
             outcome = evaluate_robot(EvalTask(robot.robot_id, from_json(genome), 0.5, 1.0,
-                                              evaluation_seed(seed, robot.robot_id)))
+                                              evaluation_seed(seed, robot.robot_id),
+                                              conditions=config.evaluation))
             assert robot.fitness == outcome.fitness
 
 

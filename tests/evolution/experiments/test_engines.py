@@ -3,6 +3,7 @@ and a killed MuJoCo run resumes to the uninterrupted run's numbers (real physics
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +55,21 @@ def test_a_killed_mujoco_run_resumes_to_the_same_numbers(tmp_path: Path, name: s
     assert dump(tmp_path / "killed" / "results.sqlite") == dump(tmp_path / "ref" / "results.sqlite")
     written = report(tmp_path, formats=("png",))
     assert len(written.experiments) == 2 and all(p.is_file() for p in written.figures)
+
+
+def test_a_killed_noisy_mujoco_online_run_resumes_to_the_same_numbers(
+        tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """The population env's noise generator is part of its snapshot: with sensor and actuator
+    noise on, a resumed run continues from the snapshot (no replay) bit for bit."""
+    config = tiny("scenario3", evaluation={"sensor_noise": 0.1, "actuator_noise": 0.1})
+    serial = LocalEvaluator(1)
+    experiments.run(config, tmp_path / "ref", evaluator=serial)
+    with pytest.raises(Kill):
+        experiments.run(config, tmp_path / "killed", kill_after(3), evaluator=serial)
+    with caplog.at_level(logging.WARNING):
+        experiments.resume(tmp_path / "killed", evaluator=serial)
+    assert "replaying" not in caplog.text
+    assert dump(tmp_path / "killed" / "results.sqlite") == dump(tmp_path / "ref" / "results.sqlite")
 
 
 def test_the_engines_give_different_but_valid_runs(tmp_path: Path) -> None:

@@ -104,7 +104,8 @@ def test_offline_evaluation_is_driven_by_the_saved_policy(offline_ref: Path) -> 
     ref = json.loads(record.policy)
     agent = load_policy(offline_ref / ref["file"], robot.robot(), ref["digest"])
     task = EvalTask(robot.robot_id, robot.robot(), config.insertion, config.evaluation_time,
-                    evaluation_seed(run_seed(config.seed, 0), robot.robot_id))
+                    evaluation_seed(run_seed(config.seed, 0), robot.robot_id),
+                    conditions=config.evaluation)
     driven = evaluate_robot(replace(task, policy=agent))
     assert robot.fitness is not None and driven.fitness is not None
     with sqlite3.connect(offline_ref / "results.sqlite") as con:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import sqlite3
 from pathlib import Path
@@ -16,6 +17,7 @@ from evolution.experiments.store import (
     FailureRecord,
     FitnessSample,
     LearningRecord,
+    ReevaluationRecord,
     RobotRecord,
     Store,
     StoreError,
@@ -23,7 +25,7 @@ from evolution.experiments.store import (
 from evolution.lifecycle import Stage, Transition
 
 TABLES = {"meta", "runs", "checkpoints", "robots", "fitness", "transitions", "population",
-          "diversity", "failures", "learning"}
+          "diversity", "failures", "learning", "reevaluations"}
 
 
 def _checkpoint(births: int, t: float) -> Checkpoint:
@@ -165,11 +167,12 @@ def test_version_1_database_is_upgraded_in_place(tmp_path: Path) -> None:
         s.commit(0, Batch(robots=[_robot(0, 0.0)]), _checkpoint(1, 15.0))
     db = sqlite3.connect(path)
     db.execute("DROP TABLE learning")
+    db.execute("DROP TABLE reevaluations")
     db.execute("UPDATE meta SET value = '1' WHERE key = 'schema_version'")
     db.commit()
     db.close()
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == str(SCHEMA_VERSION) == "3"
+        assert s.meta()["schema_version"] == str(SCHEMA_VERSION) == "4"
         assert s.learning(0) == [] and [r.robot_id for r in s.robots(0)] == [0]
         assert set(s.table_counts()) == TABLES
 
@@ -182,6 +185,7 @@ def test_version_2_database_gains_the_policy_column(tmp_path: Path) -> None:
         s.add_run(0, 7)
     db = sqlite3.connect(path)
     db.execute("DROP TABLE learning")
+    db.execute("DROP TABLE reevaluations")
     db.execute("CREATE TABLE learning (run_id INTEGER NOT NULL, robot_id INTEGER NOT NULL, "
                "time REAL NOT NULL, inheritance TEXT NOT NULL, learned_genome TEXT, "
                "inborn_fitness REAL, learned_fitness REAL, evaluations INTEGER, sim_seconds REAL, "
@@ -191,7 +195,7 @@ def test_version_2_database_gains_the_policy_column(tmp_path: Path) -> None:
     db.commit()
     db.close()
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == "3"
+        assert s.meta()["schema_version"] == "4"
         assert s.learning(0) == [LearningRecord(0, 0.0, "darwinian", None, 0.5, 0.75, 3, 21.0)]
 
 
@@ -206,3 +210,80 @@ def test_run_seed_conflict(store: Store) -> None:
     store.add_run(0, 1234)  # idempotent
     with pytest.raises(StoreError, match="exists with seed"):
         store.add_run(0, 99)
+
+
+def _make_version_3(path: Path, config: dict[str, object]) -> None:
+    """Turn a fresh database into one written by schema version 3 (no reevaluations)."""
+    db = sqlite3.connect(path)
+    db.execute("DROP TABLE reevaluations")
+    db.execute("UPDATE meta SET value = '3' WHERE key = 'schema_version'")
+    db.execute("UPDATE meta SET value = ? WHERE key = 'config'", (json.dumps(config),))
+    db.commit()
+    db.close()
+
+
+def _dump(path: Path, tables: list[str]) -> dict[str, list[tuple[object, ...]]]:
+    db = sqlite3.connect(path)
+    try:
+        return {t: db.execute(f"SELECT * FROM {t} ORDER BY rowid").fetchall() for t in tables}
+    finally:
+        db.close()
+
+
+@pytest.mark.parametrize(("engine", "heading"), [("offline", 0.0), ("online", "random"),
+                                                 (None, 0.0)])
+def test_version_3_database_is_upgraded_in_place(
+        tmp_path: Path, engine: str | None, heading: object) -> None:
+    """A version-3 database gains the empty reevaluations table, and its stored config the
+    conditions its runs lived under (offline, the default engine: heading 0; online: random);
+    every old row stays as it was."""
+    path = tmp_path / "results.sqlite"
+    config: dict[str, object] = {"name": "old", "births": 3}
+    if engine is not None:
+        config["engine"] = engine
+    with Store.create(path, config, 0) as s:
+        s.add_run(0, 7)
+        s.commit(0, Batch(robots=[_robot(0, 0.0)], population=[(0, 1.0)],
+                          fitness=[FitnessSample(0, 15.0, 1.0, 0.5, 0.1)]), _checkpoint(1, 15.0))
+    _make_version_3(path, config)
+    old_tables = sorted(TABLES - {"meta", "reevaluations"})
+    before = _dump(path, old_tables)
+    with Store.open(path) as s:
+        assert s.meta()["schema_version"] == "4"
+        assert s.config == {**config, "evaluation": {
+            "heading": heading, "position_jitter": 0.0, "sensor_noise": 0.0,
+            "actuator_noise": 0.0}}
+        assert s.reevaluations() == [] and set(s.table_counts()) == TABLES
+    assert _dump(path, old_tables) == before
+    with Store.open(path) as s:  # opening again changes nothing more
+        assert s.config["evaluation"]["heading"] == heading
+
+
+def test_upgrade_keeps_stored_conditions(tmp_path: Path) -> None:
+    """A stored config that already names its conditions keeps them."""
+    path = tmp_path / "results.sqlite"
+    conditions = {"heading": 1.5, "position_jitter": 0.1, "sensor_noise": 0.0,
+                  "actuator_noise": 0.05}
+    config = {"name": "old", "engine": "online", "evaluation": conditions}
+    Store.create(path, config, 0).close()
+    _make_version_3(path, config)
+    with Store.open(path) as s:
+        assert s.config["evaluation"] == conditions
+
+
+def test_reevaluations_are_written_once(store: Store) -> None:
+    """The key has no timestamp: writing the same reevaluation again adds nothing and keeps the
+    first values; another repeat or window is a new row."""
+    row = ReevaluationRecord(0, 2, "final", 0, '{"heading": "random"}', 3.0, 12.0, False, 99,
+                             "inborn", 4.0, 3.5, 1.0, 0.5, None)
+    assert store.add_reevaluations([row]) == 1
+    assert store.add_reevaluations([row, ReevaluationRecord(
+        *row.key[:1], 2, "final", 0, row.conditions, 3.0, 12.0, False, 99, "inborn", 4.0, 9.9)]
+    ) == 0
+    later = ReevaluationRecord(0, 2, "final", 0, row.conditions, 6.0, 12.0, False, 99, "inborn",
+                               4.0, None, failure="blow-up: too fast")
+    again = ReevaluationRecord(0, 2, "final", 1, row.conditions, 3.0, 12.0, True, 98, "learned",
+                               4.0, math.inf)
+    assert store.add_reevaluations([later, again]) == 2
+    assert store.reevaluations() == [row, again, later]
+    assert store.reevaluations("best") == []

@@ -44,7 +44,9 @@ def test_the_table_round_trips_and_builds_its_training_center() -> None:
     again = ExperimentConfig.from_dict(json.loads(json.dumps(config.to_dict())))
     assert again == config and again.learning == TABLE
     center = config.training_center()
-    assert center == training_center_from_dict(TABLE)
+    # The infants learn under the experiment's evaluation conditions.
+    assert center == training_center_from_dict(TABLE, conditions=config.evaluation)
+    assert center != training_center_from_dict(TABLE)  # IDEAL: the fixed heading
     assert isinstance(center.learner, RandomSearchLearner) and center.learner.batch_size == 3
     assert center.lamarckian and center.budget == 6.0
     assert tiny().training_center() is None

@@ -40,7 +40,8 @@ from evolution.reporting.tables import (
 SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
 CANDIDATES = CandidateEvaluation(insertion=0.0, seconds=1.0, function=param_distance_fitness)
 NAMES = ("baseline_b", "scenario3", "scenario1")  # deliberately not in report order
-FIGURE_STEMS = ("fitness_over_births", "final_fitness", "diversity_over_births", "final_diversity")
+FIGURE_STEMS = ("fitness_over_births", "final_fitness", "diversity_over_births", "final_diversity",
+                "failed_births", "curve_tests")
 
 
 @pytest.fixture(scope="module")
@@ -160,35 +161,70 @@ def test_summary_rows_match_the_stored_final_populations(
     assert float(rows[0]["final_population_size_mean"]) == 15
 
 
-def test_mann_whitney_rows_are_the_scipy_tests_of_the_stored_samples(
+def test_per_run_tests_are_the_scipy_tests_of_one_value_per_run(
         results: Path, written: tuple[Path, dict[str, str]]) -> None:
     out, _ = written
-    rows = _rows(out / "mann_whitney.csv")
+    rows = _rows(out / "tests_per_run.csv")
     assert list(rows[0]) == list(MANN_WHITNEY_COLUMNS)
     labels = ["scenario1", "scenario3", "baseline_b"]
-    expected_pairs = [(s, a, b) for s in TESTED_SAMPLES for a, b in combinations(labels, 2)]
+    samples = [s for s in TESTED_SAMPLES if s != "final_brain_diversity"]  # not asked for
+    expected_pairs = [(s, a, b) for s in samples for a, b in combinations(labels, 2)]
     assert [(r["sample"], r["experiment_a"], r["experiment_b"]) for r in rows] == expected_pairs
     for r in rows:
         p, holm = float(r["p_value"]), float(r["p_holm"])
         assert 0.0 <= p <= 1.0 and p <= holm <= 1.0
-    # Recompute one test from the databases.
+        assert (r["n_a"], r["n_b"], float(r["p_min"])) == ("2", "2", pytest.approx(1 / 3))
+        assert float(r["a12_ci_low"]) <= float(r["a12"]) <= float(r["a12_ci_high"])
+    means = {}
+    for name in ("scenario1", "baseline_b"):
+        with Store.open(results / name / DB_NAME) as store:
+            means[name] = [np.mean([f for _, f in store.final_population(r.run_id)
+                                    if f is not None]) for r in store.runs()]
+    reference = mannwhitneyu(means["scenario1"], means["baseline_b"], alternative="two-sided")
+    row = next(r for r in rows if r["sample"] == "run_mean_fitness"
+               and (r["experiment_a"], r["experiment_b"]) == ("scenario1", "baseline_b"))
+    assert float(row["p_value"]) == pytest.approx(reference.pvalue, rel=1e-5)
+    assert float(row["a12"]) == pytest.approx(reference.statistic / 4)  # A12 = U / (n_a n_b)
+
+
+def test_pooled_tests_are_kept_as_descriptive(
+        results: Path, written: tuple[Path, dict[str, str]]) -> None:
+    out, _ = written
+    rows = _rows(out / "tests_pooled_descriptive.csv")
+    assert {r["sample"] for r in rows} == {"final_fitness"}
     pooled = {}
     for name in ("scenario1", "baseline_b"):
         with Store.open(results / name / DB_NAME) as store:
             pooled[name] = [f for r in store.runs() for _, f in store.final_population(r.run_id)
                             if f is not None]
     reference = mannwhitneyu(pooled["scenario1"], pooled["baseline_b"], alternative="two-sided")
-    row = next(r for r in rows if r["sample"] == "final_fitness"
-               and (r["experiment_a"], r["experiment_b"]) == ("scenario1", "baseline_b"))
+    row = next(r for r in rows
+               if (r["experiment_a"], r["experiment_b"]) == ("scenario1", "baseline_b"))
     assert float(row["p_value"]) == pytest.approx(reference.pvalue, rel=1e-5)
     assert float(row["u_statistic"]) == pytest.approx(reference.statistic)
     assert int(row["n_a"]) == 30 and int(row["n_b"]) == 30
+    text = (out / "summary.md").read_text()
+    assert "Descriptive only: pooled final populations" in text
+    assert "Holm-Bonferroni" in text
+
+
+def test_curve_tests_compare_runs_at_equal_births(
+        written: tuple[Path, dict[str, str]]) -> None:
+    out, _ = written
+    rows = _rows(out / "curve_tests.csv")
+    pair = [r for r in rows if (r["experiment_a"], r["experiment_b"]) == ("scenario1",
+                                                                           "baseline_b")]
+    # Both reached 30 births; offline commit points at 15 and 30: the points from 50 % on.
+    assert [int(r["births"]) for r in pair] == [15, 18, 21, 24, 27, 30]
+    assert [int(r["point"]) for r in pair] == [4, 5, 6, 7, 8, 9]
+    assert [float(r["p_holm"]) for r in pair] == pytest.approx(
+        _holm([float(r["p_value"]) for r in pair]))
 
 
 def test_markdown_summary_holds_both_tables(written: tuple[Path, dict[str, str]]) -> None:
     out, _ = written
     text = (out / "summary.md").read_text()
-    assert "| experiment | engine |" in text and "| sample | experiment_a |" in text
+    assert "| experiment | label | engine |" in text and "| sample | experiment_a |" in text
     assert text.count("\n| final_fitness |") == 3
 
 
@@ -231,7 +267,7 @@ def test_an_interrupted_run_is_reported_as_unfinished(tmp_path: Path) -> None:
     row = _rows(result.tables[0])[0]
     assert (row["runs"], row["runs_in_database"], row["finished_runs"], row["births_mean"]) == (
         "1", "2", "0", "30")
-    assert len(result.figures) == 4
+    assert len(result.figures) == len(FIGURE_STEMS)
     # One experiment: no pair to test, the table has only its header.
     assert _rows(result.tables[1]) == []
 

@@ -1,0 +1,176 @@
+"""What the robot commands (``show``, ``watch``, ``export``) share: their arguments and loading.
+
+A robot is named on the command line as a JSON file, an example name, or a robot of a results
+database (``--db DIR --robot ID`` or ``--best``, in ``--run R``); :func:`stored_robot` also
+returns what the database says about it (experiment, run seed, record, learning), which is what
+``revolve show`` compares its re-simulation with. Bad input raises :class:`CliError` (one line).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from evolution.experiments import DB_NAME, ExperimentConfig, Store, StoreError
+from evolution.experiments.integrity import verify
+from evolution.experiments.records import LearningRecord, RobotRecord
+from revolve_env.body.examples import EXAMPLES, example
+from revolve_env.body.robot import Robot
+from revolve_env.body.serialize import load
+
+__all__ = [
+    "CliError",
+    "StoredRobot",
+    "load_robot",
+    "non_negative_int",
+    "number",
+    "positive_float",
+    "positive_int",
+    "robot_arguments",
+    "stored_robot",
+]
+
+
+class CliError(ValueError):
+    """Bad command-line input (reported on one line, exit status 2)."""
+
+
+def number(kind: type[int | float], low: float, strict: bool) -> Callable[[str], Any]:
+    """An argparse type: ``kind`` parsed from text, finite, above ``low``.
+
+    With ``strict`` false, ``low`` itself is allowed.
+    """
+    noun = "an integer" if kind is int else "a number"
+
+    def parse(text: str) -> int | float:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not {noun}: {text!r}") from None
+        if not math.isfinite(value) or (value <= low if strict else value < low):
+            bound = f"> {low:g}" if strict else f">= {low:g}"
+            raise argparse.ArgumentTypeError(f"must be {bound}, got {text}")
+        return value
+
+    return parse
+
+
+positive_int = number(int, 1, strict=False)
+non_negative_int = number(int, 0, strict=False)
+positive_float = number(float, 0.0, strict=True)
+
+
+def robot_arguments(parser: argparse.ArgumentParser) -> None:
+    """The arguments naming one robot: ROBOT, or ``--db DIR`` with ``--robot ID``/``--best``."""
+    parser.add_argument("robot", nargs="?", metavar="ROBOT",
+                        help="robot JSON file, or an example name (spider, gecko, snake, "
+                             "sensor_crawler, bar_walker)")
+    parser.add_argument("--db", metavar="DIR",
+                        help="take the robot from this experiment's results directory instead")
+    parser.add_argument("--run", type=non_negative_int, default=0,
+                        help="run of --db")
+    parser.add_argument("--robot", dest="robot_id", type=non_negative_int, metavar="ID",
+                        help="robot id (birth index) within the run of --db")
+    parser.add_argument("--best", action="store_true",
+                        help="with --db: the fittest robot of the run's final population")
+
+
+@dataclass(frozen=True, slots=True)
+class StoredRobot:
+    """A robot of a results database and what the database says about it.
+
+    Attributes:
+        db: The database file.
+        config: The experiment's stored configuration.
+        raw_config: The same as stored (JSON data), for tables this version may not model.
+        run_seed: Seed of the robot's run.
+        record: The robot's row (genome as conceived, birth, death, last fitness).
+        learning: Its infancy learning record, ``None`` without one.
+        robot: The genome decoded.
+        fitness_time: Simulated time of its last fitness sample; ``None`` without one. Seconds.
+    """
+
+    db: Path
+    config: ExperimentConfig
+    raw_config: dict[str, Any]
+    run_seed: int
+    record: RobotRecord
+    learning: LearningRecord | None
+    robot: Robot
+    fitness_time: float | None = None
+
+    @property
+    def name(self) -> str:
+        """A short name for files: ``run<r>_robot<id>``."""
+        return f"run{self.record.run_id}_robot{self.record.robot_id}"
+
+
+def stored_robot(args: argparse.Namespace) -> StoredRobot:
+    """The robot that ``--db``, ``--run`` and ``--robot``/``--best`` name.
+
+    Raises:
+        CliError: a bad combination of arguments, or no such run or robot.
+        StoreError: the database is missing or damaged (the robot does not decode).
+    """
+    if args.robot is not None:
+        raise CliError("give either a robot file/example or --db, not both")
+    if (args.robot_id is None) == (not args.best):
+        raise CliError("with --db, give --robot ID or --best")
+    db = Path(args.db)
+    db = db if db.name == DB_NAME else db / DB_NAME
+    with Store.open(db) as store:
+        config = verify(store)
+        seeds = {r.run_id: r.seed for r in store.runs()}
+        if args.run not in seeds:
+            raise CliError(f"{db} has no run {args.run}")
+        if args.best:
+            final = [(f, rid) for rid, f in store.final_population(args.run)
+                     if f is not None and math.isfinite(f)]
+            if not final:
+                raise CliError(f"run {args.run} of {db} has no evaluated population yet")
+            robot_id = max(final)[1]
+        else:
+            robot_id = args.robot_id
+        try:
+            record = store.robot(args.run, robot_id)
+        except KeyError as error:
+            raise CliError(str(error.args[0])) from None
+        learning = store.learning(args.run, [robot_id])
+        samples = store.fitness_samples(args.run, robot_id)
+        raw = store.config
+    try:
+        robot = record.robot()
+    except ValueError as error:  # RobotError, or a genome that is not JSON
+        raise StoreError(f"{db} is damaged: robot {robot_id} of run {args.run} does not "
+                         f"decode ({error})") from None
+    return StoredRobot(db, config, raw, seeds[args.run], record,
+                       learning[0] if learning else None, robot,
+                       samples[-1].time if samples else None)
+
+
+def load_robot(args: argparse.Namespace) -> tuple[Robot, str]:
+    """The robot named on the command line and a short name for it."""
+    if args.db is not None:
+        stored = stored_robot(args)
+        return stored.robot, stored.name
+    if args.robot is None:
+        raise CliError("give a robot JSON file, an example name "
+                       f"({', '.join(EXAMPLES)}) or --db DIR --robot ID")
+    return robot_file(args.robot)
+
+
+def robot_file(name: str) -> tuple[Robot, str]:
+    """A robot JSON file or an example name, and a short name for it."""
+    if name in EXAMPLES and not Path(name).exists():
+        return example(name), name
+    path = Path(name)
+    if not path.is_file():
+        raise CliError(f"no such robot file: {path} (examples: {', '.join(EXAMPLES)})")
+    try:
+        return load(path), path.stem
+    except ValueError as error:
+        raise CliError(f"{path}: {error}") from None

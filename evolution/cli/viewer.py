@@ -1,0 +1,485 @@
+"""``revolve show`` and ``revolve watch``: what a robot or an online run looks like.
+
+``revolve show ROBOT | --db DIR (--robot ID | --best) [--run R]`` re-simulates one robot alone
+at the origin, driven by its own brain, and writes a GIF (or MP4) of it. For a robot of a
+results database it first says which robot it draws (experiment, run, id, birth and its time)
+and compares the fitness stored with the results to the re-simulated one; when they differ (by
+more than :data:`TOLERANCE`) it says why, from the stored configuration and records: the
+stored fitness was the sliding window of the shared online world, the robot lived with a
+learned policy, another engine or timing was asked for, or the evaluation had noisy
+conditions. An offline robot evaluated under ideal conditions is re-simulated with its
+evaluation's engine, timing and seed, so its fitness is reproduced exactly; a robot whose
+Training Center learned a new controller is drawn with that controller (the one evaluated).
+
+``revolve watch ROBOT | RESULTS [--run R] [--engine E] [--record OUT] [--seconds S]``:
+
+* a robot (JSON file or example name): the engine's window (pybullet) with the robot walking
+  in real time; with ``--record OUT`` the same as ``show`` without the window.
+* an online experiment's results folder: the run is replayed from its stored configuration and
+  seed into a temporary database (the same births, deaths and fitness as stored: the replay is
+  checked robot by robot against the stored genomes), and the whole world is shown in a window
+  (matplotlib) or, with ``--record``, written as a video (MP4 with ``imageio-ffmpeg``, else GIF)
+  with the time and births on top and a legend of the living robots (colour, id, current
+  sliding-window fitness), fittest first. ``--seconds`` stops the replay at that simulated time.
+
+The windows need a display: without one the command stops with a one-line error that names
+``--record``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import tempfile
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+import revolve_env
+from evolution.cli.robots import (
+    CliError,
+    StoredRobot,
+    non_negative_int,
+    positive_float,
+    robot_arguments,
+    robot_file,
+    stored_robot,
+)
+from evolution.evaluation import LocalEvaluator, evaluation_seed
+from evolution.experiments import DB_NAME, ExperimentConfig, RunJob, Store, execute_run
+from evolution.experiments.config import WorldSettings
+from evolution.experiments.integrity import verify
+from evolution.experiments.online_world import PopulationWorld
+from evolution.experiments.records import FitnessSample, RobotRecord
+from evolution.experiments.run import ReplayError, run_seed
+from revolve_env.body.robot import Robot
+from revolve_env.body.serialize import from_json
+from revolve_env.conditions import IDEAL, EvaluationConditions
+
+if TYPE_CHECKING:
+    from revolve_env.envs.recording import Video
+
+__all__ = ["TOLERANCE", "add_show", "add_watch", "fitness_reasons"]
+
+TOLERANCE = 1e-6
+"""Stored and re-simulated fitness within this many metres are the same."""
+
+
+def _say(text: str) -> None:
+    print(text, flush=True)
+
+
+# --------------------------------------------------------------------------------------------
+# show
+
+
+@dataclass(frozen=True, slots=True)
+class _Plan:
+    """What to simulate: the robot, its timing, engine and seed, and what it says about it."""
+
+    robot: Robot
+    name: str
+    seconds: float
+    insertion: float
+    engine: str
+    seed: int
+    stored: StoredRobot | None = None
+    learned: bool = False
+    conditions: EvaluationConditions = IDEAL
+
+
+def _plan(args: argparse.Namespace) -> _Plan:
+    """The robot and simulation ``show`` (or ``watch ROBOT``) asks for."""
+    if getattr(args, "db", None) is None:
+        robot, name = robot_file(args.robot) if args.robot is not None else _no_robot()
+        return _Plan(robot, name, args.seconds or 12.0,
+                     3.0 if args.insertion is None else args.insertion,
+                     args.engine or "pybullet", 0)
+    stored = stored_robot(args)
+    config = stored.config
+    robot, learned = stored.robot, False
+    lesson = stored.learning
+    if lesson is not None and lesson.learned_genome is not None and lesson.policy is None:
+        robot, learned = from_json(lesson.learned_genome), True  # the controller it lived with
+    return _Plan(robot, stored.name, args.seconds or config.evaluation_time,
+                 config.insertion if args.insertion is None else args.insertion,
+                 args.engine or config.world.engine,
+                 evaluation_seed(stored.run_seed, stored.record.robot_id), stored, learned,
+                 config.evaluation)
+
+
+def _no_robot() -> tuple[Robot, str]:
+    raise CliError("give a robot JSON file, an example name or --db DIR --robot ID")
+
+
+def _stored_kind(stored: StoredRobot) -> str:
+    config = stored.config
+    if config.engine == "online":
+        when = "" if stored.fitness_time is None else f" at t = {stored.fitness_time:.1f} s"
+        return (f"its last {config.evaluation_time:g} s sliding-window sample in the shared "
+                f"online world{when}")
+    return (f"isolated {config.evaluation_time:g} s evaluation after {config.insertion:g} s "
+            f"settling, {config.world.engine}")
+
+
+def fitness_reasons(plan: _Plan) -> list[str]:
+    """Why a stored robot's re-simulation may not give its stored fitness (empty: it must)."""
+    stored = plan.stored
+    if stored is None:
+        return []
+    config, reasons = stored.config, []
+    if config.engine == "online":
+        reasons.append("its stored fitness was measured in the shared online world (other "
+                       "robots, collisions, its birth place and heading, a sliding window), "
+                       "the re-simulation is alone at the origin")
+    lesson = stored.learning
+    if lesson is not None and lesson.policy is not None:
+        ref = json.loads(lesson.policy).get("file", "?")
+        reasons.append(f"it lived driven by a learned policy ({ref}); the re-simulation drives "
+                       "it with its inborn network")
+    if plan.engine != config.world.engine:
+        reasons.append(f"re-simulated on {plan.engine}, stored from {config.world.engine}")
+    if (plan.seconds, plan.insertion) != (config.evaluation_time, config.insertion):
+        reasons.append(f"re-simulated over {plan.insertion:g} + {plan.seconds:g} s, stored over "
+                       f"{config.insertion:g} + {config.evaluation_time:g} s")
+    if plan.conditions != config.evaluation:
+        reasons.append(f"re-simulated under other conditions ({plan.conditions}) than stored "
+                       f"({config.evaluation})")
+    return reasons
+
+
+def _describe(plan: _Plan, video: Video) -> list[str]:
+    """The lines ``show`` prints about the robot it drew."""
+    lines = [f"{video.path}: {video.frames} frames, {video.seconds:.1f} s simulated "
+             f"({plan.engine}), {video.distance:.3f} m from the start"]
+    stored = plan.stored
+    if stored is None:
+        lines.insert(0, f"{plan.name}: fitness re-simulated alone: {video.fitness:.3f} m")
+        return lines
+    rec = stored.record
+    born = "never born" if rec.birth_time is None else f"t = {rec.birth_time:.1f} s"
+    learned = ", with the controller its Training Center learned" if plan.learned else ""
+    head = (f"robot {rec.robot_id} of run {rec.run_id} of {stored.config.name} (born at birth "
+            f"{rec.robot_id}, {born}{learned}), ")
+    if rec.fitness is None or not math.isfinite(rec.fitness):
+        died = f" (died: {rec.death_cause})" if rec.death_cause else ""
+        lines.insert(0, head + f"no stored fitness{died}, re-simulated alone: "
+                           f"{video.fitness:.3f} m")
+        return lines
+    head += (f"stored fitness {rec.fitness:.3f} m ({_stored_kind(stored)}), re-simulated "
+             f"alone: {video.fitness:.3f} m")
+    if abs(video.fitness - rec.fitness) <= TOLERANCE:
+        lines.insert(0, head + " (the same)")
+        return lines
+    reasons = fitness_reasons(plan) or [
+        "no known reason: the simulation did not reproduce the evaluation (a bug; please "
+        "report it)"]
+    lines[:0] = [head, f"  they differ by {video.fitness - rec.fitness:+.3f} m because "
+                       + "; ".join(reasons)]
+    return lines
+
+
+def _cmd_show(args: argparse.Namespace) -> int:
+    # Imported here: it loads the physics engine, which the other commands never need.
+    from revolve_env.envs.recording import record_robot
+
+    plan = _plan(args)
+    out = Path(args.out) if args.out else Path(f"{plan.name}.gif")
+    try:
+        with warnings.catch_warnings(record=True) as notes:
+            warnings.simplefilter("always", UserWarning)
+            video = record_robot(plan.robot, out, seconds=plan.seconds, insertion=plan.insertion,
+                                 fps=args.fps, engine=plan.engine, seed=plan.seed,
+                                 conditions=plan.conditions)
+    except ValueError as error:  # bad timing, a robot without hinges, a blow-up: the input
+        raise CliError(f"cannot show {plan.name}: {error}") from None
+    for note in notes:
+        _say(f"note: {note.message}")
+    for line in _describe(plan, video):
+        _say(line)
+    return 0
+
+
+def _timing_arguments(p: argparse.ArgumentParser, seconds: str) -> None:
+    p.add_argument("--seconds", type=positive_float, help=seconds)
+    p.add_argument("--insertion", type=float,
+                   help="settling time shown first, seconds (default: the stored insertion, "
+                        "else 3)")
+    p.add_argument("--fps", type=positive_float, default=15.0,
+                   help="frames per simulated second (a GIF plays at most 50)")
+    p.add_argument("--engine", choices=revolve_env.ENGINES,
+                   help="physics engine (default: the stored one, else pybullet)")
+
+
+def add_show(sub: Any) -> None:
+    """Register ``revolve show`` on the subcommand parsers ``sub``."""
+    p = sub.add_parser(
+        "show", help="render a GIF of a robot walking",
+        description="Simulate a robot alone, driven by its own brain, and write an animated GIF "
+                    "(with time, fitness and a map of its path). The robot is a JSON file, an "
+                    "example name, or a robot of a results database (--db DIR --robot ID / "
+                    "--best); for a stored robot it says which one it drew and compares its "
+                    "stored and re-simulated fitness, saying why they differ.",
+    )
+    robot_arguments(p)
+    p.add_argument("--out", metavar="FILE", help="GIF (or MP4) to write")
+    _timing_arguments(p, "evaluation time after insertion, seconds (default: the stored "
+                         "evaluation_time, else 12)")
+    p.set_defaults(handler=_cmd_show)
+
+
+# --------------------------------------------------------------------------------------------
+# watch
+
+FrameSink = Callable[[NDArray[np.uint8], float], None]
+"""Receives each labelled frame of a replay and its simulated time (seconds)."""
+
+
+class RecordingWorld(PopulationWorld):
+    """The online world of a run that also renders a labelled frame every ``every`` steps.
+
+    It advances in frame-sized pieces (whole control periods, so the physics is stepped exactly
+    as by :class:`PopulationWorld`: rendering reads the state, never changes it) and tells the
+    engine what one call would have told it.
+
+    Args:
+        config: The experiment.
+        seed: The world's seed (:func:`evolution.experiments.run.world_seed`).
+        every: Control periods between frames.
+        sink: Called with each frame.
+    """
+
+    def __init__(self, config: ExperimentConfig, seed: int, every: int, sink: FrameSink) -> None:
+        super().__init__(config, seed)
+        self._period = every * float(self._env.config.control_period)
+        self._next = 0.0
+        self._sink = sink
+        self._added = 0  # the engine's robot ids are its births, one add() per birth
+        self._who: dict[str, tuple[int, tuple[float, float, float]]] = {}
+
+    def add(self, robot: Robot, policy: Any = None) -> Any:
+        """Add the robot and remember its id (the birth index) and colour for the legend."""
+        robot_id = self._added
+        self._added += 1
+        birth = super().add(robot, policy)
+        self._who[birth.agent] = (robot_id, robot.body.color)
+        return birth
+
+    def advance_to(self, t: float) -> Any:
+        """Advance to ``t`` frame by frame; the statuses one call would have given."""
+        merged: dict[str, Any] = {}
+        half = 0.5 * float(self._env.config.control_period)
+        while self._next < t - half:
+            self._merge(merged, super().advance_to(self._next))
+            self._frame()
+            self._next += self._period
+        self._merge(merged, super().advance_to(t))
+        return merged
+
+    @staticmethod
+    def _merge(merged: dict[str, Any], statuses: dict[str, Any]) -> None:
+        for agent, status in statuses.items():
+            if agent not in merged or merged[agent].removed is None:
+                merged[agent] = status
+
+    def _frame(self) -> None:
+        from revolve_env.envs.watch import Label, label_frame
+
+        labels = []
+        for agent in self._env.agents:
+            robot_id, color = self._who.get(agent, (-1, (0.5, 0.5, 0.5)))
+            fitness = float(self._last.get(agent, {}).get("fitness", 0.0))
+            labels.append(Label(f"#{robot_id}  {fitness:.3f} m", color, fitness))
+        header = (f"t = {self.time:6.1f} s   births {self._added}   alive {len(labels)}   "
+                  "(id, fitness)")
+        self._sink(label_frame(self._env.render_frame("top"), header, labels), self.time)
+
+
+def replay_online(config: ExperimentConfig, run_id: int, stored: Store | None, every: int,
+                  sink: FrameSink) -> int:
+    """Replay run ``run_id`` of an online experiment, sending a frame every ``every`` steps.
+
+    The run is re-executed from its seed into a temporary database, exactly as ``resume``
+    replays it; with ``stored`` the replayed robots are checked against the stored ones.
+
+    Returns:
+        The births of the replay.
+
+    Raises:
+        ReplayError: a replayed robot differs from the stored one (a bug).
+    """
+    with tempfile.TemporaryDirectory(prefix="revolve-watch-") as tmp:
+        db = Path(tmp) / DB_NAME
+        Store.create(db, config.to_dict(), config.seed).close()
+        with Store.open(db) as store:
+            store.add_run(run_id, run_seed(config.seed, run_id))
+
+        def factory(cfg: ExperimentConfig, seed: int) -> RecordingWorld:
+            return RecordingWorld(cfg, seed, every, sink)
+
+        job = RunJob(str(db), run_id, config, factory, config.training_center())
+        execute_run(job, LocalEvaluator(workers=1), lambda event: None)
+        with Store.open(db) as store:
+            replayed = store.robots(run_id)
+            samples = store.fitness_samples(run_id)
+    if stored is not None:
+        _check_replay(stored, run_id, replayed, samples)
+    return len(replayed)
+
+
+def _check_replay(stored: Store, run_id: int, robots: list[RobotRecord],
+                  samples: list[FitnessSample]) -> None:
+    """Refuse a replay whose robots or fitness samples differ from the stored run's.
+
+    Raises:
+        ReplayError: they differ (the simulation did not repeat itself: a bug).
+    """
+    kept = {r.robot_id: (r.genome, r.birth_time) for r in stored.robots(run_id)}
+    for record in robots:
+        if kept.get(record.robot_id) != (record.genome, record.birth_time):
+            raise ReplayError(f"the replay of run {run_id} made a different robot "
+                              f"{record.robot_id} than the stored one")
+    end = max((s.time for s in samples), default=-math.inf)
+    if [s for s in stored.fitness_samples(run_id) if s.time <= end] != samples:
+        raise ReplayError(f"the replay of run {run_id} measured other fitness than the stored "
+                          "run")
+
+
+class _Window:
+    """A matplotlib window showing frames at the pace of the simulation."""
+
+    def __init__(self) -> None:
+        import matplotlib.pyplot as plt
+
+        self._plt = plt
+        self._image: Any = None
+        self._started = time.perf_counter()
+
+    def __call__(self, frame: NDArray[np.uint8], t: float) -> None:
+        plt = self._plt
+        if self._image is None:
+            plt.ion()
+            self._image = plt.imshow(frame)
+            plt.axis("off")
+        else:
+            self._image.set_data(frame)
+        plt.pause(max(0.001, self._started + t - time.perf_counter()))
+
+
+def _no_display(what: str) -> CliError:
+    return CliError(f"no display for a live window of {what} ($DISPLAY is unset); write a "
+                    "video instead with --record OUT.mp4 (or OUT.gif)")
+
+
+def _write(frames: list[NDArray[np.uint8]], out: Path, fps: float) -> Path:
+    from revolve_env.envs.video import write_video
+
+    if not frames:
+        raise CliError("the replay ended before its first frame: give more --seconds")
+    with warnings.catch_warnings(record=True) as notes:
+        warnings.simplefilter("always", UserWarning)
+        try:
+            written = write_video(frames, out, fps=fps)
+        except ValueError as error:
+            raise CliError(str(error)) from None
+    for note in notes:
+        _say(f"note: {note.message}")
+    return written
+
+
+def _watch_results(args: argparse.Namespace, folder: Path) -> int:
+    from revolve_env.envs.watch import has_display
+    from revolve_env.world import WorldConfig
+
+    db = folder if folder.name == DB_NAME else folder / DB_NAME
+    with Store.open(db) as store:
+        config = verify(store)
+        if args.run not in {r.run_id for r in store.runs()}:
+            raise CliError(f"{db} has no run {args.run}")
+        if config.engine != "online":
+            raise CliError(f"{config.name} is an offline experiment (robots evaluated alone): "
+                           "watch one of its robots with `revolve show --db DIR --robot ID`")
+        if args.record is None and not has_display():
+            raise _no_display("an online run")
+        if args.engine is not None and args.engine != config.world.engine:
+            _say(f"note: replaying on {args.engine}; the run was stored from "
+                 f"{config.world.engine}, so this world differs from the stored one")
+            config = config.replace(world=WorldSettings(args.engine))
+        if args.seconds is not None:
+            limit = config.max_sim_time
+            config = config.replace(max_sim_time=min(limit or math.inf, args.seconds))
+        dt = WorldConfig().with_engine(config.world.engine).control_period
+        every = max(1, round(1.0 / (args.fps * dt)))
+        frames: list[NDArray[np.uint8]] = []
+        show: FrameSink = (lambda frame, t: frames.append(frame)) if args.record else _Window()
+        end = math.inf if args.seconds is None else args.seconds - 0.5 * dt
+
+        def sink(frame: NDArray[np.uint8], t: float) -> None:
+            # A frame shows [t, t + period). The engine stops at its first commit point after
+            # --seconds: no frame beyond.
+            if t < end:
+                show(frame, t)
+
+        _say(f"replaying run {args.run} of {config.name} ({config.world.engine}) from its seed"
+             + ("" if args.seconds is None else f" for {args.seconds:g} s"))
+        same = args.engine in (None, config.world.engine)
+        births = replay_online(config, args.run, store if same else None, every, sink)
+    _say(f"{births} births replayed" + (" (the stored robots)" if same else ""))
+    if args.record:
+        written = _write(frames, Path(args.record), 1.0 / (every * dt))
+        _say(f"{written}: {len(frames)} frames, {len(frames) * every * dt:.1f} s simulated")
+    return 0
+
+
+def _watch_robot(args: argparse.Namespace) -> int:
+    from revolve_env.envs.watch import NoDisplayError, watch_robot
+
+    plan = _plan(args)
+    if args.record:
+        args.out = args.record
+        return _cmd_show(args)
+    try:
+        fitness = watch_robot(plan.robot, plan.seconds, plan.insertion, engine=plan.engine)
+    except NoDisplayError:
+        raise _no_display(plan.name) from None
+    except ValueError as error:
+        raise CliError(f"cannot watch {plan.name}: {error} (or write a video with --record)"
+                       ) from None
+    _say(f"{plan.name}: fitness {fitness:.3f} m")
+    return 0
+
+
+def _cmd_watch(args: argparse.Namespace) -> int:
+    target = Path(args.target)
+    if target.is_dir() or target.name == DB_NAME:
+        return _watch_results(args, target)
+    args.robot, args.db = args.target, None
+    return _watch_robot(args)
+
+
+def add_watch(sub: Any) -> None:
+    """Register ``revolve watch`` on the subcommand parsers ``sub``."""
+    p = sub.add_parser(
+        "watch", help="watch a robot or an online run live (or record it)",
+        description="Open a live window on a robot (the engine's window, in real time) or on an "
+                    "online experiment's run (replayed from its stored config and seed: births, "
+                    "deaths and fitness as stored). --record OUT writes a video instead, without "
+                    "a window; an online world's frames carry each living robot's id and "
+                    "current fitness.",
+        epilog="Example: revolve watch results/scenario3 --seconds 60 --record world.mp4",
+    )
+    p.add_argument("target", metavar="ROBOT_OR_RESULTS",
+                   help="a robot JSON file or example name, or an online experiment's results "
+                        "folder")
+    p.add_argument("--run", type=non_negative_int, default=0, help="run of the results")
+    p.add_argument("--record", metavar="OUT", help="write a video (.mp4 or .gif), no window")
+    _timing_arguments(p, "a robot: evaluation time after insertion (default 12); results: stop "
+                         "the replay at this simulated time (default: the run's end), seconds")
+    p.set_defaults(handler=_cmd_watch)

@@ -1,0 +1,122 @@
+"""Births counted without failed births, labels and colours, step drawing, brain-aware diversity.
+
+Runs use the physics stand-ins of ``experiment_fakes``: offline evaluations where one robot in
+five blows up, and the fake shared world.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from experiment_fakes import fake_evaluate_with_losses, fake_world, small
+
+from evolution.diversity import brain_aware_diversity, diversity
+from evolution.evaluation import LocalEvaluator
+from evolution.experiments import preset, run
+from evolution.experiments.store import DB_NAME, Store
+from evolution.reporting import find_experiments, report
+from evolution.reporting.data import LABELS, ExperimentData, births_axis
+from evolution.reporting.figures import PAPER_COLORS, colors, failed_births, fitness_over_births
+from revolve_env.body.serialize import from_json
+
+LOSSY = LocalEvaluator(workers=1, function=fake_evaluate_with_losses)
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Scenario 1 with blow-ups and scenario 3 in the fake world, two runs each."""
+    root = tmp_path_factory.mktemp("births")
+    run(small(preset("scenario1", births=30, runs=2, diversity_interval=10)),
+        root / "scenario1", evaluator=LOSSY)
+    run(small(preset("scenario3", births=20, runs=2, diversity_interval=10)),
+        root / "scenario3", evaluator=LOSSY, world_factory=fake_world)
+    return root
+
+
+def test_births_axis_takes_the_failed_births_off() -> None:
+    np.testing.assert_array_equal(births_axis(np.array([15, 17, 32]), np.array([3, 16, 20])),
+                                  [14, 15, 29])
+
+
+def test_failed_births_are_not_births_and_are_counted_apart(results: Path) -> None:
+    (offline, _) = find_experiments(results, brain_aware=False)
+    assert offline.name == "scenario1"
+    with Store.open(results / "scenario1" / DB_NAME) as store:
+        for r in offline.runs:
+            lost = sorted(f.robot_id for f in store.failures(r.run_id, "evaluation"))
+            engine = [b for b, _, _ in store.population_snapshots(r.run_id)]
+            assert np.array_equal(r.failed_births, lost) and r.lost_robots == len(lost)
+            assert store.runs()[r.run_id].births == 30 and r.births == 30 - len(lost)
+            # Generation 0 ends when 15 robots were evaluated, however many blew up.
+            assert r.fitness.births[0] == 15 and engine[0] == 15 + sum(i < engine[0] for i in lost)
+            assert r.fitness.births.tolist() == [b - sum(i < b for i in lost) for b in engine]
+    assert sum(r.failed_births.size for r in offline.runs) > 0  # the fake did blow robots up
+
+
+def test_failed_births_figure_counts_every_failed_birth(results: Path) -> None:
+    experiments = find_experiments(results)
+    (ax,) = failed_births(experiments).axes[:1]
+    offline = experiments[0]
+    heights = [line.get_ydata()[-1] for line in ax.lines[:len(offline.runs)]]
+    assert heights == [r.failed_births.size for r in offline.runs]
+    assert all(line.get_drawstyle() == "steps-post" for line in ax.lines)
+    total = sum(r.failed_births.size for r in offline.runs)
+    assert f"{total} failed" in ax.get_legend_handles_labels()[1][0]
+
+
+def test_offline_is_drawn_as_steps_and_online_in_its_own_row(results: Path) -> None:
+    experiments = find_experiments(results)
+    figure = fitness_over_births(experiments)
+    (off_mean, off_best, on_mean, on_best) = figure.axes[:4]
+    assert "Offline" in off_mean.get_title() and "Online" in on_mean.get_title()
+    curves = [line for line in off_mean.lines if len(line.get_xdata()) > 1]  # not the end dot
+    assert curves and {line.get_drawstyle() for line in curves} == {"steps-post"}
+    assert {line.get_drawstyle() for line in on_mean.lines} == {"default"}
+    labels = off_mean.get_legend_handles_labels()[1] + on_mean.get_legend_handles_labels()[1]
+    assert labels == ["Scenario 1 (15+15) (2 runs)", "Scenario 3 (online) (2 runs)"]
+    caption = " ".join(" ".join(t.get_text() for sub in figure.subfigs for t in sub.texts).split())
+    assert "sliding-window fitness" in caption and "isolated evaluation" in caption
+    assert "failed birth" in caption
+
+
+def _fake(name: str, label: str | None = None) -> ExperimentData:
+    return ExperimentData(label or name, Path(name), {"name": name}, ())
+
+
+def test_labels_order_and_colours() -> None:
+    experiments = [_fake(n) for n in ("scenario1", "scenario2", "scenario3", "baseline_a",
+                                      "baseline_b", "custom", "quick")]
+    assert [e.title for e in experiments[:5]] == list(LABELS.values())
+    assert experiments[5].title == "custom"
+    assert _fake("scenario1", "a/scenario1").title == "Scenario 1 (15+15) [a/scenario1]"
+    palette = colors(experiments)
+    assert [palette[e.label] for e in experiments[:5]] == list(PAPER_COLORS.values())
+    assert len(set(palette.values())) == len(experiments)
+    # The same experiment keeps its colour whatever else is reported.
+    assert colors([_fake("quick"), _fake("scenario3")])["scenario3"] == PAPER_COLORS["scenario3"]
+
+
+def test_quick_is_listed_after_the_paper_experiments(tmp_path: Path, results: Path) -> None:
+    import shutil
+
+    for name in ("scenario3", "scenario1"):
+        shutil.copytree(results / name, tmp_path / name)
+    shutil.copytree(results / "scenario1", tmp_path / "aaa")  # another scenario1: by path
+    labels = [e.label for e in find_experiments(tmp_path)]
+    assert labels == ["aaa", "scenario1", "scenario3"]
+
+
+def test_brain_aware_report(results: Path, tmp_path: Path) -> None:
+    result = report(results, tmp_path / "out", formats=("png",), brain_aware=True)
+    (offline, _) = result.experiments
+    with Store.open(results / "scenario1" / DB_NAME) as store:
+        r = offline.runs[0]
+        final = [rid for rid, _ in store.final_population(r.run_id)]
+        robots = [from_json(x.genome, check=False) for x in store.robots(r.run_id, final)]
+    assert r.brain_diversity.size == r.diversity.size > 0
+    assert np.all(r.brain_diversity >= r.diversity)
+    assert r.final_brain_diversity == pytest.approx(brain_aware_diversity(robots))
+    assert r.final_brain_diversity >= diversity(robots)
+    assert (tmp_path / "out" / "diversity_over_births.png").stat().st_size > 5000
