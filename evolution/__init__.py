@@ -10,9 +10,9 @@ its own subpackages, each importing only the layers below it:
 * :mod:`evolution.reporting`: tables, statistics and figures of stored results;
 * :mod:`evolution.cli`: the ``revolve`` command, a thin layer over the Python API.
 
-For convenience ``evolution.run``, ``evolution.resume``, ``evolution.reevaluate``,
-``evolution.report`` and the experiment types are served lazily (PEP 562) from those
-subpackages: importing :mod:`evolution` loads none of them.
+For convenience ``evolution.run``, ``evolution.resume``, ``evolution.study``,
+``evolution.reevaluate``, ``evolution.report`` and the experiment types are served lazily
+(PEP 562) from those subpackages: importing :mod:`evolution` loads none of them.
 """
 
 from __future__ import annotations
@@ -94,6 +94,7 @@ _LAZY = {
     "reevaluate": "evolution.experiments.reevaluate",
     "resume": "evolution.experiments",
     "run": "evolution.experiments",
+    "study": "evolution.experiments.study",
     "LocalEvaluator": "evolution.evaluation",
     "RayEvaluator": "evolution.evaluation",
     "report": "evolution.reporting",

@@ -25,12 +25,12 @@ import json
 import sys
 import tempfile
 import time
-import tomllib
 import traceback
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TypeAlias
 
+from evolution.cli.options import parse_set as _parse_set
 from evolution.cli.progress import ProgressBar, cli_logging, duration, metres
 from evolution.cli.reevaluate import add_reevaluate
 from evolution.cli.robots import (
@@ -41,6 +41,7 @@ from evolution.cli.robots import (
     positive_int,
     robot_arguments,
 )
+from evolution.cli.study import add_study
 from evolution.cli.viewer import add_show, add_watch
 from evolution.config import EvolutionConfig
 from evolution.evaluation import EvalTask, evaluate_robot
@@ -91,34 +92,6 @@ def _describe_learning(config: ExperimentConfig) -> str:
     table = config.learning
     return (f"infancy learning: {table['learner']}, {float(table['budget']):g} s per infant, "
             f"{table.get('inheritance', 'darwinian')}")
-
-
-def _parse_set(items: Sequence[str]) -> dict[str, Any]:
-    """``KEY=VALUE`` overrides as nested config data.
-
-    VALUE is read as TOML, else as a string; ``evolution.KEY``, ``learning.KEY`` and
-    ``world.KEY`` nest.
-    """
-    data: dict[str, Any] = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        key = key.strip()
-        if not sep or not key:
-            raise CliError(f"--set expects KEY=VALUE, got {item!r}")
-        parts = key.split(".")
-        if any(not p.replace("_", "").isalnum() for p in parts):
-            raise CliError(f"--set: {key!r} is not a config key")
-        try:
-            parsed = tomllib.loads(f"v = {value.strip()}")["v"]
-        except tomllib.TOMLDecodeError:
-            parsed = value.strip()
-        target = data
-        for p in parts[:-1]:
-            target = target.setdefault(p, {})
-            if not isinstance(target, dict):
-                raise CliError(f"--set: {key!r} conflicts with another --set")
-        target[parts[-1]] = parsed
-    return data
 
 
 # --------------------------------------------------------------------------------------------
@@ -320,7 +293,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
                                 parser_class=_DefaultsParser)
     for add in (_add_run, _add_resume, add_reevaluate, _add_report, add_show, add_watch,
-                _add_export, _add_demo):
+                _add_export, _add_demo, add_study):
         add(sub)
     return parser
 

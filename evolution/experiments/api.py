@@ -25,7 +25,15 @@ from evolution.experiments.run import (
 from evolution.experiments.store import DB_NAME, Store, StoreError
 from evolution.lifecycle import InfancyHook
 
-__all__ = ["ExperimentSummary", "ProgressCallback", "resume", "run"]
+__all__ = [
+    "ExperimentSummary",
+    "ProgressCallback",
+    "check_resumable",
+    "config_differences",
+    "pending_jobs",
+    "resume",
+    "run",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -126,11 +134,7 @@ def resume(
     """
     check_infancy(infancy)
     db_path = Path(out_dir) / DB_NAME
-    with Store.open(db_path) as store:
-        config = verify(store, resumable=True)
-        runs = store.runs()
-        if len(runs) < config.runs or any(r.status != "finished" for r in runs):
-            check_writable(store)
+    config = check_resumable(db_path)
     infancy = _infancy_for(config, infancy)
     check_infancy(infancy)
     return _execute(config, db_path, progress, evaluator, world_factory, infancy)
@@ -144,6 +148,41 @@ def _execute(
     world_factory: WorldFactory | None,
     infancy: InfancyHook | None,
 ) -> ExperimentSummary:
+    jobs = pending_jobs(config, db_path, world_factory, infancy)
+    used = evaluator or make_evaluator(config.evaluator, config.workers, config.ray_address)
+    try:
+        summaries = used.run_jobs(execute_run, jobs, progress)
+    finally:
+        if evaluator is None:
+            used.close()
+    return ExperimentSummary(db_path.parent, db_path, tuple(summaries))
+
+
+def check_resumable(db_path: Path) -> ExperimentConfig:
+    """The stored configuration of a results database that can be continued.
+
+    The database is checked before anything is written to it
+    (:func:`~evolution.experiments.integrity.verify`), and, when a run is left to do, that it can
+    be written.
+
+    Raises:
+        StoreError: missing, corrupt, newer, damaged or (with work left) read-only database.
+    """
+    with Store.open(db_path) as store:
+        config = verify(store, resumable=True)
+        runs = store.runs()
+        if len(runs) < config.runs or any(r.status != "finished" for r in runs):
+            check_writable(store)
+    return config
+
+
+def pending_jobs(config: ExperimentConfig, db_path: Path, world_factory: WorldFactory | None,
+                 infancy: InfancyHook | None) -> list[RunJob]:
+    """Register every run of an experiment in its database and return the unfinished ones.
+
+    Raises:
+        EngineUnavailableError: the config's physics engine does not import.
+    """
     # A missing engine package is an input error before anything runs (EngineUnavailableError).
     revolve_env.require_engine(config.world.engine)
     with Store.open(db_path) as store:
@@ -152,14 +191,7 @@ def _execute(
         for run_id in range(config.runs):
             store.add_run(run_id, run_seed(config.seed, run_id))
         pending = [r.run_id for r in store.runs() if r.status != "finished"]
-    jobs = [RunJob(str(db_path), run_id, config, world_factory, infancy) for run_id in pending]
-    used = evaluator or make_evaluator(config.evaluator, config.workers, config.ray_address)
-    try:
-        summaries = used.run_jobs(execute_run, jobs, progress)
-    finally:
-        if evaluator is None:
-            used.close()
-    return ExperimentSummary(db_path.parent, db_path, tuple(summaries))
+    return [RunJob(str(db_path), run_id, config, world_factory, infancy) for run_id in pending]
 
 
 def _refuse_existing(out: Path, db_path: Path, config: ExperimentConfig) -> None:
@@ -177,7 +209,7 @@ def _refuse_existing(out: Path, db_path: Path, config: ExperimentConfig) -> None
             f"{out} already holds a results database that cannot be used: {error}") from error
     name = stored.get("name", "?")
     try:  # compare settings, not text: a config stored by an older version lacks newer defaults
-        differ = _differences(ExperimentConfig.from_dict(stored), config)
+        differ = config_differences(ExperimentConfig.from_dict(stored), config)
     except ConfigError:
         differ = ["(the stored configuration is not valid for this version)"]
     if not differ:
@@ -191,7 +223,7 @@ def _refuse_existing(out: Path, db_path: Path, config: ExperimentConfig) -> None
         "them: choose another --out folder or --name")
 
 
-def _differences(stored: ExperimentConfig, wanted: ExperimentConfig) -> list[str]:
+def config_differences(stored: ExperimentConfig, wanted: ExperimentConfig) -> list[str]:
     """``key: stored vs wanted`` for every config value that differs (nested tables flattened)."""
     def flat(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
         out: dict[str, Any] = {}

@@ -1,0 +1,146 @@
+"""``revolve study``: help with defaults, the study and its report end to end, Ctrl-C then the
+same command, settings refused on one line.
+
+Runs use the fast physics stand-ins (``make_evaluator`` and the default online world are
+patched); the test marked slow runs the real physics.
+"""
+
+from __future__ import annotations
+
+import shlex
+from pathlib import Path
+
+import pytest
+from experiment_fakes import CtrlCEvaluator, dump_results, fake_evaluate, fake_world
+
+from evolution.cli import main
+from evolution.evaluation import LocalEvaluator
+from evolution.experiments import engine
+from evolution.experiments import study as study_module
+from evolution.experiments.store import DB_NAME, Store
+from evolution.experiments.study import PAPER_EXPERIMENTS
+
+TINY = ["--set", "population_size=4", "--set", "offspring_size=4", "--set", "insertion=0.5",
+        "--set", "evaluation_time=1", "--set", "fertile_age=1.5", "--set",
+        "conception_interval=1", "--set", "min_alive=2", "--set", "diversity_interval=4",
+        "--set", "evolution.max_parts=12", "--set", "evolution.initial_parts_mean=5",
+        "--set", "evolution.initial_parts_sd=2"]
+
+
+@pytest.fixture
+def fake_physics(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Studies started by the CLI evaluate robots and live online with the fast stand-ins."""
+    monkeypatch.setattr(study_module, "make_evaluator",
+                        lambda *a, **k: LocalEvaluator(workers=1, function=fake_evaluate))
+    monkeypatch.setattr(engine, "default_world", fake_world)
+
+
+def test_help_shows_every_default(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["study", "--help"])
+    assert exit_info.value.code == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert out.startswith("usage: revolve study")
+    for text in ("--out DIR the study's folder (default: results/study)",
+                 "runs per experiment (default: 3)", "(default: 60)", "(default: 0)",
+                 "(default: local)", "default: scenario1 scenario2 scenario3 baseline_a "
+                 "baseline_b"):
+        assert text in out, text
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    assert "study" in capsys.readouterr().out
+
+
+def test_study_then_report(fake_physics: None, tmp_path: Path,
+                           capsys: pytest.CaptureFixture[str],
+                           caplog: pytest.LogCaptureFixture) -> None:
+    out = tmp_path / "study"
+    assert main(["study", "--out", str(out), "--runs", "2", "--births", "16", *TINY]) == 0
+    captured = capsys.readouterr()
+    assert f"study in {out}: 5 experiment(s), 10 unfinished run(s)" in captured.out
+    # The progress display labels each run with its experiment.
+    assert "scenario3 run 0: finished, 16 births" in caplog.text
+    assert "all runs: 160/160 births (100%), 10/10 runs finished" in caplog.text
+    for name in PAPER_EXPERIMENTS:
+        assert f"{name} run 1: finished, 16 births" in captured.out
+        with Store.open(out / name / DB_NAME) as store:
+            assert [(r.status, r.births) for r in store.runs()] == [("finished", 16)] * 2
+    assert f"report of 5 experiment(s) in {out / 'report'}:" in captured.out
+    for stem in ("fitness_over_births", "final_fitness", "diversity_over_births",
+                 "final_diversity"):
+        assert f"{out / 'report' / stem}.png" in captured.out
+        assert (out / "report" / f"{stem}.png").read_bytes()[:4] == b"\x89PNG"
+    assert (out / "report" / "summary.csv").is_file()
+
+    assert main(["study", "--out", str(out), "--runs", "2", "--births", "16", *TINY]) == 0
+    assert "every run had finished already" in capsys.readouterr().out
+
+
+def test_ctrl_c_names_the_command_that_continues(monkeypatch: pytest.MonkeyPatch,
+                                                 tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setattr(engine, "default_world", fake_world)
+    monkeypatch.setattr(study_module, "make_evaluator", lambda *a, **k: CtrlCEvaluator(4 + 4 + 2))
+    out = tmp_path / "study"
+    argv = ["study", "--out", str(out), "--runs", "2", "--births", "16", "--seed", "5", *TINY,
+            "--only", "scenario1", "scenario3"]
+    assert main(argv) == 130
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    again = err.split("continue with: ")[1].strip()
+    assert shlex.split(again) == ["revolve", *argv]
+    with Store.open(out / "scenario3" / DB_NAME) as store:  # online first: finished
+        assert {r.status for r in store.runs()} == {"finished"}
+    with Store.open(out / "scenario1" / DB_NAME) as store:
+        assert store.checkpoint(0).births == 8  # two generations committed
+        assert store.runs()[0].status == "interrupted"
+    monkeypatch.setattr(study_module, "make_evaluator",
+                        lambda *a, **k: LocalEvaluator(workers=1, function=fake_evaluate))
+    assert main(shlex.split(again)[1:]) == 0
+    out_text = capsys.readouterr().out
+    assert "scenario1: 2 run(s) x 16 births (offline, pybullet): 2 run(s) to do" in out_text
+    assert "scenario3: 2 run(s) x 16 births (online, pybullet): finished" in out_text
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--births", "20"], "holds a study with other settings (births: 16 stored, 20 now)"),
+    (["--set", "evolution.max_parts=13"], "--set evolution.max_parts: 12 stored, 13 now"),
+    (["--set", "runs=4"], "runs is a setting of the study, not an override"),
+    (["--only", "scenario7"], "unknown scenario 'scenario7'"),
+    (["--ray-address", "auto"], "--ray-address needs --evaluator ray"),
+])
+def test_bad_settings_are_one_line(fake_physics: None, tmp_path: Path,
+                                   capsys: pytest.CaptureFixture[str], argv: list[str],
+                                   message: str) -> None:
+    out = tmp_path / "study"
+    base = ["study", "--out", str(out), "--runs", "1", "--births", "16", *TINY]
+    assert main([*base, "--only", "baseline_b"]) == 0
+    capsys.readouterr()
+    assert main([*base, *argv]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith("revolve study: error: ") and message in err
+
+
+@pytest.mark.slow
+def test_study_with_real_physics(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "study"
+    assert main(["study", "--out", str(out), "--runs", "2", "--births", "16", "--workers", "2",
+                 *TINY]) == 0
+    assert "report of 5 experiment(s)" in capsys.readouterr().out
+    for name in PAPER_EXPERIMENTS:
+        with Store.open(out / name / DB_NAME) as store:
+            assert [(r.status, r.births) for r in store.runs()] == [("finished", 16)] * 2
+    assert (out / "report" / "fitness_over_births.png").stat().st_size > 0
+
+
+@pytest.mark.slow
+def test_study_on_ray_gives_the_local_databases(tmp_path: Path) -> None:
+    pytest.importorskip("ray")
+    common = ["--runs", "2", "--births", "16", "--workers", "2", *TINY]
+    assert main(["study", "--out", str(tmp_path / "ray"), "--evaluator", "ray", *common]) == 0
+    assert main(["study", "--out", str(tmp_path / "local"), *common]) == 0
+    tables = ("robots", "fitness", "transitions", "population", "diversity", "failures")
+    for name in PAPER_EXPERIMENTS:
+        assert (dump_results(tmp_path / "ray" / name / DB_NAME, tables)
+                == dump_results(tmp_path / "local" / name / DB_NAME, tables)), name
