@@ -395,8 +395,7 @@ def _write(frames: list[NDArray[np.uint8]], out: Path, fps: float) -> Path:
 
 
 def _watch_results(args: argparse.Namespace, folder: Path) -> int:
-    from revolve_env.envs.watch import has_display
-    from revolve_env.world import WorldConfig
+    from revolve_env.envs.watch import control_period, has_display
 
     db = folder if folder.name == DB_NAME else folder / DB_NAME
     with Store.open(db) as store:
@@ -415,7 +414,7 @@ def _watch_results(args: argparse.Namespace, folder: Path) -> int:
         if args.seconds is not None:
             limit = config.max_sim_time
             config = config.replace(max_sim_time=min(limit or math.inf, args.seconds))
-        dt = WorldConfig().with_engine(config.world.engine).control_period
+        dt = control_period(config.world.engine)
         every = max(1, round(1.0 / (args.fps * dt)))
         frames: list[NDArray[np.uint8]] = []
         show: FrameSink = (lambda frame, t: frames.append(frame)) if args.record else _Window()

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from revolve_env.body.robot import Robot
 
-__all__ = ["Label", "NoDisplayError", "has_display", "label_frame", "watch_robot"]
+__all__ = ["Label", "NoDisplayError", "control_period", "has_display", "label_frame", "watch_robot"]
 
 
 class NoDisplayError(RuntimeError):
@@ -43,6 +43,13 @@ class Label:
     text: str
     color: tuple[float, float, float]
     fitness: float = 0.0
+
+
+def control_period(engine: str) -> float:
+    """The control period of the default world of ``engine``. Seconds."""
+    from revolve_env.world import WorldConfig
+
+    return WorldConfig().with_engine(engine).control_period
 
 
 def has_display() -> bool:
