@@ -3,10 +3,15 @@
 Modules, bottom up: :mod:`~evolution.experiments.errors`, :mod:`~evolution.experiments.registry`
 (the shipped TOML configs, the one scenario registry), :mod:`~evolution.experiments.config`
 (:class:`ExperimentConfig`), :mod:`~evolution.experiments.store` (SQLite results, exact resume),
-:mod:`~evolution.experiments.run` (what both engines share), :mod:`~evolution.experiments.offline`
+:mod:`~evolution.experiments.remote_store` (what a run needs from the store; under Ray a store
+actor on the driver's node), :mod:`~evolution.experiments.run` (what both engines share),
+:mod:`~evolution.experiments.offline`
 and :mod:`~evolution.experiments.online` (the engines), :mod:`~evolution.experiments.online_world`
-(the population env as the online world), :mod:`~evolution.experiments.engine` (one run) and
-:mod:`~evolution.experiments.api` (:func:`run` / :func:`resume` of a whole experiment).
+(the population env as the online world), :mod:`~evolution.experiments.engine` (one run),
+:mod:`~evolution.experiments.api` (:func:`run` / :func:`resume` of a whole experiment),
+:mod:`~evolution.experiments.study` (the paper's five experiments on one pool),
+:mod:`~evolution.experiments.reevaluate` (re-evaluations of stored robots) and
+:mod:`~evolution.experiments.callbacks` (progress callbacks: TensorBoard).
 """
 
 from __future__ import annotations
