@@ -211,13 +211,13 @@ def optimism_rows(experiments: Sequence[tuple[str, Sequence[ReevaluationRecord]]
 
 def read_reevaluations(experiments: Sequence[ExperimentData]
                        ) -> list[tuple[str, list[ReevaluationRecord]]]:
-    """Each experiment's label and stored reevaluations (experiments without any left out)."""
+    """Each experiment's title and stored reevaluations (experiments without any left out)."""
     out = []
     for e in experiments:
         with Store.open(e.path / DB_NAME) as store:
             records = store.reevaluations()
         if records:
-            out.append((e.label, records))
+            out.append((e.title, records))
     return out
 
 

@@ -98,8 +98,8 @@ def test_report_includes_the_optimism_table_and_figure(tmp_path: Path) -> None:
     with open(out / "optimism.csv", encoding="utf-8") as f:
         rows = list(csv.DictReader(f))
     assert tuple(rows[0]) == OPTIMISM_COLUMNS and len(rows) == 1
-    assert rows[0]["experiment"] == "scenario1" and rows[0]["runs"] == "2"
+    assert rows[0]["experiment"] == "Scenario 1 (15+15)" and rows[0]["runs"] == "2"
     assert rows[0]["k"] == "3"
     summary = (out / "summary.md").read_text()
     assert "## Optimism of a single evaluation" in summary
-    assert "| scenario1 | final, window 3-15 s, alone, heading random |" in summary
+    assert "| Scenario 1 (15+15) | final, window 3-15 s, alone, heading random |" in summary
