@@ -179,12 +179,18 @@ UPDATE meta SET value = json_set(value, '$.evaluation', json(
     END))
 WHERE key = 'config' AND json_valid(value) AND json_type(value) = 'object'
     AND json_type(value, '$.evaluation') IS NULL;
+UPDATE meta SET value = json_set(value, '$.learning.conditions', json(
+    '{"heading": 0.0, "position_jitter": 0.0, "sensor_noise": 0.0, "actuator_noise": 0.0}'))
+WHERE key = 'config' AND json_valid(value) AND json_type(value) = 'object'
+    AND json_type(value, '$.learning') = 'object'
+    AND json_type(value, '$.learning.conditions') IS NULL;
 """
 """Schema version 4, for a stored config without an ``evaluation`` table: the conditions its runs
 actually lived under, before conditions were configurable. Offline evaluations started at
 heading 0 at the origin; online newborns at a random heading (the population env's draw); nothing
-was noisy. Written out literally on purpose: a migration must not change when the code's
-defaults do, and this statement is the one home of that rule."""
+was noisy; infants of the Training Center learned at heading 0 in both (the second statement
+pins that in the learning table). Written out literally on purpose: a migration must not change
+when the code's defaults do, and this statement is the one home of that rule."""
 
 SCHEMA = SCHEMA_V1 + LEARNING_TABLE + POLICY_COLUMN + REEVALUATIONS_TABLE
 """The current layout (version :data:`SCHEMA_VERSION`)."""

@@ -13,6 +13,8 @@ An experiment config with learning is an ordinary experiment TOML (see
     insertion   = 1.0            # settling time of each candidate evaluation, seconds
     seconds     = 6.0            # fitness window of each candidate evaluation, seconds
     workers     = 1              # processes evaluating candidates (1: inside the robot's worker)
+    conditions  = { heading = 0.0 }   # optional: the conditions infants learn under; default: the
+                                 # experiment's [evaluation] table (they learn as they will live)
     # sb3 only: algorithm = "PPO", action = "modulate", n_envs = 2, vec_env = "subproc",
     #           control_period = 0.0166667, algorithm_kwargs = { n_steps = 256 }
 
@@ -48,7 +50,7 @@ __all__ = ["LEARNERS", "training_center_from_dict"]
 LEARNERS = ("cma-es", "random-search", "sb3")
 """Names accepted by ``learner``."""
 
-_COMMON = {"learner", "budget", "inheritance", "insertion", "seconds"}
+_COMMON = {"learner", "budget", "inheritance", "insertion", "seconds", "conditions"}
 _KEYS = {
     "cma-es": _COMMON | {"sigma", "popsize", "workers"},
     "random-search": _COMMON | {"sigma", "popsize", "workers"},
@@ -64,7 +66,9 @@ def training_center_from_dict(data: Mapping[str, Any], engine: str = "pybullet",
     ``engine`` is the physics engine the learner simulates in (an experiment's
     ``world.engine``: infants learn in the engine their run lives in); ``conditions`` the
     conditions of its evaluations and episodes (an experiment's ``[evaluation]`` table: infants
-    learn under the conditions they are evaluated and live in).
+    learn under the conditions they are evaluated and live in), unless the table has its own
+    ``conditions`` (runs stored before conditions existed learned under
+    :data:`~revolve_env.conditions.IDEAL`: the store's upgrade writes that there).
 
     Raises:
         ValueError: unknown learner or key (named, with the known ones), a missing budget, or a
@@ -80,6 +84,11 @@ def training_center_from_dict(data: Mapping[str, Any], engine: str = "pybullet",
                          f"{', '.join(sorted(_KEYS[name]))}")
     if "budget" not in data:
         raise ValueError("learning.budget (simulated seconds per infant) is required")
+    if "conditions" in data:
+        table = data["conditions"]
+        if not isinstance(table, Mapping):
+            raise ValueError(f"learning.conditions must be a table, got {table!r}")
+        conditions = EvaluationConditions.from_dict(table)
     # Any, not float: spread as keyword arguments beside arguments of other types.
     timing: dict[str, Any] = {k: float(data[k]) for k in ("insertion", "seconds") if k in data}
     learner: Learner

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from evolution.experiments.config import ExperimentConfig
 from evolution.experiments.store import (
     SCHEMA_VERSION,
     Batch,
@@ -23,6 +24,7 @@ from evolution.experiments.store import (
     StoreError,
 )
 from evolution.lifecycle import Stage, Transition
+from revolve_env.conditions import IDEAL
 
 TABLES = {"meta", "runs", "checkpoints", "robots", "fitness", "transitions", "population",
           "diversity", "failures", "learning", "reevaluations"}
@@ -287,3 +289,27 @@ def test_reevaluations_are_written_once(store: Store) -> None:
     assert store.add_reevaluations([later, again]) == 2
     assert store.reevaluations() == [row, again, later]
     assert store.reevaluations("best") == []
+
+
+def test_upgrade_pins_the_learning_conditions_of_old_runs(tmp_path: Path) -> None:
+    """Before conditions existed infants learned at heading 0 in both engines: an old online
+    learning run keeps learning so after the upgrade, though its own newborns face random
+    headings, so a resumed run trains its infants as the stored ones were trained."""
+    path = tmp_path / "results.sqlite"
+    learning = {"learner": "cma-es", "budget": 60.0, "insertion": 0.5, "seconds": 1.0}
+    config: dict[str, object] = {"name": "old", "engine": "online", "learning": learning}
+    Store.create(path, config, 0).close()
+    _make_version_3(path, config)
+    with Store.open(path) as s:
+        stored = s.config
+    assert stored["evaluation"]["heading"] == "random"
+    assert stored["learning"]["conditions"]["heading"] == 0.0
+    center = ExperimentConfig.from_dict(
+        {**stored, "population_size": 8, "births": 10}).training_center()
+    assert center is not None
+    assert center.learner.evaluation.conditions == IDEAL  # type: ignore[attr-defined]
+    fresh = ExperimentConfig.from_dict({"engine": "online", "learning": learning,
+                                        "population_size": 8, "births": 10})
+    center = fresh.training_center()
+    learner = center.learner if center is not None else None
+    assert learner.evaluation.conditions.random_heading  # type: ignore[union-attr]
