@@ -70,3 +70,13 @@ def test_curve_summary_counts_significant_points_by_side() -> None:
     above, below = curve_summary([0.9, 0.8, 0.1, 0.95], [0.01, 0.2, 0.03, 0.04])
     assert (above, below) == (0.5, 0.25)
     assert all(math.isnan(v) for v in curve_summary([], []))
+
+
+def test_tied_small_samples_get_the_exact_permutation_p() -> None:
+    """With ties scipy's default falls back to the normal approximation (p = 0.047 for these
+    3 against 3), below the exact floor of 0.1: the exact permutation test never is."""
+    rng = np.random.default_rng(0)
+    result = compare(np.array([1.0, 1.0, 1.0]), np.array([3.0, 3.0, 3.0]), rng)
+    assert result.p == pytest.approx(0.1) and result.p >= result.p_floor
+    untied = compare(np.array([1.0, 2.0, 3.0]), np.array([4.0, 5.0, 6.0]), rng)
+    assert untied.p == pytest.approx(0.1)
