@@ -13,8 +13,10 @@ compiled Zhang-Shasha of ``evolution._treedit``; tests check both agree on rando
 Brain-aware distance (optional, not the paper's): :func:`brain_aware_distance` is the body tree
 edit distance plus ``weight`` times :func:`neural_distance`, which matches parts by their slot
 path from the core (the same path in both bodies is the same part) and neurons of a part by
-layer, activation and order. Its unit is one edit: each neuron present in one brain only costs 1
-and each connection between matched neurons costs the absolute difference of its weights
+layer, activation and order. Its unit is one edit: each neuron present in one brain only costs 1,
+each matched neuron the summed absolute differences of its parameters (bias, gain, oscillator
+period in seconds, phase offset, amplitude), and each connection between matched neurons the
+absolute difference of its weights
 (dimensionless; a connection present in one brain only counts its whole weight). With
 ``weight = 1`` (:data:`BRAIN_WEIGHT`) one missing neuron costs as much as one missing part.
 :func:`brain_aware_diversity` is its population mean, as :func:`diversity` is the body one.
@@ -170,9 +172,14 @@ _NeuronKey = tuple[tuple[int, ...], str, str, int]
 _Weights = dict[tuple[_NeuronKey, _NeuronKey], float]
 
 
-def _brain(robot: Robot) -> tuple[dict[_NeuronKey, int], _Weights]:
-    """Neurons keyed by (part path, layer, activation, rank on the part) and connections by keys."""
+def _brain(robot: Robot) -> tuple[dict[_NeuronKey, tuple[float, ...]], _Weights]:
+    """A brain's neurons with their parameters, and its connections' weights.
+
+    Neurons are keyed by (part path, layer, activation, rank on the part) and carry (bias, gain,
+    period, phase offset, amplitude); connections are keyed by their neurons' keys.
+    """
     keys: dict[str, _NeuronKey] = {}
+    neurons: dict[_NeuronKey, tuple[float, ...]] = {}
     for path, node in robot.walk():
         seen: dict[tuple[str, str], int] = {}
         for neuron in node.neurons:
@@ -180,7 +187,8 @@ def _brain(robot: Robot) -> tuple[dict[_NeuronKey, int], _Weights]:
             rank = seen.get(kind, 0)
             seen[kind] = rank + 1
             keys[neuron.id] = (path, kind[0], kind[1], rank)
-    neurons = dict.fromkeys(keys.values(), 1)
+            neurons[keys[neuron.id]] = (neuron.bias, neuron.gain, neuron.period,
+                                        neuron.phase_offset, neuron.amplitude)
     weights: _Weights = {}
     for c in robot.connections:
         key = (keys[c.src], keys[c.dst])
@@ -192,16 +200,20 @@ def neural_distance(a: Robot, b: Robot) -> float:
     """Distance between two brains over parts matched by slot path (see the module docstring).
 
     Returns:
-        Neurons present in one brain only, plus the summed absolute weight differences of the
-        connections (a missing connection has weight 0). Non-negative, symmetric, 0 for equal
-        brains on equal bodies.
+        Neurons present in one brain only, plus the summed absolute differences of the
+        parameters of matched neurons (bias, gain, period in seconds, phase offset, amplitude:
+        a neuron's unused parameters keep their defaults), plus the summed absolute weight
+        differences of the connections (a missing connection has weight 0). Non-negative,
+        symmetric, 0 for equal brains on equal bodies.
     """
     neurons_a, weights_a = _brain(a)
     neurons_b, weights_b = _brain(b)
     unmatched = len(neurons_a.keys() ^ neurons_b.keys())
+    params = sum(abs(p - q) for k in sorted(neurons_a.keys() & neurons_b.keys())
+                 for p, q in zip(neurons_a[k], neurons_b[k], strict=True))
     keys = sorted(weights_a.keys() | weights_b.keys())
     delta = sum(abs(weights_a.get(k, 0.0) - weights_b.get(k, 0.0)) for k in keys)
-    return float(unmatched + delta)
+    return float(unmatched + params + delta)
 
 
 def _check_weight(weight: float) -> None:

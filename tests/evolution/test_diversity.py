@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -22,6 +24,7 @@ from evolution.diversity import (
     zss_distance_arrays,
 )
 from evolution.random_robot import random_robot
+from revolve_env.body.examples import example
 from revolve_env.body.robot import Activation, Connection, Layer, Neuron, Node, PartType, Robot
 
 T = PartType
@@ -183,3 +186,29 @@ def test_brain_aware_diversity_is_the_mean_pairwise_distance() -> None:
     assert brain_aware_diversity(robots, 0.5) == pytest.approx(np.mean(pairs))
     assert brain_aware_diversity(robots, 0.0) == pytest.approx(diversity(robots))
     assert brain_aware_diversity(robots[:1]) == 0.0
+
+
+def test_neural_distance_sees_oscillator_timing() -> None:
+    """Two robots that differ only in an oscillator's period and phase are apart by exactly the
+    differences (seconds and fractions of a period)."""
+    spider = example("spider")
+    oscillators = [n for _, node in spider.walk() for n in node.neurons
+                   if n.activation == Activation.OSCILLATOR]
+    assert oscillators
+    first = oscillators[0]
+    changed = replace_neuron(spider, first.id, period=first.period + 0.25,
+                             phase_offset=abs(first.phase_offset - 0.5))
+    expected = 0.25 + abs(abs(first.phase_offset - 0.5) - first.phase_offset)
+    assert neural_distance(spider, changed) == pytest.approx(expected)
+    assert neural_distance(spider, spider) == 0.0
+
+
+def replace_neuron(robot: Robot, neuron_id: str, **changes: float) -> Robot:
+    """``robot`` with one neuron's parameters changed."""
+    def node(n: Node) -> Node:
+        neurons = tuple(dataclasses.replace(x, **changes) if x.id == neuron_id else x
+                        for x in n.neurons)
+        return dataclasses.replace(n, neurons=neurons,
+                                   children=tuple((s, node(c)) for s, c in n.children))
+
+    return dataclasses.replace(robot, body=node(robot.body))
