@@ -26,6 +26,7 @@ __all__ = [
     "CliError",
     "StoredRobot",
     "load_robot",
+    "non_negative_float",
     "non_negative_int",
     "number",
     "positive_float",
@@ -62,6 +63,7 @@ def number(kind: type[int | float], low: float, strict: bool) -> Callable[[str],
 positive_int = number(int, 1, strict=False)
 non_negative_int = number(int, 0, strict=False)
 positive_float = number(float, 0.0, strict=True)
+non_negative_float = number(float, 0.0, strict=False)
 
 
 def robot_arguments(parser: argparse.ArgumentParser) -> None:

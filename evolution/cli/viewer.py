@@ -46,6 +46,7 @@ import revolve_env
 from evolution.cli.robots import (
     CliError,
     StoredRobot,
+    non_negative_float,
     non_negative_int,
     positive_float,
     robot_arguments,
@@ -59,7 +60,7 @@ from evolution.experiments.integrity import verify
 from evolution.experiments.online_world import PopulationWorld
 from evolution.experiments.records import FitnessSample, RobotRecord
 from evolution.experiments.run import ReplayError, run_seed
-from revolve_env.body.robot import Robot
+from revolve_env.body.robot import PartType, Robot
 from revolve_env.body.serialize import from_json
 from revolve_env.conditions import IDEAL, EvaluationConditions
 
@@ -113,6 +114,13 @@ def _plan(args: argparse.Namespace) -> _Plan:
                  args.engine or config.world.engine,
                  evaluation_seed(stored.run_seed, stored.record.robot_id), stored, learned,
                  config.evaluation)
+
+
+def _check_drivable(plan: _Plan) -> None:
+    """Refuse, in one line, a robot the single-robot env cannot drive (no active hinge)."""
+    if not any(node.type == PartType.ACTIVE_HINGE for _, node in plan.robot.walk()):
+        raise CliError(f"cannot show {plan.name}: it has no active hinge, so nothing moves it "
+                       "(the single-robot env needs one)")
 
 
 def _no_robot() -> tuple[Robot, str]:
@@ -188,9 +196,11 @@ def _describe(plan: _Plan, video: Video) -> list[str]:
 
 def _cmd_show(args: argparse.Namespace) -> int:
     # Imported here: it loads the physics engine, which the other commands never need.
-    from revolve_env.envs.recording import record_robot
+    from revolve_env.envs.recording import BlowUpError, record_robot
+    from revolve_env.envs.video import VideoError
 
     plan = _plan(args)
+    _check_drivable(plan)
     out = Path(args.out) if args.out else Path(f"{plan.name}.gif")
     try:
         with warnings.catch_warnings(record=True) as notes:
@@ -198,7 +208,7 @@ def _cmd_show(args: argparse.Namespace) -> int:
             video = record_robot(plan.robot, out, seconds=plan.seconds, insertion=plan.insertion,
                                  fps=args.fps, engine=plan.engine, seed=plan.seed,
                                  conditions=plan.conditions)
-    except ValueError as error:  # bad timing, a robot without hinges, a blow-up: the input
+    except (BlowUpError, VideoError) as error:  # the robot's or the video's fault, not ours
         raise CliError(f"cannot show {plan.name}: {error}") from None
     for note in notes:
         _say(f"note: {note.message}")
@@ -209,7 +219,7 @@ def _cmd_show(args: argparse.Namespace) -> int:
 
 def _timing_arguments(p: argparse.ArgumentParser, seconds: str) -> None:
     p.add_argument("--seconds", type=positive_float, help=seconds)
-    p.add_argument("--insertion", type=float,
+    p.add_argument("--insertion", type=non_negative_float,
                    help="settling time shown first, seconds (default: the stored insertion, "
                         "else 3)")
     p.add_argument("--fps", type=positive_float, default=15.0,
@@ -444,13 +454,15 @@ def _watch_robot(args: argparse.Namespace) -> int:
     if args.record:
         args.out = args.record
         return _cmd_show(args)
+    _check_drivable(plan)
+    if plan.engine != "pybullet":
+        raise CliError(f"cannot watch {plan.name} live on {plan.engine}: a live window needs "
+                       "pybullet (--engine pybullet), or write a video with --record")
     try:
-        fitness = watch_robot(plan.robot, plan.seconds, plan.insertion, engine=plan.engine)
+        fitness = watch_robot(plan.robot, plan.seconds, plan.insertion, engine=plan.engine,
+                              seed=plan.seed, conditions=plan.conditions)
     except NoDisplayError:
         raise _no_display(plan.name) from None
-    except ValueError as error:
-        raise CliError(f"cannot watch {plan.name}: {error} (or write a video with --record)"
-                       ) from None
     _say(f"{plan.name}: fitness {fitness:.3f} m")
     return 0
 

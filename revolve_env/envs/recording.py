@@ -28,9 +28,13 @@ from revolve_env.body.robot import Robot
 from revolve_env.conditions import EvaluationConditions
 from revolve_env.envs.episode import run_episode
 from revolve_env.envs.locomotion import LocomotionEnv
-from revolve_env.envs.video import write_video
+from revolve_env.envs.video import VideoError, write_video
 
-__all__ = ["Video", "record_robot"]
+__all__ = ["BlowUpError", "Video", "record_robot"]
+
+
+class BlowUpError(ValueError):
+    """The recorded simulation blew up (the robot, not the code, is at fault)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -109,7 +113,7 @@ def record_robot(
         ValueError: bad timing, or a robot the environment cannot drive (no hinge).
     """
     if not (math.isfinite(fps) and fps > 0):
-        raise ValueError(f"fps must be a positive number, got {fps}")
+        raise VideoError(f"fps must be a positive number, got {fps}")
     env = LocomotionEnv(robot, render_mode="rgb_array", insertion_time=insertion,
                         evaluation_time=seconds, fitness_window=seconds, controller="brain",
                         engine=engine, conditions=conditions)
@@ -137,7 +141,7 @@ def record_robot(
         if steps[0] % every != 0:  # the last frame shows the end of the episode
             frame(steps[0], info)
         if info.get("blow_up"):
-            raise ValueError(f"the simulation blew up: {info['blow_up']}")
+            raise BlowUpError(f"the simulation blew up: {info['blow_up']}")
     finally:
         env.close()
     distance = math.hypot(trail[-1][0] - trail[0][0], trail[-1][1] - trail[0][1])

@@ -23,7 +23,12 @@ from numpy.typing import NDArray
 
 from revolve_env.envs.population import PopulationEnv
 
-__all__ = ["GIF_MAX_FPS", "gif_delays", "mp4_available", "record_video", "write_video"]
+__all__ = ["GIF_MAX_FPS", "VideoError", "gif_delays", "mp4_available", "record_video",
+           "write_video"]
+
+
+class VideoError(ValueError):
+    """A video that cannot be written as asked (frame rate, file type): the caller's input."""
 
 GIF_MAX_FPS = 50.0
 """The fastest frame rate a GIF can play (2 cs per frame; players slow shorter delays)."""
@@ -78,10 +83,10 @@ def write_video(
             # A float image in [0, 1] cast to uint8 would come out black: refuse, do not guess.
             raise ValueError(f"frame {k} must be uint8 RGB (0-255), got dtype {a.dtype}")
     if not (math.isfinite(fps) and fps > 0):
-        raise ValueError(f"fps must be a positive number, got {fps}")
+        raise VideoError(f"fps must be a positive number, got {fps}")
     suffix = out.suffix.lower()
     if suffix not in (".gif", ".mp4"):
-        raise ValueError(f"video path must end in .gif or .mp4, got {out.name!r}")
+        raise VideoError(f"video path must end in .gif or .mp4, got {out.name!r}")
     if suffix == ".mp4":
         if mp4_available():
             import imageio.v2 as imageio
@@ -94,7 +99,7 @@ def write_video(
         warnings.warn(f"MP4 needs ffmpeg (pip install imageio-ffmpeg), which is not installed: "
                       f"writing a GIF instead, to {out}", UserWarning, stacklevel=2)
     if fps > GIF_MAX_FPS:
-        raise ValueError(f"a GIF cannot play {fps:g} frames per second (at most "
+        raise VideoError(f"a GIF cannot play {fps:g} frames per second (at most "
                          f"{GIF_MAX_FPS:g}): take fewer frames, or write an MP4")
     from PIL import Image
 

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.body.robot import Robot
+from revolve_env.conditions import EvaluationConditions
 
 __all__ = ["Label", "NoDisplayError", "control_period", "has_display", "label_frame", "watch_robot"]
 
@@ -92,7 +93,8 @@ def label_frame(frame: NDArray[np.uint8], header: str,
 
 
 def watch_robot(robot: Robot, seconds: float = 12.0, insertion: float = 3.0, *,
-                engine: str | None = None, seed: int = 0) -> float:
+                engine: str | None = None, seed: int = 0,
+                conditions: EvaluationConditions | None = None) -> float:
     """Show ``robot``, driven by its own brain, in the engine's window in real time.
 
     Args:
@@ -101,6 +103,8 @@ def watch_robot(robot: Robot, seconds: float = 12.0, insertion: float = 3.0, *,
         insertion: Settling time first. Seconds.
         engine: ``"pybullet"`` (None means it); MuJoCo has no window in this package.
         seed: Seed of the episode.
+        conditions: Start heading, jitter and noise (default: ideal); with the same ``seed``
+            the robot starts as in ``evaluate(..., seed=seed, conditions=conditions)``.
 
     Returns:
         The fitness at the end. Metres.
@@ -117,7 +121,8 @@ def watch_robot(robot: Robot, seconds: float = 12.0, insertion: float = 3.0, *,
     from revolve_env.envs.locomotion import LocomotionEnv
 
     env = LocomotionEnv(robot, render_mode="human", insertion_time=insertion,
-                        evaluation_time=seconds, fitness_window=seconds, controller="brain")
+                        evaluation_time=seconds, fitness_window=seconds, controller="brain",
+                        conditions=conditions)
     dt = env.config.control_period
     started = time.perf_counter()
 

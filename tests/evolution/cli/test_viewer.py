@@ -19,7 +19,8 @@ from evolution.cli.viewer import _plan, fitness_reasons, replay_online
 from evolution.evaluation import evaluation_seed
 from evolution.experiments import DB_NAME, ExperimentConfig, ReplayError, Store
 from evolution.experiments.records import LearningRecord
-from revolve_env.body.robot import PartType
+from revolve_env.body.robot import Activation, Layer, Neuron, Node, PartType, Robot
+from revolve_env.body.serialize import to_json
 from revolve_env.conditions import EvaluationConditions
 from revolve_env.envs.recording import record_robot
 
@@ -196,3 +197,15 @@ def test_a_replay_that_does_not_repeat_the_stored_run_is_refused(
         with pytest.raises(ReplayError, match="other fitness"):
             replay_online(ExperimentConfig.from_dict(config), 0, store, 30,
                           lambda frame, t: None)
+
+
+def test_show_refuses_a_robot_without_an_active_hinge_in_one_line(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A body nothing can move is the input's fault: one line, exit 2, no video written."""
+    imu = tuple(Neuron(f"imu{k}", Layer.INPUT, Activation.INPUT) for k in range(6))
+    still = Robot(Node(PartType.CORE, neurons=imu, children=((0, Node(PartType.BRICK)),)))
+    path = tmp_path / "still.json"
+    path.write_text(to_json(still), encoding="utf-8")
+    line = _error(capsys, ["show", str(path), "--out", str(tmp_path / "still.gif")])
+    assert "no active hinge" in line
+    assert not (tmp_path / "still.gif").exists()
