@@ -75,11 +75,11 @@ def _cmd_reevaluate(args: argparse.Namespace) -> int:
                              shared_world=args.shared_world, workers=args.workers,
                              progress=count)
     except KeyboardInterrupt:
-        count.close()
         print("revolve reevaluate: interrupted; finished reevaluations are saved; run the same "
               "command again to continue", file=sys.stderr)
         return 130
-    count.close()
+    finally:
+        count.close()
     print(f"{summary.planned} reevaluation(s) asked for in {len(summary.databases)} "
           f"database(s): {summary.added} new, {summary.planned - summary.evaluated} stored "
           "already", flush=True)

@@ -299,6 +299,9 @@ def host_store(db_path: str) -> Iterator[RemoteStore]:
     import ray
     from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
 
+    # Opened here first (the driver's node is the actor's): a database that cannot be opened is
+    # a StoreError now, not an actor that died in its constructor (RayActorError).
+    Store.open(db_path).close()
     here = NodeAffinitySchedulingStrategy(ray.get_runtime_context().get_node_id(), soft=False)
     remote_class: Any = ray.remote(StoreHost)
     actor = remote_class.options(
