@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import math
 from typing import Any
 
@@ -112,6 +113,15 @@ def test_ideal_conditions_are_bit_identical_to_none() -> None:
     b = evaluate(spider(), seed=4, **SHORT,
                  conditions=EvaluationConditions(sensor_noise=0.1, actuator_noise=0.05))
     np.testing.assert_array_equal(a.trajectory, b.trajectory)
+
+
+def test_ideal_conditions_give_the_numbers_recorded_before_conditions_existed() -> None:
+    """Recorded with the code of commit e46ad0e (no conditions at all), pybullet: the spider's
+    fitness and path over 1 s + 2 s. A change in how IDEAL starts a robot breaks this."""
+    result = evaluate(spider(), seconds=2.0, insertion=1.0, conditions=IDEAL)
+    assert result.fitness == 1.6739806559993258
+    digest = hashlib.sha256(result.trajectory.tobytes()).hexdigest()
+    assert digest.startswith("5b12f4e2277c700d")
 
 
 def test_a_start_heading_turns_the_robot_and_the_seed_reproduces_it() -> None:

@@ -12,6 +12,10 @@ others) scipy's default. The exact two-sided p cannot go below ``2 / C(n_a + n_b
 with 3 runs against 3): :func:`smallest_p` gives that floor and the tables show it in every
 row, so a small study's lack of power is visible.
 
+Experiments of one study share their run seeds (run ``i`` of every experiment starts from the
+same initial robots: common random numbers), so their samples are paired by run; the tests here
+ignore the pairing, which makes them conservative, never more significant than the data.
+
 Whole curves are compared at equal births: on a grid of fractions of the births both
 experiments reached (:data:`CURVE_FRACTIONS`), each run's population mean fitness at those
 births (the value after the last commit point at or before them), the same test at each point,
