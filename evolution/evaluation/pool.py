@@ -287,7 +287,8 @@ class RayEvaluator:
         address: ``ray.init(address=...)``: ``None`` starts (or joins) a local instance,
             ``"auto"`` or ``"ray://host:port"`` an existing cluster.
         function: The evaluation function (default :func:`~evolution.evaluation.evaluate_task`).
-        num_cpus: CPUs of a local instance started here (``None``: all).
+        num_cpus: CPUs of a new local instance started here (with ``address=None``; even when
+            another Ray instance runs on this machine). ``None``: all, or join a running one.
         init_kwargs: Further keyword arguments for ``ray.init``.
 
     Raises:
@@ -314,7 +315,10 @@ class RayEvaluator:
             kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
             kwargs.update(init_kwargs)
             if address is None and num_cpus is not None:
+                # A new instance of that size: joining one already running on this machine
+                # (another job's) would refuse num_cpus.
                 kwargs["num_cpus"] = num_cpus
+                address = "local"
             ray.init(address=address, **kwargs)
             self._started_here = True
         self._evaluate = ray.remote(_ray_evaluate)
