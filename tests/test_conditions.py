@@ -15,6 +15,7 @@ from revolve_env import IDEAL, EvaluationConditions, evaluate
 from revolve_env.body.examples import gecko, spider
 from revolve_env.conditions import RANDOM_HEADING
 from revolve_env.envs import LocomotionEnv
+from revolve_env.envs.episode import run_episode
 from revolve_env.evaluation import start_generator
 
 SHORT: dict[str, Any] = {"seconds": 0.5, "insertion": 0.25}
@@ -158,14 +159,14 @@ def _env_path(conditions: EvaluationConditions, seed: int | None,
               env: LocomotionEnv | None = None) -> tuple[np.ndarray, float]:
     env = env or LocomotionEnv(spider(), insertion_time=0.25, evaluation_time=0.5,
                                controller="brain", conditions=conditions)
-    env.reset(seed=seed)
-    xy = []
-    while True:
-        _, _, terminated, truncated, info = env.step(np.zeros(8, dtype=np.float32))
+    xy: list[tuple[float, float]] = []
+
+    def record(step: int, info: dict[str, Any]) -> None:
         if info["evaluating"]:
             xy.append((info["x_position"], info["y_position"]))
-        if terminated or truncated:
-            return np.array(xy), float(info["fitness"])
+
+    info = run_episode(env, seed, on_step=record)
+    return np.array(xy), float(info["fitness"])
 
 
 @pytest.mark.parametrize("conditions", [

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -9,6 +11,7 @@ from revolve_env.body.examples import example, gecko, spider
 from revolve_env.body.robot import Node, PartType, Robot
 from revolve_env.body.validate import RobotError
 from revolve_env.envs import LocomotionEnv
+from revolve_env.envs.episode import run_episode
 from revolve_env.evaluation import EvaluationResult, evaluate
 from revolve_env.fitness import fitness_terms
 from revolve_env.world import WorldConfig
@@ -41,14 +44,13 @@ def test_evaluation_is_deterministic_and_noise_follows_the_seed() -> None:
 def test_same_run_as_the_env_driven_by_the_brain() -> None:
     r = evaluate(spider(), seconds=0.5, insertion=0.25)
     env = LocomotionEnv(spider(), insertion_time=0.25, evaluation_time=0.5, controller="brain")
-    env.reset(seed=0)
-    xy = []
-    while True:
-        _, _, terminated, truncated, info = env.step(np.zeros(8, dtype=np.float32))
+    xy: list[tuple[float, float]] = []
+
+    def record(step: int, info: dict[str, Any]) -> None:
         if info["evaluating"]:
             xy.append((info["x_position"], info["y_position"]))
-        if terminated or truncated:
-            break
+
+    info = run_episode(env, 0, on_step=record)
     env.close()
     np.testing.assert_array_equal(np.array(xy), r.trajectory[:, :2])
     assert info["fitness"] == pytest.approx(r.fitness)

@@ -25,13 +25,13 @@ StepHook = Callable[[int, dict[str, Any]], None]
 """Called after every step with the step's number (1, 2, ...) and its info."""
 
 
-def run_episode(env: LocomotionEnv, seed: int, act: Policy | None = None,
+def run_episode(env: LocomotionEnv, seed: int | None, act: Policy | None = None,
                 on_step: StepHook | None = None) -> dict[str, Any]:
     """Reset ``env`` with ``seed`` and step it until the episode ends.
 
     Args:
         env: The env (not closed here).
-        seed: The reset's seed.
+        seed: The reset's seed (``None``: the env's generator goes on unseeded).
         act: The action for each observation; ``None`` sends zeros (with ``controller="brain"``
             the robot's own network drives it, and ``action="modulate"`` zeros leave it as is).
         on_step: Called after every step (e.g. to record a video frame).
