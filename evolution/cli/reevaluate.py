@@ -20,7 +20,7 @@ from typing import Any, Literal, NoReturn
 
 from tqdm import tqdm
 
-from evolution.cli.robots import non_negative_int, number, positive_int
+from evolution.cli.robots import non_negative_float, non_negative_int, positive_int
 from evolution.experiments.reevaluate import reevaluate
 from evolution.reporting import find_experiments
 from evolution.reporting.optimism import EXPLANATION, markdown, optimism_rows, read_reevaluations
@@ -108,7 +108,7 @@ def add_reevaluate(sub: Any) -> None:
     p.add_argument("--k", type=positive_int, default=10, help="reevaluations per robot")
     p.add_argument("--best", action="store_true",
                    help="the best robot of each commit point instead of the final population")
-    p.add_argument("--window-offset", type=number(float, 0.0, strict=False), action="append",
+    p.add_argument("--window-offset", type=non_negative_float, action="append",
                    metavar="S",
                    help="seconds lived before the fitness window, one setting each (repeatable; "
                         "default: 0, the run's own window)")

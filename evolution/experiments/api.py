@@ -30,6 +30,7 @@ __all__ = [
     "ProgressCallback",
     "check_resumable",
     "config_differences",
+    "flat_keys",
     "pending_jobs",
     "resume",
     "run",
@@ -223,18 +224,20 @@ def _refuse_existing(out: Path, db_path: Path, config: ExperimentConfig) -> None
         "them: choose another --out folder or --name")
 
 
+def flat_keys(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested tables flattened to dotted keys (``evolution.max_parts``), as ``--set`` names them."""
+    out: dict[str, Any] = {}
+    for key, value in data.items():
+        if isinstance(value, Mapping):
+            out.update(flat_keys(value, f"{prefix}{key}."))
+        else:
+            out[f"{prefix}{key}"] = value
+    return out
+
+
 def config_differences(stored: ExperimentConfig, wanted: ExperimentConfig) -> list[str]:
     """``key: stored vs wanted`` for every config value that differs (nested tables flattened)."""
-    def flat(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-        out: dict[str, Any] = {}
-        for key, value in data.items():
-            if isinstance(value, Mapping):
-                out.update(flat(value, f"{prefix}{key}."))
-            else:
-                out[f"{prefix}{key}"] = value
-        return out
-
-    a, b = flat(stored.to_dict()), flat(wanted.to_dict())
+    a, b = flat_keys(stored.to_dict()), flat_keys(wanted.to_dict())
     return [f"{k}: {a.get(k)!r} stored vs {b.get(k)!r}" for k in sorted(set(a) | set(b))
             if a.get(k) != b.get(k)]
 

@@ -48,6 +48,7 @@ from evolution.experiments.api import (
     ExperimentSummary,
     check_resumable,
     config_differences,
+    flat_keys,
     pending_jobs,
 )
 from evolution.experiments.config import ConfigError, ExperimentConfig, load_config
@@ -407,16 +408,7 @@ def _check_existing(folder: Path, config: ExperimentConfig) -> ExperimentConfig:
 
 def _flat_differences(stored: Mapping[str, Any], wanted: Mapping[str, Any]) -> list[str]:
     """``--set key: stored, now`` for every differing override (nested tables flattened)."""
-    def flat(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-        out: dict[str, Any] = {}
-        for key, value in data.items():
-            if isinstance(value, Mapping):
-                out.update(flat(value, f"{prefix}{key}."))
-            else:
-                out[f"{prefix}{key}"] = value
-        return out
-
-    a, b = flat(stored), flat(wanted)
+    a, b = flat_keys(stored), flat_keys(wanted)
     return [f"--set {k}: {_shown(a, k)} stored, {_shown(b, k)} now" for k in sorted(set(a) | set(b))
             if a.get(k, _UNSET) != b.get(k, _UNSET)]
 
