@@ -34,6 +34,7 @@ from evolution.cli.options import parse_set as _parse_set
 from evolution.cli.progress import ProgressBar, cli_logging, duration, metres
 from evolution.cli.reevaluate import add_reevaluate
 from evolution.cli.robots import (
+    EXIT_INTERRUPTED,
     CliError,
     load_robot,
     non_negative_int,
@@ -75,7 +76,6 @@ __all__ = ["CliError", "build_parser", "main"]
 
 EXIT_BUG = 1
 EXIT_USAGE = 2
-EXIT_INTERRUPTED = 130
 
 
 FIGURE_FORMATS = ("png", "pdf", "svg")

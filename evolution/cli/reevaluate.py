@@ -20,7 +20,12 @@ from typing import Any, Literal, NoReturn
 
 from tqdm import tqdm
 
-from evolution.cli.robots import non_negative_float, non_negative_int, positive_int
+from evolution.cli.robots import (
+    EXIT_INTERRUPTED,
+    non_negative_float,
+    non_negative_int,
+    positive_int,
+)
 from evolution.experiments.reevaluate import reevaluate
 from evolution.reporting import find_experiments
 from evolution.reporting.optimism import EXPLANATION, markdown, optimism_rows, read_reevaluations
@@ -77,7 +82,7 @@ def _cmd_reevaluate(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         print("revolve reevaluate: interrupted; finished reevaluations are saved; run the same "
               "command again to continue", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
     finally:
         count.close()
     print(f"{summary.planned} reevaluation(s) asked for in {len(summary.databases)} "

@@ -23,6 +23,7 @@ from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import load
 
 __all__ = [
+    "EXIT_INTERRUPTED",
     "CliError",
     "StoredRobot",
     "load_robot",
@@ -34,6 +35,10 @@ __all__ = [
     "robot_arguments",
     "stored_robot",
 ]
+
+
+EXIT_INTERRUPTED = 130
+"""Exit status of a command stopped by Ctrl-C (what it committed is kept)."""
 
 
 class CliError(ValueError):

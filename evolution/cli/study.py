@@ -24,15 +24,12 @@ from typing import Any
 
 from evolution.cli.options import parse_set
 from evolution.cli.progress import ProgressDisplay, duration, metres
-from evolution.cli.robots import CliError, non_negative_int, positive_int
+from evolution.cli.robots import EXIT_INTERRUPTED, CliError, non_negative_int, positive_int
 from evolution.experiments import ProgressEvent
 from evolution.experiments.study import PAPER_EXPERIMENTS, StudyPlan, prepare_study, run_study
 from evolution.reporting import report
 
 __all__ = ["StudyDisplay", "add_study"]
-
-EXIT_INTERRUPTED = 130
-
 
 class StudyDisplay:
     """The progress of every run of a study on one display, each run labelled by its experiment.

@@ -173,7 +173,11 @@ def _samples(e: ExperimentData) -> dict[str, NDArray[np.float64]]:
             "final_brain_diversity": e.final_brain_diversities()}
 
 
-_holm = holm  # the name the tests knew
+def _holm_corrected(block: list[dict[str, Cell]]) -> list[dict[str, Cell]]:
+    """``block``'s rows with ``p_holm``: Holm over the ``p_value`` of this block's tests."""
+    for row, adjusted in zip(block, holm([float(r["p_value"]) for r in block]), strict=True):
+        row["p_holm"] = adjusted
+    return block
 
 
 def _test_rows(experiments: Sequence[ExperimentData], names: Sequence[str],
@@ -192,9 +196,7 @@ def _test_rows(experiments: Sequence[ExperimentData], names: Sequence[str],
                           "median_b": c.median_b, "u_statistic": c.u, "p_value": c.p,
                           "p_min": c.p_floor, "a12": c.a12, "a12_ci_low": c.a12_low,
                           "a12_ci_high": c.a12_high})
-        for row, adjusted in zip(block, holm([float(r["p_value"]) for r in block]), strict=True):
-            row["p_holm"] = adjusted
-        rows += block
+        rows += _holm_corrected(block)
     return rows
 
 
@@ -245,9 +247,7 @@ def curve_rows(experiments: Sequence[ExperimentData], seed: int = 0) -> list[dic
                           "n_a": c.n_a, "n_b": c.n_b, "median_a": c.median_a,
                           "median_b": c.median_b, "p_value": c.p, "p_min": c.p_floor,
                           "a12": c.a12})
-        for row, adjusted in zip(block, holm([float(r["p_value"]) for r in block]), strict=True):
-            row["p_holm"] = adjusted
-        rows += block
+        rows += _holm_corrected(block)
     return rows
 
 

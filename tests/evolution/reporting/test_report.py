@@ -30,11 +30,11 @@ from evolution.experiments import ProgressEvent, preset, run
 from evolution.experiments.store import DB_NAME, Store, StoreError
 from evolution.learning import CandidateEvaluation, RandomSearchLearner, TrainingCenter
 from evolution.reporting import find_experiments, report, step_on_grid
+from evolution.reporting.stats import holm as _holm
 from evolution.reporting.tables import (
     MANN_WHITNEY_COLUMNS,
     SUMMARY_COLUMNS,
     TESTED_SAMPLES,
-    _holm,
 )
 
 SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
