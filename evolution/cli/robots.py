@@ -93,7 +93,6 @@ class StoredRobot:
     Attributes:
         db: The database file.
         config: The experiment's stored configuration.
-        raw_config: The same as stored (JSON data), for tables this version may not model.
         run_seed: Seed of the robot's run.
         record: The robot's row (genome as conceived, birth, death, last fitness).
         learning: Its infancy learning record, ``None`` without one.
@@ -103,7 +102,6 @@ class StoredRobot:
 
     db: Path
     config: ExperimentConfig
-    raw_config: dict[str, Any]
     run_seed: int
     record: RobotRecord
     learning: LearningRecord | None
@@ -148,13 +146,12 @@ def stored_robot(args: argparse.Namespace) -> StoredRobot:
             raise CliError(str(error.args[0])) from None
         learning = store.learning(args.run, [robot_id])
         samples = store.fitness_samples(args.run, robot_id)
-        raw = store.config
     try:
         robot = record.robot()
     except ValueError as error:  # RobotError, or a genome that is not JSON
         raise StoreError(f"{db} is damaged: robot {robot_id} of run {args.run} does not "
                          f"decode ({error})") from None
-    return StoredRobot(db, config, raw, seeds[args.run], record,
+    return StoredRobot(db, config, seeds[args.run], record,
                        learning[0] if learning else None, robot,
                        samples[-1].time if samples else None)
 
