@@ -304,18 +304,13 @@ def _plan(db: Path, k: int, which: str, offsets: tuple[float, ...], shared_world
           ) -> tuple[Path, int, list[_Todo]]:
     """The database, the evaluations asked of it, and those not stored yet (checked first)."""
     with Store.open(db) as store:
-        verify(store)
+        config = verify(store)
         check_writable(store)
-        config = store.config
         base = store.seed if seed is None else seed
-        used = reevaluation_conditions(config, conditions)
-        engine = str(config.get("world", {}).get("engine", "pybullet"))
-        insertion = float(config.get("insertion", 3.0))
-        seconds = float(config.get("evaluation_time", 12.0))
-        settings = [_Setting(which, used, insertion + o, seconds, shared_world, engine)
-                    for o in offsets]
-        mature_age = float(config.get("fertile_age", 15.0)) if config.get("engine") == "online" \
-            else 0.0
+        used = reevaluation_conditions(store.config, conditions)
+        settings = [_Setting(which, used, config.insertion + o, config.evaluation_time,
+                             shared_world, config.world.engine) for o in offsets]
+        mature_age = config.fertile_age if config.engine == "online" else 0.0
         stored = {r.key for r in store.reevaluations(which)}
         todo: list[_Todo] = []
         asked = 0
