@@ -382,9 +382,13 @@ def write_figures(
     if any(e.learns for e in experiments):
         figures.update(LEARNING_FIGURES)
     for stem, draw in figures.items():
-        figure = draw(experiments)
-        for fmt in formats:
-            path = out_dir / f"{stem}.{fmt}"
-            figure.savefig(path, dpi=150)
-            written.append(path)
+        written += save_figure(draw(experiments), out_dir, stem, formats)
     return tuple(written)
+
+
+def save_figure(figure: Figure, out_dir: Path, stem: str, formats: Sequence[str]) -> list[Path]:
+    """Save ``figure`` as ``out_dir/<stem>.<fmt>`` for each format (150 dpi); the paths."""
+    paths = [out_dir / f"{stem}.{fmt}" for fmt in formats]
+    for path in paths:
+        figure.savefig(path, dpi=150)
+    return paths

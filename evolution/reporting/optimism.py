@@ -25,7 +25,6 @@ no experiment has reevaluations. Pure NumPy and SciPy; matplotlib for the figure
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 from collections.abc import Sequence
@@ -40,6 +39,8 @@ from scipy.stats import bootstrap, spearmanr
 from evolution.experiments.records import ReevaluationRecord
 from evolution.experiments.store import DB_NAME, Store
 from evolution.reporting.data import ExperimentData
+from evolution.reporting.figures import save_figure
+from evolution.reporting.tables import write_csv
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -308,25 +309,13 @@ def write_optimism(experiments: Sequence[ExperimentData], out_dir: Path,
     if not rows:
         return (), ()
     table = out_dir / "optimism.csv"
-    with open(table, "w", newline="", encoding="utf-8") as f:
-        writer = csv.writer(f)
-        writer.writerow(OPTIMISM_COLUMNS)
-        for row in rows:
-            writer.writerow(["" if isinstance(v, float) and math.isnan(v)
-                             else f"{v:.6g}" if isinstance(v, float) else v
-                             for v in row.cells().values()])
+    write_csv(table, OPTIMISM_COLUMNS, [row.cells() for row in rows])
     summary = out_dir / "summary.md"
     section = ["", "## Optimism of a single evaluation (revolve reevaluate)", "", EXPLANATION, ""]
     section += markdown(rows)
     with open(summary, "a", encoding="utf-8") as f:
         f.write("\n".join(section) + "\n")
-    drawn = figure(rows)
-    figures = []
-    for fmt in formats:
-        path = out_dir / f"optimism.{fmt}"
-        drawn.savefig(path, dpi=150)
-        figures.append(path)
-    return tuple(figures), (table,)
+    return tuple(save_figure(figure(rows), out_dir, "optimism", formats)), (table,)
 
 
 def with_optimism(experiments: Sequence[ExperimentData], out_dir: Path, formats: Sequence[str],

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from itertools import combinations
 from pathlib import Path
 
@@ -281,7 +281,8 @@ def _cell(value: Cell) -> str:
     return str(value)
 
 
-def _write_csv(path: Path, columns: Sequence[str], rows: Sequence[dict[str, Cell]]) -> None:
+def write_csv(path: Path, columns: Sequence[str], rows: Sequence[Mapping[str, Cell]]) -> None:
+    """A table as CSV: a header of ``columns``, floats to 6 digits, NaN as an empty cell."""
     with open(path, "w", newline="", encoding="utf-8") as f:
         writer = csv.writer(f)
         writer.writerow(columns)
@@ -366,10 +367,10 @@ def write_tables(experiments: Sequence[ExperimentData], out_dir: Path, seed: int
               "curve": curve_rows(experiments, seed)}
     paths = tuple(out_dir / name for name in TABLE_FILES)
     columns = summary_columns(experiments)
-    _write_csv(paths[0], columns, tables["summary"])
-    _write_csv(paths[1], MANN_WHITNEY_COLUMNS, tables["per_run"])
-    _write_csv(paths[2], MANN_WHITNEY_COLUMNS, tables["pooled"])
-    _write_csv(paths[3], CURVE_COLUMNS, tables["curve"])
+    write_csv(paths[0], columns, tables["summary"])
+    write_csv(paths[1], MANN_WHITNEY_COLUMNS, tables["per_run"])
+    write_csv(paths[2], MANN_WHITNEY_COLUMNS, tables["pooled"])
+    write_csv(paths[3], CURVE_COLUMNS, tables["curve"])
     lines = _markdown_lines(experiments, columns, tables)
     paths[4].write_text("\n".join(lines) + "\n", encoding="utf-8")
     return paths
