@@ -24,8 +24,9 @@ from dataclasses import dataclass, fields
 from typing import Any, Literal, NamedTuple
 
 import numpy as np
+from numpy.typing import NDArray
 
-__all__ = ["IDEAL", "RANDOM_HEADING", "EvaluationConditions", "Start"]
+__all__ = ["IDEAL", "RANDOM_HEADING", "EvaluationConditions", "Start", "add_sensor_noise"]
 
 RANDOM_HEADING: Literal["random"] = "random"
 """The ``heading`` value that draws a heading uniformly in ``[0, 2 pi)``."""
@@ -132,3 +133,17 @@ IDEAL = EvaluationConditions()
 """Heading 0 at the nominal start, no noise: the conditions of every offline evaluation before
 conditions existed (and the default of :func:`revolve_env.evaluate`)."""
 
+
+def add_sensor_noise(values: NDArray[np.float64], noise: float, rng: np.random.Generator,
+                     low: NDArray[np.float64], high: NDArray[np.float64]
+                     ) -> NDArray[np.float64]:
+    """Sensor ``values`` with Gaussian noise of std ``noise``, clipped to ``[low, high]``.
+
+    The one noise rule of evaluations and both worlds of robots: touch and light readings stay in
+    [0, 1] (:func:`revolve_env.body.parts.sensor_bounds`). With ``noise == 0`` the values are
+    returned as they are and nothing is drawn from ``rng``.
+    """
+    if noise <= 0:
+        return values
+    noisy = values + rng.normal(0.0, noise, values.shape)
+    return np.minimum(np.maximum(noisy, low), high)

@@ -12,10 +12,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from revolve_env.body.parts import sensor_bounds
 from revolve_env.body.robot import Robot
 from revolve_env.body.validate import Limits, validate
 from revolve_env.brain import BatchController
-from revolve_env.conditions import IDEAL, EvaluationConditions, Start
+from revolve_env.conditions import IDEAL, EvaluationConditions, Start, add_sensor_noise
 from revolve_env.fitness import DEFAULT_S_WEIGHT, fitness_terms
 from revolve_env.world import World, WorldConfig
 
@@ -149,15 +150,14 @@ def _rollout(
             f"the network has {len(inputs)} inputs / {len(outputs)} outputs but the body has "
             f"{world.n_inputs(h)} sensor values / {world.n_outputs(h)} active hinges"
         )
+    low, high = sensor_bounds(robot)
     reason: str | None = None
     rows = 0
     for tick in range(insertion_ticks + evaluation_ticks):
         if tick == insertion_ticks:
             trajectory[0] = world.core_position(h)
             rows = 1
-        inputs[:] = world.read_sensors(h)
-        if sensor_noise > 0:
-            inputs += rng.normal(0.0, sensor_noise, inputs.shape)
+        inputs[:] = add_sensor_noise(world.read_sensors(h), sensor_noise, rng, low, high)
         brain.step(inputs, outputs)
         if actuator_noise > 0:
             world.set_targets(h, outputs + rng.normal(0.0, actuator_noise, outputs.shape))

@@ -12,8 +12,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from revolve_env import IDEAL, EvaluationConditions, evaluate
-from revolve_env.body.examples import gecko, spider
-from revolve_env.conditions import RANDOM_HEADING
+from revolve_env.body.examples import example, gecko, spider
+from revolve_env.body.robot import PartType
+from revolve_env.conditions import RANDOM_HEADING, add_sensor_noise
 from revolve_env.envs import LocomotionEnv
 from revolve_env.envs.episode import run_episode
 from revolve_env.evaluation import start_generator
@@ -180,6 +181,32 @@ def test_the_env_and_evaluate_agree_for_the_same_seed(conditions: EvaluationCond
     xy, fitness = _env_path(conditions, 3)
     np.testing.assert_array_equal(xy, r.trajectory[:, :2])
     assert fitness == pytest.approx(r.fitness, rel=1e-12)
+
+
+def test_touch_sensors_stay_in_range_under_noise_offline_as_in_the_envs() -> None:
+    """A touch sensor reads 0 off the ground; noise must not push it below 0 in ``evaluate``
+    (offline) when the envs (online) clip it: the same robot, seed and noise give the same path
+    in ``evaluate`` and in the single-robot env."""
+    crawler = example("sensor_crawler")
+    assert any(node.type == PartType.TOUCH_SENSOR for _, node in crawler.walk())
+    noisy = EvaluationConditions(sensor_noise=0.3)
+    r = evaluate(crawler, seed=2, conditions=noisy, **SHORT)
+    env = LocomotionEnv(crawler, insertion_time=0.25, evaluation_time=0.5, controller="brain",
+                        conditions=noisy)
+    xy, fitness = _env_path(noisy, 2, env)
+    env.close()
+    np.testing.assert_array_equal(xy, r.trajectory[:, :2])
+    assert fitness == pytest.approx(r.fitness, rel=1e-12)
+
+
+def test_add_sensor_noise_clips_and_draws_nothing_when_off() -> None:
+    rng = np.random.default_rng(0)
+    values = np.array([0.0, 1.0, 5.0])
+    low, high = np.array([0.0, 0.0, -np.inf]), np.array([1.0, 1.0, np.inf])
+    assert add_sensor_noise(values, 0.0, rng, low, high) is values
+    assert rng.bit_generator.state == np.random.default_rng(0).bit_generator.state
+    noisy = add_sensor_noise(values, 10.0, rng, low, high)
+    assert np.all(noisy[:2] >= 0.0) and np.all(noisy[:2] <= 1.0) and noisy[2] != 5.0
 
 
 def test_the_env_draws_a_new_start_at_every_unseeded_reset() -> None:

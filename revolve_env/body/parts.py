@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from revolve_env.body.robot import PartType
+from revolve_env.body.robot import PartType, Robot
 
 __all__ = [
     "IMU_ACCEL_RANGE",
@@ -42,6 +42,7 @@ __all__ = [
     "ServoSpec",
     "SlotGeometry",
     "rotation_about",
+    "sensor_bounds",
 ]
 
 MM = 1e-3  # metres per millimetre
@@ -432,3 +433,18 @@ PART_SPECS: dict[PartType, PartSpec] = {
         "light sensor: light intensity in [0, 1]",
     ),
 }
+
+
+def sensor_bounds(robot: Robot) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Lower and upper bounds of a robot's sensor values, in controller input order.
+
+    The core's IMU is unbounded here; touch (binary) and light (intensity) sensors read in [0, 1].
+    """
+    low: list[float] = []
+    high: list[float] = []
+    for _, node in robot.walk():
+        n = PART_SPECS[node.type].n_inputs
+        bounded = node.type != PartType.CORE
+        low += [0.0 if bounded else -np.inf] * n
+        high += [1.0 if bounded else np.inf] * n
+    return np.array(low), np.array(high)

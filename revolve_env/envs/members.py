@@ -13,8 +13,9 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from revolve_env.body.parts import PART_SPECS
-from revolve_env.body.robot import PartType, Robot
+from revolve_env.body.parts import sensor_bounds
+from revolve_env.body.robot import Robot
+from revolve_env.conditions import add_sensor_noise
 from revolve_env.fitness import FitnessTerms, SlidingWindowFitness
 
 __all__ = ["NO_TERMS", "Controller", "Dicts", "Lifetimes", "Member", "Report", "noise_generator",
@@ -39,21 +40,6 @@ def noise_generator(seed: int | None) -> np.random.Generator:
     if seed is None:
         return np.random.default_rng()
     return np.random.default_rng(np.random.SeedSequence([seed, _NOISE_STREAM]))
-
-
-def sensor_bounds(robot: Robot) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Lower and upper bounds of a robot's sensor values, in controller input order.
-
-    The core's IMU is unbounded; touch (binary) and light (intensity) sensors read in [0, 1].
-    """
-    low: list[float] = []
-    high: list[float] = []
-    for _, node in robot.walk():
-        n = PART_SPECS[node.type].n_inputs
-        bounded = node.type != PartType.CORE
-        low += [0.0 if bounded else -np.inf] * n
-        high += [1.0 if bounded else np.inf] * n
-    return np.array(low), np.array(high)
 
 
 @dataclass(frozen=True)
@@ -98,14 +84,8 @@ class Member:
 
     def sense(self, values: NDArray[np.float64], noise: float,
               rng: np.random.Generator) -> None:
-        """Take fresh sensor values as :attr:`obs`, with Gaussian noise of std ``noise`` if > 0.
-
-        Noisy values are clipped to the sensors' bounds (touch and light stay in [0, 1]).
-        """
-        if noise > 0:
-            values = values + rng.normal(0.0, noise, values.shape)
-            values = np.minimum(np.maximum(values, self.sensor_low), self.sensor_high)
-        self.obs = values
+        """Take fresh sensor values as :attr:`obs`, noisy as ``add_sensor_noise`` makes them."""
+        self.obs = add_sensor_noise(values, noise, rng, self.sensor_low, self.sensor_high)
 
     def record(self, position: NDArray[np.float64]) -> None:
         """Append a core position to the trajectory (grown by doubling)."""
