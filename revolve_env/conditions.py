@@ -26,7 +26,8 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["IDEAL", "RANDOM_HEADING", "EvaluationConditions", "Start", "add_sensor_noise"]
+__all__ = ["IDEAL", "RANDOM_HEADING", "EvaluationConditions", "Start", "add_sensor_noise",
+           "with_noise_shortcuts"]
 
 RANDOM_HEADING: Literal["random"] = "random"
 """The ``heading`` value that draws a heading uniformly in ``[0, 2 pi)``."""
@@ -147,3 +148,27 @@ def add_sensor_noise(values: NDArray[np.float64], noise: float, rng: np.random.G
         return values
     noisy = values + rng.normal(0.0, noise, values.shape)
     return np.minimum(np.maximum(noisy, low), high)
+
+
+def with_noise_shortcuts(conditions: EvaluationConditions | None, sensor_noise: float,
+                         actuator_noise: float) -> EvaluationConditions:
+    """``conditions``, or the ``sensor_noise``/``actuator_noise`` shortcuts as conditions.
+
+    The rule of ``evaluate`` and ``LocomotionEnv``, which take both: :data:`IDEAL` when neither
+    is given.
+
+    Raises:
+        TypeError: ``conditions`` is not an :class:`EvaluationConditions`.
+        ValueError: the noise is given both ways.
+    """
+    if conditions is None:
+        if sensor_noise == 0 and actuator_noise == 0:
+            return IDEAL
+        return EvaluationConditions(sensor_noise=sensor_noise, actuator_noise=actuator_noise)
+    if not isinstance(conditions, EvaluationConditions):
+        raise TypeError(f"conditions must be an EvaluationConditions, got "
+                        f"{type(conditions).__name__}")
+    if sensor_noise or actuator_noise:
+        raise ValueError("give the noise either in conditions or as sensor_noise/actuator_noise, "
+                         "not both")
+    return conditions

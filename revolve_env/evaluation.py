@@ -16,7 +16,12 @@ from revolve_env.body.parts import sensor_bounds
 from revolve_env.body.robot import Robot
 from revolve_env.body.validate import Limits, validate
 from revolve_env.brain import BatchController
-from revolve_env.conditions import IDEAL, EvaluationConditions, Start, add_sensor_noise
+from revolve_env.conditions import (
+    EvaluationConditions,
+    Start,
+    add_sensor_noise,
+    with_noise_shortcuts,
+)
 from revolve_env.fitness import DEFAULT_S_WEIGHT, fitness_terms
 from revolve_env.world import World, WorldConfig
 
@@ -100,18 +105,14 @@ def evaluate(
         ValueError: a bad timing or noise argument, noise given both ways, an unknown engine, or
             a network whose inputs do not match the body's sensors.
         EngineUnavailableError: the engine's package is not installed.
+        TypeError: ``conditions`` is not an ``EvaluationConditions``.
     """
     validate(robot, limits)
     for name, value in (("seconds", seconds), ("insertion", insertion),
                         ("sensor_noise", sensor_noise), ("actuator_noise", actuator_noise)):
         if not (math.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value}")
-    if conditions is None:
-        conditions = IDEAL if sensor_noise == 0 and actuator_noise == 0 else \
-            EvaluationConditions(sensor_noise=sensor_noise, actuator_noise=actuator_noise)
-    elif sensor_noise or actuator_noise:
-        raise ValueError("give the noise either in conditions or as sensor_noise/actuator_noise, "
-                         "not both")
+    conditions = with_noise_shortcuts(conditions, sensor_noise, actuator_noise)
     cfg = (config if config is not None else WorldConfig()).with_engine(engine)
     dt = cfg.control_period
     insertion_ticks = round(insertion / dt)

@@ -25,7 +25,7 @@ from revolve_env.body.robot import Layer, Robot
 from revolve_env.body.serialize import load
 from revolve_env.body.validate import Limits, validate
 from revolve_env.brain import BatchController
-from revolve_env.conditions import IDEAL, EvaluationConditions
+from revolve_env.conditions import EvaluationConditions, with_noise_shortcuts
 from revolve_env.envs.observations import proprio_bounds, read_proprio, saturated_sensor_bounds
 from revolve_env.evaluation import start_generator
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
@@ -74,22 +74,6 @@ def _check_arguments(render_mode: str | None, render_modes: list[str], insertion
         raise ValueError(
             "action='modulate' scales the brain's outputs: it needs controller='brain'"
         )
-
-
-def _conditions(conditions: EvaluationConditions | None, sensor_noise: float,
-                actuator_noise: float) -> EvaluationConditions:
-    """The env's conditions: ``conditions``, or the noise shortcuts (ValueError if both)."""
-    if conditions is None:
-        if sensor_noise == 0 and actuator_noise == 0:
-            return IDEAL
-        return EvaluationConditions(sensor_noise=sensor_noise, actuator_noise=actuator_noise)
-    if not isinstance(conditions, EvaluationConditions):
-        raise TypeError(f"conditions must be an EvaluationConditions, got "
-                        f"{type(conditions).__name__}")
-    if sensor_noise or actuator_noise:
-        raise ValueError("give the noise either in conditions or as sensor_noise/actuator_noise, "
-                         "not both")
-    return conditions
 
 
 class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
@@ -222,7 +206,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         _check_arguments(render_mode, self.metadata["render_modes"], insertion_time,
                          evaluation_time, fitness_window, sensor_noise, actuator_noise,
                          controller, action)
-        self.conditions = _conditions(conditions, sensor_noise, actuator_noise)
+        self.conditions = with_noise_shortcuts(conditions, sensor_noise, actuator_noise)
 
         config = world_config if world_config is not None else WorldConfig()
         if control_period is not None:  # replace() validates it against the timestep
