@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any, TypeAlias
 
 from evolution.cli.options import parse_set as _parse_set
-from evolution.cli.progress import ProgressBar, cli_logging, duration, metres
+from evolution.cli.progress import ProgressDisplay, cli_logging, duration, metres
 from evolution.cli.reevaluate import add_reevaluate
 from evolution.cli.robots import (
     EXIT_INTERRUPTED,
@@ -119,8 +119,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if Path(config.name).name != config.name or config.name in (".", ".."):
         raise CliError(f"experiment name {config.name!r} cannot be a folder name inside --out")
     out = Path(args.out) / config.name
-    bar = combine(ProgressBar({i: config.births for i in range(config.runs)}, label=config.name),
-                  *_tensorboard(args, config.name))
+    targets = {i: config.births for i in range(config.runs)}
+    bar = combine(ProgressDisplay(targets, label=config.name), *_tensorboard(args, config.name))
     _say(f"{config.name}: {config.runs} run(s) x {config.births} births ({config.engine}) -> {out}")
     if config.learning is not None:
         _say(_describe_learning(config))
@@ -172,7 +172,7 @@ def _cmd_resume(args: argparse.Namespace) -> int:
         return 0
     for folder, config, runs in todo:
         left = [r for r in runs if r.status != "finished"]
-        bar = combine(ProgressBar({r.run_id: config.births for r in left},
+        bar = combine(ProgressDisplay({r.run_id: config.births for r in left},
                                   {r.run_id: r.births for r in left}, label=config.name),
                       *_tensorboard(args, config.name))
         _say(f"{config.name}: resuming {len(left)} run(s) in {folder}")
@@ -241,7 +241,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
          f"{config.offspring_size}) generations up to {config.births} births")
     with tempfile.TemporaryDirectory(prefix="revolve-demo-") as tmp:
         out = Path(args.out) / "demo" if args.out else Path(tmp) / "demo"
-        bar = ProgressBar({0: config.births})
+        bar = ProgressDisplay({0: config.births})
         try:
             summary = run(config, out, bar)
         finally:
