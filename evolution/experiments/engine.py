@@ -74,8 +74,9 @@ Infancy learning (the Training Center, ``RunJob.infancy``)
 
     A learner that trains a policy outside the genome (stable-baselines3; Darwinian only) gives
     the robot a policy instead of a network: the engine writes it to
-    ``<results>/policies/run<r>_robot<id>.pkl`` before the commit that references it (the
-    learning record's ``policy`` column: file and parameter digest), and the policy drives the
+    ``<results>/policies/run<r>_robot<id>.safetensors`` before the commit that references it (the
+    learning record's ``policy`` column: file, its SHA-256 and the parameters' digest; the file
+    loads without running code, :mod:`evolution.learning.policy_file`), and the policy drives the
     robot: its offline evaluation (same seed and window), or its online life as an
     agent-controlled robot of the shared world. An online run resumed by replay reloads the
     policies from their files (a missing, damaged or foreign file is a one-line

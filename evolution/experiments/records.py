@@ -300,7 +300,9 @@ class LearningRecord:
         failures: Learner evaluations that failed (blow-ups).
         policy: ``None``, or the saved policy that drives the robot (an SB3 learner), as JSON:
             ``{"file": path relative to the results folder, "digest": SHA-256 of its
-            parameters}`` (:func:`evolution.learning.sb3.save_policy`).
+            parameters, "sha256": SHA-256 of the file}``
+            (:class:`~evolution.experiments.results_folder.PolicyReference`; older databases
+            have no ``sha256`` and a pickled ``.pkl`` file).
     """
 
     robot_id: int

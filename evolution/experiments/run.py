@@ -231,6 +231,8 @@ class RunJob:
 
     ``store``: where the run reads and writes its records; ``None``: it opens ``db_path``
     itself. A job sent to another machine carries a remote one (:meth:`for_remote_worker`).
+    ``trust_pickled_policies``: a resumed run may load SB3 policies saved as pickles by older
+    versions (unpickling can run code: only for a results folder whose author is trusted).
     """
 
     db_path: str
@@ -240,6 +242,7 @@ class RunJob:
     infancy: InfancyHook | None = None
     stop_after_commits: int | None = None
     store: RunStore | None = None
+    trust_pickled_policies: bool = False
 
     @contextmanager
     def for_remote_worker(self) -> Iterator[RunJob]:
@@ -428,7 +431,7 @@ class RunState:
         """Write ``member.policy`` beside the database (before the commit that references it).
 
         Returns:
-            The learning record's reference: JSON ``{"file": ..., "digest": ...}``.
+            The learning record's reference: JSON ``{"file": ..., "digest": ..., "sha256": ...}``.
         """
         return self.store.save_policy(self.run_id, member.robot_id, member.policy)
 
@@ -439,7 +442,8 @@ class RunState:
             StoreError: one line naming the file: missing, damaged, of another body, or not the
                 one the store recorded.
         """
-        return self.store.load_policy(self.run_id, robot, reference)
+        return self.store.load_policy(self.run_id, robot, reference,
+                                      self.job.trust_pickled_policies)
 
     # -- deaths ------------------------------------------------------------------------------
 
