@@ -53,10 +53,44 @@ from evolution.config import EvolutionConfig
 from evolution.experiments.errors import ConfigError
 from evolution.experiments.registry import read_toml, shipped_config, shipped_configs
 from evolution.learning import TrainingCenter, training_center_from_dict
-from revolve_env.conditions import EvaluationConditions
+from revolve_env.conditions import MAX_RADIUS, EvaluationConditions
 
-__all__ = ["DEFAULT_EVALUATION", "ConfigError", "ExperimentConfig", "WorldSettings",
-           "load_config", "preset"]
+__all__ = ["DEFAULT_EVALUATION", "MAX_BIRTHS", "MAX_RADIUS", "MAX_SECONDS", "MAX_WORKERS",
+           "ConfigError", "ExperimentConfig", "WorldSettings", "check_name", "load_config",
+           "preset"]
+
+# Upper bounds: a value beyond them cannot be what a researcher meant, and would hang the
+# machine (a billion births, a million worker processes) or break the physics (MuJoCo aborts on
+# a robot placed 1e30 m away) long after the command started.
+MAX_SECONDS = 3600.0
+"""Longest insertion, evaluation, fertile age or conception interval: a simulated hour (the
+paper's are 3, 12, 15 and 15 s). Seconds."""
+MAX_BIRTHS = 10_000_000
+"""Most births of a run (the paper's: 3000)."""
+MAX_WORKERS = 1024
+"""Most worker processes (0 means all cores)."""
+_MAX_INTS = {"population_size": 10_000, "offspring_size": 10_000, "tournament_size": 10_000,
+             "births": MAX_BIRTHS, "min_alive": 1000, "max_alive": 1000,
+             "max_conception_attempts": 10_000, "diversity_interval": MAX_BIRTHS,
+             "checkpoint_interval": MAX_BIRTHS, "runs": 10_000, "seed": 2**63 - 1,
+             "workers": MAX_WORKERS}
+"""Upper bound of each integer key (``seed``: what SQLite's integers hold)."""
+
+
+def check_name(name: object, what: str = "name") -> str:
+    """``name`` if it can name a results folder: printable text, no path.
+
+    Raises:
+        ConfigError: not text, empty, longer than 100 characters, a control character, a
+            slash or backslash, or ``.`` / ``..``.
+    """
+    if not isinstance(name, str) or not name:
+        raise ConfigError(f"{what} must be a non-empty string, got {name!r}")
+    if (len(name) > 100 or not name.isprintable() or "/" in name or "\\" in name
+            or name in (".", "..")):
+        raise ConfigError(f"{what} {name!r} cannot name a folder: give at most 100 printable "
+                          "characters without / or \\ (not . or ..)")
+    return name
 
 _NESTED = ("evaluation", "evolution", "learning", "world")
 """Config keys that are tables, merged key by key by presets and overrides."""
@@ -187,6 +221,8 @@ class ExperimentConfig:
                 raise ConfigError(f"{key} must be an integer, got {value!r}")
             if value < low:
                 raise ConfigError(f"{key} must be >= {low}, got {value}")
+            if value > _MAX_INTS[key]:
+                raise ConfigError(f"{key} must be <= {_MAX_INTS[key]}, got {value}")
         floats = {
             "insertion": (0.0, False), "evaluation_time": (0.0, True), "fertile_age": (0.0, False),
             "conception_interval": (0.0, True), "birth_radius": (0.0, False),
@@ -202,6 +238,14 @@ class ExperimentConfig:
         for key in ("death_threshold", "cull_fraction"):
             if getattr(self, key) > 1:
                 raise ConfigError(f"{key} must be <= 1, got {getattr(self, key)}")
+        for key, high, unit in (("insertion", MAX_SECONDS, "s"),
+                                ("evaluation_time", MAX_SECONDS, "s"),
+                                ("fertile_age", MAX_SECONDS, "s"),
+                                ("conception_interval", MAX_SECONDS, "s"),
+                                ("birth_radius", MAX_RADIUS, "m"),
+                                ("birth_clearance", MAX_RADIUS, "m")):
+            if getattr(self, key) > high:
+                raise ConfigError(f"{key} must be <= {high:g} {unit}, got {getattr(self, key)}")
         if self.max_sim_time is not None and not (
             _finite_number(self.max_sim_time) and self.max_sim_time > 0
         ):
@@ -235,8 +279,11 @@ class ExperimentConfig:
         if self.ray_address is not None and not isinstance(self.ray_address, str):
             raise ConfigError(f"ray_address must be a string, got {self.ray_address!r}")
         _check_tables(self)
-        if not isinstance(self.name, str) or not self.name:
-            raise ConfigError(f"name must be a non-empty string, got {self.name!r}")
+        check_name(self.name)
+        period = revolve_env.WorldConfig().with_engine(self.world.engine).control_period
+        if self.evaluation_time < period:
+            raise ConfigError(f"evaluation_time must cover one control period ({period:.6g} s "
+                              f"on {self.world.engine}), got {self.evaluation_time}")
         if self.learning is not None:
             if not isinstance(self.learning, Mapping):
                 raise ConfigError(f"learning must be a table of parameters, got {self.learning!r}")

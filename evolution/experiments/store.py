@@ -102,13 +102,15 @@ DB_NAME = "results.sqlite"
 
 
 def package_version() -> str:
-    """The installed version of ``revolve-env`` (``"unknown"`` when not installed)."""
+    """The installed version of ``revolve-env``; not installed: the package's own version."""
     from importlib.metadata import PackageNotFoundError, version
 
     try:
         return version("revolve-env")
-    except PackageNotFoundError:
-        return "unknown"
+    except PackageNotFoundError:  # run from a checkout (PYTHONPATH)
+        import revolve_env
+
+        return revolve_env.__version__
 
 
 def _nullable(value: float | None) -> float | None:
@@ -144,10 +146,16 @@ class Store:
     def create(cls, path: str | Path, config: dict[str, Any], seed: int) -> Store:
         """Create a new database at ``path`` (which must not exist) for an experiment.
 
+        An empty database (no tables: a run killed while it created its database) holds no
+        results and is replaced.
+
         Raises:
             StoreError: ``path`` already exists (existing results are never overwritten).
         """
         path = Path(path)
+        if path.exists() and cls.is_empty(path):
+            for leftover in (path, Path(f"{path}-wal"), Path(f"{path}-shm")):
+                leftover.unlink(missing_ok=True)
         if path.exists():
             raise StoreError(f"{path} already exists; refusing to overwrite existing results")
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -173,6 +181,21 @@ class Store:
             path.unlink(missing_ok=True)
             raise
         return cls(db, path)
+
+    @staticmethod
+    def is_empty(path: str | Path) -> bool:
+        """Whether ``path`` is a SQLite database without any table (or an empty file).
+
+        A run killed before its database's first transaction leaves one: it holds nothing.
+        """
+        try:
+            db = sqlite3.connect(path, timeout=60.0)
+            try:
+                return not db.execute("SELECT 1 FROM sqlite_master LIMIT 1").fetchall()
+            finally:
+                db.close()
+        except sqlite3.DatabaseError:  # not a database at all: not ours to replace
+            return False
 
     @classmethod
     def open(cls, path: str | Path) -> Store:
@@ -521,6 +544,11 @@ def _check_database(db: sqlite3.Connection, path: Path, check: tuple[str] | None
     """
     if check is None or check[0] != "ok":
         raise StoreError(f"{path} is corrupt: integrity check says {check!r}")
+    if not db.execute("SELECT 1 FROM sqlite_master LIMIT 1").fetchall():
+        raise StoreError(
+            f"{path} is empty: the experiment was stopped while it created its database, "
+            "before storing anything; start it again with the same `revolve run` (or `revolve "
+            "study`) command, which replaces an empty database")
     try:
         rows = dict(db.execute("SELECT key, value FROM meta").fetchall())
     except sqlite3.DatabaseError as error:

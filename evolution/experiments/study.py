@@ -51,7 +51,7 @@ from evolution.experiments.api import (
     flat_keys,
     pending_jobs,
 )
-from evolution.experiments.config import ConfigError, ExperimentConfig, load_config
+from evolution.experiments.config import ConfigError, ExperimentConfig, check_name, load_config
 from evolution.experiments.engine import execute_run
 from evolution.experiments.run import ProgressEvent, RunJob, RunSummary, WorldFactory, check_infancy
 from evolution.experiments.store import DB_NAME, Store, StoreError
@@ -255,7 +255,8 @@ def prepare_study(
     configs = _configs(experiments, settings, execution)
     names = _check_study_file(out, settings, [c.name for c in configs])
     existing = {c.name: _check_existing(out / c.name, c) for c in configs
-                if (out / c.name / DB_NAME).exists()}
+                if (out / c.name / DB_NAME).exists()
+                and not Store.is_empty(out / c.name / DB_NAME)}  # an empty one is replaced
     out.mkdir(parents=True, exist_ok=True)
     _write_json(out / STUDY_FILE, {**settings, "experiments": names})
     planned = []
@@ -356,8 +357,6 @@ def _configs(experiments: Sequence[str], settings: Mapping[str, Any],
             raise ConfigError(text if str(name) in text else f"{name}: {text}") from None
         if any(c.name == config.name for c in configs):
             raise ConfigError(f"experiment {config.name!r} is given twice")
-        if Path(config.name).name != config.name or config.name in (".", ".."):
-            raise ConfigError(f"experiment name {config.name!r} cannot be a folder name")
         configs.append(config)
     return configs
 
@@ -374,7 +373,7 @@ def _check_study_file(out: Path, settings: Mapping[str, Any], names: list[str]) 
         return names
     try:
         stored = json.loads(path.read_text(encoding="utf-8"))
-        known = list(stored["experiments"])
+        known = [check_name(n, "experiment name") for n in stored["experiments"]]
         differ = [f"{k}: {stored[k]!r} stored, {settings[k]!r} now" for k in _STUDY_KEYS
                   if stored[k] != settings[k]]
         differ += _flat_differences(stored["overrides"], settings["overrides"])

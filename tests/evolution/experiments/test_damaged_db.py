@@ -2,7 +2,8 @@
 
 One small interrupted offline experiment and one online experiment (fast physics stand-ins)
 are made once; each case copies one,
-damages one table (emptied, rows deleted, a wrong type, an inconsistent checkpoint), and runs
+damages one table (emptied, rows deleted, a wrong type, an inconsistent checkpoint, a duplicated
+row, an extra column, a stored name that is a path, a policy reference leading out), and runs
 ``resume``, ``report`` and ``show --db`` through :func:`evolution.cli.main`: each must exit 2
 with one line on stderr (no traceback), and the database's bytes must be unchanged.
 A read-only database is refused by ``resume`` and still readable by ``report`` and ``show``.
@@ -33,6 +34,9 @@ from evolution.experiments.store import DB_NAME, Store
 SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
 HALF = ("rowid IN (SELECT rowid FROM {t} ORDER BY rowid DESC "
         "LIMIT (SELECT COUNT(*) / 2 + 1 FROM {t}))")  # the latest half of a table
+
+LEARNING_ROW = ("INSERT INTO learning (run_id, robot_id, time, inheritance, failures, policy) "
+                "VALUES (0, 1, 0.0, 'darwinian', 0, '{policy}')")
 
 # (case id, SQL that damages the database)
 DAMAGES: list[tuple[str, str]] = [
@@ -84,6 +88,20 @@ DAMAGES: list[tuple[str, str]] = [
     ("stray-run-robots", "INSERT INTO robots SELECT 7, robot_id, genome, parent_a, parent_b, "
                          "origin, generation, conceived_time, birth_time, death_time, "
                          "death_cause, fitness FROM robots WHERE run_id = 0"),
+    # Issue 20: damages that `resume` used to continue (exit 0).
+    ("population-duplicate-row", "INSERT INTO population SELECT * FROM population "
+                                 "WHERE rowid = 1"),
+    ("robots-extra-column", "ALTER TABLE robots ADD COLUMN extra TEXT"),
+    ("meta-seed-not-an-integer", "UPDATE meta SET value = '1.5' WHERE key = 'seed'"),
+    ("meta-config-name-a-path", "UPDATE meta SET value = json_set(value, '$.name', '../evil') "
+                                "WHERE key = 'config'"),
+    ("meta-config-name-control", "UPDATE meta SET value = json_set(value, '$.name', "
+                                 "'a' || char(7)) WHERE key = 'config'"),
+    ("learning-policy-absolute", LEARNING_ROW.format(policy='{"file": "/etc/passwd", '
+                                                            '"digest": "x"}')),
+    ("learning-policy-parent", LEARNING_ROW.format(policy='{"file": "../../x.safetensors", '
+                                                          '"digest": "x"}')),
+    ("learning-policy-malformed", LEARNING_ROW.format(policy="policies/x.pkl")),
 ]
 
 
