@@ -22,11 +22,12 @@ from tqdm import tqdm
 
 from evolution.cli.robots import (
     EXIT_INTERRUPTED,
-    non_negative_float,
-    non_negative_int,
-    positive_int,
+    non_negative_seconds,
+    number,
+    trust_argument,
+    workers,
 )
-from evolution.experiments.reevaluate import reevaluate
+from evolution.experiments.reevaluate import MAX_K, reevaluate
 from evolution.reporting import find_experiments
 from evolution.reporting.optimism import EXPLANATION, markdown, optimism_rows, read_reevaluations
 
@@ -78,13 +79,18 @@ def _cmd_reevaluate(args: argparse.Namespace) -> int:
     try:
         summary = reevaluate(args.results, k=args.k, which=which, window_offsets=offsets,
                              shared_world=args.shared_world, workers=args.workers,
-                             progress=count)
+                             progress=count, include_unfinished=args.include_unfinished,
+                             trust_pickled_policies=args.trust_pickled_policies)
     except KeyboardInterrupt:
         print("revolve reevaluate: interrupted; finished reevaluations are saved; run the same "
               "command again to continue", file=sys.stderr)
         return EXIT_INTERRUPTED
     finally:
         count.close()
+    for run in summary.skipped:
+        print(f"skipped run {run.run_id} of {run.database.parent}: {run.status} at "
+              f"{run.births} of {run.target} births (--include-unfinished reevaluates its last "
+              "committed population)", flush=True)
     print(f"{summary.planned} reevaluation(s) asked for in {len(summary.databases)} "
           f"database(s): {summary.added} new, {summary.planned - summary.evaluated} stored "
           "already", flush=True)
@@ -110,15 +116,20 @@ def add_reevaluate(sub: Any) -> None:
     )
     p.add_argument("results", metavar="RESULTS",
                    help="results folder (as given to `revolve run --out`), or one experiment's")
-    p.add_argument("--k", type=positive_int, default=10, help="reevaluations per robot")
+    p.add_argument("--k", type=number(int, 1, strict=False, high=MAX_K), default=10,
+                   help="reevaluations per robot")
     p.add_argument("--best", action="store_true",
                    help="the best robot of each commit point instead of the final population")
-    p.add_argument("--window-offset", type=non_negative_float, action="append",
+    p.add_argument("--window-offset", type=non_negative_seconds, action="append",
                    metavar="S",
                    help="seconds lived before the fitness window, one setting each (repeatable; "
                         "default: 0, the run's own window)")
     p.add_argument("--shared-world", action="store_true",
                    help="evaluate a run's robots together in one world per repeat")
-    p.add_argument("--workers", type=non_negative_int, default=0,
+    p.add_argument("--workers", type=workers, default=0,
                    help="worker processes, 0: all cores")
+    p.add_argument("--include-unfinished", action="store_true",
+                   help="also runs that have not finished (interrupted or still running: their "
+                        "last committed population); by default they are skipped, and listed")
+    trust_argument(p)
     p.set_defaults(handler=_cmd_reevaluate)

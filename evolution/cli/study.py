@@ -24,7 +24,7 @@ from typing import Any
 
 from evolution.cli.options import parse_set
 from evolution.cli.progress import ProgressDisplay, duration, metres
-from evolution.cli.robots import EXIT_INTERRUPTED, CliError, non_negative_int, positive_int
+from evolution.cli.robots import EXIT_INTERRUPTED, CliError, non_negative_int, positive_int, workers
 from evolution.experiments import ProgressEvent
 from evolution.experiments.study import PAPER_EXPERIMENTS, StudyPlan, prepare_study, run_study
 from evolution.reporting import report
@@ -151,7 +151,7 @@ def add_study(sub: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--only", nargs="+", metavar="NAME",
                    help="run only these experiments (shipped names or TOML paths; default: "
                         f"{' '.join(PAPER_EXPERIMENTS)}); a later call may add the others")
-    p.add_argument("--workers", type=non_negative_int, default=0,
+    p.add_argument("--workers", type=workers, default=0,
                    help="runs at once: worker processes, 0: all cores (Ray: CPUs of a local "
                         "instance)")
     p.add_argument("--evaluator", choices=("local", "ray"), default="local",
