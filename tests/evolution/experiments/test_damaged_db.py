@@ -91,7 +91,8 @@ DAMAGES: list[tuple[str, str]] = [
     # Issue 20: damages that `resume` used to continue (exit 0).
     ("population-duplicate-row", "INSERT INTO population SELECT * FROM population "
                                  "WHERE rowid = 1"),
-    ("robots-extra-column", "ALTER TABLE robots ADD COLUMN extra TEXT"),
+    ("robots-extra-column", "ALTER TABLE robots ADD COLUMN extra TEXT; "
+                            "UPDATE robots SET extra = 'x'"),
     ("meta-seed-not-an-integer", "UPDATE meta SET value = '1.5' WHERE key = 'seed'"),
     ("meta-config-name-a-path", "UPDATE meta SET value = json_set(value, '$.name', '../evil') "
                                 "WHERE key = 'config'"),
@@ -315,3 +316,19 @@ def test_resume_of_a_folder_changes_nothing_when_one_experiment_is_damaged(
     line = _one_line_error(capsys, ["resume", str(tmp_path)])
     assert "no checkpoint" in line
     assert {name: _digest(tmp_path / name) for name in ("a", "b")} == digests
+
+
+@pytest.mark.parametrize("name", ["checkpoints", "policies"])
+def test_a_folder_of_the_results_that_leads_outside_is_refused(
+        online: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], fake_physics: None,
+        name: str) -> None:
+    """Resume would write snapshots or policies through it: refused before anything runs."""
+    folder = tmp_path / "exp"
+    shutil.copytree(online, folder)
+    (tmp_path / "elsewhere").mkdir()
+    (folder / name).symlink_to(tmp_path / "elsewhere")
+    digest = _digest(folder)
+    for command, argv in _commands(folder, tmp_path).items():
+        line = _one_line_error(capsys, argv)
+        assert line.startswith(f"revolve {command}: error: ") and "outside" in line, line
+    assert _digest(folder) == digest and list((tmp_path / "elsewhere").iterdir()) == []
