@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 from evolution.experiments.config import ExperimentConfig
 from evolution.experiments.run import AgentStatus, Birth
+from evolution.learning.config import policies_observe_hinges
 from revolve_env.body.robot import Robot
 
 if TYPE_CHECKING:
@@ -52,7 +53,8 @@ class PopulationWorld:
             maturity_age=config.fertile_age, fitness_window=config.evaluation_time,
             birth_radius=config.birth_radius, birth_clearance=config.birth_clearance,
             limits=config.evolution.limits, engine=config.world.engine,
-            conditions=config.evaluation)
+            conditions=config.evaluation,
+            proprioception=policies_observe_hinges(config.learning))
         self._seed = seed
         self._env.reset(seed=seed)
         self._last: dict[str, dict[str, Any]] = {}
