@@ -159,7 +159,8 @@ MANN_WHITNEY_COLUMNS = ("sample", "experiment_a", "experiment_b", "n_a", "n_b", 
                         "a12_ci_low", "a12_ci_high")
 """Columns of ``tests_per_run.csv`` and ``tests_pooled_descriptive.csv``: ``p_min`` is the
 smallest p the group sizes allow, ``p_holm`` Holm-Bonferroni over the pairs of one sample,
-``a12`` the Vargha-Delaney effect size of A over B with its 95 % bootstrap interval."""
+``a12`` the Vargha-Delaney effect size of A over B with its 95 % interval
+(:func:`evolution.reporting.stats.a12_interval`)."""
 
 CURVE_COLUMNS = ("experiment_a", "experiment_b", "point", "births", "n_a", "n_b", "median_a",
                  "median_b", "p_value", "p_min", "p_holm", "a12")
@@ -180,8 +181,8 @@ def _holm_corrected(block: list[dict[str, Cell]]) -> list[dict[str, Cell]]:
     return block
 
 
-def _test_rows(experiments: Sequence[ExperimentData], names: Sequence[str],
-               rng: np.random.Generator) -> list[dict[str, Cell]]:
+def _test_rows(experiments: Sequence[ExperimentData], names: Sequence[str]
+               ) -> list[dict[str, Cell]]:
     rows: list[dict[str, Cell]] = []
     samples = {e.label: _samples(e) for e in experiments}
     for sample in names:
@@ -190,7 +191,7 @@ def _test_rows(experiments: Sequence[ExperimentData], names: Sequence[str],
             xa, xb = samples[a][sample], samples[b][sample]
             if xa.size == 0 or xb.size == 0:
                 continue
-            c = compare(xa, xb, rng)
+            c = compare(xa, xb)
             block.append({"sample": sample, "experiment_a": a, "experiment_b": b,
                           "n_a": c.n_a, "n_b": c.n_b, "median_a": c.median_a,
                           "median_b": c.median_b, "u_statistic": c.u, "p_value": c.p,
@@ -200,20 +201,19 @@ def _test_rows(experiments: Sequence[ExperimentData], names: Sequence[str],
     return rows
 
 
-def mann_whitney_rows(experiments: Sequence[ExperimentData], seed: int = 0
-                      ) -> list[dict[str, Cell]]:
+def mann_whitney_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Cell]]:
     """The primary tests: one value per run, every pair, per sample of :data:`TESTED_SAMPLES`.
 
-    Two-sided Mann-Whitney U, Holm-Bonferroni over the pairs of one sample, A12 with a 95 %
-    bootstrap interval from ``numpy.random.default_rng(seed)``. A pair is left out when either
+    Two-sided Mann-Whitney U, Holm-Bonferroni over the pairs of one sample, A12 with its 95 %
+    interval (:func:`evolution.reporting.stats.a12_interval`). A pair is left out when either
     side has no value (e.g. brain-aware diversity when it was not computed).
     """
-    return _test_rows(experiments, list(TESTED_SAMPLES), np.random.default_rng(seed))
+    return _test_rows(experiments, list(TESTED_SAMPLES))
 
 
-def pooled_rows(experiments: Sequence[ExperimentData], seed: int = 0) -> list[dict[str, Cell]]:
+def pooled_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Cell]]:
     """Descriptive tests on the pooled final populations (:data:`POOLED_SAMPLES`)."""
-    return _test_rows(experiments, list(POOLED_SAMPLES), np.random.default_rng(seed))
+    return _test_rows(experiments, list(POOLED_SAMPLES))
 
 
 def _curve_values(e: ExperimentData, births: int) -> NDArray[np.float64]:
@@ -223,13 +223,12 @@ def _curve_values(e: ExperimentData, births: int) -> NDArray[np.float64]:
     return finite
 
 
-def curve_rows(experiments: Sequence[ExperimentData], seed: int = 0) -> list[dict[str, Cell]]:
+def curve_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Cell]]:
     """Whole-curve tests: every pair at :data:`CURVE_FRACTIONS` of the births both reached.
 
     Each run gives its population mean fitness at those births; a point where either side has
     no value (before the first commit point, or no fitness yet) is left out.
     """
-    rng = np.random.default_rng(seed)
     rows: list[dict[str, Cell]] = []
     for a, b in combinations(experiments, 2):
         if not a.runs or not b.runs:
@@ -241,7 +240,7 @@ def curve_rows(experiments: Sequence[ExperimentData], seed: int = 0) -> list[dic
             xa, xb = _curve_values(a, births), _curve_values(b, births)
             if xa.size == 0 or xb.size == 0:
                 continue
-            c = compare(xa, xb, rng)
+            c = compare(xa, xb, interval=False)
             block.append({"experiment_a": a.label, "experiment_b": b.label, "point": point,
                           "births": births,
                           "n_a": c.n_a, "n_b": c.n_b, "median_a": c.median_a,
@@ -321,7 +320,8 @@ def _test_lines(tests: Sequence[dict[str, Cell]], samples: dict[str, str]) -> li
               "against 3): a p at its floor is the strongest result the study can show",
               "- `p_holm`: Holm-Bonferroni correction over the pairs of one sample",
               "- `a12`: Vargha-Delaney A12 of A over B (0.5: no effect; 1: every A above every "
-              "B), [a12_ci_low, a12_ci_high] its 95 % percentile bootstrap interval", ""]
+              "B); [a12_ci_low, a12_ci_high]: its 95 % interval, the A12 values an exact test "
+              "does not reject (it excludes 0.5 exactly when p < 0.05 with small samples)", ""]
     return lines + (_markdown(MANN_WHITNEY_COLUMNS, tests) if tests
                     else ["(fewer than two experiments with values)"])
 
@@ -355,16 +355,12 @@ def _markdown_lines(experiments: Sequence[ExperimentData], columns: Sequence[str
     return lines
 
 
-def write_tables(experiments: Sequence[ExperimentData], out_dir: Path, seed: int = 0
-                 ) -> tuple[Path, ...]:
-    """Write the files of :data:`TABLE_FILES` into ``out_dir``.
-
-    ``seed`` seeds the bootstrap intervals of the effect sizes.
-    """
+def write_tables(experiments: Sequence[ExperimentData], out_dir: Path) -> tuple[Path, ...]:
+    """Write the files of :data:`TABLE_FILES` into ``out_dir``."""
     tables = {"summary": summary_rows(experiments),
-              "per_run": mann_whitney_rows(experiments, seed),
-              "pooled": pooled_rows(experiments, seed),
-              "curve": curve_rows(experiments, seed)}
+              "per_run": mann_whitney_rows(experiments),
+              "pooled": pooled_rows(experiments),
+              "curve": curve_rows(experiments)}
     paths = tuple(out_dir / name for name in TABLE_FILES)
     columns = summary_columns(experiments)
     write_csv(paths[0], columns, tables["summary"])
