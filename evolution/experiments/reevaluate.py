@@ -35,8 +35,12 @@ it again finds every row stored (the key holds no timestamp) and evaluates nothi
 ``k`` adds only the missing repeats. Results are committed every few evaluations, so Ctrl-C
 loses only the evaluations in flight.
 
+Which databases: one set of experiments below ``path``, as a report takes them
+(:func:`evolution.experiments.folders.select_results`: a study, or the experiments outside any
+study; ``every_set=True`` takes them all); the summary names what was left out.
+
 From the command line: ``revolve reevaluate RESULTS [--k 10] [--best] [--window-offset S ...]
-[--shared-world] [--workers N]``, then ``revolve report RESULTS``.
+[--shared-world] [--workers N] [--all]``, then ``revolve report RESULTS``.
 """
 
 from __future__ import annotations
@@ -52,9 +56,10 @@ from typing import Any, Literal
 import numpy as np
 
 from evolution.evaluation import EvalOutcome, EvalTask, Evaluator, make_evaluator
+from evolution.experiments.folders import ResultSet, select_results
 from evolution.experiments.integrity import check_writable, verify
 from evolution.experiments.records import ReevaluationRecord
-from evolution.experiments.store import DB_NAME, Store, StoreError
+from evolution.experiments.store import Store, StoreError
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import from_json
 from revolve_env.conditions import RANDOM_HEADING, EvaluationConditions
@@ -194,12 +199,15 @@ class ReevaluationSummary:
         planned: Evaluations the arguments ask for (robots x repeats x settings).
         evaluated: Of those, evaluations run by this call (the others were stored already).
         added: Rows written by this call.
+        left_out: The sets of experiments below the path that were not reevaluated
+            (:func:`~evolution.experiments.folders.select_results`).
     """
 
     databases: tuple[Path, ...]
     planned: int
     evaluated: int
     added: int
+    left_out: tuple[ResultSet, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -230,6 +238,7 @@ def reevaluate(
     *,
     evaluator: Evaluator | None = None,
     progress: ProgressFunction | None = None,
+    every_set: bool = False,
 ) -> ReevaluationSummary:
     """Reevaluate the chosen robots of every experiment at or below ``path`` (module docs).
 
@@ -245,13 +254,17 @@ def reevaluate(
         seed: Base of the reevaluation seeds; default: each experiment's seed.
         evaluator: Where the evaluations run (default: a local pool of ``workers``).
         progress: Called with (evaluations done, planned) after every commit.
+        every_set: Every set of experiments below ``path`` (studies and lone experiments
+            together), not only the one :func:`~evolution.experiments.folders.select_results`
+            takes.
 
     Returns:
         What was planned and written.
 
     Raises:
-        StoreError: no results database below ``path``, or a damaged or read-only one (checked,
-            all of them, before anything is evaluated).
+        StoreError: no results database below ``path``, a damaged or read-only one (checked,
+            all of them, before anything is evaluated), or several studies and nothing else
+            below ``path`` without ``every_set``.
         ValueError: a bad ``k``, ``which`` or window offset.
         KeyboardInterrupt: Ctrl-C; everything committed stays, running again continues.
     """
@@ -263,8 +276,9 @@ def reevaluate(
     if not offsets or any(not (math.isfinite(o) and o >= 0) for o in offsets):
         raise ValueError(f"window offsets must be finite numbers of seconds >= 0, got "
                          f"{list(window_offsets)!r}")
+    selection = select_results(path, every_set, "revolve reevaluate")
     plans = [_plan(db, k, which, offsets, shared_world, conditions, seed)
-             for db in _databases(Path(path))]
+             for db in selection.databases]
     total = sum(len(todo) for _, _, todo in plans)
     used = evaluator or make_evaluator("local", workers)
     done = added = 0
@@ -280,19 +294,8 @@ def reevaluate(
         if evaluator is None:
             used.close()
     return ReevaluationSummary(tuple(db for db, _, _ in plans),
-                               sum(asked for _, asked, _ in plans), total, added)
-
-
-def _databases(path: Path) -> list[Path]:
-    if not path.exists():
-        raise StoreError(f"no such results directory: {path}")
-    if path.is_file():
-        paths = [path] if path.name == DB_NAME else []
-    else:
-        paths = sorted(path.rglob(DB_NAME))
-    if not paths:
-        raise StoreError(f"no results database ({DB_NAME}) at or below {path}")
-    return paths
+                               sum(asked for _, asked, _ in plans), total, added,
+                               selection.left_out)
 
 
 _Todo = tuple[Chosen, _Setting, int, int]
