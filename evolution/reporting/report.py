@@ -145,5 +145,6 @@ def report(
     if optimism is not None:
         parts.append(optimism)
     page = write_page(included, out_dir, figures, tables, parts,
-                      commands(included, every_set, brain_aware, formats))
+                      commands(included, every_set, brain_aware, formats,
+                               None if out is None else str(out)))
     return Report(out_dir, included.experiments, figures, tables, page, included.left_out)

@@ -146,8 +146,13 @@ def _reevaluate_commands(folder: Path, settings: set[tuple[str, bool, int, tuple
 
 
 def commands(included: Included, every_set: bool = False, brain_aware: bool = False,
-             formats: Sequence[str] = ("png", "pdf")) -> list[Command]:
-    """The commands that make these results and this report again, in order."""
+             formats: Sequence[str] = ("png", "pdf"), out_dir: str | None = None
+             ) -> list[Command]:
+    """The commands that make these results and this report again, in order.
+
+    ``every_set``, ``brain_aware``, ``formats`` and ``out_dir`` are the report's own options
+    (``out_dir``: its folder when given, else the default).
+    """
     out: list[Command] = []
     studies = sorted({e.study for e in included.experiments if e.study is not None}, key=str)
     for folder in studies:
@@ -170,5 +175,7 @@ def commands(included: Included, every_set: bool = False, brain_aware: bool = Fa
         words.append("--brain-aware")
     if tuple(formats) != ("png", "pdf"):
         words += ["--formats", ",".join(formats)]
+    if out_dir is not None:
+        words += ["--out", out_dir]
     out.append(Command(shlex.join(words), "this report"))
     return out
