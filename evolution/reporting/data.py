@@ -181,12 +181,6 @@ class RunData:
                                 self.final_brain_diversity)
         return self.at[births]
 
-    def failed_births_over_births(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-        """Cumulative failed births (y) against births (x) at each failure."""
-        ids = np.sort(self.failed_births)
-        x = births_axis(ids, ids)
-        return x, np.arange(1, ids.size + 1, dtype=np.int64)
-
     def lost_over_births(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         """Cumulative lost robots (y) against the report's births (x) at each robot's birth."""
         ids = np.sort(self.lost_ids)

@@ -19,8 +19,8 @@ from evolution.experiments import preset, run
 from evolution.experiments.store import DB_NAME, Store
 from evolution.reporting import find_experiments, report
 from evolution.reporting.data import LABELS, ExperimentData, births_axis, common_births
-from evolution.reporting.figures import final_fitness, fitness_over_births, lost_robots
-from evolution.reporting.style import PAPER_COLORS, colors
+from evolution.reporting.figures import curve_tests, final_fitness, fitness_over_births, lost_robots
+from evolution.reporting.style import PAPER_COLORS, colors, contrast_ratio, text_color
 from revolve_env.body.serialize import from_json
 
 LOSSY = LocalEvaluator(workers=1, function=fake_evaluate_with_losses)
@@ -165,3 +165,24 @@ def test_brain_aware_report(results: Path, tmp_path: Path) -> None:
     assert r.final_brain_diversity == pytest.approx(brain_aware_diversity(robots))
     assert r.final_brain_diversity >= diversity(robots)
     assert (tmp_path / "out" / "diversity_over_births.png").stat().st_size > 5000
+
+
+def test_heatmap_text_reads_on_every_cell(results: Path) -> None:
+    """Cell text is black or white, whichever contrasts more: at least WCAG's 4.5 on every
+    colour of the scale (black text on the darkest cells was 1.5 to 2)."""
+    from matplotlib import colormaps
+    from matplotlib.colors import to_rgb
+
+    figure = curve_tests(find_experiments(results))
+    ax = figure.axes[0]
+    (image,) = ax.images
+    cells = image.get_array()
+    assert ax.texts
+    for text in ax.texts:
+        x, y = text.get_position()
+        background = image.cmap(image.norm(cells[int(y), int(x)]))
+        assert contrast_ratio(background, to_rgb(text.get_color())) >= 4.5
+    for value in np.linspace(0.0, 1.0, 101):
+        background = colormaps["RdBu_r"](value)
+        assert contrast_ratio(background, to_rgb(text_color(background))) >= 4.5
+    assert text_color((0.02, 0.19, 0.38)) == "white" and text_color((0.97, 0.97, 0.97)) == "black"
