@@ -306,7 +306,8 @@ def lost_robots(experiments: Sequence[ExperimentData]) -> Figure:
 
     ax.set_xlabel("births")
     ax.set_ylabel("robots lost so far")
-    ax.set_ylim(bottom=0)
+    most = max((r.lost_robots for e in experiments for r in e.runs), default=0)
+    ax.set_ylim(0, max(1.0, 1.08 * most))  # 0 to 1 when none was lost, not a sliver
     ax.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_title("Robots lost (blow-ups, unbuildable bodies, failed evaluations)",
                  fontsize="medium")

@@ -54,6 +54,7 @@ table { border-collapse: collapse; font-size: 0.85em; margin: 0.8em 0; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.5em; text-align: right; }
 th { background: #f0f0f0; position: sticky; top: 0; }
 td.text, th.text { text-align: left; }
+td.num { white-space: nowrap; }
 tr.differs td { background: #fff4d6; }
 pre { background: #f6f6f6; padding: 0.8em; overflow-x: auto; }
 code { font-size: 0.95em; }
