@@ -25,9 +25,10 @@ from scipy.stats import mannwhitneyu
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import preset, run
 from evolution.experiments.store import DB_NAME, Store
-from evolution.reporting import Report, find_experiments, report
+from evolution.reporting import Report, find_experiments, load_included, report
 from evolution.reporting.figures import fitness_over_births
 from evolution.reporting.stats import CURVE_FRACTIONS
+from evolution.reporting.tables import mann_whitney_rows, write_tables
 
 SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
 LOSSY = LocalEvaluator(workers=1, function=fake_evaluate_with_losses)
@@ -124,15 +125,16 @@ def test_equal_budgets_compare_the_final_populations(tmp_path: Path) -> None:
     experiments = find_experiments(tmp_path)
     assert any(r.failed_births.size for r in experiments[0].runs)
     assert {r.births for r in experiments[0].runs} != {30}  # fewer on the report's axis
-    result = report(tmp_path, formats=("png",))
-    rows = _rows(result.tables[1])
+    (tmp_path / "tables").mkdir()
+    paths, _ = write_tables(load_included(tmp_path), tmp_path / "tables")
+    rows = _rows(paths[1])
     assert {r["births"] for r in rows} == {"30"}
     row = next(r for r in rows if r["sample"] == "run_mean_fitness")
     assert float(row["median_a"]) == pytest.approx(
         np.median(_stored_means(tmp_path / "scenario1" / DB_NAME, 30)), rel=1e-5)
     lost = sum(r.lost_robots for r in experiments[0].runs)
     assert (row["lost_a"], row["lost_b"]) == (str(lost), "0") and lost > 0
-    assert "Budgets differ" not in (result.out_dir / "summary.md").read_text()
+    assert "Budgets differ" not in (tmp_path / "tables" / "summary.md").read_text()
 
 
 def test_an_interrupted_run_moves_its_pairs_to_where_it_stopped(tmp_path: Path) -> None:
@@ -143,11 +145,11 @@ def test_an_interrupted_run_moves_its_pairs_to_where_it_stopped(tmp_path: Path) 
             kill_after(45), evaluator=SERIAL)
     (scenario1, baseline) = find_experiments(tmp_path)
     assert [r.engine_births for r in scenario1.runs] == [45]
-    rows = _rows(report(tmp_path, formats=("png",)).tables[1])
-    assert {r["births"] for r in rows} == {"45"}
+    rows = mann_whitney_rows([scenario1, baseline])
+    assert {r["births"] for r in rows} == {45}
     row = next(r for r in rows if r["sample"] == "run_best_fitness")
     with Store.open(tmp_path / "baseline_b" / DB_NAME) as store:
         best = [max(f for _, f in [s for s in store.population_snapshots(r.run_id)
                                    if s[0] <= 45][-1][2]) for r in store.runs()]
-    assert float(row["median_b"]) == pytest.approx(np.median(best), rel=1e-5)
+    assert row["median_b"] == pytest.approx(np.median(best), rel=1e-5)
     assert [p.births for p in baseline.populations_at(45)] == [45, 45]
