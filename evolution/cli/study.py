@@ -120,6 +120,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
     _say(f"report of {len(result.experiments)} experiment(s) in {result.out_dir}:")
     for path in (*result.figures, *result.tables):
         _say(f"  {path}")
+    _say(f"open in a browser: {result.page}")
     return 0
 
 

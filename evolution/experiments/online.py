@@ -126,13 +126,17 @@ class OnlineRun(RunState):
             status = statuses.get(m.agent or "")
             if status is None:
                 continue
-            m.fitness = status.fitness
             if status.removed is not None:
+                # Lost: stored with no fitness (the world reports 0 m after a blow-up, which is
+                # no measurement). It leaves the population here, so selection never sees it.
                 cause = f"blow-up: {status.removed}"
                 self.batch.failures.append(
                     FailureRecord(m.robot_id, now, "blow-up", status.removed))
+                m.fitness = None
+                self.batch.fitness_updates.append((m.robot_id, None))
                 self._bury(m, now, cause, remove=False)
                 continue
+            m.fitness = status.fitness
             assert m.lifecycle.birth_time is not None
             m.lifecycle.advance_to_age(now - m.lifecycle.birth_time)
             self.batch.fitness.append(FitnessSample(m.robot_id, now, status.fitness,

@@ -224,7 +224,11 @@ class RobotRecord:
         birth_time: Simulated time of delivery; ``None`` if never delivered. Seconds.
         death_time: Simulated time of death; ``None`` while alive. Seconds.
         death_cause: Why it died (``"survivor selection"``, ``"blow-up: ..."``); ``None`` alive.
-        fitness: Last known fitness (offline: the evaluation; online: the last sample).
+        fitness: Last known fitness (offline: the evaluation; online: the last sample);
+            ``None`` for a robot lost to a failure (a blow-up, a failed evaluation, a body the
+            engine could not build: its ``death_cause`` says which). Databases written before
+            this rule hold 0.0 for robots lost in the shared world; reports read loss from
+            the ``failures`` table, so both report alike.
     """
 
     run_id: int
@@ -407,8 +411,9 @@ class Batch:
     robots: list[RobotRecord] = field(default_factory=list)
     deaths: list[tuple[int, float, str, float | None]] = field(default_factory=list)
     """(robot_id, time, cause, final fitness) of robots stored earlier that died now."""
-    fitness_updates: list[tuple[int, float]] = field(default_factory=list)
-    """(robot_id, fitness): latest fitness of robots stored earlier."""
+    fitness_updates: list[tuple[int, float | None]] = field(default_factory=list)
+    """(robot_id, fitness): latest fitness of robots stored earlier; ``None`` for a robot lost
+    to a blow-up in the shared world (stored as NULL: lost, not 0 m)."""
     fitness: list[FitnessSample] = field(default_factory=list)
     transitions: list[Transition] = field(default_factory=list)
     population: list[tuple[int, float | None]] | None = None

@@ -53,6 +53,7 @@ from evolution.experiments.api import (
 )
 from evolution.experiments.config import ConfigError, ExperimentConfig, check_name, load_config
 from evolution.experiments.engine import execute_run
+from evolution.experiments.folders import STUDY_FILE
 from evolution.experiments.run import ProgressEvent, RunJob, RunSummary, WorldFactory, check_infancy
 from evolution.experiments.store import DB_NAME, Store, StoreError
 
@@ -74,8 +75,6 @@ __all__ = [
 PAPER_EXPERIMENTS = ("scenario1", "scenario2", "scenario3", "baseline_a", "baseline_b")
 """The paper's five experiments, in its order."""
 
-STUDY_FILE = "study.json"
-"""The study's settings, in its results folder."""
 
 _STUDY_KEYS = ("runs", "births", "seed")
 """Settings given as arguments of :func:`study`, not as overrides."""

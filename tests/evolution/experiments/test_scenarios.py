@@ -12,11 +12,13 @@ from pathlib import Path
 
 import pytest
 from experiment_fakes import (
+    dump_results,
     fake_evaluate,
     fake_evaluate_with_losses,
     fake_evaluate_with_nan,
     fake_world,
     fake_world_with_blow_ups,
+    fake_world_with_blow_ups_at_huge_fitness,
     picky_world,
     small,
 )
@@ -195,6 +197,33 @@ def test_online_blow_ups_are_recorded_and_minimum_kept(tmp_path: Path) -> None:
     sizes = [len(m) for _, _, m in store.population_snapshots(0)]
     assert min(sizes) >= 8 and max(sizes) <= 30
     assert store.runs()[0].births == 80
+
+
+def test_online_blow_ups_are_stored_as_lost_without_a_fitness(tmp_path: Path) -> None:
+    """A robot lost to a blow-up in the shared world is stored with no fitness (the world's
+    0 m after a blow-up is no measurement), its cause and a failure record."""
+    store = _run(small_preset("scenario3", births=80), tmp_path,
+                 world_factory=fake_world_with_blow_ups)
+    blown = store.failures(0, kind="blow-up")
+    assert blown
+    for f in blown:
+        record = store.robot(0, f.robot_id)
+        assert record.fitness is None
+        assert record.death_cause == f"blow-up: {f.detail}" and record.death_time == f.time
+        later = [m for _, t, m in store.population_snapshots(0) if t >= f.time]
+        assert all(f.robot_id not in dict(members) for members in later)
+
+
+def test_what_the_world_reports_at_a_blow_up_never_reaches_evolution(tmp_path: Path) -> None:
+    """Evolution is the same whether the world reports 0 m or 1e9 m for a robot that blows
+    up: a lost robot leaves the population before selection, and is stored without fitness."""
+    dumps = []
+    for world in (fake_world_with_blow_ups, fake_world_with_blow_ups_at_huge_fitness):
+        folder = tmp_path / world.__name__
+        _run(small_preset("scenario3", births=80), folder, world_factory=world).close()
+        dumps.append(dump_results(folder / "out" / "results.sqlite"))
+    assert dumps[0] == dumps[1]
+    assert any(cause and cause.startswith("blow-up") for *_, cause, _ in dumps[0]["robots"])
 
 
 def test_progress_reports_births_fitness_and_speed(tmp_path: Path) -> None:
