@@ -427,6 +427,14 @@ class World:
         return self._state(handle).blow_up
 
     # -- state --------------------------------------------------------------------------------
+    @property
+    def targets(self) -> NDArray[np.float64]:
+        """Position targets of every active hinge, robots in insertion order (a copy). Radians."""
+        self._check_open()
+        if not self._robots:
+            return np.zeros(0)
+        return np.concatenate([s.targets for s in self._robots.values()])
+
     def core_position(self, handle: int) -> NDArray[np.float64]:
         """Position of the core's centre. Metres, shape (3,)."""
         pos: NDArray[np.float64] = self._now.core_pos[self._state(handle).row].copy()
