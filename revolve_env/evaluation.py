@@ -7,6 +7,7 @@ function (a submodule of the same name would replace it once imported).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -122,8 +123,8 @@ def evaluate(
     rng = np.random.default_rng(seed)
     start = conditions.start(start_generator(seed))
     with World(cfg) as world:
-        path, reason = _rollout(world, robot, insertion_ticks, evaluation_ticks, rng,
-                                conditions.sensor_noise, conditions.actuator_noise, start)
+        [(path, reason)] = _rollout(world, [robot], [start], insertion_ticks, evaluation_ticks,
+                                    [rng], conditions.sensor_noise, conditions.actuator_noise)
     if reason is not None:
         return EvaluationResult(0.0, 0.0, 0.0, path, reason)
     terms = fitness_terms(path, DEFAULT_S_WEIGHT)
@@ -131,46 +132,106 @@ def evaluate(
 
 
 def _rollout(
-    world: World, robot: Robot, insertion_ticks: int, evaluation_ticks: int,
-    rng: np.random.Generator, sensor_noise: float, actuator_noise: float, start: Start,
-) -> tuple[NDArray[np.float64], str | None]:
-    """Drop ``robot`` into ``world`` at ``start`` and let its own network drive it.
+    world: World, robots: Sequence[Robot], starts: Sequence[Start], insertion_ticks: int,
+    evaluation_ticks: int, rngs: Sequence[np.random.Generator], sensor_noise: float,
+    actuator_noise: float,
+) -> list[tuple[NDArray[np.float64], str | None]]:
+    """Drop ``robots`` into ``world`` at ``starts`` and let their own networks drive them.
+
+    One pass per control period over every robot: their sensor values as one array, one call of
+    the compiled controller for all networks, every target set at once. A robot whose
+    simulation blows up leaves the world and the controller at once (``world`` must keep the
+    others' physics apart from it: a world of one robot, or an isolated one); the others go on.
+    Noise draws from each robot's own generator in ``rngs``, robot by robot.
 
     Returns:
-        The core's path over the evaluation ticks (read-only, metres) and the blow-up reason
-        (``None`` if the simulation stayed sane).
+        Per robot: the core's path over the evaluation ticks (read-only, metres) and the
+        blow-up reason (``None`` if the simulation stayed sane).
     """
+    n = len(robots)
     brain = BatchController(world.config.control_period)
-    brain.add(robot)
-    inputs = np.zeros(brain.n_inputs)
+    nets = [brain.add(robot) for robot in robots]
+    handles = [world.add_robot(robot, start.position, start.yaw)
+               for robot, start in zip(robots, starts, strict=True)]
+    for net, h in zip(nets, handles, strict=True):
+        ins, outs = brain.input_slice(net), brain.output_slice(net)
+        n_in, n_out = ins.stop - ins.start, outs.stop - outs.start
+        if world.n_inputs(h) != n_in or world.n_outputs(h) != n_out:
+            raise ValueError(
+                f"the network has {n_in} inputs / {n_out} outputs but the body has "
+                f"{world.n_inputs(h)} sensor values / {world.n_outputs(h)} active hinges")
+    bounds = [sensor_bounds(robot) for robot in robots]
+    noisy = sensor_noise > 0 or actuator_noise > 0
     outputs = np.zeros(brain.n_outputs)
-    trajectory = np.empty((evaluation_ticks + 1, 3))
-    h = world.add_robot(robot, start.position, start.yaw)
-    if world.n_inputs(h) != len(inputs) or world.n_outputs(h) != len(outputs):
-        raise ValueError(
-            f"the network has {len(inputs)} inputs / {len(outputs)} outputs but the body has "
-            f"{world.n_inputs(h)} sensor values / {world.n_outputs(h)} active hinges"
-        )
-    low, high = sensor_bounds(robot)
-    reason: str | None = None
-    rows = 0
+    trajectory = np.empty((evaluation_ticks + 1, n, 3))
+    columns = np.arange(n)  # the robot (index into robots) of each world row
+    rows = np.zeros(n, dtype=np.intp)  # trajectory rows of each robot
+    reasons: list[str | None] = [None] * n
     for tick in range(insertion_ticks + evaluation_ticks):
         if tick == insertion_ticks:
-            trajectory[0] = world.core_position(h)
-            rows = 1
-        inputs[:] = add_sensor_noise(world.read_sensors(h), sensor_noise, rng, low, high)
-        brain.step(inputs, outputs)
-        if actuator_noise > 0:
-            world.set_targets(h, outputs + rng.normal(0.0, actuator_noise, outputs.shape))
+            trajectory[0, columns] = world.states.core_pos
+            rows[columns] = 1
+        inputs = world.sensor_values()
+        if noisy:
+            inputs, targets = _noisy_step(world, brain, inputs, outputs, columns, rngs, bounds,
+                                          sensor_noise, actuator_noise)
         else:
-            world.set_targets(h, outputs)
+            brain.step(inputs, outputs)
+            targets = outputs
+        world.set_all_targets(targets)
         world.step(1)
-        reason = world.blow_up(h)
-        if reason is not None:
-            break
+        if world.blown_up.any():
+            columns = _drop_blown(world, brain, handles, nets, columns, reasons)
+            if not columns.size:
+                break
+            outputs = np.zeros(brain.n_outputs)
         if tick >= insertion_ticks:
-            trajectory[rows] = world.core_position(h)
-            rows += 1
-    path = trajectory[:rows].copy()
-    path.setflags(write=False)
-    return path, reason
+            trajectory[rows[columns], columns] = world.states.core_pos
+            rows[columns] += 1
+    out = []
+    for i in range(n):
+        path = trajectory[:rows[i], i].copy()
+        path.setflags(write=False)
+        out.append((path, reasons[i]))
+    return out
+
+
+def _noisy_step(
+    world: World, brain: BatchController, inputs: NDArray[np.float64],
+    outputs: NDArray[np.float64], columns: NDArray[np.intp],
+    rngs: Sequence[np.random.Generator],
+    bounds: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]]], sensor_noise: float,
+    actuator_noise: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Sensor noise, the controller and actuator noise, robot by robot's own generator."""
+    noisy_in = np.empty_like(inputs)
+    ins, outs = world.input_offsets, world.output_offsets
+    for row, i in enumerate(columns.tolist()):
+        low, high = bounds[i]
+        noisy_in[ins[row]:ins[row + 1]] = add_sensor_noise(inputs[ins[row]:ins[row + 1]],
+                                                           sensor_noise, rngs[i], low, high)
+    brain.step(noisy_in, outputs)
+    if actuator_noise <= 0:
+        return noisy_in, outputs
+    targets = outputs.copy()
+    for row, i in enumerate(columns.tolist()):
+        part = slice(outs[row], outs[row + 1])
+        targets[part] = outputs[part] + rngs[i].normal(0.0, actuator_noise,
+                                                        outs[row + 1] - outs[row])
+    return noisy_in, targets
+
+
+def _drop_blown(world: World, brain: BatchController, handles: list[int], nets: list[int],
+                columns: NDArray[np.intp], reasons: list[str | None]) -> NDArray[np.intp]:
+    """Take the robots that blew up out of the world and the controller; the columns left."""
+    keep = []
+    for row, i in enumerate(columns.tolist()):
+        if world.blown_up[row]:
+            reasons[i] = world.blow_up(handles[i])
+        else:
+            keep.append(i)
+    for i in columns.tolist():
+        if reasons[i] is not None and i not in keep:
+            world.remove_robot(handles[i])
+            brain.remove(nets[i])
+    return np.array(keep, dtype=np.intp)
