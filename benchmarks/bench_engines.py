@@ -56,13 +56,20 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a check
 
 from evolution.config import EvolutionConfig
 from evolution.random_robot import random_robot
-from revolve_env import LOCOMOTION_ID, evaluate, example, population_env
+from revolve_env import (
+    LOCOMOTION_ID,
+    EvaluationConditions,
+    evaluate,
+    evaluate_many,
+    example,
+    population_env,
+)
 from revolve_env.body.robot import Robot
 from revolve_env.envs.population import PopulationEnv
 from revolve_env.world import World, WorldConfig
 
 ENGINES = ("mujoco", "pybullet")
-SECTIONS = ("single", "evaluate", "crowd", "rank", "memory", "robust", "crowded")
+SECTIONS = ("single", "evaluate", "offline", "crowd", "rank", "memory", "robust", "crowded")
 _STATE = int(mujoco.mjtState.mjSTATE_INTEGRATION)
 
 
@@ -82,6 +89,15 @@ def random_robots(n: int, seed: int) -> list[Robot]:
 
 
 # -- raw MuJoCo: the same model, state and targets, replayed bare -------------------------------
+def scene(world: World) -> Any:
+    """The MuJoCo backend holding ``world``'s model (an isolated world's: its one robot's)."""
+    backend: Any = world.backend
+    if hasattr(backend, "_scenes"):
+        (only,) = backend._scenes.values()
+        return only
+    return backend
+
+
 class Replay:
     """A world's compiled MuJoCo model and state now, and the hinge targets of the periods after.
 
@@ -91,7 +107,7 @@ class Replay:
     """
 
     def __init__(self, world: World) -> None:
-        backend: Any = world.backend
+        backend = self.scene = scene(world)
         self.model = backend._model
         self.state = np.empty(mujoco.mj_stateSize(self.model, _STATE))
         mujoco.mj_getState(self.model, backend._data, self.state, _STATE)
@@ -129,7 +145,9 @@ class Replay:
 
     def same_as(self, world: World) -> str:
         """"exact" when the replay ended where ``world`` is now, else how far off (metres)."""
-        here = np.asarray(world.backend._data.qpos)  # type: ignore[attr-defined]
+        now: Any = world.backend
+        backend = self.scene if not getattr(now, "_scenes", True) else scene(world)  # closed
+        here = np.asarray(backend._data.qpos)
         if here.shape == self.final.shape and np.array_equal(here, self.final):
             return "exact"
         return "off" if here.shape != self.final.shape else \
@@ -179,7 +197,8 @@ def single(seconds: float, repeats: int) -> None:
 
 
 # -- 2. one evaluate() -------------------------------------------------------------------------
-def record_evaluate(robot: Robot, seconds: float, insertion: float) -> tuple[Replay, str]:
+def record_evaluate(robot: Robot, seconds: float, insertion: float, seed: int = 0,
+                    conditions: EvaluationConditions | None = None) -> tuple[Replay, str]:
     """The replay of one ``evaluate`` on MuJoCo, and whether it ends where the evaluation did."""
     original = World.step
     seen: dict[str, Any] = {}
@@ -194,7 +213,8 @@ def record_evaluate(robot: Robot, seconds: float, insertion: float) -> tuple[Rep
 
     World.step = step  # type: ignore[method-assign]
     try:
-        evaluate(robot, seconds=seconds, insertion=insertion, engine="mujoco")
+        evaluate(robot, seconds=seconds, insertion=insertion, engine="mujoco", seed=seed,
+                 conditions=conditions)
     finally:
         World.step = original  # type: ignore[method-assign]
     raw: Replay = seen["replay"]
@@ -218,6 +238,55 @@ def evaluate_one(repeats: int) -> None:
           + ", ".join(f"{k} {v:.3f} s" for k, v in best.items()) + f" (replay {check})")
     print(f"  evaluate/raw MuJoCo {best['evaluate mujoco'] / best['raw mujoco']:.2f}x; MuJoCo "
           f"{best['evaluate pybullet'] / best['evaluate mujoco']:.2f}x faster than pybullet")
+
+
+# -- 3. offline: a generation evaluated side by side ------------------------------------------
+def side_by_side(n: int, repeats: int) -> None:
+    """``n`` random robots (a generation's children), 3 + 12 s each under the shipped configs'
+    conditions (random heading): ``evaluate`` one by one, ``evaluate_many`` all at once, and raw
+    MuJoCo replaying each alone; CPU per simulated robot-second."""
+    robots = random_robots(n, seed=6)
+    seeds = list(range(n))
+    conditions = EvaluationConditions(heading="random")
+    seconds, insertion = 12.0, 3.0
+    replays = [record_evaluate(r, seconds, insertion, s, conditions) for r, s in zip(robots, seeds,
+                                                                                      strict=True)]
+    checks = {check for _, check in replays}
+
+    def alone() -> float:
+        cpu = time.process_time()
+        for robot, seed in zip(robots, seeds, strict=True):
+            evaluate(robot, seconds=seconds, insertion=insertion, seed=seed, engine="mujoco",
+                     conditions=conditions)
+        return time.process_time() - cpu
+
+    def together() -> float:
+        cpu = time.process_time()
+        evaluate_many(robots, seconds=seconds, insertion=insertion, seeds=seeds, engine="mujoco",
+                      conditions=conditions)
+        return time.process_time() - cpu
+
+    def raw() -> float:
+        return sum(replay.run() for replay, _ in replays)
+
+    one = [evaluate(r, seconds=seconds, insertion=insertion, seed=s, engine="mujoco",
+                    conditions=conditions) for r, s in zip(robots, seeds, strict=True)]
+    many = evaluate_many(robots, seconds=seconds, insertion=insertion, seeds=seeds,
+                         engine="mujoco", conditions=conditions)
+    same = all(a.fitness == b.fitness and np.array_equal(a.trajectory, b.trajectory)
+               for a, b in zip(one, many, strict=True))
+    best = alternate({"evaluate_many": together, "evaluate one by one": alone, "raw mujoco": raw},
+                     repeats)
+    robot_seconds = sum(len(r.trajectory) for r in one) / 60.0 + n * insertion
+    print(f"{n} random robots, {insertion:g} + {seconds:g} s each, best CPU of {repeats}: "
+          + ", ".join(f"{k} {v:.3f} s" for k, v in best.items())
+          + f" (evaluate_many == evaluate: {'bit for bit' if same else 'NO'}; replays "
+          + "/".join(sorted(checks)) + ")")
+    per = {k: v / robot_seconds * 1e3 for k, v in best.items()}
+    print("  CPU ms per simulated robot-second: " + ", ".join(f"{k} {v:.2f}"
+                                                             for k, v in per.items())
+          + f"; evaluate_many/raw {best['evaluate_many'] / best['raw mujoco']:.2f}x, "
+          f"one by one/raw {best['evaluate one by one'] / best['raw mujoco']:.2f}x")
 
 
 # -- 3. a crowd --------------------------------------------------------------------------------
@@ -383,6 +452,8 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=2)
     parser.add_argument("--robots", type=int, default=30)
     parser.add_argument("--rank-robots", type=int, default=40)
+    parser.add_argument("--offline-robots", type=int, default=15,
+                        help="robots evaluated side by side (a scenario 1 generation: 15)")
     parser.add_argument("--births", type=int, default=3000)
     parser.add_argument("--pybullet-study-hours", type=float, default=60.0,
                         help="the study's time with pybullet, from bench_experiments.py")
@@ -401,6 +472,8 @@ def main() -> None:
         single(args.seconds, args.repeats)
     if "evaluate" in only:
         evaluate_one(args.repeats)
+    if "offline" in only:
+        side_by_side(args.offline_robots, args.repeats)
     per_mj = per_pb = math.nan
     if "crowd" in only:
         per_mj, per_pb = crowd(args.robots, args.seconds, args.repeats)

@@ -192,8 +192,19 @@ class PhysicsBackend(Protocol):
         ...
 
 
-def make_backend(config: WorldConfig, *, gui: bool = False) -> PhysicsBackend:
+_ISOLATED: dict[str, tuple[str, str]] = {
+    "pybullet": ("revolve_env.world.isolated", "IsolatedBackend"),
+    "mujoco": ("revolve_env.world.mujoco_scenes", "MujocoScenes"),
+}
+"""The backend of an isolated world (a scene per robot) for each engine."""
+
+
+def make_backend(config: WorldConfig, *, gui: bool = False,
+                 isolated: bool = False) -> PhysicsBackend:
     """A fresh backend of ``config.engine`` built from ``config``.
+
+    With ``isolated``, every robot is in a scene of its own
+    (:class:`~revolve_env.world.isolated.IsolatedBackend`).
 
     Raises:
         ValueError: unknown engine name.
@@ -201,6 +212,6 @@ def make_backend(config: WorldConfig, *, gui: bool = False) -> PhysicsBackend:
         RuntimeError: the engine could not start (e.g. a GUI without a display).
     """
     require_engine(config.engine)
-    module, cls, _ = _REGISTRY[config.engine]
+    module, cls = _ISOLATED[config.engine] if isolated else _REGISTRY[config.engine][:2]
     backend: PhysicsBackend = getattr(importlib.import_module(module), cls)(config, gui=gui)
     return backend

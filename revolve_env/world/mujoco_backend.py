@@ -1,4 +1,4 @@
-"""The MuJoCo backend (the only module of the package that imports ``mujoco``).
+"""The MuJoCo backend (with :mod:`~revolve_env.world.mujoco_scenes`, all that imports ``mujoco``).
 
 The scene is an :class:`mujoco.MjSpec` that one :class:`MujocoBackend` owns with the compiled
 ``MjModel``/``MjData`` pair. Each robot is built from the same engine-neutral

@@ -51,8 +51,10 @@ class World:
     clipped to the servo's speed, with the servo's torque limit; passive hinges turn freely.
 
     Robots collide with the ground and with each other (not with themselves: the boxes of a
-    RoboGen hinge interpenetrate by design). The physics engine is ``config.engine``
-    (``"pybullet"`` or ``"mujoco"``); the rules above are the same for all.
+    RoboGen hinge interpenetrate by design), unless the world is ``isolated``: then each robot
+    is in a scene of its own and moves exactly as it would alone, whichever robots are beside it
+    (side-by-side evaluations). The physics engine is ``config.engine`` (``"pybullet"`` or
+    ``"mujoco"``); the rules above are the same for all.
 
     Use as a context manager, or call :meth:`close`::
 
@@ -63,12 +65,16 @@ class World:
             print(world.core_position(h))
     """
 
-    def __init__(self, config: WorldConfig | None = None, *, gui: bool = False) -> None:
+    def __init__(self, config: WorldConfig | None = None, *, gui: bool = False,
+                 isolated: bool = False) -> None:
         """Start a fresh engine of ``config.engine`` and build the ground.
 
         Args:
             config: Physics settings; defaults to ``WorldConfig()`` (pybullet).
             gui: Open the engine's window instead of running headless (pybullet only).
+            isolated: Every robot in a scene of its own
+                (:mod:`~revolve_env.world.isolated`): robots never meet, and each moves
+                exactly as in a world of its own. No snapshots, no GUI.
 
         Raises:
             EngineUnavailableError: the engine's package is not installed.
@@ -76,7 +82,7 @@ class World:
                 while another GUI is open, or of an engine that has none.
         """
         self.config = config if config is not None else WorldConfig()
-        self._backend: PhysicsBackend = make_backend(self.config, gui=gui)
+        self._backend: PhysicsBackend = make_backend(self.config, gui=gui, isolated=isolated)
         self._closed = False
         self._robots: dict[int, RobotState] = {}
         self._next_handle = 0
