@@ -226,12 +226,14 @@ def _rollout(
     outputs = np.zeros(brain.n_outputs)
     trajectory = np.empty((evaluation_ticks + 1, n, 3))
     columns = np.arange(n)  # the robot (index into robots) of each world row
-    rows = np.zeros(n, dtype=np.intp)  # trajectory rows of each robot
+    rows = np.zeros(n, dtype=np.intp)  # trajectory rows of each robot that left
+    recorded = 0  # trajectory rows of every robot still in the world
     reasons: list[str | None] = [None] * n
+    every = True  # every robot still in the world: the world's rows are the columns
     for tick in range(insertion_ticks + evaluation_ticks):
         if tick == insertion_ticks:
             trajectory[0, columns] = world.states.core_pos
-            rows[columns] = 1
+            recorded = 1
         inputs = world.sensor_values()
         if noisy:
             inputs, targets = _noisy_step(world, brain, inputs, outputs, columns, rngs, bounds,
@@ -241,14 +243,21 @@ def _rollout(
             targets = outputs
         world.set_all_targets(targets)
         world.step(1)
-        if world.blown_up.any():
+        if world.any_blown_up:
+            left = columns
             columns = _drop_blown(world, brain, handles, nets, columns, reasons)
+            rows[np.setdiff1d(left, columns)] = recorded
             if not columns.size:
                 break
             outputs = np.zeros(brain.n_outputs)
+            every = False
         if tick >= insertion_ticks:
-            trajectory[rows[columns], columns] = world.states.core_pos
-            rows[columns] += 1
+            if every:
+                trajectory[recorded] = world.states.core_pos
+            else:
+                trajectory[recorded, columns] = world.states.core_pos
+            recorded += 1
+    rows[columns] = recorded
     out = []
     for i in range(n):
         path = trajectory[:rows[i], i].copy()

@@ -601,8 +601,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             infos[member.agent] = final_info(member, self._life, death, masks[member.agent])
         self._dead = []
         truncate = self.max_steps is not None and self._steps >= self.max_steps
-        flags = world.blown_up
-        blown = flags if flags.any() else None
+        blown = world.blown_up if world.any_blown_up else None
         previous = living.f.copy()
         assert self._noise is not None
         living.sense(world, self.time, self._noise, self.conditions.sensor_noise, blown)

@@ -17,7 +17,7 @@ from revolve_env.world.backend import BodyStates
 from revolve_env.world.config import WorldConfig
 from revolve_env.world.robot_state import all_finite
 
-__all__ = ["all_calm", "reason"]
+__all__ = ["Screen", "all_calm", "reason"]
 
 # |v|_max * sqrt(3) bounds the speed |v| from above; the margin keeps the screen strict.
 _SCREEN = 0.999 / math.sqrt(3.0)
@@ -25,24 +25,33 @@ _max = np.maximum.reduce
 _min = np.minimum.reduce
 
 
-def all_calm(s: BodyStates, c: WorldConfig) -> bool:
+class Screen:
+    """:func:`all_calm`'s per-entry limits for ``n`` robots with ``hinges`` hinges in all."""
+
+    def __init__(self, n: int, hinges: int, c: WorldConfig) -> None:
+        # |x| / limit <= 1 entry by entry: the core's velocity, spin and hinge speeds against
+        # their screens; positions and hinge angles only against overflow (any finite value
+        # passes, a NaN or infinity does not).
+        self.inverse = np.concatenate((
+            np.full(3 * n, 1.0 / (_SCREEN * c.max_linear_speed)),
+            np.full(3 * n, 1.0 / (_SCREEN * c.max_angular_speed)),
+            np.full(hinges, 1.0 / (0.999 * c.max_angular_speed)),
+            np.full(3 * n + hinges, 1e-300)))
+
+
+def all_calm(s: BodyStates, screen: Screen) -> bool:
     """True when no robot can have blown up (every robot's :func:`reason` is then None).
 
     A conservative screen of every robot at once: False may still find no blown robot. A NaN
-    makes its max or min NaN and the comparison False. Needs at least one robot.
+    makes the maximum NaN and the comparison False; the screen's limits are 0.1 % inside the
+    blow-up limits, so rounding near them cannot hide a blow-up. Needs at least one robot.
     """
-    lin = _SCREEN * c.max_linear_speed
-    ang = _SCREEN * c.max_angular_speed
-    hinge = 0.999 * c.max_angular_speed
-    v, w, jv = s.core_vel, s.core_angvel, s.joint_vel
-    return bool(
-        _max(v, axis=None) <= lin and _min(v, axis=None) >= -lin
-        and _max(w, axis=None) <= ang and _min(w, axis=None) >= -ang
-        and (jv.size == 0 or (_max(jv) <= hinge and _min(jv) >= -hinge))
-        and _min(s.core_pos[:, 2]) >= -0.999
-        and all_finite(s.core_pos) and all_finite(s.joint_pos)
-        and not s.diverged.any()
-    )
+    x = np.concatenate((s.core_vel.reshape(-1), s.core_angvel.reshape(-1), s.joint_vel,
+                        s.core_pos.reshape(-1), s.joint_pos))
+    np.abs(x, out=x)
+    x *= screen.inverse
+    return bool(_max(x) <= 1.0 and _min(s.core_pos[:, 2]) >= -0.999
+                and not np.count_nonzero(s.diverged))
 
 
 def reason(s: BodyStates, row: int, joints: slice, c: WorldConfig, time: float) -> str | None:

@@ -211,6 +211,8 @@ class MujocoBackend:
         self._root_dofs = np.zeros(0, dtype=np.intp)
         self._root_lin = np.zeros((0, 3), dtype=np.intp)
         self._root_ang = np.zeros((0, 3), dtype=np.intp)
+        self._read_qpos = np.zeros(0, dtype=np.intp)
+        self._read_qvel = np.zeros(0, dtype=np.intp)
         self._cached_views: _Views | None = None
         self._hinge_qpos = np.zeros(0, dtype=np.intp)
         self._hinge_dofs = np.zeros(0, dtype=np.intp)
@@ -334,6 +336,11 @@ class MujocoBackend:
         self._diverged.flags.writeable = False
         self._hinge_qpos = np.concatenate(hq) if hq else np.zeros(0, dtype=np.intp)
         self._hinge_dofs = np.concatenate(hd) if hd else np.zeros(0, dtype=np.intp)
+        # read()'s two gathers (qpos, qvel), each one fresh array for its fields
+        self._read_qpos = np.concatenate(((self._root_qpos[:, None] + _XYZ).ravel(),
+                                          self._hinge_qpos))
+        self._read_qvel = np.concatenate((self._root_lin.ravel(), self._root_ang.ravel(),
+                                          self._hinge_dofs))
 
     # -- robots -------------------------------------------------------------------------------
     def add(self, model: RobotModel, position: tuple[float, float, float], yaw: float) -> int:
@@ -445,14 +452,17 @@ class MujocoBackend:
     def read(self) -> BodyStates:
         self._kinematics()
         v = self._views()
+        n = self._root_bodies.shape[0]
+        q = v.qpos[self._read_qpos]  # the roots' positions (a free joint's body sits at its
+        w = v.qvel[self._read_qvel]  # first three qpos), hinges; velocities, spins, hinge speeds
         rot = v.xmat[self._root_bodies].reshape(-1, 3, 3)
         return BodyStates(
-            core_pos=v.xpos[self._root_bodies],  # the root body frame: the core centre
+            core_pos=q[:3 * n].reshape(n, 3),  # the root body frame: the core centre
             core_rot=rot,
-            core_vel=v.qvel[self._root_lin],  # the free joint: the root frame origin's, world
-            core_angvel=_c_einsum("nij,nj->ni", rot, v.qvel[self._root_ang]),  # MuJoCo: body frame
-            joint_pos=v.qpos[self._hinge_qpos],
-            joint_vel=v.qvel[self._hinge_dofs],
+            core_vel=w[:3 * n].reshape(n, 3),  # the free joint: the root frame origin's, world
+            core_angvel=_c_einsum("nij,nj->ni", rot, w[3 * n:6 * n].reshape(n, 3)),  # MuJoCo:
+            joint_pos=q[3 * n:],  # body frame
+            joint_vel=w[6 * n:],
             diverged=self._diverged,
         )
 

@@ -87,13 +87,15 @@ class MujocoScenes(IsolatedBackend):
             return (np.concatenate(parts) if parts else np.zeros(0, dtype=np.intp)).astype(
                 np.intp).reshape((-1, width) if width else -1)
 
-        self._pos, self._lin, self._ang = cat(pos, 3), cat(lin, 3), cat(ang, 3)
-        self._hinge_qpos, self._hinge_dofs = cat(hq, 0), cat(hd, 0)
+        self._hinge_qpos = cat(hq, 0)
+        # read()'s one gather: positions, velocities, angular velocities, hinges, hinge speeds
+        self._gather = np.concatenate([cat(pos, 0), cat(lin, 0), cat(ang, 0), self._hinge_qpos,
+                                       cat(hd, 0)])
         self._diverged = np.array([bool(s._diverged[0]) for s in scenes], dtype=bool)
         self._diverged.flags.writeable = False
-        self._geom_body = {id(s._data): s._model.geom_bodyid for s in scenes}
-        self._sensor_plans: dict[int, tuple[NDArray[np.intp], list[tuple[mujoco.MjData, int]],
-                                            NDArray[np.intp]]] = {}
+        self._sensor_plans: dict[int, tuple[NDArray[np.intp],
+                                            list[tuple[mujoco.MjData, NDArray[np.intp]]],
+                                            NDArray[np.intp], int]] = {}
 
     # -- stepping -------------------------------------------------------------------------------
     def set_joint_velocities(self, velocities: NDArray[np.float64], max_torque: float) -> None:
@@ -135,36 +137,39 @@ class MujocoScenes(IsolatedBackend):
         self._diverged = diverged
 
     def read(self) -> BodyStates:
-        state = self._states[self._parity]
+        g = self._states[self._parity][self._gather]  # one fresh array for every field
+        n, j = self._rot.shape[0], self._hinge_qpos.shape[0]
         rot = self._rot.reshape(-1, 3, 3).copy()
         return BodyStates(
-            core_pos=state[self._pos], core_rot=rot, core_vel=state[self._lin],
-            core_angvel=_c_einsum("nij,nj->ni", rot, state[self._ang]),  # as MujocoBackend.read
-            joint_pos=state[self._hinge_qpos], joint_vel=state[self._hinge_dofs],
-            diverged=self._diverged,
+            core_pos=g[:3 * n].reshape(n, 3), core_rot=rot,
+            core_vel=g[3 * n:6 * n].reshape(n, 3),
+            core_angvel=_c_einsum("nij,nj->ni", rot, g[6 * n:9 * n].reshape(n, 3)),  # as alone
+            joint_pos=g[9 * n:9 * n + j], joint_vel=g[9 * n + j:], diverged=self._diverged,
         )
 
     # -- sensors --------------------------------------------------------------------------------
-    def _plan_of(self, ids: NDArray[np.intp]) -> tuple[list[tuple[mujoco.MjData, int]],
-                                                       NDArray[np.intp]]:
-        """The scenes ``ids`` name (data, body offset of the scene), and each id's body there."""
+    def _plan_of(self, ids: NDArray[np.intp]) -> tuple[list[tuple[mujoco.MjData,
+                                                                  NDArray[np.intp]]],
+                                                       NDArray[np.intp], int]:
+        """For ``ids``: their scenes (data, each geom's body numbered across those scenes),
+        each id's body in that numbering, and the number of bodies (remembered per array)."""
         cached = self._sensor_plans.get(id(ids))
         if cached is not None and cached[0] is ids:
-            return cached[1], cached[2]
+            return cached[1], cached[2], cached[3]
         rows = {key: row for row, key in enumerate(self._scenes)}
         scenes, bodies, offset = [], [], 0
         for key, inner in self._by_scene(ids):
-            d = self._plan[rows[key]][1]
-            scenes.append((d, offset))
+            scene = self._scene_list()[rows[key]]
+            scenes.append((scene._data, scene._model.geom_bodyid + offset))
             bodies.append(inner + offset)
-            offset += self._scene_list()[rows[key]]._model.nbody
+            offset += scene._model.nbody
         flat = np.concatenate(bodies) if bodies else np.zeros(0, dtype=np.intp)
-        self._sensor_plans[id(ids)] = (ids, scenes, flat)
-        return scenes, flat
+        self._sensor_plans[id(ids)] = (ids, scenes, flat, offset)
+        return scenes, flat, offset
 
     def link_poses(self, ids: NDArray[np.intp]) -> tuple[NDArray[np.float64],
                                                          NDArray[np.float64]]:
-        scenes, bodies = self._plan_of(ids)
+        scenes, bodies, _ = self._plan_of(ids)
         pos = np.concatenate([d.xpos for d, _ in scenes]) if scenes else np.zeros((0, 3))
         rot = np.concatenate([d.xmat for d, _ in scenes]) if scenes else np.zeros((0, 9))
         return pos[bodies], rot[bodies].reshape(-1, 3, 3)
@@ -172,11 +177,9 @@ class MujocoScenes(IsolatedBackend):
     def touching(self, ids: NDArray[np.intp]) -> NDArray[np.bool_]:
         # MujocoBackend._touching_now's rule for every scene at once: a body touches when one of
         # its geoms is in a contact of its scene's last physics step.
-        scenes, bodies = self._plan_of(ids)
-        touched = np.zeros(int(bodies.max(initial=-1)) + 1 if bodies.size else 0, dtype=bool)
-        parts = [self._geom_body[id(d)][d.contact.geom[:d.ncon]] + offset
-                 for d, offset in scenes if d.ncon]
-        if parts:
-            hit = np.concatenate([p.ravel() for p in parts])
-            touched[hit[hit < touched.shape[0]]] = True
+        scenes, bodies, count = self._plan_of(ids)
+        touched = np.zeros(count, dtype=bool)
+        hits = [body[d.contact.geom] for d, body in scenes if d.ncon]
+        if hits:
+            touched[np.concatenate(hits).ravel()] = True
         return touched[bodies]

@@ -162,11 +162,12 @@ class Layout:
     order) and sensor values (``n_inputs``, controller input order) one robot after the other;
     ``output_offsets`` and ``input_offsets`` (``n + 1`` entries) delimit each robot's part.
     Sensors: the IMU's six values of every robot start its part; touch halves and light
-    sensors are listed with their place in the flat sensor values (``*_dest``). A light
-    sensor on the core reads the core's pose (``light_root_rows``); one on another link reads
-    the pose the backend gives for ``light_link_ids`` (engine ids from
+    sensors are listed with their place in the flat sensor values (``*_dest``). The light
+    sensors on a core come first and read the core's pose (``light_root_rows``); those on other
+    links read the poses the backend gives for ``light_link_ids`` (engine ids from
     :meth:`~revolve_env.world.backend.PhysicsBackend.link_index`, valid until the next birth or
-    death, when the layout is rebuilt).
+    death, when the layout is rebuilt). ``light_points`` and ``light_facings`` are (k, 3, 1)
+    columns, as the batched matrix products take them.
     """
 
     n: int = 0
@@ -178,14 +179,11 @@ class Layout:
                                                                          dtype=_INTP))
     touch_dest: NDArray[np.intp] = field(default_factory=_empty_ints)
     touch_ids: NDArray[np.intp] = field(default_factory=_empty_ints)
-    light_root_dest: NDArray[np.intp] = field(default_factory=_empty_ints)
+    light_dest: NDArray[np.intp] = field(default_factory=_empty_ints)  # on the core, then links
     light_root_rows: NDArray[np.intp] = field(default_factory=_empty_ints)
-    light_root_position: NDArray[np.float64] = field(default_factory=_empty_vectors)
-    light_root_direction: NDArray[np.float64] = field(default_factory=_empty_vectors)
-    light_link_dest: NDArray[np.intp] = field(default_factory=_empty_ints)
     light_link_ids: NDArray[np.intp] = field(default_factory=_empty_ints)
-    light_link_position: NDArray[np.float64] = field(default_factory=_empty_vectors)
-    light_link_direction: NDArray[np.float64] = field(default_factory=_empty_vectors)
+    light_points: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3, 1)))
+    light_facings: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3, 1)))
 
     @property
     def n_inputs(self) -> int:
@@ -240,15 +238,15 @@ def layout(states: Sequence[RobotState], backend: PhysicsBackend) -> Layout:
         # contiguous: the batched maths must see the arrays a robot alone would
         return np.ascontiguousarray(np.concatenate(parts)) if parts else _empty_vectors()
 
+    points = vectors([r[2] for r in root] + [r[2] for r in link])
+    facings = vectors([r[3] for r in root] + [r[3] for r in link])
     return Layout(
         n=len(states), active_index=cat(active), output_offsets=_ints(out_offsets),
         output_rows=cat(out_rows), input_offsets=input_offsets,
         imu_dest=input_offsets[:-1, None] + np.arange(IMU_VALUES, dtype=_INTP),
         touch_dest=cat(touch_dest), touch_ids=cat(touch_ids),
-        light_root_dest=cat([r[0] for r in root]), light_root_rows=cat([r[1] for r in root]),
-        light_root_position=vectors([r[2] for r in root]),
-        light_root_direction=vectors([r[3] for r in root]),
-        light_link_dest=cat([r[0] for r in link]), light_link_ids=cat([r[1] for r in link]),
-        light_link_position=vectors([r[2] for r in link]),
-        light_link_direction=vectors([r[3] for r in link]),
+        light_dest=cat([r[0] for r in root] + [r[0] for r in link]),
+        light_root_rows=cat([r[1] for r in root]), light_link_ids=cat([r[1] for r in link]),
+        light_points=np.ascontiguousarray(points[:, :, None]),
+        light_facings=np.ascontiguousarray(facings[:, :, None]),
     )

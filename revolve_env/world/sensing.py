@@ -63,13 +63,13 @@ def light_intensity(
     Args:
         positions: (k, 3) world positions of the sensors' link frames. Metres.
         rotations: (k, 3, 3) rotations from those frames to the world frame.
-        points: (k, 3) sensing points in their link frames. Metres.
-        facings: (k, 3) unit facings in their link frames.
+        points: (k, 3, 1) sensing points in their link frames (columns). Metres.
+        facings: (k, 3, 1) unit facings in their link frames (columns).
         light: (3,) the light's position. Metres.
         light_range: Distance at which the intensity halves. Metres.
     """
-    where = positions + (rotations @ points[:, :, None])[:, :, 0]
-    facing = (rotations @ facings[:, :, None])[:, :, 0]
+    where = positions + (rotations @ points)[:, :, 0]
+    facing = (rotations @ facings)[:, :, 0]
     to_light = light - where
     d = np.sqrt(np.vecdot(to_light, to_light))
     cos_a = np.divide(np.vecdot(facing, to_light), d, out=np.ones_like(d), where=d > 0)

@@ -24,7 +24,7 @@ from revolve_env.world.backend import (
     SnapshotMismatchError,
     make_backend,
 )
-from revolve_env.world.blowups import all_calm, reason
+from revolve_env.world.blowups import Screen, all_calm, reason
 from revolve_env.world.config import WorldConfig
 from revolve_env.world.model import build_model
 from revolve_env.world.robot_state import (
@@ -92,6 +92,8 @@ class World:
         self._layout = Layout()
         self._targets = np.zeros(0)  # every active hinge's target, robots in row order. Radians
         self._blown = np.zeros(0, dtype=bool)  # rows with a blow-up reason
+        self._n_blown = 0
+        self._screen = Screen(0, 0, self.config)
         self._target_scale = math.radians(self.config.range_deg)  # radians per normalized unit
         self._light = np.asarray(self.config.light_position, dtype=np.float64)
         # every robot's IMU and sensor values, computed on demand once per control period
@@ -312,7 +314,9 @@ class World:
         """
         states = list(self._robots.values())
         self._layout = layout(states, self._backend)
+        self._screen = Screen(len(states), sum(s.n_joints for s in states), self.config)
         self._blown = np.array([s.blow_up is not None for s in states], dtype=bool)
+        self._n_blown = int(np.count_nonzero(self._blown))
         self._now = self._backend.read() if self._robots else empty_states()
         self._prev_vel = self._now.core_vel.copy()
         self._imu = None
@@ -330,6 +334,7 @@ class World:
         if reason is not None and state.blow_up is None:
             state.blow_up = reason
             self._blown[state.row] = True
+            self._n_blown += 1
 
     # -- control ------------------------------------------------------------------------------
     def set_targets(self, handle: int, targets: ArrayLike) -> None:
@@ -422,7 +427,7 @@ class World:
 
         One screen of all robots at once, then robot by robot only when the screen fails.
         """
-        if all_calm(self._now, self.config):
+        if all_calm(self._now, self._screen):
             return
         for state in self._robots.values():
             if state.blow_up is None:
@@ -438,6 +443,11 @@ class World:
         Once set, the reason stays; the robot keeps being simulated until removed.
         """
         return self._state(handle).blow_up
+
+    @property
+    def any_blown_up(self) -> bool:
+        """Whether any robot has blown up (cheaper than ``blown_up.any()``)."""
+        return self._n_blown > 0
 
     @property
     def blown_up(self) -> NDArray[np.bool_]:
@@ -556,16 +566,14 @@ class World:
             out[lay.imu_dest] = np.minimum(np.maximum(self._imus(), IMU_LOW), IMU_HIGH)
         if lay.touch_ids.size:
             out[lay.touch_dest] = self._backend.touching(lay.touch_ids)
-        if lay.light_root_dest.size:
+        if lay.light_dest.size:
             rows = lay.light_root_rows
-            out[lay.light_root_dest] = light_intensity(
-                s.core_pos[rows], s.core_rot[rows], lay.light_root_position,
-                lay.light_root_direction, self._light, c.light_range)
-        if lay.light_link_dest.size:
-            pos, rot = self._backend.link_poses(lay.light_link_ids)
-            out[lay.light_link_dest] = light_intensity(
-                pos, rot, lay.light_link_position, lay.light_link_direction, self._light,
-                c.light_range)
+            pos, rot = s.core_pos[rows], s.core_rot[rows]
+            if lay.light_link_ids.size:
+                link_pos, link_rot = self._backend.link_poses(lay.light_link_ids)
+                pos, rot = np.concatenate((pos, link_pos)), np.concatenate((rot, link_rot))
+            out[lay.light_dest] = light_intensity(pos, rot, lay.light_points, lay.light_facings,
+                                                  self._light, c.light_range)
         out.flags.writeable = False
         return out
 

@@ -39,7 +39,7 @@ def test_light_sensors_of_many_robots_read_what_each_alone_reads(seed: int, n: i
     facing /= np.linalg.norm(facing, axis=1, keepdims=True)
     light = rng.normal(size=3)
     pos[0] = light - rot[0] @ point[0]  # a sensor right at the light: d = 0
-    got = light_intensity(pos, rot, point, facing, light, 1.0)
+    got = light_intensity(pos, rot, point[:, :, None], facing[:, :, None], light, 1.0)
     want = [_one_light(pos[i], rot[i].copy(), point[i], facing[i], light, 1.0) for i in range(n)]
     assert got.tolist() == want
     assert np.all((got >= 0) & (got <= 1))
@@ -48,11 +48,11 @@ def test_light_sensors_of_many_robots_read_what_each_alone_reads(seed: int, n: i
 def test_a_light_sensor_facing_away_reads_plus_zero_and_a_lost_one_nan_as_alone() -> None:
     rot = np.eye(3)[None]
     light = np.array([1.0, 0, 0])
-    away = light_intensity(np.zeros((1, 3)), rot, np.zeros((1, 3)), np.array([[-1.0, 0, 0]]),
-                           light, 1.0)
+    away = light_intensity(np.zeros((1, 3)), rot, np.zeros((1, 3, 1)),
+                           np.array([[-1.0, 0, 0]])[:, :, None], light, 1.0)
     assert away.tolist() == [0.0] and math.copysign(1.0, away[0]) == 1.0  # max(0.0, -0.9)
-    lost = light_intensity(np.full((1, 3), np.nan), rot, np.zeros((1, 3)),
-                           np.array([[1.0, 0, 0]]), light, 1.0)
+    lost = light_intensity(np.full((1, 3), np.nan), rot, np.zeros((1, 3, 1)),
+                           np.array([[1.0, 0, 0]])[:, :, None], light, 1.0)
     alone = _one_light(np.full(3, np.nan), np.eye(3), np.zeros(3), np.array([1.0, 0, 0]), light,
                        1.0)
     assert math.isnan(lost[0]) and math.isnan(alone)  # a blow-up stays visible
