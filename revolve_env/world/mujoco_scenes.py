@@ -151,8 +151,11 @@ class MujocoScenes(IsolatedBackend):
     def _plan_of(self, ids: NDArray[np.intp]) -> tuple[list[tuple[mujoco.MjData,
                                                                   NDArray[np.intp]]],
                                                        NDArray[np.intp], int]:
-        """For ``ids``: their scenes (data, each geom's body numbered across those scenes),
-        each id's body in that numbering, and the number of bodies (remembered per array)."""
+        """Where to find the links ``ids`` name (remembered per array).
+
+        Their scenes (data, each geom's body numbered across those scenes), each id's body in
+        that numbering, and the number of bodies.
+        """
         cached = self._sensor_plans.get(id(ids))
         if cached is not None and cached[0] is ids:
             return cached[1], cached[2], cached[3]

@@ -453,10 +453,10 @@ class World:
     def blown_up(self) -> NDArray[np.bool_]:
         """Which robots have blown up (:meth:`blow_up` is not None), rows in insertion order.
 
-        Read-only; a new array after every birth or death.
+        A read-only copy (later blow-ups do not change it).
         """
         self._check_open()
-        flags = self._blown.view()
+        flags = self._blown.copy()
         flags.flags.writeable = False
         return flags
 
