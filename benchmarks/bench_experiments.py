@@ -59,7 +59,7 @@ def main() -> None:
         speed = events[-1].sim_time / wall
         # On 2 cores: offline runs use every core for evaluations (scaled from `cores` here);
         # online worlds are one process each, two runs side by side.
-        rate_2_cores = rate * 2 / cores if config.engine == "offline" else rate * 2
+        rate_2_cores = rate * 2 / cores if config.mode == "offline" else rate * 2
         hours = STUDY_RUNS * STUDY_BIRTHS / rate_2_cores / 60
         total_hours += hours
         print(f"{name:<12} {args.births:>6} {wall:>8.1f} {rate:>11.1f} {speed:>12.1f} "

@@ -139,7 +139,7 @@ def _no_robot() -> tuple[Robot, str]:
 
 def _stored_kind(stored: StoredRobot) -> str:
     config = stored.config
-    if config.engine == "online":
+    if config.mode == "online":
         when = "" if stored.fitness_time is None else f" at t = {stored.fitness_time:.1f} s"
         return (f"its last {config.evaluation_time:g} s sliding-window sample in the shared "
                 f"online world{when}")
@@ -153,7 +153,7 @@ def fitness_reasons(plan: _Plan) -> list[str]:
     if stored is None:
         return []
     config, reasons = stored.config, []
-    if config.engine == "online":
+    if config.mode == "online":
         reasons.append("its stored fitness was measured in the shared online world (other "
                        "robots, collisions, its birth place and heading, a sliding window), "
                        "the re-simulation is alone at the origin")
@@ -463,7 +463,7 @@ def _watch_results(args: argparse.Namespace, folder: Path) -> int:
         config = verify(store)
         if args.run not in {r.run_id for r in store.runs()}:
             raise CliError(f"{db} has no run {args.run}")
-        if config.engine != "online":
+        if config.mode != "online":
             raise CliError(f"{config.name} is an offline experiment (robots evaluated alone): "
                            "watch one of its robots with `revolve show --db DIR --robot ID`")
         if args.record is None and not has_display():

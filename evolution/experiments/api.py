@@ -188,7 +188,7 @@ def check_resumable(db_path: Path, trust_pickled_policies: bool = False) -> Expe
         runs = store.runs()
         if work_left(config, runs):
             check_writable(store)
-            if config.engine == "online":  # offline runs never reload a policy
+            if config.mode == "online":  # offline runs never reload a policy
                 refuse_pickled(store, {r.run_id for r in runs if r.status != "finished"},
                                trust_pickled_policies)
     return config

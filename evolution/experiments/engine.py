@@ -12,7 +12,7 @@ or together in one world, online), selects survivors, and collects every record 
 :class:`~evolution.experiments.store.Batch`; at the commit point the batch and a checkpoint
 are written in one transaction.
 
-Offline (``engine = "offline"``)
+Offline (``mode = "offline"``)
     Generation 0 is ``population_size`` random robots. Each later generation conceives
     ``offspring_size`` children (the last one fewer, to stop at exactly ``births``), evaluates
     them in parallel (each alone at the origin, ``insertion`` + ``evaluation_time`` seconds), and
@@ -21,7 +21,7 @@ Offline (``engine = "offline"``)
     one after another as in the paper. A commit point is one generation. Resume reloads the
     population from the store and the generator's state from the checkpoint.
 
-Online (``engine = "online"``)
+Online (``mode = "online"``)
     ``population_size`` random robots are born at time 0 at random free positions. Every
     ``conception_interval`` seconds of simulated time: robots that died in the world (blow-ups)
     are recorded; survivor selection applies the online rule to the *mature* robots (infants
@@ -123,7 +123,7 @@ def execute_run(job: RunJob, evaluator: Evaluator,
     world: OnlineWorld | None = None
     try:
         store.set_status(job.run_id, "running")
-        if job.config.engine == "offline":
+        if job.config.mode == "offline":
             run = OfflineRun(job, store, emit, evaluator)
         else:
             factory = job.world_factory or default_world

@@ -37,12 +37,14 @@ with it (``"learned"``), so a resumed run continues with the same genomes.
 
 Schema versions: 1 had no ``learning`` table; 2 had no ``learning.policy`` column (the reference
 to a saved SB3 policy in ``<results>/policies/``); 3 had no ``reevaluations`` table, and its
-stored configs no ``evaluation`` table. An older database is upgraded in place when opened, in
-one transaction (the empty ``learning`` and ``reevaluations`` tables and the ``policy`` column,
-NULL in old rows, are added; a stored config without ``evaluation`` gains the conditions its runs
-lived under, :data:`~evolution.experiments.records.CONDITIONS_OF_OLD_RUNS`: heading 0 offline,
-a random heading online, no noise; the version is set to 4; nothing else changes); a database
-newer than this package is refused.
+stored configs no ``evaluation`` table; 4 named the stored config's offline/online switch
+``engine``. An older database is upgraded in place when opened, in one transaction (the empty
+``learning`` and ``reevaluations`` tables and the ``policy`` column, NULL in old rows, are added;
+a stored config without ``evaluation`` gains the conditions its runs lived under,
+:data:`~evolution.experiments.records.CONDITIONS_OF_OLD_RUNS`: heading 0 offline, a random
+heading online, no noise; its ``engine`` key becomes ``mode``,
+:data:`~evolution.experiments.records.MODE_OF_OLD_CONFIGS`; the version is set to 5; nothing
+else changes); a database newer than this package is refused.
 
 The query functions at the bottom (``fitness_over_births``, ``final_population``, ...) are what
 reports and plots read.
@@ -98,7 +100,6 @@ __all__ = [
 
 DB_NAME = "results.sqlite"
 """File name of the database inside a results directory."""
-
 
 
 def package_version() -> str:

@@ -287,7 +287,7 @@ def run_study(plan: StudyPlan, progress: StudyProgress | None = None,
         KeyboardInterrupt: Ctrl-C; what was committed stays.
     """
     # Longest first: an online run simulates a whole world per birth.
-    order = sorted(plan.experiments, key=lambda e: e.config.engine != "online")
+    order = sorted(plan.experiments, key=lambda e: e.config.mode != "online")
     jobs = [StudyJob(e.name, job) for e in order for job in e.jobs]
     started = time.perf_counter()
     summaries: list[RunSummary] = []

@@ -201,7 +201,7 @@ def test_the_undamaged_databases_are_usable(interrupted: Path, online: Path) -> 
         assert [(r.status, r.births) for r in store.runs()] == [("interrupted", 30),
                                                                  ("pending", 0)]
     with Store.open(online / DB_NAME) as store:
-        assert verify(store, resumable=True).engine == "online"
+        assert verify(store, resumable=True).mode == "online"
         assert [r.status for r in store.runs()] == ["interrupted", "pending"]
 
 
