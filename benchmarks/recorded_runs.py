@@ -1,4 +1,4 @@
-"""Recorded runs: record small experiments on both physics engines, compare databases table by table.
+"""Recorded runs: small experiments on both physics engines; their databases compared by table.
 
 A refactor must move no stored number. This script records a fixed set of small runs (offline
 and online, pybullet and MuJoCo, with and without infancy learning) into a folder, and compares
@@ -160,7 +160,8 @@ def compare(a: Path, b: Path) -> bool:
             if verdict == "DIFFERENT" and x is not None and y is not None:
                 for i, (p, q) in enumerate(zip(x, y, strict=False)):
                     if p != q:
-                        print(f"    first difference at row {i}:\n      {p!r:.300}\n      {q!r:.300}")
+                        print(f"    first difference at row {i}:\n      {p!r:.300}\n"
+                              f"      {q!r:.300}")
                         break
     print("ALL IDENTICAL" if same else "DIFFERENCES FOUND")
     return same

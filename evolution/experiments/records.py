@@ -2,7 +2,7 @@
 
 :class:`~evolution.experiments.store.Store` writes and reads them (its module docstring
 describes each table). The records are plain data: a :class:`Batch` collects one commit point's
-records and is cleared after it, the others are frozen.
+records (a new one for each), the others are frozen.
 """
 
 from __future__ import annotations
@@ -434,18 +434,6 @@ class Batch:
     diversity: float | None = None
     failures: list[FailureRecord] = field(default_factory=list)
     learning: list[LearningRecord] = field(default_factory=list)
-
-    def clear(self) -> None:
-        """Forget everything (after it has been written)."""
-        self.robots.clear()
-        self.deaths.clear()
-        self.fitness_updates.clear()
-        self.fitness.clear()
-        self.transitions.clear()
-        self.population = None
-        self.diversity = None
-        self.failures.clear()
-        self.learning.clear()
 
 
 @dataclass(frozen=True, slots=True)

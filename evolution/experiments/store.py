@@ -4,7 +4,7 @@ Standard library ``sqlite3``, write-ahead log, versioned schema. Runs write thei
 batches, one transaction per *commit point* (an offline generation, an online birth): a batch
 holds the robots, fitness samples, lifecycle transitions, population snapshot, diversity values
 and failures since the previous commit point, together with the run's *checkpoint* (births,
-simulated time, the random generator's state and the engine's state). A killed run therefore
+simulated time, the random generator's state and the loop's state). A killed run therefore
 loses at most the work since its last commit, and a resumed run starts exactly from the
 checkpoint.
 
@@ -81,21 +81,9 @@ from evolution.experiments.records import (
 from evolution.lifecycle import Stage, Transition
 
 __all__ = [
-    "DB_NAME",
-    "SCHEMA_VERSION",
-    "Batch",
-    "Checkpoint",
-    "DiversityPoint",
-    "FailureRecord",
-    "FitnessSample",
-    "FitnessSeries",
-    "LearningRecord",
-    "ReevaluationRecord",
-    "RobotRecord",
-    "RunRecord",
-    "Store",
-    "StoreError",
-    "package_version",
+    "DB_NAME", "SCHEMA_VERSION", "Batch", "Checkpoint", "DiversityPoint", "FailureRecord",
+    "FitnessSample", "FitnessSeries", "LearningRecord", "ReevaluationRecord", "RobotRecord",
+    "RunRecord", "Store", "StoreError", "package_version",
 ]
 
 DB_NAME = "results.sqlite"
@@ -357,7 +345,6 @@ class Store:
                 "UPDATE runs SET births = ?, sim_time = ?, generation = ? WHERE run_id = ?",
                 (checkpoint.births, checkpoint.sim_time, checkpoint.generation, run_id),
             )
-        batch.clear()
 
     def add_reevaluations(self, records: Sequence[ReevaluationRecord]) -> int:
         """Write reevaluations in one transaction; rows whose key is stored already are kept.

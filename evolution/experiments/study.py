@@ -52,10 +52,10 @@ from evolution.experiments.api import (
     pending_jobs,
 )
 from evolution.experiments.config import ConfigError, ExperimentConfig, check_name, load_config
-from evolution.experiments.engine import execute_run
 from evolution.experiments.folders import STUDY_FILE
 from evolution.experiments.run import ProgressEvent, RunJob, RunSummary, WorldFactory, check_infancy
 from evolution.experiments.store import DB_NAME, Store, StoreError
+from evolution.experiments.store_observer import execute_run
 
 __all__ = [
     "PAPER_EXPERIMENTS",
@@ -170,7 +170,7 @@ class StudyEvent:
 
 def execute_study_job(job: StudyJob, evaluator: Evaluator,
                       emit: Callable[[StudyEvent], None]) -> RunSummary:
-    """One run of a study (:func:`~evolution.experiments.engine.execute_run`), events tagged.
+    """One run of a study (:func:`~evolution.experiments.execute_run`), events tagged.
 
     Its progress events reach ``emit`` as :class:`StudyEvent` with the experiment's name.
     """
