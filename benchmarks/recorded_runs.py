@@ -23,6 +23,15 @@ anything differs.
 The recorded cases name no offline/online switch of their own: each starts from a shipped
 config (``quick``, ``scenario3``, ``scenario1_learning``, ``scenario3_learning``), so the same
 command records with code from before and after a rename of that switch.
+
+Measured for issue 21 (the stepping loop, the ``engine`` -> ``mode`` rename, schema 5), seed 3,
+2-core machine shared with other work: ``record BASE/full`` and ``record BASE/killed --kill 0.6``
+with the code before (schema 4), ``record NEW`` with the code after, then ``resume`` of a copy of
+``BASE/killed`` with the code after. ``compare BASE/full NEW`` and ``compare BASE/full
+RESUMED``: both "ALL IDENTICAL", 66 tables of 6 databases each (offline 90 births and online 50
+births on pybullet and MuJoCo, offline learning 18 births on pybullet, online learning 14 births
+on MuJoCo; the online MuJoCo runs resumed from their snapshot, the online pybullet one by
+replay). A change of 1e-12 m in one fitness sample is reported as DIFFERENT (exit status 1).
 """
 
 from __future__ import annotations
