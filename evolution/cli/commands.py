@@ -69,6 +69,7 @@ from evolution.experiments.callbacks import (
     TensorBoardUnavailableError,
     combine,
 )
+from evolution.experiments.folders import left_out_note
 from evolution.experiments.store import package_version
 from evolution.random_robot import RandomRobotError
 from evolution.reporting import report
@@ -123,7 +124,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     out = Path(args.out) / config.name
     targets = {i: config.births for i in range(config.runs)}
     bar = combine(ProgressDisplay(targets, label=config.name), *_tensorboard(args, config.name))
-    _say(f"{config.name}: {config.runs} run(s) x {config.births} births ({config.engine}) -> {out}")
+    _say(f"{config.name}: {config.runs} run(s) x {config.births} births ({config.mode}) -> {out}")
     if config.learning is not None:
         _say(_describe_learning(config))
     try:
@@ -212,11 +213,16 @@ def _cmd_report(args: argparse.Namespace) -> int:
     if not formats or any(f not in FIGURE_FORMATS for f in formats):
         raise CliError(f"--formats takes a comma-separated list of {', '.join(FIGURE_FORMATS)}; "
                        f"got {args.formats!r}")
-    result = report(args.dir, args.out, formats, brain_aware=args.brain_aware)
+    result = report(args.dir, args.out, formats, brain_aware=args.brain_aware,
+                    every_set=args.all)
     _say(f"{len(result.experiments)} experiment(s): "
          + ", ".join(f"{e.label} ({len(e.runs)} runs)" for e in result.experiments))
+    note = left_out_note(args.dir, result.left_out, "revolve report")
+    if note:
+        _say(note)
     for path in (*result.figures, *result.tables):
         _say(str(path))
+    _say(f"open in a browser: {result.page}")
     return 0
 
 
@@ -386,16 +392,20 @@ def _tensorboard_argument(parser: argparse.ArgumentParser) -> None:
 
 def _add_report(sub: _Subparsers) -> None:
     p = sub.add_parser(
-        "report", help="figures and tables comparing experiments",
-        description="Compare every experiment at or below DIR. Writes fitness_over_births, "
-                    "final_fitness, diversity_over_births, final_diversity, failed_births and "
-                    "curve_tests (PNG and PDF), summary.csv, tests_per_run.csv (Mann-Whitney "
-                    "U, A12 and Holm on one value per run), tests_pooled_descriptive.csv, "
-                    "curve_tests.csv and summary.md into DIR/report (or --out). When an "
-                    "experiment learns (a [learning] table), summary.csv/summary.md also give "
-                    "the mean inborn and learned fitness and the learner failures, and "
-                    "learning_gain (PNG/PDF) compares inborn and learned fitness. "
-                    "--brain-aware adds the brain-aware diversity.",
+        "report", help="figures, tables and a browser page comparing experiments",
+        description="Compare the experiments at or below DIR: one study, or the experiments "
+                    "outside any study (what is left out is named; --all compares every set). "
+                    "Each pair is compared at the most births both reached, and robots lost to "
+                    "blow-ups are counted apart. Writes index.html (the whole report on one "
+                    "page), fitness_over_births, final_fitness, diversity_over_births, "
+                    "final_diversity, lost_robots and curve_tests (PNG and PDF), summary.csv, "
+                    "tests_per_run.csv (Mann-Whitney U, A12 with its exact interval and Holm "
+                    "on one value per run), tests_pooled_descriptive.csv, curve_tests.csv and "
+                    "summary.md into DIR/report (or --out). When an experiment learns (a "
+                    "[learning] table), summary.csv/summary.md also give the mean inborn and "
+                    "learned fitness and the learner failures, and learning_gain (PNG/PDF) "
+                    "compares inborn and learned fitness. --brain-aware adds the brain-aware "
+                    "diversity. What each table and figure means: docs/reports.md.",
     )
     p.add_argument("dir", metavar="DIR", help="results folder (as given to `revolve run --out`)")
     p.add_argument("--out", metavar="DIR", help="output folder")
@@ -403,6 +413,9 @@ def _add_report(sub: _Subparsers) -> None:
                    help="figure formats, comma-separated: png, pdf, svg")
     p.add_argument("--brain-aware", action="store_true",
                    help="also the brain-aware diversity (body + neural distance; slower)")
+    p.add_argument("--all", action="store_true",
+                   help="compare every set of experiments below DIR (studies and lone "
+                        "experiments together, each pair at the births both reached)")
     p.set_defaults(handler=_cmd_report)
 
 

@@ -27,6 +27,7 @@ from evolution.cli.robots import (
     trust_argument,
     workers,
 )
+from evolution.experiments.folders import left_out_note
 from evolution.experiments.reevaluate import MAX_K, reevaluate
 from evolution.reporting import find_experiments
 from evolution.reporting.optimism import EXPLANATION, markdown, optimism_rows, read_reevaluations
@@ -80,7 +81,8 @@ def _cmd_reevaluate(args: argparse.Namespace) -> int:
         summary = reevaluate(args.results, k=args.k, which=which, window_offsets=offsets,
                              shared_world=args.shared_world, workers=args.workers,
                              progress=count, include_unfinished=args.include_unfinished,
-                             trust_pickled_policies=args.trust_pickled_policies)
+                             trust_pickled_policies=args.trust_pickled_policies,
+                             every_set=args.all)
     except KeyboardInterrupt:
         print("revolve reevaluate: interrupted; finished reevaluations are saved; run the same "
               "command again to continue", file=sys.stderr)
@@ -94,9 +96,13 @@ def _cmd_reevaluate(args: argparse.Namespace) -> int:
     print(f"{summary.planned} reevaluation(s) asked for in {len(summary.databases)} "
           f"database(s): {summary.added} new, {summary.planned - summary.evaluated} stored "
           "already", flush=True)
-    rows = optimism_rows(read_reevaluations(find_experiments(args.results)))
+    note = left_out_note(args.results, summary.left_out, "revolve reevaluate")
+    if note:
+        print(note, flush=True)
+    rows = optimism_rows(read_reevaluations(find_experiments(args.results, every_set=args.all)))
+    more = " --all" if args.all else ""
     print("\n".join(["", *markdown(rows), "", EXPLANATION, "",
-                     f"next: revolve report {args.results}"]), flush=True)
+                     f"next: revolve report {args.results}{more}"]), flush=True)
     return 0
 
 
@@ -104,7 +110,9 @@ def add_reevaluate(sub: Any) -> None:
     """Register the ``reevaluate`` subcommand on ``revolve``'s subparsers."""
     p = sub.add_parser(
         "reevaluate", help="evaluate stored robots again: the optimism of a single evaluation",
-        description="Evaluate the final population of every run below RESULTS (or, with "
+        description="Evaluate the final population of every run of one set of experiments "
+                    "below RESULTS (a study, or the experiments outside any study; --all: "
+                    "every set) (or, with "
                     "--best, the best robot of each generation / online birth) K more times "
                     "under fresh conditions (the run's own with a random heading: new headings "
                     "and noise draws, seeded), store the results in each experiment's database, "
@@ -132,4 +140,7 @@ def add_reevaluate(sub: Any) -> None:
                    help="also runs that have not finished (interrupted or still running: their "
                         "last committed population); by default they are skipped, and listed")
     trust_argument(p)
+    p.add_argument("--all", action="store_true",
+                   help="every set of experiments below RESULTS (by default one: a study, or "
+                        "the experiments outside any study, as revolve report takes them)")
     p.set_defaults(handler=_cmd_reevaluate)

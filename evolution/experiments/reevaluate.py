@@ -35,8 +35,12 @@ it again finds every row stored (the key holds no timestamp) and evaluates nothi
 ``k`` adds only the missing repeats. Results are committed every few evaluations, so Ctrl-C
 loses only the evaluations in flight.
 
+Which databases: one set of experiments below ``path``, as a report takes them
+(:func:`evolution.experiments.folders.select_results`: a study, or the experiments outside any
+study; ``every_set=True`` takes them all); the summary names what was left out.
+
 From the command line: ``revolve reevaluate RESULTS [--k 10] [--best] [--window-offset S ...]
-[--shared-world] [--workers N]``, then ``revolve report RESULTS``.
+[--shared-world] [--workers N] [--all]``, then ``revolve report RESULTS``.
 """
 
 from __future__ import annotations
@@ -54,9 +58,10 @@ import numpy as np
 from evolution.evaluation import EvalOutcome, EvalTask, Evaluator, make_evaluator
 from evolution.experiments import results_folder
 from evolution.experiments.config import MAX_SECONDS
+from evolution.experiments.folders import ResultSet, select_results
 from evolution.experiments.integrity import check_writable, verify
 from evolution.experiments.records import ReevaluationRecord
-from evolution.experiments.store import DB_NAME, Store, StoreError
+from evolution.experiments.store import Store, StoreError
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import from_json
 from revolve_env.conditions import RANDOM_HEADING, EvaluationConditions
@@ -220,6 +225,8 @@ class ReevaluationSummary:
         evaluated: Of those, evaluations run by this call (the others were stored already).
         added: Rows written by this call.
         skipped: Unfinished runs left out (``include_unfinished`` was false).
+        left_out: The sets of experiments below the path that were not reevaluated
+            (:func:`~evolution.experiments.folders.select_results`).
     """
 
     databases: tuple[Path, ...]
@@ -227,6 +234,7 @@ class ReevaluationSummary:
     evaluated: int
     added: int
     skipped: tuple[SkippedRun, ...] = ()
+    left_out: tuple[ResultSet, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -259,6 +267,7 @@ def reevaluate(
     progress: ProgressFunction | None = None,
     include_unfinished: bool = False,
     trust_pickled_policies: bool = False,
+    every_set: bool = False,
 ) -> ReevaluationSummary:
     """Reevaluate the chosen robots of every experiment at or below ``path`` (module docs).
 
@@ -279,14 +288,18 @@ def reevaluate(
             out and listed in the summary's ``skipped``.
         trust_pickled_policies: Load SB3 policies that older versions saved as pickles (which
             can run code: only for a results folder whose author you trust).
+        every_set: Every set of experiments below ``path`` (studies and lone experiments
+            together), not only the one :func:`~evolution.experiments.folders.select_results`
+            takes.
 
     Returns:
         What was planned and written.
 
     Raises:
-        StoreError: no results database below ``path``, or a damaged or read-only one, or a
+        StoreError: no results database below ``path``, a damaged or read-only one, or a
             saved policy that cannot be used (checked, all of them, before anything is
-            evaluated).
+            evaluated), or several studies and nothing else below ``path`` without
+            ``every_set``.
         ValueError: a bad ``k`` (1 to :data:`MAX_K`), ``which`` or window offset (0 to
             :data:`~evolution.experiments.config.MAX_SECONDS`).
         KeyboardInterrupt: Ctrl-C; everything committed stays, running again continues.
@@ -299,9 +312,10 @@ def reevaluate(
     if not offsets or any(not (math.isfinite(o) and 0 <= o <= MAX_SECONDS) for o in offsets):
         raise ValueError(f"window offsets must be numbers of seconds from 0 to {MAX_SECONDS:g}, "
                          f"got {list(window_offsets)!r}")
+    selection = select_results(path, every_set, "revolve reevaluate")
     plans = [_plan(db, k, which, offsets, shared_world, conditions, seed, include_unfinished,
                    trust_pickled_policies)
-             for db in _databases(Path(path))]
+             for db in selection.databases]
     total = sum(len(plan.todo) for plan in plans)
     used = evaluator or make_evaluator("local", workers)
     done = added = 0
@@ -318,19 +332,8 @@ def reevaluate(
             used.close()
     return ReevaluationSummary(tuple(plan.db for plan in plans),
                                sum(plan.asked for plan in plans), total, added,
-                               tuple(run for plan in plans for run in plan.skipped))
-
-
-def _databases(path: Path) -> list[Path]:
-    if not path.exists():
-        raise StoreError(f"no such results directory: {path}")
-    if path.is_file():
-        paths = [path] if path.name == DB_NAME else []
-    else:
-        paths = sorted(path.rglob(DB_NAME))
-    if not paths:
-        raise StoreError(f"no results database ({DB_NAME}) at or below {path}")
-    return paths
+                               tuple(run for plan in plans for run in plan.skipped),
+                               selection.left_out)
 
 
 _Todo = tuple[Chosen, _Setting, int, int]
@@ -362,7 +365,7 @@ def _plan(db: Path, k: int, which: str, offsets: tuple[float, ...], shared_world
         used = reevaluation_conditions(store.config, conditions)
         settings = [_Setting(which, used, config.insertion + o, config.evaluation_time,
                              shared_world, config.world.engine) for o in offsets]
-        mature_age = config.fertile_age if config.engine == "online" else 0.0
+        mature_age = config.fertile_age if config.mode == "online" else 0.0
         stored = {r.key for r in store.reevaluations(which)}
         todo: list[_Todo] = []
         policies: dict[tuple[int, int], Any] = {}
