@@ -45,7 +45,7 @@ indications only):
   | + learning rate 1e-3 (instead of 3e-4)                    | 0    | 0.39 | 0.98 | 2.02 |       |
   | + 20 epochs (instead of 10)                               | 0    | 0.72 | 1.14 | 2.55 |       |
   | 8 envs x 256 steps                                        | 0    | 0.18 | 0.66 | 0.85 |       |
-  | 4 envs x 128 steps (chosen: ``rl.ppo_settings``)          | 0    | 2.34 | 4.01 | 4.34 | S0    |
+  | 4 envs x 128 steps (chosen: ``rl.ppo_settings``)          | 0    | 2.34 | 4.01 | 4.34 | 5.33  |
   |                                                           | 1    | 2.07 | 3.10 | 4.25 | 4.80  |
   |                                                           | 2    | 2.14 | 4.95 | 6.12 | 6.02  |
   | 4 envs x 64 steps                                         | 0    | 3.29 | 3.24 | 5.62 |       |
@@ -88,6 +88,12 @@ cores, two runs at once). Fitness of the deterministic policy in the 2.5 s train
     modulate: f@100k 2.85 +- 0.81 (1.92..3.36); above the CPG at 100 k in 2/3 seeds (seed 2
               dips to 1.92 at the 100 k evaluation, 3.28 at 80 k, 2.81 at the end);
               12 s window at the end 13.13 +- 0.91 (12.28..14.09), CPG 10.21
+
+The same targets runs on pybullet (the rows "4 envs x 128" above; seeds 1 and 0 re-run after
+merging main: seed 1 identical to the last digit, seed 0 up to 80 k, where the earlier run
+stopped): 5.33, 4.80, 6.02 at 100 k, 5.38 +- 0.61, above the CPG (2.21) in 3/3
+seeds; 12 s window at the end 8.52, 8.20, 17.70 (CPG 10.20); 155-727 s per run on a loaded
+machine.
 
 In the training window PPO from scratch (targets) is above the CPG in every seed from 40 k
 steps; on top of the CPG (modulate) it is above it at the end in every seed but its
