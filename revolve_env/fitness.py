@@ -15,6 +15,12 @@ every robot's terms at once with array operations; :class:`SlidingWindowFitness`
 robot's window in plain floats (cheaper for one robot, and the reference that
 ``FitnessWindows`` equals bit for bit: ``tests/test_fitness.py``). All share the same
 arithmetic.
+
+What a task (:mod:`revolve_env.tasks`) scores is a :class:`Window`: every robot's window as
+arrays (its ends, ``v``, ``s``, its samples and, for a task that asks for one, a signal at both
+ends); :meth:`FitnessWindows.window`, :meth:`SlidingWindowFitness.window` and
+:func:`trajectory_window` (a whole evaluation) make one. ``v`` and ``s`` are the kinematic terms
+of every task; ``f = v + 5 s`` is the paper's task, :class:`revolve_env.tasks.Locomotion`.
 """
 
 from __future__ import annotations
@@ -22,7 +28,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -33,7 +39,9 @@ __all__ = [
     "FitnessTerms",
     "FitnessWindows",
     "SlidingWindowFitness",
+    "Window",
     "fitness_terms",
+    "trajectory_window",
     "window_fitness",
 ]
 
@@ -59,6 +67,32 @@ class FitnessTerms:
     fitness: float
     v: float
     s: float
+
+
+class Window(NamedTuple):
+    """Every robot's fitness window as arrays, one entry per robot (``n`` robots).
+
+    A robot with fewer than two samples has zeros everywhere but ``samples`` (its fitness is 0
+    whatever the task: :func:`revolve_env.tasks.score`).
+
+    Attributes:
+        start: (n, 2) core ``(x, y)`` at the window's first sample. Metres.
+        end: (n, 2) core ``(x, y)`` at its last sample. Metres.
+        v: (n,) horizontal path length of the core from start to end. Metres.
+        s: (n,) straight horizontal distance from start to end. Metres.
+        samples: (n,) samples in the window (one per control period).
+        signal_start: (n,) the task's signal (:attr:`revolve_env.tasks.Task.signal`) at the
+            first sample; None for a task without one.
+        signal_end: (n,) the signal at the last sample; None likewise.
+    """
+
+    start: NDArray[np.float64]
+    end: NDArray[np.float64]
+    v: NDArray[np.float64]
+    s: NDArray[np.float64]
+    samples: NDArray[np.int64]
+    signal_start: NDArray[np.float64] | None = None
+    signal_end: NDArray[np.float64] | None = None
 
 
 def _horizontal(positions: ArrayLike) -> NDArray[np.float64]:
@@ -113,6 +147,37 @@ def window_fitness(
     return fitness_terms(xy[first:], s_weight)
 
 
+def trajectory_window(paths: Sequence[NDArray[np.float64]],
+                      signals: Sequence[NDArray[np.float64]] | None = None) -> Window:
+    """The window of each robot's whole trajectory (an evaluation: every sample counts).
+
+    ``v`` and ``s`` are :func:`fitness_terms`' to the bit, so that ``v + 5 s`` is its fitness.
+
+    Args:
+        paths: One (T, 2) or (T, 3) array of core positions per robot (T may differ, 0 or 1
+            included: zeros). Metres.
+        signals: One (T,) array of the task's signal per robot, sampled with the positions;
+            None for a task without a signal.
+    """
+    n = len(paths)
+    start, end = np.zeros((n, 2)), np.zeros((n, 2))
+    v, s = np.zeros(n), np.zeros(n)
+    samples = np.array([len(p) for p in paths], dtype=np.int64)
+    sig_start = sig_end = None
+    if signals is not None:
+        sig_start, sig_end = np.zeros(n), np.zeros(n)
+    for i, path in enumerate(paths):
+        if len(path) < 2:
+            continue
+        terms = fitness_terms(path)
+        start[i], end[i] = path[0, :2], path[-1, :2]
+        v[i], s[i] = terms.v, terms.s
+        if signals is not None:
+            assert sig_start is not None and sig_end is not None
+            sig_start[i], sig_end[i] = signals[i][0], signals[i][-1]
+    return Window(start, end, v, s, samples, sig_start, sig_end)
+
+
 def _hypot(dx: NDArray[np.float64], dy: NDArray[np.float64]) -> NDArray[np.float64]:
     """``math.hypot`` element by element (CPython's own; the windows have always used it).
 
@@ -133,18 +198,19 @@ class FitnessWindows:
     memory stays bounded however long the robots live. Columns follow births and deaths
     (:meth:`add`, :meth:`remove`).
 
-    What a task needs per robot is here as arrays: :meth:`ends` (first and last horizontal
-    positions in the window, path length between them, samples in the window).
+    What a task scores is :meth:`current`: every robot's window as a :class:`Window` of arrays
+    (with ``signal=True``, a task's signal is kept with each sample and given at both ends).
     """
 
     def __init__(self, window: float = DEFAULT_WINDOW, s_weight: float = DEFAULT_S_WEIGHT,
-                 capacity: int = 1024) -> None:
+                 capacity: int = 1024, signal: bool = False) -> None:
         """Windows of ``window`` seconds; ``f = v + s_weight * s``; no robots yet.
 
         Args:
             window: Window length. Seconds.
             s_weight: Weight of ``s``.
             capacity: Initial ring size (samples); it doubles when a window holds more.
+            signal: Keep a signal value with every sample (:meth:`push`'s ``signal``).
         """
         if not (window > 0 and math.isfinite(window)):
             raise ValueError(f"window must be a positive number of seconds, got {window}")
@@ -155,6 +221,7 @@ class FitnessWindows:
         self._t = np.empty(capacity)
         self._xy = np.empty((capacity, 0, 2))
         self._path = np.empty((capacity, 0))  # path length from each robot's first sample
+        self._sig: NDArray[np.float64] | None = np.empty((capacity, 0)) if signal else None
         self._seq = 0  # sequence number of the next sample time (its ring row: seq % capacity)
         self._start = 0  # sequence number of the oldest sample time in the windows
         self._first = np.zeros(0, dtype=np.int64)  # each robot's first sample (_NONE: none)
@@ -178,6 +245,8 @@ class FitnessWindows:
         cap = self.capacity
         self._xy = np.concatenate((self._xy, np.zeros((cap, count, 2))), axis=1)
         self._path = np.concatenate((self._path, np.zeros((cap, count))), axis=1)
+        if self._sig is not None:
+            self._sig = np.concatenate((self._sig, np.zeros((cap, count))), axis=1)
         self._first = np.concatenate((self._first, np.full(count, self._NONE, dtype=np.int64)))
         self._last = np.concatenate((self._last, np.full(count, -1, dtype=np.int64)))
         self._cols = np.arange(len(self))
@@ -186,6 +255,8 @@ class FitnessWindows:
         """Keep only the robots where ``keep`` is True (the others' columns go)."""
         self._xy = self._xy[:, keep]
         self._path = self._path[:, keep]
+        if self._sig is not None:
+            self._sig = self._sig[:, keep]
         self._first = self._first[keep]
         self._last = self._last[keep]
         self._cols = np.arange(len(self))
@@ -197,8 +268,8 @@ class FitnessWindows:
         self._last[:] = -1
 
     # -- samples ------------------------------------------------------------------------------
-    def push(self, t: float, xy: NDArray[np.float64], sampling: NDArray[np.bool_] | None = None
-             ) -> None:
+    def push(self, t: float, xy: NDArray[np.float64], sampling: NDArray[np.bool_] | None = None,
+             signal: NDArray[np.float64] | None = None) -> None:
         """Sample the robots at time ``t`` (seconds; not before the previous sample time).
 
         Args:
@@ -209,6 +280,8 @@ class FitnessWindows:
                 sample at every push until it is removed; one left out stays as it was (its
                 window only loses its oldest samples). At the latest sample time again, robots
                 not sampled then join that time (a robot born between two steps).
+            signal: (n,) every robot's signal now (windows made with ``signal=True`` only; the
+                entries of robots that do not sample are ignored).
 
         Raises:
             ValueError: a time before the previous one, a non-finite time or position of a
@@ -254,6 +327,10 @@ class FitnessWindows:
         self._xy[row, cols, 0] = x
         self._xy[row, cols, 1] = y
         self._path[row, cols] = path
+        if self._sig is not None:
+            if signal is None:
+                raise ValueError("these windows keep a signal: push needs one")
+            self._sig[row, cols] = signal[cols]
         self._first[cols[~started]] = seq
         self._last[cols] = seq
         self._seq = seq + 1
@@ -277,20 +354,29 @@ class FitnessWindows:
         rows = (self._start + np.arange(k)) % (2 * cap)
         t[rows], xy[rows], path[rows] = self._t[order], self._xy[order], self._path[order]
         self._t, self._xy, self._path = t, xy, path
+        if self._sig is not None:
+            sig = np.empty((2 * cap, self._sig.shape[1]))
+            sig[rows] = self._sig[order]
+            self._sig = sig
 
     # -- windows ------------------------------------------------------------------------------
+    def _rows(self) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp],
+                             NDArray[np.int64], NDArray[np.bool_]]:
+        """Ring rows of every robot's first and last sample, its column, samples, any sample."""
+        cap = self.capacity
+        lo = np.maximum(self._first, self._start)
+        count = np.maximum(self._last - lo + 1, 0)
+        some = count > 0
+        return (np.where(some, lo, 0) % cap, np.where(some, self._last, 0) % cap,
+                np.arange(len(self)), count, some)
+
     def ends(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
                             NDArray[np.int64]]:
         """Every robot's window: first and last (x, y) (n, 2), path length ``v`` (n,), samples.
 
         A robot with no sample in its window has zeros and 0 samples.
         """
-        cap = self.capacity
-        lo = np.maximum(self._first, self._start)
-        count = np.maximum(self._last - lo + 1, 0)
-        cols = np.arange(len(self))
-        some = count > 0
-        fc, lc = np.where(some, lo, 0) % cap, np.where(some, self._last, 0) % cap
+        fc, lc, cols, count, some = self._rows()
         first, last = self._xy[fc, cols], self._xy[lc, cols]
         v = self._path[lc, cols] - self._path[fc, cols]
         if not some.all():
@@ -299,15 +385,26 @@ class FitnessWindows:
             v[~some] = 0.0
         return first, last, v, count
 
-    def terms(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """Every robot's ``(f, v, s)`` over its window (zeros below two samples). Metres."""
-        first, last, v, count = self.ends()
+    def current(self) -> Window:
+        """Every robot's window now, as arrays (zeros but ``samples`` below two samples)."""
+        fc, lc, cols, count, some = self._rows()
+        first, last = self._xy[fc, cols], self._xy[lc, cols]
+        v = self._path[lc, cols] - self._path[fc, cols]
         s = _hypot(last[:, 0] - first[:, 0], last[:, 1] - first[:, 1])
+        sig_first = sig_last = None
+        if self._sig is not None:
+            sig_first, sig_last = self._sig[fc, cols], self._sig[lc, cols]
         few = count < 2
         if few.any():
-            v[few] = 0.0
-            s[few] = 0.0
-        return v + self.s_weight * s, v, s
+            for a in (first, last, v, s, sig_first, sig_last):
+                if a is not None:
+                    a[few] = 0.0
+        return Window(first, last, v, s, count, sig_first, sig_last)
+
+    def terms(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Every robot's ``(f, v, s)`` over its window (zeros below two samples). Metres."""
+        w = self.current()
+        return w.v + self.s_weight * w.s, w.v, w.s
 
     # -- one robot's window as plain data ------------------------------------------------------
     def samples(self, col: int) -> tuple[NDArray[np.float64], NDArray[np.float64],
@@ -321,8 +418,13 @@ class FitnessWindows:
     def snapshot(self, col: int) -> dict[str, Any]:
         """One robot's window as :meth:`SlidingWindowFitness.snapshot` gives it."""
         t, xy, path = self.samples(col)
-        return {"window": self.window, "s_weight": self.s_weight, "capacity": self.capacity,
-                "t": t, "xy": xy, "path": path}
+        out = {"window": self.window, "s_weight": self.s_weight, "capacity": self.capacity,
+               "t": t, "xy": xy, "path": path}
+        if self._sig is not None:
+            lo = max(int(self._first[col]), self._start)
+            out["signal"] = self._sig[np.arange(lo, int(self._last[col]) + 1) % self.capacity,
+                                      col]
+        return out
 
     def restore(self, snapshots: Sequence[dict[str, Any]]) -> None:
         """Replace every robot's window by one :meth:`snapshot` each (columns in order).
@@ -340,25 +442,35 @@ class FitnessWindows:
             t = np.asarray(snapshot["t"], dtype=np.float64).reshape(-1)
             xy = np.asarray(snapshot["xy"], dtype=np.float64).reshape(-1, 2)
             path = np.asarray(snapshot["path"], dtype=np.float64).reshape(-1)
-            if xy.shape[0] != t.shape[0] or path.shape[0] != t.shape[0]:
-                raise ValueError("a fitness window snapshot needs as many positions and path "
-                                 "lengths as times")
-            windows.append((t, xy, path))
+            sig = np.zeros(t.shape[0])
+            if self._sig is not None:
+                if "signal" not in snapshot:
+                    raise ValueError("these fitness windows keep a signal; the snapshot has none")
+                sig = np.asarray(snapshot["signal"], dtype=np.float64).reshape(-1)
+            if xy.shape[0] != t.shape[0] or path.shape[0] != t.shape[0] or \
+                    sig.shape[0] != t.shape[0]:
+                raise ValueError("a fitness window snapshot needs as many positions, path "
+                                 "lengths and signal values as times")
+            windows.append((t, xy, path, sig))
         times = max((w[0] for w in windows), key=len, default=np.zeros(0))
         k_all = times.shape[0]
         cap = max([self.capacity, k_all, 2]
                   + [int(snapshot.get("capacity", 0)) for snapshot in snapshots])
         n = len(self)
         self._t, self._xy, self._path = np.empty(cap), np.zeros((cap, n, 2)), np.zeros((cap, n))
+        if self._sig is not None:
+            self._sig = np.zeros((cap, n))
         self._t[:k_all] = times
         self._start, self._seq = 0, k_all
-        for col, (t, xy, path) in enumerate(windows):
+        for col, (t, xy, path, sig) in enumerate(windows):
             k = t.shape[0]
             if not np.array_equal(times[k_all - k:], t):
                 raise ValueError("fitness windows of robots sampled together must end with the "
                                  "same sample times")
             self._xy[k_all - k:k_all, col] = xy
             self._path[k_all - k:k_all, col] = path
+            if self._sig is not None:
+                self._sig[k_all - k:k_all, col] = sig
             self._first[col], self._last[col] = (k_all - k, k_all - 1) if k else (self._NONE, -1)
 
 
@@ -368,12 +480,13 @@ class SlidingWindowFitness:
     ``add(t, position)`` appends a sample; ``terms()`` gives the fitness over the samples with
     ``t >= t_last - window``, as :func:`window_fitness` on the same samples (to rounding: the path
     length is kept as a running sum, so each query costs O(1)). Samples older than the window are
-    dropped, so memory stays bounded however long the robot lives.
+    dropped, so memory stays bounded however long the robot lives. :meth:`current` gives the
+    window as a task scores it (a :class:`Window` of one robot).
     """
 
     def __init__(
         self, window: float = DEFAULT_WINDOW, s_weight: float = DEFAULT_S_WEIGHT,
-        capacity: int = 1024,
+        capacity: int = 1024, signal: bool = False,
     ) -> None:
         """A window of ``window`` seconds; ``f = v + s_weight * s``.
 
@@ -381,6 +494,7 @@ class SlidingWindowFitness:
             window: Window length. Seconds.
             s_weight: Weight of ``s``.
             capacity: Initial ring size (samples); it doubles when a window holds more.
+            signal: Keep a signal value with every sample (:meth:`add`'s ``signal``).
         """
         if not (window > 0 and math.isfinite(window)):
             raise ValueError(f"window must be a positive number of seconds, got {window}")
@@ -391,6 +505,7 @@ class SlidingWindowFitness:
         self._t = np.empty(capacity)
         self._xy = np.empty((capacity, 2))
         self._path = np.empty(capacity)  # path length from an arbitrary origin up to each sample
+        self._sig: NDArray[np.float64] | None = np.empty(capacity) if signal else None
         self._start = 0  # ring index of the oldest kept sample
         self._n = 0
 
@@ -403,8 +518,11 @@ class SlidingWindowFitness:
         self._start = 0
         self._n = 0
 
-    def add(self, t: float, position: ArrayLike) -> None:
-        """Append the core's position at time ``t`` (seconds; not before the previous sample)."""
+    def add(self, t: float, position: ArrayLike, signal: float | None = None) -> None:
+        """Append the core's position at time ``t`` (seconds; not before the previous sample).
+
+        ``signal``: the task's signal now (required when the window keeps one).
+        """
         p = np.asarray(position, dtype=np.float64).reshape(-1)
         if p.shape[0] not in (2, 3) or not (math.isfinite(float(p[0]))
                                             and math.isfinite(float(p[1]))):
@@ -433,6 +551,10 @@ class SlidingWindowFitness:
         self._xy[i, 0] = x
         self._xy[i, 1] = y
         self._path[i] = path
+        if self._sig is not None:
+            if signal is None:
+                raise ValueError("this window keeps a signal: add needs one")
+            self._sig[i] = signal
         self._n += 1
         if path > 1e3:  # keep the running sum small so that differences stay exact to ~1e-13 m
             self._path -= self._path[self._start]
@@ -445,13 +567,20 @@ class SlidingWindowFitness:
         self._t[: len(t)] = t
         self._xy[: len(t)] = xy
         self._path[: len(t)] = path
+        if self._sig is not None:
+            sig = self._sig[idx]
+            self._sig = np.empty(cap)
+            self._sig[: len(t)] = sig
         self._start = 0
 
     def snapshot(self) -> dict[str, Any]:
         """The window's samples and settings as plain data (see :meth:`from_snapshot`)."""
         idx = (self._start + np.arange(self._n)) % len(self._t)
-        return {"window": self.window, "s_weight": self.s_weight, "capacity": len(self._t),
-                "t": self._t[idx], "xy": self._xy[idx], "path": self._path[idx]}
+        out = {"window": self.window, "s_weight": self.s_weight, "capacity": len(self._t),
+               "t": self._t[idx], "xy": self._xy[idx], "path": self._path[idx]}
+        if self._sig is not None:
+            out["signal"] = self._sig[idx]
+        return out
 
     @classmethod
     def from_snapshot(cls, snapshot: dict[str, Any]) -> SlidingWindowFitness:
@@ -468,8 +597,13 @@ class SlidingWindowFitness:
             raise ValueError("a fitness window snapshot needs as many positions and path lengths "
                              "as times")
         window = cls(float(snapshot["window"]), float(snapshot["s_weight"]),
-                     max(int(snapshot["capacity"]), n, 2))
+                     max(int(snapshot["capacity"]), n, 2), signal="signal" in snapshot)
         window._t[:n], window._xy[:n], window._path[:n] = t, xy, path
+        if window._sig is not None:
+            sig = np.asarray(snapshot["signal"], dtype=np.float64).reshape(-1)
+            if len(sig) != n:
+                raise ValueError("a fitness window snapshot needs as many signal values as times")
+            window._sig[:n] = sig
         window._n = n
         return window
 
@@ -477,6 +611,25 @@ class SlidingWindowFitness:
         """Times (T,) and horizontal positions (T, 2) in the window, oldest first (copies)."""
         idx = (self._start + np.arange(self._n)) % len(self._t)
         return self._t[idx], self._xy[idx]
+
+    def current(self) -> Window:
+        """The window now as arrays of one robot (zeros but ``samples`` below two samples)."""
+        n = self._n
+        if n < 2:
+            signal = self._sig is not None
+            return Window(np.zeros((1, 2)), np.zeros((1, 2)), np.zeros(1), np.zeros(1),
+                          np.array([n], dtype=np.int64), np.zeros(1) if signal else None,
+                          np.zeros(1) if signal else None)
+        first = self._start
+        last = (self._start + n - 1) % len(self._t)
+        xy = self._xy
+        v = self._path[last] - self._path[first]
+        s = math.hypot(xy[last, 0] - xy[first, 0], xy[last, 1] - xy[first, 1])
+        sig = self._sig
+        return Window(xy[first:first + 1].copy(), xy[last:last + 1].copy(), np.array([v]),
+                      np.array([s]), np.array([n], dtype=np.int64),
+                      None if sig is None else sig[first:first + 1].copy(),
+                      None if sig is None else sig[last:last + 1].copy())
 
     def terms(self) -> FitnessTerms:
         """Fitness and its terms over the current window."""
