@@ -21,11 +21,11 @@ from evolution.experiments.config import ConfigError, ExperimentConfig, load_con
 from evolution.experiments.engine import default_world, execute_run
 from evolution.experiments.registry import learning_names, shipped_configs
 from evolution.experiments.run import (
-    AgentStatus,
     Birth,
     OnlineWorld,
     ProgressEvent,
     ReplayError,
+    RobotStatus,
     RunJob,
     RunSummary,
     WorldFactory,
@@ -36,7 +36,6 @@ from evolution.experiments.store import DB_NAME, Store, StoreError
 
 __all__ = [
     "DB_NAME",
-    "AgentStatus",
     "Birth",
     "ConfigError",
     "ExperimentConfig",
@@ -45,6 +44,7 @@ __all__ = [
     "ProgressCallback",
     "ProgressEvent",
     "ReplayError",
+    "RobotStatus",
     "RunJob",
     "RunSummary",
     "Store",

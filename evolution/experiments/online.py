@@ -52,7 +52,7 @@ from evolution.experiments.store import (
     FitnessSample,
     LearningRecord,
 )
-from evolution.lifecycle import LearningSummary, Lifecycle, Stage
+from evolution.lifecycle import LearningSummary, Lifecycle, Stage, stage_of
 from evolution.selection import online_survivors
 
 __all__ = ["OnlineRun"]
@@ -93,8 +93,8 @@ class OnlineRun(RunState):
         self.batch.robots.append(record)
         try:
             # A robot with a policy is agent-controlled: the world asks the policy every step.
-            birth = (self.world.add(living) if member.policy is None
-                     else self.world.add(living, member.policy))
+            birth = (self.world.add(living, member.robot_id) if member.policy is None
+                     else self.world.add(living, member.robot_id, member.policy))
         except ValueError as error:
             # The engine cannot build this body (e.g. MuJoCo refuses its geometry): the robot is
             # born dead. Recorded, and the run goes on.
@@ -103,7 +103,6 @@ class OnlineRun(RunState):
             self.kill(member, time_s, cause)
             self.dead.append(member)
             return
-        member.agent = birth.agent
         if not birth.inside:
             x, y = birth.position
             self.batch.failures.append(FailureRecord(
@@ -123,29 +122,29 @@ class OnlineRun(RunState):
         statuses = self.world.advance_to(now)
         self.sim_time = now
         for m in list(self.population):
-            status = statuses.get(m.agent or "")
+            status = statuses.get(m.robot_id)
             if status is None:
                 continue
-            if status.removed is not None:
+            if status.death is not None:
                 # Lost: stored with no fitness (the world reports 0 m after a blow-up, which is
                 # no measurement). It leaves the population here, so selection never sees it.
-                cause = f"blow-up: {status.removed}"
-                self.batch.failures.append(
-                    FailureRecord(m.robot_id, now, "blow-up", status.removed))
+                reason = status.blow_up or status.death
+                cause = f"blow-up: {reason}"
+                self.batch.failures.append(FailureRecord(m.robot_id, now, "blow-up", reason))
                 m.fitness = None
                 self.batch.fitness_updates.append((m.robot_id, None))
                 self._bury(m, now, cause, remove=False)
                 continue
             m.fitness = status.fitness
-            assert m.lifecycle.birth_time is not None
-            m.lifecycle.advance_to_age(now - m.lifecycle.birth_time)
+            # Insertion and maturity on the world's clock (the env counts control periods).
+            m.lifecycle.advance_to(stage_of(status.inserting, status.mature))
             self.batch.fitness.append(FitnessSample(m.robot_id, now, status.fitness,
                                                     status.v, status.s))
             self.batch.fitness_updates.append((m.robot_id, status.fitness))
 
     def _bury(self, member: Member, now: float, cause: str, remove: bool = True) -> None:
-        if remove and member.agent is not None:
-            self.world.remove(member.agent)
+        if remove:
+            self.world.remove(member.robot_id)
         self.kill(member, now, cause)
         self.population.remove(member)
         self.dead.append(member)
@@ -238,7 +237,7 @@ class OnlineRun(RunState):
             "population": [
                 {"robot_id": m.robot_id, "genome": genome(m.robot),
                  "stage": None if m.lifecycle.stage is None else m.lifecycle.stage.value,
-                 "birth_time": m.lifecycle.birth_time, "fitness": m.fitness, "agent": m.agent,
+                 "birth_time": m.lifecycle.birth_time, "fitness": m.fitness,
                  "learned": m.learned, "policy": m.policy_ref,
                  "policy_state": None if m.policy is None else m.policy.get_state()}
                 for m in self.population
@@ -287,7 +286,7 @@ class OnlineRun(RunState):
                        Lifecycle(int(e["robot_id"]), self.timing,
                                  None if e["stage"] is None else Stage(e["stage"]),
                                  e["birth_time"]),
-                       e["fitness"], e["agent"], bool(e["learned"]))
+                       e["fitness"], bool(e["learned"]))
                 for e in engine["population"]
             ]
             for m, e in zip(population, engine["population"], strict=True):
@@ -297,8 +296,8 @@ class OnlineRun(RunState):
                     m.policy.set_state(e["policy_state"])
             world.restore(data["world"])
             for m in population:
-                if m.policy is not None and m.agent is not None:
-                    world.drive(m.agent, m.policy)
+                if m.policy is not None:
+                    world.drive(m.robot_id, m.policy)
         except (snapshot.SnapshotError, KeyError, TypeError, ValueError, NotImplementedError,
                 RecursionError) as e:
             _log.warning("run %d: cannot resume from the snapshot at %d births (%s); replaying "

@@ -1,189 +1,28 @@
-"""Locomotion fitness ``f = v + 5 s`` over a sliding time window (pure NumPy).
+"""Sliding fitness windows: many robots in one ring buffer, or one robot in plain floats.
 
-The one implementation used by the single-robot env, :func:`revolve_env.evaluate`, the population
-env and evolution (Revolve paper, section 4): over the last ``window`` seconds (12 s by default),
-
-* ``v`` is the length of the path travelled by the core in the horizontal plane (metres),
-* ``s`` is the straight horizontal distance between the core's positions at the start and the end
-  of the window (metres),
-* ``f = v + s_weight * s`` with ``s_weight = 5``.
-
-:func:`fitness_terms` works on a whole trajectory, :func:`window_fitness` on the last ``window``
-seconds of a time-stamped one. Online, :class:`FitnessWindows` keeps the windows of many robots
-in one ring buffer (times, core positions and path lengths, one column per robot) and gives
-every robot's terms at once with array operations; :class:`SlidingWindowFitness` is one
-robot's window in plain floats (cheaper for one robot, and the reference that
-``FitnessWindows`` equals bit for bit: ``tests/test_fitness.py``). All share the same
-arithmetic.
-
-What a task (:mod:`revolve_env.tasks`) scores is a :class:`Window`: every robot's window as
-arrays (its ends, ``v``, ``s``, its samples and, for a task that asks for one, a signal at both
-ends); :meth:`FitnessWindows.window`, :meth:`SlidingWindowFitness.window` and
-:func:`trajectory_window` (a whole evaluation) make one. ``v`` and ``s`` are the kinematic terms
-of every task; ``f = v + 5 s`` is the paper's task, :class:`revolve_env.tasks.Locomotion`.
+See :mod:`revolve_env.fitness` for the rule; both give the :class:`~revolve_env.fitness.Window`
+a task scores (:meth:`FitnessWindows.current`, :meth:`SlidingWindowFitness.current`).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Any, ClassVar, NamedTuple
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = [
-    "DEFAULT_S_WEIGHT",
-    "DEFAULT_WINDOW",
-    "FitnessTerms",
-    "FitnessWindows",
-    "SlidingWindowFitness",
-    "Window",
-    "fitness_terms",
-    "trajectory_window",
-    "window_fitness",
-]
+from revolve_env.fitness.terms import (
+    DEFAULT_S_WEIGHT,
+    DEFAULT_WINDOW,
+    TIME_EPS,
+    FitnessTerms,
+    Window,
+    hypot,
+)
 
-DEFAULT_WINDOW = 12.0
-"""Length of the fitness window. Seconds."""
-
-DEFAULT_S_WEIGHT = 5.0
-"""Weight of the straight-line displacement ``s`` in ``f = v + 5 s``."""
-
-_TIME_EPS = 1e-9  # seconds: samples this close to the window's start still belong to it
-
-
-@dataclass(frozen=True, slots=True)
-class FitnessTerms:
-    """Fitness and its terms.
-
-    Attributes:
-        fitness: ``v + s_weight * s``. Metres.
-        v: Horizontal path length of the core over the window. Metres.
-        s: Horizontal distance between the core's first and last positions in the window. Metres.
-    """
-
-    fitness: float
-    v: float
-    s: float
-
-
-class Window(NamedTuple):
-    """Every robot's fitness window as arrays, one entry per robot (``n`` robots).
-
-    A robot with fewer than two samples has zeros everywhere but ``samples`` (its fitness is 0
-    whatever the task: :func:`revolve_env.tasks.score`).
-
-    Attributes:
-        start: (n, 2) core ``(x, y)`` at the window's first sample. Metres.
-        end: (n, 2) core ``(x, y)`` at its last sample. Metres.
-        v: (n,) horizontal path length of the core from start to end. Metres.
-        s: (n,) straight horizontal distance from start to end. Metres.
-        samples: (n,) samples in the window (one per control period).
-        signal_start: (n,) the task's signal (:attr:`revolve_env.tasks.Task.signal`) at the
-            first sample; None for a task without one.
-        signal_end: (n,) the signal at the last sample; None likewise.
-    """
-
-    start: NDArray[np.float64]
-    end: NDArray[np.float64]
-    v: NDArray[np.float64]
-    s: NDArray[np.float64]
-    samples: NDArray[np.int64]
-    signal_start: NDArray[np.float64] | None = None
-    signal_end: NDArray[np.float64] | None = None
-
-
-def _horizontal(positions: ArrayLike) -> NDArray[np.float64]:
-    p = np.asarray(positions, dtype=np.float64)
-    if p.ndim != 2 or p.shape[1] not in (2, 3):
-        raise ValueError(f"positions must have shape (T, 2) or (T, 3), got {p.shape}")
-    if not np.all(np.isfinite(p)):
-        raise ValueError("positions contain NaN or infinity")
-    return p[:, :2]
-
-
-def fitness_terms(positions: ArrayLike, s_weight: float = DEFAULT_S_WEIGHT) -> FitnessTerms:
-    """Fitness of a whole trajectory of core positions.
-
-    Args:
-        positions: Shape (T, 3) or (T, 2), metres; only x and y are used. T may be 0 or 1
-            (fitness 0).
-        s_weight: Weight of ``s``.
-    """
-    xy = _horizontal(positions)
-    if len(xy) < 2:
-        return FitnessTerms(0.0, 0.0, 0.0)
-    steps = np.diff(xy, axis=0)
-    v = float(np.sum(np.hypot(steps[:, 0], steps[:, 1])))
-    s = float(math.hypot(*(xy[-1] - xy[0])))
-    return FitnessTerms(v + s_weight * s, v, s)
-
-
-def window_fitness(
-    times: ArrayLike, positions: ArrayLike, window: float = DEFAULT_WINDOW,
-    s_weight: float = DEFAULT_S_WEIGHT,
-) -> FitnessTerms:
-    """Fitness over the samples of the last ``window`` seconds (``t >= t_last - window``).
-
-    Args:
-        times: Non-decreasing sample times, shape (T,). Seconds.
-        positions: Core positions, shape (T, 3) or (T, 2). Metres.
-        window: Window length. Seconds.
-        s_weight: Weight of ``s``.
-    """
-    t = np.asarray(times, dtype=np.float64).reshape(-1)
-    xy = _horizontal(positions)
-    if len(t) != len(xy):
-        raise ValueError(f"{len(t)} times but {len(xy)} positions")
-    if not window > 0:
-        raise ValueError(f"window must be positive, got {window} s")
-    if len(t) == 0:
-        return FitnessTerms(0.0, 0.0, 0.0)
-    if np.any(np.diff(t) < 0):
-        raise ValueError("times must be non-decreasing")
-    first = int(np.searchsorted(t, t[-1] - window - _TIME_EPS, side="left"))
-    return fitness_terms(xy[first:], s_weight)
-
-
-def trajectory_window(paths: Sequence[NDArray[np.float64]],
-                      signals: Sequence[NDArray[np.float64]] | None = None) -> Window:
-    """The window of each robot's whole trajectory (an evaluation: every sample counts).
-
-    ``v`` and ``s`` are :func:`fitness_terms`' to the bit, so that ``v + 5 s`` is its fitness.
-
-    Args:
-        paths: One (T, 2) or (T, 3) array of core positions per robot (T may differ, 0 or 1
-            included: zeros). Metres.
-        signals: One (T,) array of the task's signal per robot, sampled with the positions;
-            None for a task without a signal.
-    """
-    n = len(paths)
-    start, end = np.zeros((n, 2)), np.zeros((n, 2))
-    v, s = np.zeros(n), np.zeros(n)
-    samples = np.array([len(p) for p in paths], dtype=np.int64)
-    sig_start = sig_end = None
-    if signals is not None:
-        sig_start, sig_end = np.zeros(n), np.zeros(n)
-    for i, path in enumerate(paths):
-        if len(path) < 2:
-            continue
-        terms = fitness_terms(path)
-        start[i], end[i] = path[0, :2], path[-1, :2]
-        v[i], s[i] = terms.v, terms.s
-        if signals is not None:
-            assert sig_start is not None and sig_end is not None
-            sig_start[i], sig_end[i] = signals[i][0], signals[i][-1]
-    return Window(start, end, v, s, samples, sig_start, sig_end)
-
-
-def _hypot(dx: NDArray[np.float64], dy: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``math.hypot`` element by element (CPython's own; the windows have always used it).
-
-    Not the C library's ``np.hypot``: the two differ in the last bit now and then.
-    """
-    return np.fromiter(map(math.hypot, dx.tolist(), dy.tolist()), np.float64, dx.shape[0])
+__all__ = ["FitnessWindows", "SlidingWindowFitness"]
 
 
 class FitnessWindows:
@@ -306,7 +145,7 @@ class FitnessWindows:
         if started.any():
             on = cols[started]
             prev = self._last[on] % cap
-            path[started] = self._path[prev, on] + _hypot(x[started] - self._xy[prev, on, 0],
+            path[started] = self._path[prev, on] + hypot(x[started] - self._xy[prev, on, 0],
                                                           y[started] - self._xy[prev, on, 1])
         if seq > self._start and t == self._t[(seq - 1) % cap] and \
                 not (self._last[cols] == seq - 1).any():
@@ -316,7 +155,7 @@ class FitnessWindows:
             row = seq % cap
         else:
             # Drop sample times that left the window (the newest one always stays).
-            horizon = t - self.window - _TIME_EPS
+            horizon = t - self.window - TIME_EPS
             while self._start < seq and self._t[self._start % cap] < horizon:
                 self._start += 1
             if seq - self._start == cap:
@@ -390,7 +229,7 @@ class FitnessWindows:
         fc, lc, cols, count, some = self._rows()
         first, last = self._xy[fc, cols], self._xy[lc, cols]
         v = self._path[lc, cols] - self._path[fc, cols]
-        s = _hypot(last[:, 0] - first[:, 0], last[:, 1] - first[:, 1])
+        s = hypot(last[:, 0] - first[:, 0], last[:, 1] - first[:, 1])
         sig_first = sig_last = None
         if self._sig is not None:
             sig_first, sig_last = self._sig[fc, cols], self._sig[lc, cols]
@@ -540,7 +379,7 @@ class SlidingWindowFitness:
             step = math.hypot(x - self._xy[last, 0], y - self._xy[last, 1])
             path = float(self._path[last]) + step
         # Drop samples that left the window (the newest one always stays).
-        while self._n and self._t[self._start] < t - self.window - _TIME_EPS:
+        while self._n and self._t[self._start] < t - self.window - TIME_EPS:
             self._start = (self._start + 1) % cap
             self._n -= 1
         if self._n == cap:
