@@ -119,14 +119,16 @@ def task_name(cls: type) -> str:
     return path
 
 
-def task_class(name: str) -> type:
+def task_class(name: str, *, allow_import: bool = True) -> type:
     """The class a task name stands for: a shipped task's name or ``"package.module:Class"``.
 
-    Resolving a dotted path imports its module (only a name a user gave should be resolved so).
+    Resolving a dotted path imports its module, which runs that module's code: a name read
+    from a results folder someone else made must be resolved with ``allow_import=False`` (then
+    only the shipped tasks resolve) unless the user asked for it (a resume of their own run).
 
     Raises:
-        TaskError: one line naming the unknown name, the module that does not import, or the
-            class that does not follow the :class:`Task` protocol.
+        TaskError: one line naming the unknown name, the module that does not import (or may
+            not be imported), or the class that does not follow the :class:`Task` protocol.
     """
     if not isinstance(name, str):
         raise TaskError(f"a task name must be a string, got {type(name).__name__}")
@@ -134,6 +136,9 @@ def task_class(name: str) -> type:
     if not _PATH.match(path):
         raise TaskError(f"unknown task {name!r}: use one of {', '.join(TASKS)} or the dotted "
                         "path of your own class, 'package.module:ClassName'")
+    if name not in TASKS and not allow_import:
+        raise TaskError(f"task {name!r} is a class of your own: resolving it imports its "
+                        "module, which is not allowed here")
     module_name, qualname = path.split(":")
     try:
         obj: Any = importlib.import_module(module_name)
@@ -177,10 +182,11 @@ def _check(task: object) -> Task:
     return task
 
 
-def task_from_dict(data: Mapping[str, Any]) -> Task:
+def task_from_dict(data: Mapping[str, Any], *, allow_import: bool = True) -> Task:
     """The task a :meth:`Task.to_dict` describes.
 
-    Its class (:func:`task_class`) made with the other keys as keyword arguments.
+    Its class (:func:`task_class`, ``allow_import`` as there) made with the other keys as
+    keyword arguments.
 
     Raises:
         TaskError: no ``name``, an unknown name or class, or parameters the class refuses.
@@ -190,7 +196,7 @@ def task_from_dict(data: Mapping[str, Any]) -> Task:
         raise TaskError(f"a task table needs a 'name' (one of {', '.join(TASKS)} or "
                         f"'package.module:ClassName'), got {got!r}")
     name = data["name"]
-    cls = task_class(name)
+    cls = task_class(name, allow_import=allow_import)
     params = {k: v for k, v in data.items() if k != "name"}
     try:
         task = cls(**params)

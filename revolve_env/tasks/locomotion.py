@@ -18,6 +18,14 @@ from revolve_env.tasks.base import BaseTask
 __all__ = ["DirectedLocomotion", "Locomotion"]
 
 
+def _number(value: object, name: str) -> float:
+    """``value`` as a float (a table may give an int), or ValueError naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or \
+            not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    return float(value)
+
+
 @dataclass(frozen=True)
 class Locomotion(BaseTask):
     """The paper's fitness (section 4): ``f = v + s_weight * s`` over the window. Metres.
@@ -32,8 +40,7 @@ class Locomotion(BaseTask):
     s_weight: float = DEFAULT_S_WEIGHT
 
     def __post_init__(self) -> None:
-        if not math.isfinite(self.s_weight):
-            raise ValueError(f"s_weight must be a finite number, got {self.s_weight}")
+        object.__setattr__(self, "s_weight", _number(self.s_weight, "s_weight"))
 
     def fitness(self, window: Window) -> NDArray[np.float64]:
         """``v + s_weight * s`` of every robot. Metres."""
@@ -56,8 +63,7 @@ class DirectedLocomotion(BaseTask):
     heading: float = 0.0
 
     def __post_init__(self) -> None:
-        if not math.isfinite(self.heading):
-            raise ValueError(f"heading must be a finite number of radians, got {self.heading}")
+        object.__setattr__(self, "heading", _number(self.heading, "heading (radians)"))
 
     def fitness(self, window: Window) -> NDArray[np.float64]:
         """Every robot's displacement along ``heading``. Metres."""

@@ -203,7 +203,8 @@ def test_evaluations_of_several_tasks_side_by_side_keep_each_its_own() -> None:
     ("user_tasks:NoFitness", "task class 'user_tasks:NoFitness' does not follow the Task "
                              "protocol: it has no fitness, reward, to_dict, signal"),
     ({"name": "locomotion", "speed": 1.0}, "task 'locomotion': bad parameters ['speed']"),
-    ({"name": "directed-locomotion", "heading": math.inf}, "heading must be a finite number"),
+    ({"name": "directed-locomotion", "heading": math.inf}, "heading (radians) must be a finite"),
+    ({"name": "locomotion", "s_weight": "5"}, "s_weight must be a finite number, got '5'"),
     ({"heading": 1.0}, "a task table needs a 'name'"),
     (Sideways, "task=Sideways is a class: pass an instance, Sideways()"),
     ("user_tasks:Mutable", "must be hashable (a frozen dataclass)"),
@@ -215,6 +216,15 @@ def test_a_bad_task_is_refused_in_one_line_naming_it(task: Any, message: str) ->
     assert message in str(caught.value) and "\n" not in str(caught.value)
     with pytest.raises(ValueError, match="task"):  # a TaskError is a ValueError: bad input
         evaluate(example("snake"), task=task, **SHORT)
+
+
+def test_a_name_read_from_someone_elses_results_resolves_without_importing_their_code() -> None:
+    stored = {"name": "user_tasks:Sideways", "scale": 2.0}
+    with pytest.raises(TaskError, match="imports its module, which is not allowed here"):
+        task_from_dict(stored, allow_import=False)
+    assert task_from_dict({"name": "locomotion", "s_weight": 4}, allow_import=False) == \
+        Locomotion(4.0)
+    assert Locomotion(4).to_dict() == {"name": "locomotion", "s_weight": 4.0}  # plain floats
 
 
 def test_a_fitness_of_the_wrong_shape_is_refused_naming_the_task() -> None:
