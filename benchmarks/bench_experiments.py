@@ -74,7 +74,7 @@ def main() -> None:
         speed = events[-1].sim_time / wall
         # On 2 cores: offline runs use every core for evaluations (scaled from `cores` here);
         # online worlds are one process each, two runs side by side.
-        rate_2_cores = rate * 2 / cores if config.engine == "offline" else rate * 2
+        rate_2_cores = rate * 2 / cores if config.mode == "offline" else rate * 2
         hours = STUDY_RUNS * STUDY_BIRTHS / rate_2_cores / 60
         total_hours += hours
         per_birth = f"{cpu / args.births * 1e3:.0f}" if cores == 1 else "n/a"

@@ -124,7 +124,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     out = Path(args.out) / config.name
     targets = {i: config.births for i in range(config.runs)}
     bar = combine(ProgressDisplay(targets, label=config.name), *_tensorboard(args, config.name))
-    _say(f"{config.name}: {config.runs} run(s) x {config.births} births ({config.engine}) -> {out}")
+    _say(f"{config.name}: {config.runs} run(s) x {config.births} births ({config.mode}) -> {out}")
     if config.learning is not None:
         _say(_describe_learning(config))
     try:

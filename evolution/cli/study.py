@@ -83,7 +83,7 @@ def _describe(plan: StudyPlan) -> None:
         left = (f"{len(e.jobs)} run(s) to do" if e.jobs else "finished")
         if e.jobs and any(e.done.values()):
             left += f" ({sum(e.done.values())} births already committed)"
-        _say(f"  {e.name}: {c.runs} run(s) x {c.births} births ({c.engine}, "
+        _say(f"  {e.name}: {c.runs} run(s) x {c.births} births ({c.mode}, "
              f"{c.world.engine}): {left} -> {e.out_dir}")
 
 

@@ -31,7 +31,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import tempfile
 import time
 import warnings
 from collections.abc import Callable
@@ -56,13 +55,13 @@ from evolution.cli.robots import (
     seconds,
     stored_robot,
 )
-from evolution.evaluation import LocalEvaluator, evaluation_seed
-from evolution.experiments import DB_NAME, ExperimentConfig, RunJob, Store, execute_run
+from evolution.evaluation import evaluation_seed
+from evolution.experiments import DB_NAME, Evolution, ExperimentConfig, Store
 from evolution.experiments.config import WorldSettings
 from evolution.experiments.integrity import verify
 from evolution.experiments.online_world import PopulationWorld
 from evolution.experiments.records import FitnessSample, RobotRecord
-from evolution.experiments.run import ReplayError, run_seed
+from evolution.experiments.run import ReplayError, run_seed, world_seed
 from revolve_env.body.robot import PartType, Robot
 from revolve_env.body.serialize import from_json
 from revolve_env.conditions import IDEAL, EvaluationConditions
@@ -139,7 +138,7 @@ def _no_robot() -> tuple[Robot, str]:
 
 def _stored_kind(stored: StoredRobot) -> str:
     config = stored.config
-    if config.engine == "online":
+    if config.mode == "online":
         when = "" if stored.fitness_time is None else f" at t = {stored.fitness_time:.1f} s"
         return (f"its last {config.evaluation_time:g} s sliding-window sample in the shared "
                 f"online world{when}")
@@ -153,7 +152,7 @@ def fitness_reasons(plan: _Plan) -> list[str]:
     if stored is None:
         return []
     config, reasons = stored.config, []
-    if config.engine == "online":
+    if config.mode == "online":
         reasons.append("its stored fitness was measured in the shared online world (other "
                        "robots, collisions, its birth place and heading, a sliding window), "
                        "the re-simulation is alone at the origin")
@@ -307,7 +306,7 @@ class RecordingWorld(PopulationWorld):
 
     It advances in frame-sized pieces (whole control periods, so the physics is stepped exactly
     as by :class:`PopulationWorld`: rendering reads the state, never changes it) and tells the
-    engine what one call would have told it.
+    loop what one call would have told it.
 
     Args:
         config: The experiment.
@@ -365,8 +364,9 @@ def replay_online(config: ExperimentConfig, run_id: int, stored: Store | None, e
                   sink: FrameSink) -> int:
     """Replay run ``run_id`` of an online experiment, sending a frame every ``every`` steps.
 
-    The run is re-executed from its seed into a temporary database, exactly as ``resume``
-    replays it; with ``stored`` the replayed robots are checked against the stored ones.
+    The run is stepped again from its seed (the loop, :class:`~evolution.experiments.loop.
+    Evolution`, in a recording world; nothing is written), exactly as ``resume`` replays it;
+    with ``stored`` the replayed robots and fitness samples are checked against the stored ones.
 
     Returns:
         The births of the replay.
@@ -374,23 +374,21 @@ def replay_online(config: ExperimentConfig, run_id: int, stored: Store | None, e
     Raises:
         ReplayError: a replayed robot differs from the stored one (a bug).
     """
-    with tempfile.TemporaryDirectory(prefix="revolve-watch-") as tmp:
-        db = Path(tmp) / DB_NAME
-        Store.create(db, config.to_dict(), config.seed).close()
-        with Store.open(db) as store:
-            store.add_run(run_id, run_seed(config.seed, run_id))
-
-        def factory(cfg: ExperimentConfig, seed: int) -> RecordingWorld:
-            return RecordingWorld(cfg, seed, every, sink)
-
-        job = RunJob(str(db), run_id, config, factory, config.training_center())
-        execute_run(job, LocalEvaluator(workers=1), lambda event: None)
-        with Store.open(db) as store:
-            replayed = store.robots(run_id)
-            samples = store.fitness_samples(run_id)
+    robots: list[RobotRecord] = []
+    samples: list[FitnessSample] = []
+    world = RecordingWorld(config, world_seed(run_seed(config.seed, run_id)), every, sink)
+    try:
+        with Evolution(config, run_id=run_id, world=world) as evolution:
+            while not evolution.done:
+                records = evolution.step().records
+                robots += records.robots
+                samples += records.fitness
+    finally:
+        world.close()
     if stored is not None:
-        _check_replay(stored, run_id, replayed, samples)
-    return len(replayed)
+        # In the store's order (Store.fitness_samples): by time, then robot.
+        _check_replay(stored, run_id, robots, sorted(samples, key=lambda s: (s.time, s.robot_id)))
+    return len(robots)
 
 
 def _check_replay(stored: Store, run_id: int, robots: list[RobotRecord],
@@ -462,7 +460,7 @@ def _watch_results(args: argparse.Namespace, folder: Path) -> int:
         config = verify(store)
         if args.run not in {r.run_id for r in store.runs()}:
             raise CliError(f"{db} has no run {args.run}")
-        if config.engine != "online":
+        if config.mode != "online":
             raise CliError(f"{config.name} is an offline experiment (robots evaluated alone): "
                            "watch one of its robots with `revolve show --db DIR --robot ID`")
         if args.record is None and not has_display():

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
@@ -11,9 +10,9 @@ from typing import Any
 
 import revolve_env
 from evolution.evaluation import Evaluator, make_evaluator
-from evolution.experiments.config import ConfigError, ExperimentConfig, load_config
-from evolution.experiments.engine import execute_run
+from evolution.experiments.config import ConfigError, ExperimentConfig, as_config
 from evolution.experiments.integrity import check_writable, verify
+from evolution.experiments.loop import infancy_for
 from evolution.experiments.records import RunRecord
 from evolution.experiments.results_folder import refuse_pickled
 from evolution.experiments.run import (
@@ -25,6 +24,7 @@ from evolution.experiments.run import (
     run_seed,
 )
 from evolution.experiments.store import DB_NAME, Store, StoreError
+from evolution.experiments.store_observer import execute_run
 from evolution.lifecycle import InfancyHook
 
 __all__ = [
@@ -83,8 +83,8 @@ def run(
             and ``config.workers`` (closed at the end only if made here).
         world_factory: Makes the online world of a run (default: the population environment).
         infancy: The Training Center: an infancy hook, usually a
-            :class:`~evolution.learning.TrainingCenter` (both engines; see
-            :mod:`evolution.experiments.engine` for when it runs, how learning is recorded and what
+            :class:`~evolution.learning.TrainingCenter` (both modes; see
+            :mod:`evolution.experiments.loop` for when it runs, how learning is recorded and what
             Lamarckian inheritance changes). Default: the one ``config.learning`` describes
             (stored with the results; :func:`resume` rebuilds it). A hook given here without
             ``config.learning`` is not stored: pass the same one to :func:`resume`.
@@ -100,8 +100,8 @@ def run(
         StoreError: ``out_dir`` already holds results (of this or another experiment).
         KeyboardInterrupt: Ctrl-C; what finished is committed, ``resume(out_dir)`` continues.
     """
-    config = _as_config(config)
-    infancy = _infancy_for(config, infancy)
+    config = as_config(config)
+    infancy = infancy_for(config, infancy)
     check_infancy(infancy)
     out = Path(out_dir)
     db_path = out / DB_NAME
@@ -146,7 +146,7 @@ def resume(
     check_infancy(infancy)
     db_path = Path(out_dir) / DB_NAME
     config = check_resumable(db_path, trust_pickled_policies)
-    infancy = _infancy_for(config, infancy)
+    infancy = infancy_for(config, infancy)
     check_infancy(infancy)
     return _execute(config, db_path, progress, evaluator, world_factory, infancy,
                     trust_pickled_policies)
@@ -188,7 +188,7 @@ def check_resumable(db_path: Path, trust_pickled_policies: bool = False) -> Expe
         runs = store.runs()
         if work_left(config, runs):
             check_writable(store)
-            if config.engine == "online":  # offline runs never reload a policy
+            if config.mode == "online":  # offline runs never reload a policy
                 refuse_pickled(store, {r.run_id for r in runs if r.status != "finished"},
                                trust_pickled_policies)
     return config
@@ -266,37 +266,3 @@ def config_differences(stored: ExperimentConfig, wanted: ExperimentConfig) -> li
     a, b = flat_keys(stored.to_dict()), flat_keys(wanted.to_dict())
     return [f"{k}: {a.get(k)!r} stored vs {b.get(k)!r}" for k in sorted(set(a) | set(b))
             if a.get(k) != b.get(k)]
-
-
-def _infancy_for(config: ExperimentConfig, infancy: InfancyHook | None) -> InfancyHook | None:
-    """The infancy hook of a run: ``config.learning``'s Training Center, or ``infancy``.
-
-    Raises:
-        ConfigError: both are given and differ (which one would the stored results describe?).
-    """
-    center = config.training_center()
-    if center is None:
-        return infancy
-    if infancy is not None and infancy != center:
-        raise ConfigError(
-            "the config has a learning table and infancy= gives another Training Center; give "
-            "one of them (the learning table is stored with the results, infancy= is not)"
-        )
-    return center
-
-
-def _as_config(config: ExperimentConfig | str | os.PathLike[str] | Mapping[str, Any]
-               ) -> ExperimentConfig:
-    if isinstance(config, ExperimentConfig):
-        return config
-    if isinstance(config, (str, os.PathLike)):
-        return load_config(config)
-    if isinstance(config, Mapping):
-        return ExperimentConfig.from_dict(config)
-    raise ConfigError(f"config must be an ExperimentConfig, a shipped config name, a TOML "
-                      "path or a dict, "
-                      f"got {config!r}")
-
-
-def _json_roundtrip(data: dict[str, Any]) -> dict[str, Any]:
-    return dict(json.loads(json.dumps(data, sort_keys=True)))

@@ -327,7 +327,7 @@ def _check_engine_state(where: str, config: ExperimentConfig, state: Mapping[str
     last = state.get("last_diversity_births")
     if last is not None and not _is_id(last, births + 1):
         raise StoreError(f"{what} has last_diversity_births {last!r}")
-    if config.engine == "online":
+    if config.mode == "online":
         alive = state.get("alive")
         if not isinstance(alive, list) or not all(_is_id(a, births) for a in alive):
             raise StoreError(f"{what} has no list of living robot ids ('alive')")

@@ -1,4 +1,4 @@
-"""The online world of the engine over the PettingZoo population environment (issue 4).
+"""The online world of the loop over the PettingZoo population environment (issue 4).
 
 Adapts :class:`revolve_env.envs.population.PopulationEnv` to
 :class:`evolution.experiments.run.OnlineWorld`: a robot enters under the engine's own robot id
@@ -41,16 +41,16 @@ class PopulationWorld:
     Args:
         config: The experiment (timing, birth disc, robot limits).
         seed: Seeds the env's generator (birth positions and headings) and its noise generator
-            (``config.evaluation``'s sensor and actuator noise); the engine spawns it from the
-            run's seed sequence, independent of the engine's own generator.
+            (``config.evaluation``'s sensor and actuator noise); the loop spawns it from the
+            run's seed sequence, independent of the loop's own generator.
     """
 
     def __init__(self, config: ExperimentConfig, seed: int) -> None:
         # Imported here: it loads the physics engine, which offline runs never need.
         from revolve_env.envs.population import PopulationEnv
 
-        # The run's own robots only (no default initial robots); the engine never adds more
-        # robots than ``config.births``, with ids below it.
+        # The run's own robots only (no default initial robots); the loop never adds more
+        # robots than ``config.births``.
         self._env: PopulationEnv = PopulationEnv(
             max_births=max(config.births, 1), initial_robots=(), insertion_time=config.insertion,
             maturity_age=config.fertile_age, fitness_window=config.evaluation_time,

@@ -2,7 +2,7 @@
 
 :class:`~evolution.experiments.store.Store` writes and reads them (its module docstring
 describes each table). The records are plain data: a :class:`Batch` collects one commit point's
-records and is cleared after it, the others are frozen.
+records (a new one for each), the others are frozen.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ if TYPE_CHECKING:
 __all__ = [
     "CONDITIONS_OF_OLD_RUNS",
     "LEARNING_TABLE",
+    "MODE_OF_OLD_CONFIGS",
     "MIGRATIONS",
     "SCHEMA",
     "SCHEMA_V1",
@@ -42,7 +43,7 @@ __all__ = [
     "RunRecord",
 ]
 
-SCHEMA_VERSION = 4
+SCHEMA_VERSION = 5
 """Version of the database layout; a database with a newer one is refused, an older one is
 upgraded when opened (see the module docstring)."""
 
@@ -192,6 +193,17 @@ was noisy; infants of the Training Center learned at heading 0 in both (the seco
 pins that in the learning table). Written out literally on purpose: a migration must not change
 when the code's defaults do, and this statement is the one home of that rule."""
 
+MODE_OF_OLD_CONFIGS = """
+UPDATE meta SET value = json_remove(json_set(value, '$.mode', json_extract(value, '$.engine')),
+                                    '$.engine')
+WHERE key = 'config' AND json_valid(value) AND json_type(value) = 'object'
+    AND json_type(value, '$.engine') IS NOT NULL AND json_type(value, '$.mode') IS NULL;
+"""
+"""Schema version 5: the stored config's switch between offline and online evolution is called
+``mode``; it was ``engine``, a word that now names only the physics engine (``world.engine``).
+Nothing else changes: the runs continue and report as before. (A config with neither key is
+offline, the default of both names.)"""
+
 SCHEMA = SCHEMA_V1 + LEARNING_TABLE + POLICY_COLUMN + REEVALUATIONS_TABLE
 """The current layout (version :data:`SCHEMA_VERSION`)."""
 
@@ -199,7 +211,8 @@ TABLES = frozenset(re.findall(r"CREATE TABLE (\w+)", SCHEMA))
 """The tables of the current layout (an opened database must have them all)."""
 
 MIGRATIONS: dict[int, str] = {1: LEARNING_TABLE, 2: POLICY_COLUMN,
-                               3: REEVALUATIONS_TABLE + CONDITIONS_OF_OLD_RUNS}
+                               3: REEVALUATIONS_TABLE + CONDITIONS_OF_OLD_RUNS,
+                               4: MODE_OF_OLD_CONFIGS}
 """For each old version, the statements that bring it to the next one."""
 
 
@@ -421,18 +434,6 @@ class Batch:
     diversity: float | None = None
     failures: list[FailureRecord] = field(default_factory=list)
     learning: list[LearningRecord] = field(default_factory=list)
-
-    def clear(self) -> None:
-        """Forget everything (after it has been written)."""
-        self.robots.clear()
-        self.deaths.clear()
-        self.fitness_updates.clear()
-        self.fitness.clear()
-        self.transitions.clear()
-        self.population = None
-        self.diversity = None
-        self.failures.clear()
-        self.learning.clear()
 
 
 @dataclass(frozen=True, slots=True)

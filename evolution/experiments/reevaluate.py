@@ -365,7 +365,7 @@ def _plan(db: Path, k: int, which: str, offsets: tuple[float, ...], shared_world
         used = reevaluation_conditions(store.config, conditions)
         settings = [_Setting(which, used, config.insertion + o, config.evaluation_time,
                              shared_world, config.world.engine) for o in offsets]
-        mature_age = config.fertile_age if config.engine == "online" else 0.0
+        mature_age = config.fertile_age if config.mode == "online" else 0.0
         stored = {r.key for r in store.reevaluations(which)}
         todo: list[_Todo] = []
         policies: dict[tuple[int, int], Any] = {}

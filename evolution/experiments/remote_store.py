@@ -45,7 +45,7 @@ class RunStore(Protocol):
         """Set a run's status (``pending``, ``running``, ``interrupted``, ``finished``)."""
 
     def commit(self, run_id: int, batch: Batch, checkpoint: Checkpoint) -> None:
-        """Write one commit point atomically, then clear ``batch``."""
+        """Write one commit point atomically."""
 
     def checkpoint(self, run_id: int) -> Checkpoint | None:
         """The latest commit point of a run, ``None`` before the first."""
@@ -216,12 +216,8 @@ class RemoteStore:
         self._call("set_status", run_id, status)
 
     def commit(self, run_id: int, batch: Batch, checkpoint: Checkpoint) -> None:
-        """Write one commit point in the driver's database (one transaction there).
-
-        Then clear ``batch``, as :meth:`Store.commit` does.
-        """
+        """Write one commit point in the driver's database (one transaction there)."""
         self._call("commit", run_id, batch, checkpoint)
-        batch.clear()
 
     def checkpoint(self, run_id: int) -> Checkpoint | None:
         """The run's latest commit point, from the driver's database."""

@@ -1,7 +1,7 @@
 """Snapshot files: what an exact continuation of an online run needs, next to its database.
 
 A checkpoint of an online run on an engine that restores exactly (MuJoCo) writes the state of
-its world and engine to ``<database folder>/checkpoints/run<id>.b<births>.snapshot`` *before* the
+its world and loop to ``<database folder>/checkpoints/run<id>.b<births>.snapshot`` *before* the
 checkpoint's transaction, and the checkpoint's ``engine_state`` references it
 (:func:`reference`: file name, SHA-256, births). The file is written to a temporary name and
 renamed, so a reader never sees half a file; once the checkpoint is committed, the run's older

@@ -4,7 +4,7 @@ Standard library ``sqlite3``, write-ahead log, versioned schema. Runs write thei
 batches, one transaction per *commit point* (an offline generation, an online birth): a batch
 holds the robots, fitness samples, lifecycle transitions, population snapshot, diversity values
 and failures since the previous commit point, together with the run's *checkpoint* (births,
-simulated time, the random generator's state and the engine's state). A killed run therefore
+simulated time, the random generator's state and the loop's state). A killed run therefore
 loses at most the work since its last commit, and a resumed run starts exactly from the
 checkpoint.
 
@@ -37,12 +37,14 @@ with it (``"learned"``), so a resumed run continues with the same genomes.
 
 Schema versions: 1 had no ``learning`` table; 2 had no ``learning.policy`` column (the reference
 to a saved SB3 policy in ``<results>/policies/``); 3 had no ``reevaluations`` table, and its
-stored configs no ``evaluation`` table. An older database is upgraded in place when opened, in
-one transaction (the empty ``learning`` and ``reevaluations`` tables and the ``policy`` column,
-NULL in old rows, are added; a stored config without ``evaluation`` gains the conditions its runs
-lived under, :data:`~evolution.experiments.records.CONDITIONS_OF_OLD_RUNS`: heading 0 offline,
-a random heading online, no noise; the version is set to 4; nothing else changes); a database
-newer than this package is refused.
+stored configs no ``evaluation`` table; 4 named the stored config's offline/online switch
+``engine``. An older database is upgraded in place when opened, in one transaction (the empty
+``learning`` and ``reevaluations`` tables and the ``policy`` column, NULL in old rows, are added;
+a stored config without ``evaluation`` gains the conditions its runs lived under,
+:data:`~evolution.experiments.records.CONDITIONS_OF_OLD_RUNS`: heading 0 offline, a random
+heading online, no noise; its ``engine`` key becomes ``mode``,
+:data:`~evolution.experiments.records.MODE_OF_OLD_CONFIGS`; the version is set to 5; nothing
+else changes); a database newer than this package is refused.
 
 The query functions at the bottom (``fitness_over_births``, ``final_population``, ...) are what
 reports and plots read.
@@ -79,26 +81,13 @@ from evolution.experiments.records import (
 from evolution.lifecycle import Stage, Transition
 
 __all__ = [
-    "DB_NAME",
-    "SCHEMA_VERSION",
-    "Batch",
-    "Checkpoint",
-    "DiversityPoint",
-    "FailureRecord",
-    "FitnessSample",
-    "FitnessSeries",
-    "LearningRecord",
-    "ReevaluationRecord",
-    "RobotRecord",
-    "RunRecord",
-    "Store",
-    "StoreError",
-    "package_version",
+    "DB_NAME", "SCHEMA_VERSION", "Batch", "Checkpoint", "DiversityPoint", "FailureRecord",
+    "FitnessSample", "FitnessSeries", "LearningRecord", "ReevaluationRecord", "RobotRecord",
+    "RunRecord", "Store", "StoreError", "package_version",
 ]
 
 DB_NAME = "results.sqlite"
 """File name of the database inside a results directory."""
-
 
 
 def package_version() -> str:
@@ -356,7 +345,6 @@ class Store:
                 "UPDATE runs SET births = ?, sim_time = ?, generation = ? WHERE run_id = ?",
                 (checkpoint.births, checkpoint.sim_time, checkpoint.generation, run_id),
             )
-        batch.clear()
 
     def add_reevaluations(self, records: Sequence[ReevaluationRecord]) -> int:
         """Write reevaluations in one transaction; rows whose key is stored already are kept.

@@ -52,10 +52,10 @@ from evolution.experiments.api import (
     pending_jobs,
 )
 from evolution.experiments.config import ConfigError, ExperimentConfig, check_name, load_config
-from evolution.experiments.engine import execute_run
 from evolution.experiments.folders import STUDY_FILE
 from evolution.experiments.run import ProgressEvent, RunJob, RunSummary, WorldFactory, check_infancy
 from evolution.experiments.store import DB_NAME, Store, StoreError
+from evolution.experiments.store_observer import execute_run
 
 __all__ = [
     "PAPER_EXPERIMENTS",
@@ -170,7 +170,7 @@ class StudyEvent:
 
 def execute_study_job(job: StudyJob, evaluator: Evaluator,
                       emit: Callable[[StudyEvent], None]) -> RunSummary:
-    """One run of a study (:func:`~evolution.experiments.engine.execute_run`), events tagged.
+    """One run of a study (:func:`~evolution.experiments.execute_run`), events tagged.
 
     Its progress events reach ``emit`` as :class:`StudyEvent` with the experiment's name.
     """
@@ -287,7 +287,7 @@ def run_study(plan: StudyPlan, progress: StudyProgress | None = None,
         KeyboardInterrupt: Ctrl-C; what was committed stays.
     """
     # Longest first: an online run simulates a whole world per birth.
-    order = sorted(plan.experiments, key=lambda e: e.config.engine != "online")
+    order = sorted(plan.experiments, key=lambda e: e.config.mode != "online")
     jobs = [StudyJob(e.name, job) for e in order for job in e.jobs]
     started = time.perf_counter()
     summaries: list[RunSummary] = []

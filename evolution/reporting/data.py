@@ -243,8 +243,8 @@ class ExperimentData:
 
     @property
     def online(self) -> bool:
-        """True for the online engine (fitness is a sliding window in the shared world)."""
-        return self.config.get("engine") == "online"
+        """True for online evolution (fitness is a sliding window in the shared world)."""
+        return self.config.get("mode") == "online"
 
     def final_fitness(self) -> NDArray[np.float64]:
         """Fitness of every robot of every run's final population, pooled. Metres."""

@@ -67,7 +67,7 @@ def _describe(values: NDArray[np.float64]) -> tuple[float, float, float, float]:
 
 
 SUMMARY_COLUMNS = (
-    "experiment", "label", "engine", "runs", "runs_in_database", "finished_runs",
+    "experiment", "label", "mode", "runs", "runs_in_database", "finished_runs",
     "births_budget", "births_reached_min", "births_mean",
     "final_population_size_mean", "final_fitness_mean", "final_fitness_median",
     "final_fitness_sd", "final_fitness_max", "run_mean_fitness_mean", "run_mean_fitness_sd",
@@ -135,7 +135,7 @@ def summary_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Cell]]
         rows.append({
             "experiment": e.label,
             "label": e.title,
-            "engine": e.config.get("engine", ""),
+            "mode": e.config.get("mode", ""),
             "runs": len(e.runs),
             "runs_in_database": e.registered_runs,
             "finished_runs": sum(r.status == "finished" for r in e.runs),
@@ -350,7 +350,7 @@ TABLE_FILES = ("summary.csv", "tests_per_run.csv", "tests_pooled_descriptive.csv
                "curve_tests.csv", "summary.md")
 """Files written by :func:`write_tables`, in order."""
 
-INCLUDED_COLUMNS = ("experiment", "folder", "set", "engine", "runs", "births_budget",
+INCLUDED_COLUMNS = ("experiment", "folder", "set", "mode", "runs", "births_budget",
                     "births_reached", "lost_robots", "failed_births")
 """Columns of the table of what a report compares (:func:`included_rows`)."""
 
@@ -402,7 +402,7 @@ def included_rows(included: Included) -> list[dict[str, Cell]]:
             folder = str(e.path)
         rows.append({"experiment": e.label, "folder": folder,
                      "set": f"study {e.study}" if e.study is not None else "outside any study",
-                     "engine": str(e.config.get("engine", "")), "runs": len(e.runs),
+                     "mode": str(e.config.get("mode", "")), "runs": len(e.runs),
                      "births_budget": e.budget, "births_reached": span,
                      "lost_robots": sum(r.lost_robots for r in e.runs),
                      "failed_births": sum(int(r.failed_births.size) for r in e.runs)})

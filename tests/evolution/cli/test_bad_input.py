@@ -24,7 +24,7 @@ from evolution import experiments
 from evolution.cli import commands as cli_commands
 from evolution.cli import main
 from evolution.evaluation import LocalEvaluator
-from evolution.experiments import api, engine, preset
+from evolution.experiments import api, loop, preset
 from evolution.experiments.store import DB_NAME, Store
 
 SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
@@ -204,7 +204,7 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
 @pytest.fixture
 def fake_physics(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(api, "make_evaluator", lambda *a, **k: SERIAL)
-    monkeypatch.setattr(engine, "default_world", fake_world)
+    monkeypatch.setattr(loop, "default_world", fake_world)
 
 
 @pytest.mark.parametrize("name", ["scenario1", "scenario3"])

@@ -108,7 +108,7 @@ def test_resolve_config_from_name_path_and_overrides(tmp_path: Path) -> None:
     path = tmp_path / "mine.toml"
     path.write_text('preset = "scenario3"\nname = "mine"\nbirths = 40\n')
     config = resolve_config(str(path))
-    assert (config.engine, config.name, config.births) == ("online", "mine", 40)
+    assert (config.mode, config.name, config.births) == ("online", "mine", 40)
     with pytest.raises(ConfigError, match="unknown scenario 'scenario4'"):
         resolve_config("scenario4")
     with pytest.raises(ConfigError, match="no such config file"):

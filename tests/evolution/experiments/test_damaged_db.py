@@ -27,7 +27,7 @@ from experiment_fakes import fake_evaluate, fake_world, small
 from evolution import experiments
 from evolution.cli import main
 from evolution.evaluation import LocalEvaluator
-from evolution.experiments import ProgressEvent, api, engine, preset
+from evolution.experiments import ProgressEvent, api, loop, preset
 from evolution.experiments.integrity import verify
 from evolution.experiments.store import DB_NAME, Store
 
@@ -156,7 +156,7 @@ def online(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture
 def fake_physics(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(api, "make_evaluator", lambda *a, **k: SERIAL)
-    monkeypatch.setattr(engine, "default_world", fake_world)
+    monkeypatch.setattr(loop, "default_world", fake_world)
 
 
 def _digest(folder: Path) -> str:
@@ -201,7 +201,7 @@ def test_the_undamaged_databases_are_usable(interrupted: Path, online: Path) -> 
         assert [(r.status, r.births) for r in store.runs()] == [("interrupted", 30),
                                                                  ("pending", 0)]
     with Store.open(online / DB_NAME) as store:
-        assert verify(store, resumable=True).engine == "online"
+        assert verify(store, resumable=True).mode == "online"
         assert [r.status for r in store.runs()] == ["interrupted", "pending"]
 
 

@@ -225,6 +225,7 @@ def _as_version_3(db: Path) -> None:
     con.execute("DROP TABLE reevaluations")
     config = json.loads(con.execute("SELECT value FROM meta WHERE key = 'config'").fetchone()[0])
     config.pop("evaluation", None)
+    config["engine"] = config.pop("mode")  # what schema 3 called it
     con.execute("UPDATE meta SET value = ? WHERE key = 'config'", (json.dumps(config),))
     con.execute("UPDATE meta SET value = '3' WHERE key = 'schema_version'")
     con.commit()
@@ -240,8 +241,9 @@ def test_version_3_run_is_upgraded_and_keeps_every_row(study: Path, tmp_path: Pa
     _as_version_3(db)
     before = dump_results(db)
     with Store.open(db) as store:
-        assert store.meta()["schema_version"] == "4"
+        assert store.meta()["schema_version"] == "5"
         assert store.config["evaluation"]["heading"] == 0.0  # an offline run: heading 0
+        assert store.config["mode"] == "offline" and "engine" not in store.config
     assert dump_results(db) == before
 
 

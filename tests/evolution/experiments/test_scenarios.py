@@ -238,9 +238,9 @@ def test_progress_reports_births_fitness_and_speed(tmp_path: Path) -> None:
 def test_presets_are_the_papers_experiments() -> None:
     s1, s2, s3 = (preset("scenario1", runs=1), preset("scenario2", runs=1),
                   preset("scenario3", runs=1))
-    assert ((s1.engine, s1.population_size, s1.offspring_size, s1.births)
+    assert ((s1.mode, s1.population_size, s1.offspring_size, s1.births)
             == ("offline", 15, 15, 3000))
-    assert (s2.offspring_size, s3.engine, s3.min_alive, s3.max_alive) == (1, "online", 8, 30)
+    assert (s2.offspring_size, s3.mode, s3.min_alive, s3.max_alive) == (1, "online", 8, 30)
     assert ((s1.tournament_size, s1.insertion, s1.evaluation_time, s1.fertile_age)
             == (4, 3.0, 12.0, 15.0))
     assert preset("baseline_a", runs=1).new_robots == "random"
@@ -261,14 +261,14 @@ def test_config_round_trips_through_dict_and_toml(tmp_path: Path) -> None:
 @pytest.mark.parametrize("data, message", [
     ({"birth": 10}, "unknown experiment config key\\(s\\): birth"),
     ({"preset": "scenario9"}, "unknown scenario 'scenario9'"),
-    ({"engine": "hybrid"}, "engine must be one of 'offline', 'online'"),
+    ({"mode": "hybrid"}, "mode must be one of 'offline', 'online'"),
     ({"births": 0}, "births must be >= 1"),
     ({"births": 10}, "births \\(10\\) must be >= population_size \\(15\\)"),
     ({"tournament_size": 2.5}, "tournament_size must be an integer"),
     ({"death_threshold": -0.1}, "death_threshold must be >= 0"),
     ({"death_threshold": 1.5}, "death_threshold must be <= 1"),
     ({"cull_fraction": 1.5}, "cull_fraction must be <= 1"),
-    ({"engine": "online", "population_size": 40}, "must lie within \\[min_alive, max_alive\\]"),
+    ({"mode": "online", "population_size": 40}, "must lie within \\[min_alive, max_alive\\]"),
     ({"min_alive": 31}, "min_alive \\(31\\) must be <= max_alive \\(30\\)"),
     ({"max_sim_time": -5.0}, "max_sim_time must be a positive"),
     ({"evolution": {"max_part": 3}}, "unknown evolution config key\\(s\\): max_part"),

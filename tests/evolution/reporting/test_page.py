@@ -175,7 +175,7 @@ def test_the_settings_are_every_stored_config_key(written: Report, results: Path
     with Store.open(results / "scenario1" / DB_NAME) as store:
         config = flat_keys(store.config)
     assert set(config) <= set(by_key)
-    assert by_key["engine"] == ["offline", "online"]
+    assert by_key["mode"] == ["offline", "online"]
     assert by_key["births"] == ["30", "20"]
     assert by_key["evaluation.heading"][0] == str(config["evaluation.heading"])
 

@@ -156,7 +156,7 @@ def test_summary_rows_match_the_stored_final_populations(
         assert float(row["final_fitness_max"]) == pytest.approx(pooled.max(), rel=1e-5)
         assert float(row["final_population_size_mean"]) == np.mean([len(f) for f in finals])
         assert float(row["final_diversity_mean"]) > 0  # random bodies differ
-    assert rows[0]["engine"] == "offline" and rows[1]["engine"] == "online"
+    assert rows[0]["mode"] == "offline" and rows[1]["mode"] == "online"
     # (15+15) keeps exactly 15 robots.
     assert float(rows[0]["final_population_size_mean"]) == 15
 
@@ -224,7 +224,7 @@ def test_curve_tests_compare_runs_at_equal_births(
 def test_markdown_summary_holds_both_tables(written: tuple[Path, dict[str, str]]) -> None:
     out, _ = written
     text = (out / "summary.md").read_text()
-    assert "| experiment | label | engine |" in text and "| sample | experiment_a |" in text
+    assert "| experiment | label | mode |" in text and "| sample | experiment_a |" in text
     assert text.count("\n| pooled_fitness |") == 3
 
 
