@@ -17,7 +17,10 @@ def test_the_readme_has_python_examples() -> None:
 
 @pytest.mark.parametrize("index", range(len(BLOCKS)))
 def test_readme_python_block_runs(index: int, capsys: pytest.CaptureFixture[str]) -> None:
-    exec(compile(BLOCKS[index], f"README.md block {index}", "exec"), {"__name__": "__readme__"})
+    # dont_inherit: compiled as a user's script would be, without this module's __future__
+    # imports (string annotations would send dataclasses looking for a module "__readme__").
+    exec(compile(BLOCKS[index], f"README.md block {index}", "exec", dont_inherit=True),
+         {"__name__": "__readme__"})
     capsys.readouterr()
 
 

@@ -488,24 +488,19 @@ def run_shared_world(job: SharedWorldJob, evaluator: Evaluator,
                         insertion_time=job.insertion, maturity_age=job.insertion + job.seconds,
                         fitness_window=job.seconds, engine=job.engine, conditions=job.conditions)
     try:
-        _, infos = env.reset(seed=job.seed)
-        agents = list(env.agents)
-        last = {agent: infos.get(agent, {}) for agent in agents}
+        env.reset(seed=job.seed)
+        last = dict(env.statuses)  # every robot's status as the last step left it
         end = job.insertion + job.seconds
         while env.agents and float(env.time) < end - 0.5 * float(env.config.control_period):
-            _, _, _, _, infos = env.step({})
-            for agent, info in infos.items():
-                if agent in last:
-                    last[agent] = info
+            env.step({})
+            last.update(env.statuses)
     finally:
         env.close()
     outcomes = []
-    for agent in agents:
-        info = last[agent]
-        failure = info.get("blow_up") or info.get("death")
+    for status in last.values():
+        failure = status.blow_up or status.death
         if failure:
             outcomes.append(EvalOutcome(None, failure=f"blow-up: {failure}"))
         else:
-            outcomes.append(EvalOutcome(float(info["fitness"]), float(info["fitness_v"]),
-                                        float(info["fitness_s"])))
+            outcomes.append(EvalOutcome(float(status.fitness), float(status.v), float(status.s)))
     return outcomes

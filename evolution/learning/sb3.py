@@ -61,6 +61,7 @@ from revolve_env.body.robot import Layer, Robot
 from revolve_env.conditions import IDEAL, EvaluationConditions
 from revolve_env.registration import LOCOMOTION_ID, LOCOMOTION_V1_ID
 from revolve_env.rl import INSTALL_HINT, ObservationNormalization, VecEnvConfig, ppo_settings
+from revolve_env.tasks import Locomotion, Task
 
 if TYPE_CHECKING:
     from revolve_env.brain import BatchController
@@ -103,7 +104,8 @@ def _algorithm_class(algorithm: type | str) -> type:
 
 def _make_env(robot: Robot, action: ActionMode, insertion: float, seconds: float,
               control_period: float, engine: str = "pybullet",
-              conditions: EvaluationConditions = IDEAL, proprioception: bool = False) -> Any:
+              conditions: EvaluationConditions = IDEAL, proprioception: bool = False,
+              task: Task | None = None) -> Any:
     """The infant's single-robot env, for the learner's two evaluations.
 
     Returns a :class:`~revolve_env.envs.LocomotionEnv`, typed ``Any`` because its declared
@@ -123,6 +125,7 @@ def _make_env(robot: Robot, action: ActionMode, insertion: float, seconds: float
         engine=engine,
         conditions=conditions,
         proprioception=proprioception,
+        task=task,
     )
 
 
@@ -251,18 +254,19 @@ class PolicyAgent:
 
 def rollout_fitness(agent: PolicyAgent | None, robot: Robot, insertion: float, seconds: float,
                     control_period: float, seed: int, engine: str = "pybullet",
-                    conditions: EvaluationConditions = IDEAL) -> float:
+                    conditions: EvaluationConditions = IDEAL, task: Task | None = None) -> float:
     """Fitness of one episode of ``robot`` driven by ``agent`` (``None``: by its own network).
 
     The agent drives the single-robot env with ``controller="agent"``: the same path as an
-    agent-controlled robot in the population env. Metres; 0 after a blow-up.
+    agent-controlled robot in the population env. The task's fitness (metres for the default);
+    0 after a blow-up.
     """
     if agent is None:
         env = _make_env(robot, "modulate", insertion, seconds, control_period, engine,
-                        conditions)
+                        conditions, task=task)
     else:
         env = _make_env(robot, "targets", insertion, seconds, control_period, engine,
-                        conditions, agent.proprioception)
+                        conditions, agent.proprioception, task)
         agent.reset()
     from revolve_env.envs.episode import run_episode  # loads the physics engine: when used
 
@@ -300,6 +304,8 @@ class SB3Learner:
             (``population_env(proprioception=True)``; an experiment's engine does it for a
             ``learning.proprioception = true`` table). Without them, in ``"modulate"`` mode the
             policy cannot see the gait's phase and learns far more slowly (bench_rl.py).
+        task: What the policy is rewarded for and the evaluations score
+            (:mod:`revolve_env.tasks`; an experiment's task).
     """
 
     algorithm: type | str = "PPO"
@@ -315,6 +321,7 @@ class SB3Learner:
     conditions: EvaluationConditions = IDEAL
     normalize: bool = True
     proprioception: bool = False
+    task: Task = Locomotion()
 
     learns_policy = True  # class constant: the controller is the policy, not the genome's network
 
@@ -410,7 +417,8 @@ class SB3Learner:
         venv = make_vec_env(robot, config, seed=seed,
                             env_id=LOCOMOTION_V1_ID if self.proprioception else LOCOMOTION_ID,
                             action=self.action, control_period=self.control_period,
-                            engine=self.engine, conditions=self.conditions)
+                            engine=self.engine, conditions=self.conditions,
+                            task=self.task)
         episodes: list[float] = []
         failures = [0]
 
@@ -442,9 +450,9 @@ class SB3Learner:
                             self.proprioception)
         eval_seed = int(rng.integers(0, 2**31 - 1))
         inborn = rollout_fitness(None, robot, self.insertion, self.seconds, self.control_period,
-                                 eval_seed, self.engine, self.conditions)
+                                 eval_seed, self.engine, self.conditions, self.task)
         trained = rollout_fitness(agent, robot, self.insertion, self.seconds, self.control_period,
-                                  eval_seed, self.engine, self.conditions)
+                                  eval_seed, self.engine, self.conditions, self.task)
         agent.reset()
         return LearningResult(
             robot=robot,
