@@ -274,8 +274,16 @@ class MujocoBackend:
         self._sync()
         m, d = self._model, self._data
         start = self._save()
-        mujoco.mj_step(m, d, substeps)
-        if not (_all_finite(d.qvel) and _all_finite(d.qpos)):
+        try:
+            mujoco.mj_step(m, d, substeps)
+            finite = _all_finite(d.qvel) and _all_finite(d.qpos)
+        except mujoco.FatalError:
+            # A non-finite state reached a later physics step's collision pass: its bounding boxes
+            # overlap everything and exhaust MuJoCo's arena. The data may be half-updated.
+            self._data = mujoco.MjData(m)
+            self._data.ctrl[:] = d.ctrl
+            finite = False
+        if not finite:
             self._replay(start, substeps)
         self._kinematics_fresh = False
         self._touching = None

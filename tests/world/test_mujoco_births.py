@@ -172,3 +172,37 @@ def test_a_birth_after_deaths_compiles_once_and_a_refused_one_changes_nothing(
         np.testing.assert_array_equal(world.core_positions()[:4], state[0])
         _drive(world, 5)
         assert world.blow_up(newborn) is None
+
+
+def test_a_blow_up_that_makes_mujoco_fail_is_contained_like_any_other(
+        tmp_path: Any, monkeypatch: pytest.MonkeyPatch) -> None:
+    # In a crowd, a NaN that reaches a later physics step's collision pass can exhaust MuJoCo's
+    # arena: mj_step raises FatalError (seen with 36 touching robots) instead of returning NaN.
+    monkeypatch.chdir(tmp_path)  # MuJoCo logs its NaN warning to ./MUJOCO_LOG.TXT
+    real_step = mujoco.mj_step
+    failures = []
+
+    def failing(m: Any, d: Any, nstep: int = 1) -> None:
+        real_step(m, d, nstep)
+        if nstep > 1 and not np.isfinite(d.qvel).all():
+            failures.append(d.time)
+            raise mujoco.FatalError("mj_stackAlloc: out of memory")
+
+    def run() -> tuple[np.ndarray, str | None]:
+        with World(MJ) as world:
+            calm = world.add_robot(spider(), position=(1.0, 0.0))
+            bad = world.add_robot(spider())
+            path = []
+            for i in range(20):
+                if i == 10:
+                    _backend(world)._data.qvel[14 + 6] = np.nan  # a hinge of the second robot
+                world.step()
+                path.append(world.core_position(calm))
+            assert np.isfinite(world.core_position(bad)).all()
+            return np.array(path), world.blow_up(bad)
+
+    plain, reason = run()
+    monkeypatch.setattr(mujoco, "mj_step", failing)  # the module the backend calls
+    failed, failed_reason = run()
+    assert len(failures) == 1 and reason is not None and failed_reason == reason
+    np.testing.assert_array_equal(failed, plain)  # as if MuJoCo had returned the NaN
