@@ -13,34 +13,54 @@ spec from the survivors' specs, compiled when the scene is next stepped or its c
 that a cull of many robots compiles once (the survivors are read where they are in the previous
 model meanwhile: the same state). Either way every surviving robot's integration state (``qpos``,
 ``qvel``, ``qacc_warmstart``) is copied, slice by slice, from the old ``MjData`` to the new one (a
-newborn is appended after every existing body), and a robot's addresses in the new model come
-from its layout (:class:`~revolve_env.world.mujoco_scene.RobotLayout`), not from name look-ups.
-The survivors' state is kept bit for bit, and their trajectories do not depend on where the
-newborn is (tested: a birth 0.8 m away and one 40 m away give identical survivors); against a
-world with no birth at all they differ by about 1e-13 m, the summation order of a collision pass
-and a constraint solve that now hold more bodies. Measured by ``benchmarks/bench_births.py`` in a
-world of 30 random robots: a birth costs 9-12 ms of CPU (before: 10-14 ms), a death with its
-compile 11-14 ms (before 17-96 ms: hundreds of ``MjSpec.delete`` calls), a cull of 10 robots 18 ms
-(before 2 s). The floor is MuJoCo's compile of the whole scene, 5.5-6 ms at 30 robots and growing
-with the square of the scene's size (half of it is ``mj_setConst``'s inverse weight of every body,
-a solve over every degree of freedom each).
+newborn is appended after every existing body), and a robot's addresses in the new model come from
+its layout (:class:`~revolve_env.world.mujoco_scene.RobotLayout`), not from name look-ups. The
+survivors' state is kept bit for bit, and the compiled model is the one a scene of the robots
+present compiles to, bit for bit (snapshots check it). Where the newborn is moves them by 1e-13 m
+(a birth 0.8 m away against one 40 m away, the order of the collision pass), and its presence by
+2e-7 m within 1.5 s (the solver converges over more bodies; with the integrator and islands used
+before, see below: not at all, and 1e-13 m). Measured by ``benchmarks/bench_births.py`` in a world
+of 30 random robots: a birth costs 9-12 ms of CPU (before: 10-14 ms), a death with its compile
+11-14 ms (before 17-96 ms: hundreds of ``MjSpec.delete`` calls), a cull of 10 robots 18 ms (before
+2 s). The floor is MuJoCo's compile of the whole scene, 5.5-6 ms at 30 robots and growing with the
+square of the scene's size (half of it is ``mj_setConst``'s inverse weight of every body, a solve
+over every degree of freedom each).
 
 Settings, chosen by measurement (the five example robots over 3 + 12 s on their own brains,
 fitness ``v + 5 s`` in metres; pybullet gives spider 10.2, gecko 8.9, snake 10.0, sensor crawler
 0.7, bar walker 0.6):
 
-* Integrator ``implicitfast`` at ``config.timestep`` (1/240 s = 4.2 ms by default, within the
-  2-5 ms where MuJoCo is both fast and stable here). Explicit ``Euler`` at the same step: the
-  snake blew up and the spider fell from 11 to 3.8. 1/120 s: the snake blew up. 1/480 s: no
-  better gaits at twice the cost.
+* Integrator ``discrete`` at ``config.timestep`` (1/240 s = 4.2 ms by default), the one that
+  solves the constraints in the same metric as the implicit velocity update (``M + h D``: the
+  mass matrix plus the servos' velocity gain times the step). ``implicitfast``, used before,
+  solves the contacts with ``M`` and then integrates with ``M + h D``; on a servo's hinge
+  ``h D`` (0.2 N m s/rad x 4.2 ms = 8e-4 kg m^2) is eight times the gearbox armature, so a
+  contact impulse between two robots' light parts is applied to their hinges with a fraction of
+  its planned effect, the parts go on interpenetrating (3 mm, then 7 mm a step later, 200 N) and
+  the robots are flung: the online world lost robots in pairs and triples at one instant (core
+  speeds 12-430 m/s, spins 200-300 rad/s). A stress crowd (30 walking example robots packed in
+  a 1 m disc, each replaced after 60 s or when lost; three 3-minute runs) lost 18 robots in 288
+  lives with ``implicitfast``, none in 270 with ``discrete``. What did not help there: softer
+  robot-robot contacts (a 0.02 s time constant: 7 of 7 lost again in the same run), an elliptic
+  cone (7), frictionless robot-robot contacts (32), a 2 mm contact margin (22), a 1e-3 kg m^2
+  armature (9), half the timestep (9, at twice the cost); explicit ``Euler`` with a 1e-3
+  armature lost none but ranked robots further from pybullet (Spearman rho 0.65 on 200 random
+  robots). With ``discrete`` the examples score spider 10.3, gecko 7.8, snake 10.3, sensor
+  crawler 2.2, bar walker 1.5 (``implicitfast``: 10.2, 7.5, 9.8, 2.3, 1.4) and rho is 0.73
+  (0.745). It costs 30 % more per physics step for one robot (17 against 13 microseconds),
+  2 % more for 30 robots in a crowd and 12 % for 30 robots spread out. Constraint islands are
+  disabled (``mjDSBL_ISLAND``): with them ``discrete`` cost 28 % more in the crowd, and they no
+  longer kept robots' solves apart (a robot frozen after a blow-up moved a distant one by
+  1e-17 m); without them a birth moves the others by 2e-7 m within 1.5 s (1e-13 m before), the
+  solver converging over more bodies. 1/120 s: the snake fell from 10.3 to 5.6 and rho to 0.61.
 * The servo: a velocity actuator, ``force = kv * (v_target - qvel)`` clipped to the torque
   limit (see :data:`~revolve_env.world.mujoco_scene.SERVO_KV`), on hinges with a gearbox armature
   (see :data:`~revolve_env.world.mujoco_scene.HINGE_ARMATURE`).
   With kv = 0.2, armature 1e-4 and the contacts below the examples score spider 10.2, gecko 7.2,
   snake 9.8, sensor crawler 2.3, bar walker 1.4 (straight displacement 1.62, 1.04, 1.60, 0.33,
-  0.17 m); a commanded hinge reaches 0.86x its top speed within one control period and settles
-  on its target with no error. kv 0.5 or 1.0 gave the same rank correlation with pybullet
-  (0.73) and weaker gaits.
+  0.17 m; ``implicitfast``); a commanded hinge reaches 0.86x its top speed within one control
+  period and settles on its target with no error. kv 0.5 or 1.0 gave the same rank correlation
+  with pybullet (0.73) and weaker gaits.
 * Solver: Newton (MuJoCo's default) converges in 2-3 iterations per step. For 30 random robots
   in one world (about 170 contacts) a physics step took 0.30 ms; CG 0.48 ms, an elliptic cone
   0.36-0.40 ms, tolerance 1e-5 or 5 iterations no faster. Making and solving the constraints

@@ -77,8 +77,8 @@ def scene_spec(config: WorldConfig) -> mujoco.MjSpec:
     opt = spec.option
     opt.timestep = config.timestep
     opt.gravity = [0.0, 0.0, -config.gravity]
-    opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+    opt.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE  # these two: see the backend doc
+    opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET | mujoco.mjtDisableBit.mjDSBL_ISLAND
     ground = spec.worldbody.add_geom()
     ground.name = "ground"
     ground.type = mujoco.mjtGeom.mjGEOM_PLANE
