@@ -71,6 +71,7 @@ from evolution.reporting import report
 from revolve_env.body.examples import spider
 from revolve_env.body.export import bill_of_materials, to_sdf, to_urdf
 from revolve_env.body.validate import RobotError
+from revolve_env.world import World, WorldConfig
 
 __all__ = ["CliError", "build_parser", "main"]
 
@@ -209,6 +210,11 @@ def _cmd_export(args: argparse.Namespace) -> int:
         text = to_urdf(robot)
     elif args.format == "sdf":
         text = to_sdf(robot)
+    elif args.format == "mjcf":
+        # The model evaluate() steps with MuJoCo: the robot at the origin, heading 0, dropped.
+        with World(WorldConfig(engine="mujoco")) as world:
+            world.add_robot(robot)
+            text = world.to_mjcf()
     elif args.format == "bom":
         text = bill_of_materials(robot).to_text()
     else:
@@ -379,12 +385,15 @@ def _add_report(sub: _Subparsers) -> None:
 
 def _add_export(sub: _Subparsers) -> None:
     p = sub.add_parser(
-        "export", help="export a robot as URDF, SDF or bill of materials",
-        description="Write a robot as URDF or SDF, or its bill of materials (bom: a table; "
-                    "bom-json: JSON). The robot is given as for `revolve show`.",
+        "export", help="export a robot as URDF, SDF, MuJoCo MJCF or bill of materials",
+        description="Write a robot as URDF or SDF, as MuJoCo MJCF (mjcf: the very model "
+                    "revolve-env steps on MuJoCo, ground and settings included, placed where "
+                    "an evaluation starts it; needs the mujoco package), or its bill of "
+                    "materials (bom: a table; bom-json: JSON). The robot is given as for "
+                    "`revolve show`.",
     )
     robot_arguments(p)
-    p.add_argument("--format", required=True, choices=("urdf", "sdf", "bom", "bom-json"))
+    p.add_argument("--format", required=True, choices=("urdf", "sdf", "mjcf", "bom", "bom-json"))
     p.add_argument("--out", metavar="FILE", help="file to write")
     p.set_defaults(handler=_cmd_export)
 

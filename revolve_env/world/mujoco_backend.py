@@ -418,6 +418,11 @@ class MujocoBackend:
         """True: :meth:`restore` continues a snapshot bit for bit (see the module doc)."""
         return True
 
+    def mjcf(self) -> str:
+        """MJCF that compiles to the model this backend steps (see :func:`.mujoco_scene.mjcf`)."""
+        return scene.mjcf(scene.scene_spec(self.config),
+                          [(key, r.spec) for key, r in self._robots.items()])
+
     def _model_digest(self) -> str:
         """SHA-256 of the compiled model's MJB bytes (every array, name and option)."""
         buffer = np.zeros(mujoco.mj_sizeModel(self._model), dtype=np.uint8)

@@ -1,4 +1,4 @@
-"""The MuJoCo model of a scene: one ``MjSpec`` per robot, and the world's spec made of them.
+"""The MuJoCo model of a scene: one ``MjSpec`` per robot, the world's spec made of them, its MJCF.
 
 Part of the MuJoCo backend (with :mod:`revolve_env.world.mujoco_backend`, the only modules that
 import ``mujoco``). A robot's spec is built once, at its birth, from the engine-neutral
@@ -20,23 +20,30 @@ share one more bit, which collides with itself, and exclude every pair of their 
 robots did before. MuJoCo's collision filter drops the same pairs either way: a crowd of 36
 touching robots with births and deaths, and the five examples alone, gave trajectories identical
 bit for bit to those of the exclusions every robot had before.
+
+:func:`mjcf` writes a scene as MJCF that ``mujoco.MjModel.from_xml_string`` compiles to the very
+model the backend steps (the same MJB bytes): every number is written with the shortest text that
+reads back to the same double (``repr``), where ``MjSpec.to_xml`` keeps 6 significant digits.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from xml.sax.saxutils import quoteattr
 
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.world._rotations import matrix_to_quat
+from revolve_env.world.backend import PlacedModel
 from revolve_env.world.config import WorldConfig
 from revolve_env.world.model import RobotModel
 
 __all__ = ["COLORS", "CONTACT_STEPS", "HINGE_ARMATURE", "SERVO_KV", "RobotLayout", "attach",
-           "robot_layout", "robot_spec", "scene_spec"]
+           "mjcf", "robot_layout", "robot_spec", "scene_mjcf", "scene_spec"]
 
 #: Velocity gain of the servo actuators. N m s/rad. The servo pushes with
 #: ``SERVO_KV * (v_target - qvel)`` clipped to the torque limit, so it saturates at a speed error of
@@ -212,3 +219,98 @@ def robot_layout(model: RobotModel) -> RobotLayout:
     hinges = np.array([rank[i] for i in range(1, n) if not model.links[i].fixed], dtype=np.intp)
     return RobotLayout(bodies=bodies, hinge_qpos=7 + hinges, hinge_dofs=6 + hinges, nbody=n,
                        nq=7 + len(hinges), nv=6 + len(hinges))
+
+
+# -- MJCF --------------------------------------------------------------------------------------
+def _num(x: float) -> str:
+    return repr(float(x))  # the shortest text that reads back to the same double
+
+
+def _nums(values: Sequence[float] | NDArray[np.float64]) -> str:
+    return " ".join(_num(v) for v in values)
+
+
+def _tag(indent: int, element: str, close: bool = True, **values: str) -> str:
+    attrs = "".join(f" {k}={quoteattr(v)}" for k, v in values.items())
+    return f"{'  ' * indent}<{element}{attrs}{'/' if close else ''}>"
+
+
+def _geom(g: mujoco.MjsGeom, prefix: str, indent: int) -> str:
+    names = {"name": prefix + g.name} if g.name else {}
+    return _tag(indent, "geom", **names, type=_GEOMS[g.type], size=_nums(g.size),
+                pos=_nums(g.pos), quat=_nums(g.quat), rgba=_nums(g.rgba),
+                friction=_nums(g.friction), condim=str(g.condim), solref=_nums(g.solref),
+                contype=str(g.contype), conaffinity=str(g.conaffinity), priority=str(g.priority))
+
+
+def _body(b: mujoco.MjsBody, prefix: str, indent: int) -> list[str]:
+    lines = [_tag(indent, "body", close=False, name=prefix + b.name, pos=_nums(b.pos),
+                  quat=_nums(b.quat)),
+             _tag(indent + 1, "inertial", pos=_nums(b.ipos), quat=_nums(b.iquat),
+                  mass=_num(b.mass), diaginertia=_nums(b.inertia))]
+    for j in b.joints:
+        if j.type == mujoco.mjtJoint.mjJNT_FREE:
+            lines.append(_tag(indent + 1, "freejoint", name=prefix + j.name))
+        else:
+            lines.append(_tag(indent + 1, "joint", name=prefix + j.name, type="hinge",
+                              axis=_nums(j.axis), limited="false", armature=_num(j.armature)))
+    lines += [_geom(g, prefix, indent + 1) for g in b.geoms]
+    for child in b.bodies:
+        lines += _body(child, prefix, indent + 1)
+    lines.append("  " * indent + "</body>")
+    return lines
+
+
+_GEOMS = {mujoco.mjtGeom.mjGEOM_BOX: "box", mujoco.mjtGeom.mjGEOM_PLANE: "plane"}
+_INTEGRATORS = {mujoco.mjtIntegrator.mjINT_EULER: "Euler", mujoco.mjtIntegrator.mjINT_RK4: "RK4",
+                mujoco.mjtIntegrator.mjINT_IMPLICIT: "implicit",
+                mujoco.mjtIntegrator.mjINT_IMPLICITFAST: "implicitfast",
+                mujoco.mjtIntegrator.mjINT_DISCRETE: "discrete"}
+
+
+def mjcf(scene: mujoco.MjSpec, robots: Sequence[tuple[int, mujoco.MjSpec]]) -> str:
+    """MJCF of ``scene`` (from :func:`scene_spec`) holding ``robots`` (key, spec) in order.
+
+    ``mujoco.MjModel.from_xml_string`` of the text compiles to the model of ``scene`` with each
+    robot attached in order (:func:`attach`), bit for bit.
+    """
+    opt = scene.option
+    disabled = "".join(f' {name.removeprefix("mjDSBL_").lower()}="disable"'  # MJCF's names
+                       for name, bit in mujoco.mjtDisableBit.__members__.items()
+                       if name != "mjNDISABLE" and opt.disableflags & int(bit))
+    out = [_tag(0, "mujoco", close=False, model=scene.modelname),
+           _tag(1, "option", close=False, timestep=_num(opt.timestep), gravity=_nums(opt.gravity),
+                integrator=_INTEGRATORS[opt.integrator]),
+           f"    <flag{disabled}/>", "  </option>", "  <worldbody>"]
+    out += [_geom(g, "", 2) for g in scene.worldbody.geoms]
+    for light in scene.worldbody.lights:
+        directional = light.type == mujoco.mjtLightType.mjLIGHT_DIRECTIONAL
+        out.append(_tag(2, "light", pos=_nums(light.pos), dir=_nums(light.dir),
+                        directional=str(directional).lower()))
+    for key, robot in robots:
+        for body in robot.worldbody.bodies:
+            out += _body(body, f"r{key}/", 2)
+    out.append("  </worldbody>")
+    excludes = [_tag(2, "exclude", body1=f"r{key}/{e.bodyname1}", body2=f"r{key}/{e.bodyname2}")
+                for key, robot in robots for e in robot.excludes]
+    if excludes:
+        out += ["  <contact>", *excludes, "  </contact>"]
+    # the velocity shortcut, as MjsActuator.set_to_velocity (it also sets the ctrlspec)
+    actuators = [_tag(2, "velocity", name=f"r{key}/{a.name}", joint=f"r{key}/{a.target}",
+                      kv=_num(a.gainprm[0]), forcelimited="true", forcerange=_nums(a.forcerange))
+                 for key, robot in robots for a in robot.actuators]
+    if actuators:
+        out += ["  <actuator>", *actuators, "  </actuator>"]
+    out.append("</mujoco>")
+    return "\n".join(out) + "\n"
+
+
+def scene_mjcf(config: WorldConfig, robots: Sequence[PlacedModel]) -> str:
+    """MJCF of a MuJoCo scene of ``config`` holding ``robots`` as placed, in order.
+
+    The model a MuJoCo world compiles when these robots are added to it in this order (each
+    robot gets the next collision bit), whichever engine's world they come from.
+    """
+    specs = [(key, robot_spec(model, position, yaw, config, min(i, COLORS)))
+             for i, (key, model, position, yaw) in enumerate(robots)]
+    return mjcf(scene_spec(config), specs)

@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.world._rotations import matrix_to_quat, quat_to_matrix
-from revolve_env.world.backend import BodyStates, PlacedModel
+from revolve_env.world.backend import BodyStates, PlacedModel, scene_mjcf
 from revolve_env.world.config import WorldConfig
 from revolve_env.world.model import RobotModel
 
@@ -85,6 +85,8 @@ class _Body:
 
     body: int
     model: RobotModel
+    position: tuple[float, float, float]  # as placed: root link frame, metres
+    yaw: float  # radians
     shapes: list[int]
     active_joints: list[int]  # pybullet joint indices of the active hinges, output order
     all_joints: list[int]  # every hinge (joint j = link j + 1 of the model)
@@ -238,8 +240,8 @@ class PybulletBackend:
             )
         key = self._next_key
         self._next_key += 1
-        self._bodies[key] = _Body(body=body, model=model, shapes=shapes,
-                                  active_joints=[i - 1 for i in model.active_links],
+        self._bodies[key] = _Body(body=body, model=model, position=position, yaw=yaw,
+                                  shapes=shapes, active_joints=[i - 1 for i in model.active_links],
                                   all_joints=all_joints)
         return key
 
@@ -330,6 +332,11 @@ class PybulletBackend:
 
     def body_count(self) -> int:
         return int(pb.getNumBodies(physicsClientId=self._cid))
+
+    def mjcf(self) -> str:
+        """The robots as placed, in MuJoCo's model (:func:`~.backend.scene_mjcf`)."""
+        return scene_mjcf(self.config, [(key, b.model, b.position, b.yaw)
+                                        for key, b in self._bodies.items()])
 
     # -- snapshots ------------------------------------------------------------------------------
     @property
