@@ -12,17 +12,21 @@ keeps each side's best CPU time, so both see the same load of a shared machine:
    engines (3 s insertion + 12 s): Spearman's rank correlation of their fitness, blow-ups and
    NaNs counted per engine.
 4. ``memory``: resident memory of one world after 300 and after ``--births`` births (10 alive,
-   each living 0.1 s), each engine in a fresh subprocess.
+   each living 0.1 s, each newborn a new robot: the child of two living ones, as online), each
+   engine in a fresh subprocess.
 5. ``robust``: ``--robust-robots`` random robots evaluated in MuJoCo alone: crashes, NaN fitness
-   and blow-ups counted; and ``--crowd-minutes`` simulated minutes of ``--robots`` random
-   robots dropped within 2 m of the origin with no clearance, in MuJoCo: blow-ups counted.
+   and blow-ups counted. ``crowd-hour``: ``--crowd-minutes`` simulated minutes of ``--robots``
+   robots (half walking examples, half random) packed in a 1 m disc with no clearance, each
+   replaced after 60 s or when lost, on each of ``--crowd-engines``: blow-ups per 1,000
+   robot-lives.
 6. ``study``: the paper's full study (5 experiments x 30 runs x 3000 births) on 2 cores with
    MuJoCo: ``--pybullet-study-hours`` (what ``bench_experiments.py`` measured with pybullet)
    divided by the measured speed-ups, offline (``evaluate``, from ``rank``) and online (the
    crowd).
 
 Usage: ``python benchmarks/bench_engines.py [--seconds 3] [--robots 30] [--rank-robots 40]
-[--births 3000] [--repeats 2] [--robust-robots 2000] [--crowd-minutes 5]``.
+[--births 3000] [--repeats 2] [--robust-robots 2000] [--crowd-minutes 5]
+[--only speed memory robust crowd-hour]``.
 """
 
 from __future__ import annotations
@@ -44,6 +48,7 @@ from scipy.stats import spearmanr
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout
 
 from evolution.config import EvolutionConfig
+from evolution.operators import reproduce
 from evolution.random_robot import random_robot
 from revolve_env import LOCOMOTION_ID, evaluate, example, population_env
 from revolve_env.body.robot import Robot
@@ -213,23 +218,46 @@ def robust(n: int) -> None:
           f"{crashes} crashes, {nans} NaN fitness, {blown} blow-ups flagged {reasons}")
 
 
-def crowded_hour(n: int, minutes: float) -> None:
-    robots = random_robots(n, seed=5)
-    env = population_env(engine="mujoco", initial_robots=robots, max_births=n, birth_radius=2.0,
-                         birth_clearance=0.0, max_placement_tries=10_000)
+def crowded_hour(engine: str, n: int, minutes: float, life: float = 60.0) -> None:
+    """``n`` robots packed in a 1 m disc for ``minutes`` simulated minutes: lives and blow-ups.
+
+    Half the robots walk (the spider, gecko and snake examples on their own brains), half are
+    random; all are dropped with no clearance (they land on each other's footprints), and each
+    is replaced by a new draw after ``life`` simulated seconds or when it is lost, so robots
+    are born into the crowd all along.
+    """
+    rng = np.random.default_rng(5)
+    config = EvolutionConfig()
+    walkers = [example(name) for name in ("spider", "gecko", "snake")]
+
+    def draw() -> Robot:
+        if rng.random() < 0.5:
+            return walkers[int(rng.integers(len(walkers)))]
+        return random_robot(rng, config)
+
+    env = population_env(engine=engine, initial_robots=[draw() for _ in range(n)],
+                         max_births=1_000_000, birth_radius=1.0, birth_clearance=0.0,
+                         max_placement_tries=50)
     env.reset(seed=0)
+    born = dict.fromkeys(env.agents, 0.0)
     ticks = round(minutes * 60 / env.config.control_period)
+    lives, blown = n, []
     cpu = time.process_time()
-    blown: list[str] = []
     for _ in range(ticks):
         _, _, terminations, _, infos = env.step({})
-        blown += [f"{a}: {infos[a]['blow_up']}" for a, t in terminations.items() if t]
+        blown += [f"{a}: {infos[a]['blow_up']}" for a, t in terminations.items()
+                  if t and infos[a].get("blow_up")]
+        for agent in [a for a in env.agents if env.time - born[a] > life]:
+            env.remove_robot(agent)
+        while len(env.agents) < n:
+            born[env.add_robot(draw())] = env.time
+            lives += 1
     cpu = time.process_time() - cpu
     env.close()
-    print(f"{n} random robots in a 2 m disc (footprints touching), {minutes:g} simulated min in "
-          f"MuJoCo "
-          f"({cpu:.0f} CPU s, {minutes * 60 / cpu:.1f}x real time): {len(blown)} blow-ups "
-          + "; ".join(blown[:3]))
+    print(f"{n} robots packed in a 1 m disc (half walking), {minutes:g} simulated min in "
+          f"{engine} ({cpu:.0f} CPU s, {minutes * 60 / cpu:.1f}x real time): {lives} robot-lives "
+          f"of up to {life:g} s, {len(blown)} blow-ups ({1000 * len(blown) / lives:.1f} per 1,000 "
+          "robot-lives) " + "; ".join(blown[:3]))
 
 
 # -- 4. memory ---------------------------------------------------------------------------------
@@ -239,15 +267,22 @@ def rss_mb() -> float:
 
 
 def memory_child(engine: str, births: int) -> None:
-    robots = random_robots(40, seed=3)
+    """Births of new robots, as in an online run: each the child of two living robots."""
+    rng = np.random.default_rng(3)
+    config = EvolutionConfig()
     marks = {}
     with World(WorldConfig(engine=engine)) as world:
-        alive: list[int] = []
+        alive: list[tuple[int, Robot]] = []
         for b in range(births):
-            alive.append(world.add_robot(robots[b % len(robots)],
-                                         position=(2.0 * (b % 10), 0.0)))
+            if len(alive) < 2:
+                robot = random_robot(rng, config)
+            else:
+                i, j = rng.choice(len(alive), 2, replace=False)
+                child = reproduce(alive[i][1], alive[j][1], rng, config).child
+                robot = child if child is not None else random_robot(rng, config)
+            alive.append((world.add_robot(robot, position=(2.0 * (b % 10), 0.0)), robot))
             if len(alive) > 10:
-                world.remove_robot(alive.pop(0))
+                world.remove_robot(alive.pop(0)[0])
             world.step(6)
             if b + 1 in (300, births):
                 marks[b + 1] = rss_mb()
@@ -264,7 +299,11 @@ def memory(births: int) -> None:
         out[engine] = (float(marks["300"]), float(marks[str(births)]), time.perf_counter() - t)
     for engine, (a, b, wall) in out.items():
         print(f"memory {engine}: RSS {a:.0f} MB after 300 births, {b:.0f} MB after {births} "
-              f"(+{b - a:.0f} MB; 10 alive, 0.1 s each; {wall:.0f} s wall)")
+              f"(+{b - a:.0f} MB, {(b - a) * 1024 / (births - 300):.0f} KB per birth; 10 alive, "
+              f"0.1 s each, every newborn the child of two living robots; {wall:.0f} s wall)")
+
+
+SECTIONS = ["speed", "memory", "robust", "crowd-hour"]
 
 
 def main() -> None:
@@ -278,6 +317,9 @@ def main() -> None:
                         help="the study's time with pybullet, from bench_experiments.py")
     parser.add_argument("--robust-robots", type=int, default=2000)
     parser.add_argument("--crowd-minutes", type=float, default=5.0)
+    parser.add_argument("--crowd-engines", nargs="+", choices=ENGINES, default=["mujoco"])
+    parser.add_argument("--only", nargs="+", choices=SECTIONS, default=SECTIONS,
+                        help="run only these parts (speed: 1-3 and 6)")
     parser.add_argument("--memory-child", nargs=2, metavar=("ENGINE", "BIRTHS"),
                         help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -286,6 +328,19 @@ def main() -> None:
         return
     print(f"physics 1/{round(1 / WorldConfig().timestep)} s, control "
           f"1/{round(1 / WorldConfig().control_period)} s")
+    if "speed" in args.only:
+        speed(args)
+    if "memory" in args.only:
+        memory(args.births)
+    if "robust" in args.only:
+        robust(args.robust_robots)
+    if "crowd-hour" in args.only:
+        for engine in args.crowd_engines:
+            crowded_hour(engine, args.robots, args.crowd_minutes)
+
+
+
+def speed(args: argparse.Namespace) -> None:
     single(args.seconds, args.repeats)
     per_mj, per_pb = crowd(args.robots, args.seconds, args.repeats)
     offline = rank(args.rank_robots)
@@ -295,9 +350,6 @@ def main() -> None:
           f"{hours / max(offline, online):.0f}-{hours / min(offline, online):.0f} h with MuJoCo "
           f"(speed-ups {offline:.2f}x offline, {online:.2f}x online; the rest of a run, "
           f"reproduction and storage, assumed negligible)")
-    memory(args.births)
-    robust(args.robust_robots)
-    crowded_hour(args.robots, args.crowd_minutes)
 
 
 if __name__ == "__main__":
