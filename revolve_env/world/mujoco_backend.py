@@ -207,6 +207,7 @@ class MujocoBackend:
         old = {k: (r.qpos, r.dofs) for k, r in self._robots.items() if r.qpos.stop > 0}
         m = self._spec.compile()  # raises ValueError on a model MuJoCo refuses
         self._deaths_pending = False
+        self._torque = self.config.max_torque  # the servos' limit as compiled
         d = mujoco.MjData(m)
         self._model, self._data = m, d
         self._index()
