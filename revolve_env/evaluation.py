@@ -17,6 +17,7 @@ from revolve_env.body.robot import Robot
 from revolve_env.body.validate import Limits, validate
 from revolve_env.brain import BatchController
 from revolve_env.conditions import (
+    IDEAL,
     EvaluationConditions,
     Start,
     add_sensor_noise,
@@ -25,7 +26,7 @@ from revolve_env.conditions import (
 from revolve_env.fitness import DEFAULT_S_WEIGHT, fitness_terms
 from revolve_env.world import World, WorldConfig
 
-__all__ = ["EvaluationResult", "evaluate", "start_generator"]
+__all__ = ["EvaluationResult", "evaluate", "evaluation_mjcf", "start_generator"]
 
 _START_STREAM = 0x57A27
 """Tags the generator of a start, apart from the noise generator of the same seed."""
@@ -174,3 +175,22 @@ def _rollout(
     path = trajectory[:rows].copy()
     path.setflags(write=False)
     return path, reason
+
+
+def evaluation_mjcf(robot: Robot, seed: int = 0, *, config: WorldConfig | None = None,
+                    limits: Limits | None = None,
+                    conditions: EvaluationConditions = IDEAL) -> str:
+    """MuJoCo's MJCF of the world :func:`evaluate` steps for ``robot`` with these arguments.
+
+    The robot at its start (the conditions' heading and jitter drawn for ``seed``), dropped as an
+    evaluation drops it, in MuJoCo's scene (:meth:`revolve_env.world.World.to_mjcf`).
+
+    Raises:
+        RobotError: the robot is invalid.
+        EngineUnavailableError: the ``mujoco`` package is not installed.
+    """
+    validate(robot, limits)
+    start = conditions.start(start_generator(seed))
+    with World((config if config is not None else WorldConfig()).with_engine("mujoco")) as world:
+        world.add_robot(robot, start.position, start.yaw)
+        return world.to_mjcf()

@@ -71,7 +71,6 @@ from evolution.reporting import report
 from revolve_env.body.examples import spider
 from revolve_env.body.export import bill_of_materials, to_sdf, to_urdf
 from revolve_env.body.validate import RobotError
-from revolve_env.world import World, WorldConfig
 
 __all__ = ["CliError", "build_parser", "main"]
 
@@ -211,10 +210,9 @@ def _cmd_export(args: argparse.Namespace) -> int:
     elif args.format == "sdf":
         text = to_sdf(robot)
     elif args.format == "mjcf":
-        # The model evaluate() steps with MuJoCo: the robot at the origin, heading 0, dropped.
-        with World(WorldConfig(engine="mujoco")) as world:
-            world.add_robot(robot)
-            text = world.to_mjcf()
+        from revolve_env.evaluation import evaluation_mjcf  # loads MuJoCo
+
+        text = evaluation_mjcf(robot)
     elif args.format == "bom":
         text = bill_of_materials(robot).to_text()
     else:

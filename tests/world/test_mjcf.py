@@ -86,3 +86,25 @@ def test_without_mujoco_the_export_is_one_clear_error(monkeypatch: pytest.Monkey
         world.add_robot(spider())
         with pytest.raises(EngineUnavailableError, match="pip install no_such_mujoco"):
             world.to_mjcf()
+
+
+def test_evaluation_mjcf_is_the_model_evaluate_steps(monkeypatch: pytest.MonkeyPatch) -> None:
+    import revolve_env.evaluation as evaluation
+    from revolve_env import EvaluationConditions, evaluate
+    from revolve_env.evaluation import evaluation_mjcf
+
+    stepped: list[bytes] = []
+
+    class Recording(World):
+        def step(self, n: int = 1) -> None:
+            if not stepped:
+                stepped.append(_mjb(self.backend._model))  # type: ignore[attr-defined]
+            super().step(n)
+
+    monkeypatch.setattr(evaluation, "World", Recording)
+    turned = EvaluationConditions(heading="random", position_jitter=0.3)
+    evaluate(spider(), seed=7, seconds=0.1, insertion=0.0, engine="mujoco", conditions=turned)
+    monkeypatch.undo()
+    text = evaluation_mjcf(spider(), 7, conditions=turned)
+    assert _mjb(mujoco.MjModel.from_xml_string(text)) == stepped[0]
+    assert text != evaluation_mjcf(spider(), 8, conditions=turned)  # another start

@@ -310,7 +310,7 @@ def test_export_mjcf_is_the_model_evaluate_steps(tmp_path: Path,
     model = mujoco.MjModel.from_xml_string(text)
     assert model.nu == 8 and model.nbody == 10  # the world, the core and 8 hinged bodies
     with World(WorldConfig(engine="mujoco")) as world:  # where evaluate() starts it
-        world.add_robot(spider())
+        world.add_robot(spider(), position=(0.0, 0.0), yaw=0.0)
         assert text == world.to_mjcf()
 
 
