@@ -42,8 +42,8 @@ from typing import Any
 from evolution import experiments
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import ExperimentConfig, ProgressEvent, load_config
-from evolution.experiments.online import OnlineRun
 from evolution.experiments.store import Store
+from evolution.experiments.store_observer import StoreObserver
 
 TABLES = ("runs", "checkpoints", "robots", "fitness", "transitions", "population", "diversity",
           "failures", "learning")
@@ -99,7 +99,7 @@ def main() -> None:
         snapshots: list[float] = []
         commits: list[float] = []
         start = time.perf_counter()
-        with _timed(OnlineRun, "save_snapshot", snapshots), _timed(Store, "commit", commits):
+        with _timed(StoreObserver, "write_snapshot", snapshots), _timed(Store, "commit", commits):
             experiments.run(config, root / "ref", evaluator=serial)
         run_s = time.perf_counter() - start
         reference = _dump(root / "ref" / "results.sqlite")

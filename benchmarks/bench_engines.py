@@ -1,32 +1,40 @@
 """MuJoCo against pybullet, and the envs against raw MuJoCo, as ratios measured in one run.
 
 Every ratio compares two sides timed in the same process, alternating (A, B, A, B, ...), and
-keeps each side's best CPU time, so both see the same load of a shared machine:
+keeps each side's best CPU time, so both see the same load of a shared machine.
 
-1. ``spider``: the single-robot env (``Locomotion-v0``, the robot's own brain) over raw MuJoCo
-   stepping of the very model the env compiled (a bare ``mj_step`` loop with the same servo law
-   written to ``ctrl``: no env, no World), and MuJoCo over pybullet per CPU second (the env).
-2. ``crowd``: the population env with ``--robots`` random robots in one world, the same two
-   ratios (raw: a copy of the env's compiled model and state, stepped bare).
-3. ``rank``: ``--rank-robots`` random robots (``evolution.random_robot``) evaluated on both
+"Raw MuJoCo" is a bare ``mj_step`` loop on a copy of the very model the env or ``evaluate``
+compiled, started from the same state and driven by the same hinge targets (recorded from an
+untimed run of the env, then replayed through RoboGen's servo law written to ``ctrl``): no env, no
+World, no sensors, no brain, and the same physics work, since it retraces the same trajectory.
+Each comparison prints whether the replay ended bit for bit where the env did (it should: the
+same model, state and controls).
+
+1. ``single``: the spider in the single-robot env (``Locomotion-v0``, the robot's own brain) over
+   raw MuJoCo, and MuJoCo over pybullet per CPU second (the env).
+2. ``evaluate``: ``revolve_env.evaluate`` of the spider (3 s insertion + 12 s) over raw MuJoCo,
+   and MuJoCo over pybullet.
+3. ``crowd``: the population env with ``--robots`` random robots in one world (restored from one
+   snapshot before every timing, so each timing steps the same ``--seconds``), the same two ratios.
+4. ``rank``: ``--rank-robots`` random robots (``evolution.random_robot``) evaluated on both
    engines (3 s insertion + 12 s): Spearman's rank correlation of their fitness, blow-ups and
    NaNs counted per engine.
-4. ``memory``: resident memory of one world after 300 and after ``--births`` births (10 alive,
+5. ``study``: the paper's full study (5 experiments x 30 runs x 3000 births) on 2 cores with
+   MuJoCo: ``--pybullet-study-hours`` (what ``bench_experiments.py`` measured with pybullet)
+   divided by the measured speed-ups, offline (``evaluate``, from ``rank``) and online (the
+   crowd); printed with ``rank``.
+6. ``memory``: resident memory of one world after 300 and after ``--births`` births (10 alive,
    each living 0.1 s, each newborn a new robot: the child of two living ones, as online), each
    engine in a fresh subprocess.
-5. ``robust``: ``--robust-robots`` random robots evaluated in MuJoCo alone: crashes, NaN fitness
+7. ``robust``: ``--robust-robots`` random robots evaluated in MuJoCo alone: crashes, NaN fitness
    and blow-ups counted. ``crowd-hour``: ``--crowd-minutes`` simulated minutes of ``--robots``
    robots (half walking examples, half random) packed in a 1 m disc with no clearance, each
    replaced after 60 s or when lost, on each of ``--crowd-engines``: blow-ups per 1,000
    robot-lives.
-6. ``study``: the paper's full study (5 experiments x 30 runs x 3000 births) on 2 cores with
-   MuJoCo: ``--pybullet-study-hours`` (what ``bench_experiments.py`` measured with pybullet)
-   divided by the measured speed-ups, offline (``evaluate``, from ``rank``) and online (the
-   crowd).
 
-Usage: ``python benchmarks/bench_engines.py [--seconds 3] [--robots 30] [--rank-robots 40]
-[--births 3000] [--repeats 2] [--robust-robots 2000] [--crowd-minutes 5]
-[--only speed memory robust crowd-hour]``.
+Usage: ``python benchmarks/bench_engines.py [--only single evaluate crowd ...] [--seconds 3]
+[--robots 30] [--rank-robots 40] [--births 3000] [--repeats 2] [--robust-robots 2000]
+[--crowd-minutes 5] [--crowd-engines mujoco pybullet]``.
 """
 
 from __future__ import annotations
@@ -39,10 +47,12 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import mujoco
 import numpy as np
+from numpy.typing import NDArray
 from scipy.stats import spearmanr
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout
@@ -50,12 +60,21 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a check
 from evolution.config import EvolutionConfig
 from evolution.operators import reproduce
 from evolution.random_robot import random_robot
-from revolve_env import LOCOMOTION_ID, evaluate, example, population_env
+from revolve_env import (
+    LOCOMOTION_ID,
+    EvaluationConditions,
+    evaluate,
+    evaluate_many,
+    example,
+    population_env,
+)
 from revolve_env.body.robot import Robot
 from revolve_env.envs.population import PopulationEnv
 from revolve_env.world import World, WorldConfig
 
 ENGINES = ("mujoco", "pybullet")
+SECTIONS = ("single", "evaluate", "offline", "crowd", "rank", "memory", "robust", "crowd-hour")
+_STATE = int(mujoco.mjtState.mjSTATE_INTEGRATION)
 
 
 def alternate(sides: dict[str, Callable[[], float]], repeats: int) -> dict[str, float]:
@@ -73,10 +92,79 @@ def random_robots(n: int, seed: int) -> list[Robot]:
     return [random_robot(rng, config) for _ in range(n)]
 
 
-# -- 1. one robot ------------------------------------------------------------------------------
-def env_cpu(robot: Robot, engine: str, seconds: float) -> float:
-    env = gym.make(LOCOMOTION_ID, robot=robot, engine=engine, controller="brain",
-                   insertion_time=0.0, evaluation_time=seconds)
+# -- raw MuJoCo: the same model, state and targets, replayed bare -------------------------------
+def scene(world: World) -> Any:
+    """The MuJoCo backend holding ``world``'s model (an isolated world's: its one robot's)."""
+    backend: Any = world.backend
+    if hasattr(backend, "_scenes"):
+        (only,) = backend._scenes.values()
+        return only
+    return backend
+
+
+class Replay:
+    """A world's compiled MuJoCo model and state now, and the hinge targets of the periods after.
+
+    :meth:`record` logs the world's targets before each control period it steps; :meth:`run`
+    replays them on a fresh ``MjData`` of the same model: per period one gather of the hinge
+    angles, RoboGen's servo law into ``ctrl`` and ``mj_step`` x substeps.
+    """
+
+    def __init__(self, world: World) -> None:
+        backend = self.scene = scene(world)
+        self.model = backend._model
+        self.state = np.empty(mujoco.mj_stateSize(self.model, _STATE))
+        mujoco.mj_getState(self.model, backend._data, self.state, _STATE)
+        self.hinges = self.model.jnt_qposadr[self.model.actuator_trnid[:, 0]].astype(np.intp)
+        self.config = world.config
+        self.targets: list[NDArray[np.float64]] = []
+        self.final = np.zeros(0)
+
+    def record(self, world: World) -> None:
+        """Log ``world``'s targets before each of its control periods from now on."""
+        step = world.step
+
+        def logged(n: int = 1) -> None:
+            for _ in range(n):
+                self.targets.append(world.targets.copy())
+                step(1)
+
+        world.step = logged  # type: ignore[method-assign]
+
+    def run(self) -> float:
+        """CPU seconds of the bare replay (its end state in :attr:`final`)."""
+        m, c = self.model, self.config
+        d = mujoco.MjData(m)
+        mujoco.mj_setState(m, d, self.state, _STATE)
+        hinges, targets = self.hinges, self.targets
+        k = c.servo_gain / c.control_period
+        vmax, substeps = c.max_velocity, c.substeps
+        cpu = time.process_time()
+        for t in targets:
+            d.ctrl[:] = np.minimum(np.maximum(k * (t - d.qpos[hinges]), -vmax), vmax)
+            mujoco.mj_step(m, d, substeps)
+        cpu = time.process_time() - cpu
+        self.final = d.qpos.copy()
+        return cpu
+
+    def same_as(self, world: World) -> str:
+        """"exact" when the replay ended where ``world`` is now, else how far off (metres)."""
+        now: Any = world.backend
+        backend = self.scene if not getattr(now, "_scenes", True) else scene(world)  # closed
+        here = np.asarray(backend._data.qpos)
+        if here.shape == self.final.shape and np.array_equal(here, self.final):
+            return "exact"
+        return "off" if here.shape != self.final.shape else \
+            f"off by {float(np.abs(here - self.final).max()):.1e}"
+
+
+# -- 1. one robot in the env -------------------------------------------------------------------
+def make_single(robot: Robot, engine: str, seconds: float) -> gym.Env[Any, Any]:
+    return gym.make(LOCOMOTION_ID, robot=robot, engine=engine, controller="brain",
+                    insertion_time=0.0, evaluation_time=seconds)
+
+
+def env_cpu(env: gym.Env[Any, Any]) -> float:
     env.reset(seed=0)
     action = np.zeros(env.action_space.shape or (0,), dtype=np.float32)
     cpu = time.process_time()
@@ -84,51 +172,128 @@ def env_cpu(robot: Robot, engine: str, seconds: float) -> float:
     while not done:
         _, _, terminated, truncated, _ = env.step(action)
         done = terminated or truncated
-    cpu = time.process_time() - cpu
-    env.close()
-    return cpu
-
-
-def raw_cpu(world: World, seconds: float) -> float:
-    """Bare MuJoCo on a copy of ``world``'s compiled model and state: per control period one
-    gather of the hinge angles, RoboGen's servo law into ``ctrl`` and ``mj_step`` x substeps."""
-    backend = world.backend
-    m = backend._model  # type: ignore[attr-defined]
-    d = mujoco.MjData(m)
-    src = backend._data  # type: ignore[attr-defined]
-    d.qpos[:], d.qvel[:] = src.qpos, src.qvel
-    hinges = np.concatenate([backend._robots[world._robots[h].key]  # type: ignore[attr-defined]
-                             .hinge_qpos[world._robots[h].active_local] for h in world.handles])
-    c = world.config
-    k = c.servo_gain / c.control_period
-    ticks = round(seconds / c.control_period)
-    phase = np.arange(hinges.size)
-    cpu = time.process_time()
-    for i in range(ticks):
-        target = 0.7 * np.sin(2 * np.pi * i * c.control_period + phase)
-        d.ctrl[:] = np.clip(k * (target - d.qpos[hinges]), -c.max_velocity, c.max_velocity)
-        mujoco.mj_step(m, d, c.substeps)
     return time.process_time() - cpu
 
 
 def single(seconds: float, repeats: int) -> None:
     robot = example("spider")
-    world = World(WorldConfig(engine="mujoco"))
-    world.add_robot(robot)
+    envs = {e: make_single(robot, e, seconds) for e in ENGINES}
+    mj = envs["mujoco"]
+    mj.reset(seed=0)
+    world: World = mj.unwrapped._world  # type: ignore[attr-defined]
+    raw = Replay(world)
+    raw.record(world)
+    env_cpu(mj)  # the recording run (untimed); env_cpu's own reset makes a fresh world
+    raw.run()
+    check = raw.same_as(world)
     best = alternate({
-        "env mujoco": lambda: env_cpu(robot, "mujoco", seconds),
-        "raw mujoco": lambda: raw_cpu(world, seconds),
-        "env pybullet": lambda: env_cpu(robot, "pybullet", seconds),
+        "env mujoco": lambda: env_cpu(mj),
+        "raw mujoco": raw.run,
+        "env pybullet": lambda: env_cpu(envs["pybullet"]),
     }, repeats)
-    world.close()
-    print(f"spider, {seconds:g} simulated s, best CPU of {repeats}: "
-          + ", ".join(f"{k} {v:.3f} s" for k, v in best.items()))
+    for env in envs.values():
+        env.close()
+    print(f"spider, Locomotion-v0, {seconds:g} simulated s, best CPU of {repeats}: "
+          + ", ".join(f"{k} {v:.3f} s" for k, v in best.items()) + f" (replay {check})")
     print(f"  env/raw MuJoCo {best['env mujoco'] / best['raw mujoco']:.2f}x; "
           f"MuJoCo env {best['env pybullet'] / best['env mujoco']:.2f}x faster than pybullet "
           f"per CPU second; raw MuJoCo {seconds / best['raw mujoco']:.0f} sim s per CPU s")
 
 
-# -- 2. a crowd --------------------------------------------------------------------------------
+# -- 2. one evaluate() -------------------------------------------------------------------------
+def record_evaluate(robot: Robot, seconds: float, insertion: float, seed: int = 0,
+                    conditions: EvaluationConditions | None = None) -> tuple[Replay, str]:
+    """The replay of one ``evaluate`` on MuJoCo, and whether it ends where the evaluation did."""
+    original = World.step
+    seen: dict[str, Any] = {}
+
+    def step(self: World, n: int = 1) -> None:
+        if "replay" not in seen:
+            seen["replay"] = Replay(self)
+            seen["world"] = self
+        for _ in range(n):
+            seen["replay"].targets.append(self.targets.copy())
+            original(self, 1)
+
+    World.step = step  # type: ignore[method-assign]
+    try:
+        evaluate(robot, seconds=seconds, insertion=insertion, engine="mujoco", seed=seed,
+                 conditions=conditions)
+    finally:
+        World.step = original  # type: ignore[method-assign]
+    raw: Replay = seen["replay"]
+    raw.run()
+    return raw, raw.same_as(seen["world"])
+
+
+def evaluate_one(repeats: int) -> None:
+    robot = example("spider")
+    seconds, insertion = 12.0, 3.0
+    raw, check = record_evaluate(robot, seconds, insertion)
+
+    def run(engine: str) -> float:
+        cpu = time.process_time()
+        evaluate(robot, seconds=seconds, insertion=insertion, engine=engine)
+        return time.process_time() - cpu
+
+    best = alternate({"evaluate mujoco": lambda: run("mujoco"), "raw mujoco": raw.run,
+                      "evaluate pybullet": lambda: run("pybullet")}, repeats)
+    print(f"spider, evaluate() {insertion:g} + {seconds:g} s, best CPU of {repeats}: "
+          + ", ".join(f"{k} {v:.3f} s" for k, v in best.items()) + f" (replay {check})")
+    print(f"  evaluate/raw MuJoCo {best['evaluate mujoco'] / best['raw mujoco']:.2f}x; MuJoCo "
+          f"{best['evaluate pybullet'] / best['evaluate mujoco']:.2f}x faster than pybullet")
+
+
+# -- 3. offline: a generation evaluated side by side ------------------------------------------
+def side_by_side(n: int, repeats: int) -> None:
+    """``n`` random robots (a generation's children), 3 + 12 s each under the shipped configs'
+    conditions (random heading): ``evaluate`` one by one, ``evaluate_many`` all at once, and raw
+    MuJoCo replaying each alone; CPU per simulated robot-second."""
+    robots = random_robots(n, seed=6)
+    seeds = list(range(n))
+    conditions = EvaluationConditions(heading="random")
+    seconds, insertion = 12.0, 3.0
+    replays = [record_evaluate(r, seconds, insertion, s, conditions) for r, s in zip(robots, seeds,
+                                                                                      strict=True)]
+    checks = {check for _, check in replays}
+
+    def alone() -> float:
+        cpu = time.process_time()
+        for robot, seed in zip(robots, seeds, strict=True):
+            evaluate(robot, seconds=seconds, insertion=insertion, seed=seed, engine="mujoco",
+                     conditions=conditions)
+        return time.process_time() - cpu
+
+    def together() -> float:
+        cpu = time.process_time()
+        evaluate_many(robots, seconds=seconds, insertion=insertion, seeds=seeds, engine="mujoco",
+                      conditions=conditions)
+        return time.process_time() - cpu
+
+    def raw() -> float:
+        return sum(replay.run() for replay, _ in replays)
+
+    one = [evaluate(r, seconds=seconds, insertion=insertion, seed=s, engine="mujoco",
+                    conditions=conditions) for r, s in zip(robots, seeds, strict=True)]
+    many = evaluate_many(robots, seconds=seconds, insertion=insertion, seeds=seeds,
+                         engine="mujoco", conditions=conditions)
+    same = all(a.fitness == b.fitness and np.array_equal(a.trajectory, b.trajectory)
+               for a, b in zip(one, many, strict=True))
+    best = alternate({"evaluate_many": together, "evaluate one by one": alone, "raw mujoco": raw},
+                     repeats)
+    robot_seconds = sum(len(r.trajectory) for r in one) / 60.0 + n * insertion
+    print(f"{n} random robots, {insertion:g} + {seconds:g} s each, best CPU of {repeats}: "
+          + ", ".join(f"{k} {v:.3f} s" for k, v in best.items())
+          + f" (evaluate_many == evaluate: {'bit for bit' if same else 'NO'}; replays "
+          + "/".join(sorted(checks)) + ")")
+    per = {k: v / robot_seconds * 1e3 for k, v in best.items()}
+    print("  CPU ms per simulated robot-second: " + ", ".join(f"{k} {v:.2f}"
+                                                             for k, v in per.items())
+          + f"; evaluate_many/raw {best['evaluate_many'] / best['raw mujoco']:.2f}x, "
+          f"one by one/raw {best['evaluate one by one'] / best['raw mujoco']:.2f}x")
+
+
+# -- 3. a crowd --------------------------------------------------------------------------------
 def crowd(n: int, seconds: float, repeats: int) -> tuple[float, float]:
     """Returns the population env's CPU seconds per robot-simulated-second (MuJoCo, pybullet)."""
     robots = random_robots(n, seed=1)
@@ -145,25 +310,36 @@ def crowd(n: int, seconds: float, repeats: int) -> tuple[float, float]:
         return env
 
     envs = {e: make(e) for e in ENGINES}
-    ticks = round(seconds / envs["mujoco"].config.control_period)
+    mj = envs["mujoco"]
+    ticks = round(seconds / mj.config.control_period)
+    start = mj.snapshot()
 
     def run_env(engine: str) -> float:
         env = envs[engine]
+        if env is mj:
+            env.restore(start)
         cpu = time.process_time()
         for _ in range(ticks):
             env.step({})
         return time.process_time() - cpu
 
+    mj.restore(start)
+    raw = Replay(mj.world)
+    raw.record(mj.world)
+    for _ in range(ticks):
+        mj.step({})
+    raw.run()
+    check = raw.same_as(mj.world)
     best = alternate({
         "env mujoco": lambda: run_env("mujoco"),
-        "raw mujoco": lambda: raw_cpu(envs["mujoco"].world, seconds),
+        "raw mujoco": raw.run,
         "env pybullet": lambda: run_env("pybullet"),
     }, repeats)
-    lost = n - len(envs["mujoco"].agents)
+    lost = n - len(mj.agents)
     for env in envs.values():
         env.close()
     print(f"{n} random robots in one world, {seconds:g} simulated s, best CPU of {repeats}: "
-          + ", ".join(f"{k} {v:.3f} s" for k, v in best.items()))
+          + ", ".join(f"{k} {v:.3f} s" for k, v in best.items()) + f" (replay {check})")
     print(f"  population env/raw MuJoCo {best['env mujoco'] / best['raw mujoco']:.2f}x; MuJoCo "
           f"{best['env pybullet'] / best['env mujoco']:.2f}x faster than pybullet per CPU second; "
           f"MuJoCo {seconds / best['env mujoco']:.1f}x real time on one core; "
@@ -171,7 +347,7 @@ def crowd(n: int, seconds: float, repeats: int) -> tuple[float, float]:
     return best["env mujoco"] / (n * seconds), best["env pybullet"] / (n * seconds)
 
 
-# -- 3. same science ---------------------------------------------------------------------------
+# -- 4. same science ---------------------------------------------------------------------------
 def rank(n: int) -> float:
     """Returns pybullet's evaluate() CPU time over MuJoCo's."""
     robots = random_robots(n, seed=2)
@@ -196,7 +372,7 @@ def rank(n: int) -> float:
     return cpu["pybullet"] / cpu["mujoco"]
 
 
-# -- 5. robustness ----------------------------------------------------------------------------
+# -- 7. robustness ----------------------------------------------------------------------------
 def robust(n: int) -> None:
     robots = random_robots(n, seed=4)
     crashes = nans = blown = 0
@@ -260,7 +436,7 @@ def crowded_hour(engine: str, n: int, minutes: float, life: float = 60.0) -> Non
           "robot-lives) " + "; ".join(blown[:3]))
 
 
-# -- 4. memory ---------------------------------------------------------------------------------
+# -- 6. memory ---------------------------------------------------------------------------------
 def rss_mb() -> float:
     with open("/proc/self/statm") as f:
         return int(f.read().split()[1]) * resource.getpagesize() / 2**20
@@ -303,53 +479,56 @@ def memory(births: int) -> None:
               f"0.1 s each, every newborn the child of two living robots; {wall:.0f} s wall)")
 
 
-SECTIONS = ["speed", "memory", "robust", "crowd-hour"]
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--only", nargs="*", choices=SECTIONS, default=list(SECTIONS),
+                        help="sections to run (default: all)")
     parser.add_argument("--seconds", type=float, default=3.0, help="simulated s per timing")
     parser.add_argument("--repeats", type=int, default=2)
     parser.add_argument("--robots", type=int, default=30)
     parser.add_argument("--rank-robots", type=int, default=40)
+    parser.add_argument("--offline-robots", type=int, default=15,
+                        help="robots evaluated side by side (a scenario 1 generation: 15)")
     parser.add_argument("--births", type=int, default=3000)
     parser.add_argument("--pybullet-study-hours", type=float, default=60.0,
                         help="the study's time with pybullet, from bench_experiments.py")
     parser.add_argument("--robust-robots", type=int, default=2000)
     parser.add_argument("--crowd-minutes", type=float, default=5.0)
     parser.add_argument("--crowd-engines", nargs="+", choices=ENGINES, default=["mujoco"])
-    parser.add_argument("--only", nargs="+", choices=SECTIONS, default=SECTIONS,
-                        help="run only these parts (speed: 1-3 and 6)")
     parser.add_argument("--memory-child", nargs=2, metavar=("ENGINE", "BIRTHS"),
                         help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.memory_child:
         memory_child(args.memory_child[0], int(args.memory_child[1]))
         return
+    only = set(args.only)
     print(f"physics 1/{round(1 / WorldConfig().timestep)} s, control "
           f"1/{round(1 / WorldConfig().control_period)} s")
-    if "speed" in args.only:
-        speed(args)
-    if "memory" in args.only:
+    if "single" in only:
+        single(args.seconds, args.repeats)
+    if "evaluate" in only:
+        evaluate_one(args.repeats)
+    if "offline" in only:
+        side_by_side(args.offline_robots, args.repeats)
+    per_mj = per_pb = math.nan
+    if "crowd" in only:
+        per_mj, per_pb = crowd(args.robots, args.seconds, args.repeats)
+    if "rank" in only:
+        offline = rank(args.rank_robots)
+        online = per_pb / per_mj
+        hours = args.pybullet_study_hours
+        if math.isfinite(online):
+            print(f"paper's study on 2 cores: {hours:g} h with pybullet (bench_experiments.py) "
+                  f"-> {hours / max(offline, online):.0f}-{hours / min(offline, online):.0f} h "
+                  f"with MuJoCo (speed-ups {offline:.2f}x offline, {online:.2f}x online; the "
+                  "rest of a run, reproduction and storage, assumed negligible)")
+    if "memory" in only:
         memory(args.births)
-    if "robust" in args.only:
+    if "robust" in only:
         robust(args.robust_robots)
-    if "crowd-hour" in args.only:
+    if "crowd-hour" in only:
         for engine in args.crowd_engines:
             crowded_hour(engine, args.robots, args.crowd_minutes)
-
-
-
-def speed(args: argparse.Namespace) -> None:
-    single(args.seconds, args.repeats)
-    per_mj, per_pb = crowd(args.robots, args.seconds, args.repeats)
-    offline = rank(args.rank_robots)
-    online = per_pb / per_mj
-    hours = args.pybullet_study_hours
-    print(f"paper's study on 2 cores: {hours:g} h with pybullet (bench_experiments.py) -> "
-          f"{hours / max(offline, online):.0f}-{hours / min(offline, online):.0f} h with MuJoCo "
-          f"(speed-ups {offline:.2f}x offline, {online:.2f}x online; the rest of a run, "
-          f"reproduction and storage, assumed negligible)")
 
 
 if __name__ == "__main__":

@@ -3,25 +3,31 @@
 Usage::
 
     python benchmarks/bench_experiments.py [--births 45] [--workers 0] [--engine-only]
+        [--physics pybullet|mujoco] [--only scenario1 scenario3]
 
 Runs each of the five experiments for ``--births`` births (fresh temporary results directory)
-and prints births per minute. ``--engine-only`` replaces the physics by a constant-cost stand-in
-to measure the engine's own overhead (operators, selection, diversity, SQLite). The estimate of
-the full study (5 experiments x 30 runs x 3000 births) assumes the offline experiments keep all
-cores busy with evaluations and online runs go side by side, one per core.
+and prints births per minute; with ``--workers 1`` (everything in this process) also the CPU
+time per birth, the figure the speed aims compare. ``--engine-only`` replaces the physics by a
+constant-cost stand-in to measure the engine's own overhead (operators, selection, diversity,
+SQLite). The estimate of the full study (5 experiments x 30 runs x 3000 births) assumes the
+offline experiments keep all cores busy with evaluations and online runs go side by side, one
+per core.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 from evolution import experiments
 from evolution.evaluation import EvalOutcome, EvalTask, LocalEvaluator, evaluate_task
 from evolution.experiments import preset
+from revolve_env.body.serialize import to_json
 
 EXPERIMENTS = ("scenario1", "scenario2", "scenario3", "baseline_a", "baseline_b")
 STUDY_RUNS, STUDY_BIRTHS = 30, 3000
@@ -29,7 +35,7 @@ STUDY_RUNS, STUDY_BIRTHS = 30, 3000
 
 def constant_evaluate(task: EvalTask) -> EvalOutcome:
     """No physics: a fitness from the genome's length (measures engine overhead only)."""
-    return EvalOutcome(float(len(task.genome) % 101) / 100.0, 0.0, 0.0)
+    return EvalOutcome(float(len(to_json(task.robot, indent=None)) % 101) / 100.0, 0.0, 0.0)
 
 
 def main() -> None:
@@ -38,32 +44,42 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=0, help="0: all cores")
     parser.add_argument("--engine-only", action="store_true")
     parser.add_argument("--only", nargs="*", default=list(EXPERIMENTS))
+    parser.add_argument("--physics", choices=("pybullet", "mujoco"), default=None,
+                        help="the physics engine (default: each config's)")
     args = parser.parse_args()
     cores = args.workers or os.cpu_count() or 1
     function = constant_evaluate if args.engine_only else evaluate_task
     print(f"{'experiment':<12} {'births':>6} {'wall s':>8} {'births/min':>11} {'sim s/wall s':>12}"
-          f" {'study h (2 cores)':>18}")
+          f" {'study h (2 cores)':>18} {'CPU ms/birth':>13}")
     total_hours = 0.0
     for name in args.only:
-        config = preset(name, births=args.births, workers=cores)
+        # One run: births per minute and CPU per birth count that run's births (the shipped
+        # configs' 30 runs would run side by side, 30 times the births of the rate printed).
+        config = preset(name, births=args.births, workers=cores, runs=1)
+        if args.physics is not None:
+            config = config.replace(world=dataclasses.replace(config.world,
+                                                              engine=args.physics))
         with tempfile.TemporaryDirectory() as tmp, LocalEvaluator(cores, function) as evaluator:
-            events: list = []
+            events: list[Any] = []
             start = time.perf_counter()
+            cpu = time.process_time()
             try:
                 experiments.run(config, Path(tmp) / "out", events.append, evaluator=evaluator)
             except ImportError as error:
                 print(f"{name:<12} unavailable: {error}")
                 continue
             wall = time.perf_counter() - start
+            cpu = time.process_time() - cpu
         rate = args.births / wall * 60
         speed = events[-1].sim_time / wall
         # On 2 cores: offline runs use every core for evaluations (scaled from `cores` here);
         # online worlds are one process each, two runs side by side.
-        rate_2_cores = rate * 2 / cores if config.engine == "offline" else rate * 2
+        rate_2_cores = rate * 2 / cores if config.mode == "offline" else rate * 2
         hours = STUDY_RUNS * STUDY_BIRTHS / rate_2_cores / 60
         total_hours += hours
+        per_birth = f"{cpu / args.births * 1e3:.0f}" if cores == 1 else "n/a"
         print(f"{name:<12} {args.births:>6} {wall:>8.1f} {rate:>11.1f} {speed:>12.1f} "
-              f"{hours:>18.1f}")
+              f"{hours:>18.1f} {per_birth:>13}")
     print(f"\nfull study ({len(args.only)} experiments x {STUDY_RUNS} runs x "
           f"{STUDY_BIRTHS} births, 2 cores): {total_hours:.0f} h = {total_hours / 24:.1f} days")
 

@@ -10,8 +10,9 @@ its own subpackages, each importing only the layers below it:
 * :mod:`evolution.reporting`: tables, statistics and figures of stored results;
 * :mod:`evolution.cli`: the ``revolve`` command, a thin layer over the Python API.
 
-For convenience ``evolution.run``, ``evolution.resume``, ``evolution.study``,
-``evolution.reevaluate``, ``evolution.report`` and the experiment types are served lazily
+For convenience ``evolution.Evolution`` (the loop you can step), ``evolution.run``,
+``evolution.resume``, ``evolution.study``, ``evolution.reevaluate``, ``evolution.report`` and the
+experiment types are served lazily
 (PEP 562) from those subpackages: importing :mod:`evolution` loads none of them.
 """
 
@@ -87,7 +88,9 @@ __all__ = [
 # The application's public names, served lazily so that the library never imports them.
 _LAZY = {
     "ConfigError": "evolution.experiments",
+    "Evolution": "evolution.experiments",
     "ExperimentConfig": "evolution.experiments",
+    "Observer": "evolution.experiments",
     "Store": "evolution.experiments",
     "StoreError": "evolution.experiments",
     "preset": "evolution.experiments",

@@ -39,6 +39,7 @@ import numpy as np
 import torch
 from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.logger import Logger
 from stable_baselines3.common.vec_env import VecNormalize
 
 import revolve_env
@@ -150,6 +151,7 @@ def run(args: argparse.Namespace) -> list[dict[str, Any]]:
     model = PPO("MlpPolicy", norm, n_steps=args.n_steps, batch_size=256, n_epochs=10,
                 learning_rate=3e-4, gamma=0.99, gae_lambda=0.95, seed=args.seed, device="cpu",
                 policy_kwargs={"net_arch": [64, 64]}, verbose=0)
+    model.set_logger(Logger(folder=None, output_formats=[]))  # SB3's default: an empty tmp folder
     curve = Curve(venv, {"robot_0", "robot_1"})
     model.learn(total_timesteps=args.iterations * args.n_steps * args.slots, callback=curve)
     print(f"population episodes: {venv.resets}, robots left without a slot: {len(venv.unslotted)}")

@@ -50,6 +50,7 @@ if "revolve_env/Locomotion-v1" not in gymnasium.registry:  # v0 with propriocept
 # Names served lazily (PEP 562) because they import the physics engine.
 _LAZY = {
     "evaluate": ("revolve_env.evaluation", "evaluate"),
+    "evaluate_many": ("revolve_env.evaluation", "evaluate_many"),
     "EvaluationResult": ("revolve_env.evaluation", "EvaluationResult"),
     "World": ("revolve_env.world", "World"),
     "ENGINES": ("revolve_env.world", "ENGINES"),
@@ -96,6 +97,7 @@ __all__ = [
     "World",
     "WorldConfig",
     "evaluate",
+    "evaluate_many",
     "example",
     "from_json",
     "load",

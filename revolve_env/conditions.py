@@ -26,8 +26,13 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["IDEAL", "RANDOM_HEADING", "EvaluationConditions", "Start", "add_sensor_noise",
-           "with_noise_shortcuts"]
+__all__ = ["IDEAL", "MAX_RADIUS", "RANDOM_HEADING", "EvaluationConditions", "Start",
+           "add_sensor_noise", "with_noise_shortcuts"]
+
+MAX_RADIUS = 100.0
+"""Largest distance a robot is placed from its nominal start: the start jitter, an experiment's
+birth radius and clearance (the paper's birth disc is 2 m; MuJoCo aborts on a robot 1e30 m
+away). Metres."""
 
 RANDOM_HEADING: Literal["random"] = "random"
 """The ``heading`` value that draws a heading uniformly in ``[0, 2 pi)``."""
@@ -62,8 +67,9 @@ class EvaluationConditions:
         actuator_noise: Standard deviation of Gaussian noise on every normalised hinge target.
 
     Raises:
-        ValueError: a heading that is neither a finite number nor ``"random"``, or a negative or
-            non-finite jitter or noise (the message names the field).
+        ValueError: a heading that is neither a finite number nor ``"random"``, a negative or
+            non-finite jitter or noise, or a jitter beyond :data:`MAX_RADIUS` (the message
+            names the field).
     """
 
     heading: float | Literal["random"] = 0.0
@@ -83,6 +89,9 @@ class EvaluationConditions:
             if not (_finite(value) and value >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
             object.__setattr__(self, name, float(value))
+        if self.position_jitter > MAX_RADIUS:
+            raise ValueError(f"position_jitter must be <= {MAX_RADIUS:g} m, got "
+                             f"{self.position_jitter!r}")
 
     @property
     def random_heading(self) -> bool:

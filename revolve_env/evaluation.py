@@ -7,6 +7,7 @@ function (a submodule of the same name would replace it once imported).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -26,7 +27,7 @@ from revolve_env.conditions import (
 from revolve_env.fitness import DEFAULT_S_WEIGHT, fitness_terms
 from revolve_env.world import World, WorldConfig
 
-__all__ = ["EvaluationResult", "evaluate", "evaluation_mjcf", "start_generator"]
+__all__ = ["EvaluationResult", "evaluate", "evaluate_many", "evaluation_mjcf", "start_generator"]
 
 _START_STREAM = 0x57A27
 """Tags the generator of a start, apart from the noise generator of the same seed."""
@@ -76,6 +77,8 @@ def evaluate(
 ) -> EvaluationResult:
     """Run ``robot`` on its own controller in a fresh world and measure its fitness.
 
+    (:func:`evaluate_many` evaluates many robots at once, to the same results.)
+
     The robot is validated, dropped at the origin (or where ``conditions`` draw its start), left
     ``insertion`` seconds to settle (its controller already runs) and then followed for
     ``seconds``; the fitness is ``v + 5 s`` over that span (:mod:`revolve_env.fitness`). The
@@ -108,73 +111,201 @@ def evaluate(
         EngineUnavailableError: the engine's package is not installed.
         TypeError: ``conditions`` is not an ``EvaluationConditions``.
     """
-    validate(robot, limits)
-    for name, value in (("seconds", seconds), ("insertion", insertion),
-                        ("sensor_noise", sensor_noise), ("actuator_noise", actuator_noise)):
+    for name, value in (("sensor_noise", sensor_noise), ("actuator_noise", actuator_noise)):
         if not (math.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value}")
     conditions = with_noise_shortcuts(conditions, sensor_noise, actuator_noise)
+    [result] = evaluate_many([robot], seconds=seconds, insertion=insertion, seeds=[seed],
+                             config=config, limits=limits, engine=engine, conditions=conditions)
+    return result
+
+
+def evaluate_many(
+    robots: Sequence[Robot],
+    *,
+    seconds: float = 12.0,
+    insertion: float = 3.0,
+    seeds: Sequence[int] | None = None,
+    config: WorldConfig | None = None,
+    limits: Limits | None = None,
+    engine: str | None = None,
+    conditions: EvaluationConditions | None = None,
+) -> list[EvaluationResult]:
+    """:func:`evaluate` many robots side by side: the same results, for less work per robot.
+
+    Every robot is in a scene of its own (``World(config, isolated=True)``), so it moves exactly
+    as :func:`evaluate` alone moves it, bit for bit, whichever robots are beside it and however
+    many; one control period steps them all, with their sensors, controllers (one call of the
+    compiled controller for all networks) and hinge targets as arrays over every robot, so the
+    per-period work outside the physics engine is paid once for the batch. A robot that blows
+    up leaves the batch at once, as its own evaluation would stop.
+
+    Args:
+        robots: The robots, with their networks.
+        seconds: Evaluation time (the fitness window). Seconds.
+        insertion: Settling time before the evaluation. Seconds.
+        seeds: One seed per robot (as :func:`evaluate`'s ``seed``); default 0 for each.
+        config: Physics settings; ``WorldConfig()`` by default.
+        limits: Validation limits.
+        engine: Physics engine; None keeps ``config.engine`` (pybullet by default).
+        conditions: The conditions of every robot (each drawn from its own seed); default
+            :data:`~revolve_env.conditions.IDEAL`.
+
+    Returns:
+        One :class:`EvaluationResult` per robot, in order.
+
+    Raises:
+        RobotError: a robot is invalid (before any physics runs).
+        ValueError: a bad timing, a seed count that does not match, an unknown engine, a network
+            whose inputs do not match its body's sensors, or a robot the engine cannot build.
+        EngineUnavailableError: the engine's package is not installed.
+        TypeError: ``conditions`` is not an ``EvaluationConditions``.
+    """
+    for robot in robots:
+        validate(robot, limits)
+    for name, value in (("seconds", seconds), ("insertion", insertion)):
+        if not (math.isfinite(value) and value >= 0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+    seeds = [0] * len(robots) if seeds is None else [int(s) for s in seeds]
+    if len(seeds) != len(robots):
+        raise ValueError(f"{len(seeds)} seeds for {len(robots)} robots")
+    conditions = with_noise_shortcuts(conditions, 0.0, 0.0)
     cfg = (config if config is not None else WorldConfig()).with_engine(engine)
     dt = cfg.control_period
     insertion_ticks = round(insertion / dt)
     evaluation_ticks = round(seconds / dt)
     if evaluation_ticks < 1:
         raise ValueError(f"seconds ({seconds}) must cover at least one control period ({dt} s)")
-    rng = np.random.default_rng(seed)
-    start = conditions.start(start_generator(seed))
-    with World(cfg) as world:
-        path, reason = _rollout(world, robot, insertion_ticks, evaluation_ticks, rng,
-                                conditions.sensor_noise, conditions.actuator_noise, start)
-    if reason is not None:
-        return EvaluationResult(0.0, 0.0, 0.0, path, reason)
-    terms = fitness_terms(path, DEFAULT_S_WEIGHT)
-    return EvaluationResult(terms.fitness, terms.v, terms.s, path, None)
+    if not robots:
+        return []
+    rngs = [np.random.default_rng(seed) for seed in seeds]
+    starts = [conditions.start(start_generator(seed)) for seed in seeds]
+    with World(cfg, isolated=True) as world:
+        paths = _rollout(world, robots, starts, insertion_ticks, evaluation_ticks, rngs,
+                         conditions.sensor_noise, conditions.actuator_noise)
+    results = []
+    for path, reason in paths:
+        if reason is not None:
+            results.append(EvaluationResult(0.0, 0.0, 0.0, path, reason))
+        else:
+            terms = fitness_terms(path, DEFAULT_S_WEIGHT)
+            results.append(EvaluationResult(terms.fitness, terms.v, terms.s, path, None))
+    return results
 
 
 def _rollout(
-    world: World, robot: Robot, insertion_ticks: int, evaluation_ticks: int,
-    rng: np.random.Generator, sensor_noise: float, actuator_noise: float, start: Start,
-) -> tuple[NDArray[np.float64], str | None]:
-    """Drop ``robot`` into ``world`` at ``start`` and let its own network drive it.
+    world: World, robots: Sequence[Robot], starts: Sequence[Start], insertion_ticks: int,
+    evaluation_ticks: int, rngs: Sequence[np.random.Generator], sensor_noise: float,
+    actuator_noise: float,
+) -> list[tuple[NDArray[np.float64], str | None]]:
+    """Drop ``robots`` into ``world`` at ``starts`` and let their own networks drive them.
+
+    One pass per control period over every robot: their sensor values as one array, one call of
+    the compiled controller for all networks, every target set at once. A robot whose
+    simulation blows up leaves the world and the controller at once (``world`` must keep the
+    others' physics apart from it: a world of one robot, or an isolated one); the others go on.
+    Noise draws from each robot's own generator in ``rngs``, robot by robot.
 
     Returns:
-        The core's path over the evaluation ticks (read-only, metres) and the blow-up reason
-        (``None`` if the simulation stayed sane).
+        Per robot: the core's path over the evaluation ticks (read-only, metres) and the
+        blow-up reason (``None`` if the simulation stayed sane).
     """
+    n = len(robots)
     brain = BatchController(world.config.control_period)
-    brain.add(robot)
-    inputs = np.zeros(brain.n_inputs)
+    nets = [brain.add(robot) for robot in robots]
+    handles = [world.add_robot(robot, start.position, start.yaw)
+               for robot, start in zip(robots, starts, strict=True)]
+    for net, h in zip(nets, handles, strict=True):
+        ins, outs = brain.input_slice(net), brain.output_slice(net)
+        n_in, n_out = ins.stop - ins.start, outs.stop - outs.start
+        if world.n_inputs(h) != n_in or world.n_outputs(h) != n_out:
+            raise ValueError(
+                f"the network has {n_in} inputs / {n_out} outputs but the body has "
+                f"{world.n_inputs(h)} sensor values / {world.n_outputs(h)} active hinges")
+    bounds = [sensor_bounds(robot) for robot in robots]
+    noisy = sensor_noise > 0 or actuator_noise > 0
     outputs = np.zeros(brain.n_outputs)
-    trajectory = np.empty((evaluation_ticks + 1, 3))
-    h = world.add_robot(robot, start.position, start.yaw)
-    if world.n_inputs(h) != len(inputs) or world.n_outputs(h) != len(outputs):
-        raise ValueError(
-            f"the network has {len(inputs)} inputs / {len(outputs)} outputs but the body has "
-            f"{world.n_inputs(h)} sensor values / {world.n_outputs(h)} active hinges"
-        )
-    low, high = sensor_bounds(robot)
-    reason: str | None = None
-    rows = 0
+    trajectory = np.empty((evaluation_ticks + 1, n, 3))
+    columns = np.arange(n)  # the robot (index into robots) of each world row
+    rows = np.zeros(n, dtype=np.intp)  # trajectory rows of each robot that left
+    recorded = 0  # trajectory rows of every robot still in the world
+    reasons: list[str | None] = [None] * n
+    every = True  # every robot still in the world: the world's rows are the columns
     for tick in range(insertion_ticks + evaluation_ticks):
         if tick == insertion_ticks:
-            trajectory[0] = world.core_position(h)
-            rows = 1
-        inputs[:] = add_sensor_noise(world.read_sensors(h), sensor_noise, rng, low, high)
-        brain.step(inputs, outputs)
-        if actuator_noise > 0:
-            world.set_targets(h, outputs + rng.normal(0.0, actuator_noise, outputs.shape))
+            trajectory[0, columns] = world.states.core_pos
+            recorded = 1
+        inputs = world.sensor_values()
+        if noisy:
+            inputs, targets = _noisy_step(world, brain, inputs, outputs, columns, rngs, bounds,
+                                          sensor_noise, actuator_noise)
         else:
-            world.set_targets(h, outputs)
+            brain.step(inputs, outputs)
+            targets = outputs
+        world.set_all_targets(targets)
         world.step(1)
-        reason = world.blow_up(h)
-        if reason is not None:
-            break
+        if world.any_blown_up:
+            left = columns
+            columns = _drop_blown(world, brain, handles, nets, columns, reasons)
+            rows[np.setdiff1d(left, columns)] = recorded
+            if not columns.size:
+                break
+            outputs = np.zeros(brain.n_outputs)
+            every = False
         if tick >= insertion_ticks:
-            trajectory[rows] = world.core_position(h)
-            rows += 1
-    path = trajectory[:rows].copy()
-    path.setflags(write=False)
-    return path, reason
+            if every:
+                trajectory[recorded] = world.states.core_pos
+            else:
+                trajectory[recorded, columns] = world.states.core_pos
+            recorded += 1
+    rows[columns] = recorded
+    out = []
+    for i in range(n):
+        path = trajectory[:rows[i], i].copy()
+        path.setflags(write=False)
+        out.append((path, reasons[i]))
+    return out
+
+
+def _noisy_step(
+    world: World, brain: BatchController, inputs: NDArray[np.float64],
+    outputs: NDArray[np.float64], columns: NDArray[np.intp],
+    rngs: Sequence[np.random.Generator],
+    bounds: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]]], sensor_noise: float,
+    actuator_noise: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Sensor noise, the controller and actuator noise, robot by robot's own generator."""
+    noisy_in = np.empty_like(inputs)
+    ins, outs = world.input_offsets, world.output_offsets
+    for row, i in enumerate(columns.tolist()):
+        low, high = bounds[i]
+        noisy_in[ins[row]:ins[row + 1]] = add_sensor_noise(inputs[ins[row]:ins[row + 1]],
+                                                           sensor_noise, rngs[i], low, high)
+    brain.step(noisy_in, outputs)
+    if actuator_noise <= 0:
+        return noisy_in, outputs
+    targets = outputs.copy()
+    for row, i in enumerate(columns.tolist()):
+        part = slice(outs[row], outs[row + 1])
+        targets[part] = outputs[part] + rngs[i].normal(0.0, actuator_noise,
+                                                        outs[row + 1] - outs[row])
+    return noisy_in, targets
+
+
+def _drop_blown(world: World, brain: BatchController, handles: list[int], nets: list[int],
+                columns: NDArray[np.intp], reasons: list[str | None]) -> NDArray[np.intp]:
+    """Take the robots that blew up out of the world and the controller; the columns left."""
+    keep = []
+    for row, i in enumerate(columns.tolist()):
+        if world.blown_up[row]:
+            reasons[i] = world.blow_up(handles[i])
+        else:
+            keep.append(i)
+    for i in columns.tolist():
+        if reasons[i] is not None and i not in keep:
+            world.remove_robot(handles[i])
+            brain.remove(nets[i])
+    return np.array(keep, dtype=np.intp)
 
 
 def evaluation_mjcf(robot: Robot, seed: int = 0, *, config: WorldConfig | None = None,

@@ -62,17 +62,23 @@ class FakeWorld:
     """An online world where each robot walks straight at its genome's speed.
 
     Sliding-window fitness after insertion: ``6 u w`` where ``w`` is the part of the last
-    ``evaluation_time`` seconds the robot has walked. Robots whose speed is in the top 2 %
-    blow up ``blow_up_age`` seconds after birth when ``blow_ups`` is set.
+    ``evaluation_time`` seconds the robot has walked. When ``blow_ups`` is set, robots faster
+    than ``blow_up_speed`` (by default the top 2 %) blow up ``blow_up_age`` seconds after birth
+    or later; the world then reports ``blow_up_fitness`` for them (the population env reports 0).
     """
 
-    def __init__(self, config: ExperimentConfig, seed: int, blow_ups: bool = False) -> None:
+    def __init__(self, config: ExperimentConfig, seed: int, blow_ups: bool = False,
+                 blow_up_fitness: float = 0.0, blow_up_speed: float = 0.098,
+                 blow_up_age: float = 5.0) -> None:
         self.config = config
         self._time = 0.0
         self._next = 0
         self.robots: dict[str, tuple[float, float, tuple[float, float], float]] = {}
         self.max_population = 0
         self.blow_ups = blow_ups
+        self.blow_up_fitness = blow_up_fitness
+        self.blow_up_speed = blow_up_speed
+        self.blow_up_age = blow_up_age
         self.closed = False
         self.policies: dict[str, Any] = {}
 
@@ -99,10 +105,12 @@ class FakeWorld:
         for agent, (u, born, pos, _) in list(self.robots.items()):
             walked = max(0.0, min(t - born - self.config.insertion, self.config.evaluation_time))
             removed = None
-            if self.blow_ups and u > 0.098 and t - born >= 5.0:
+            fitness = 6 * u * walked
+            if self.blow_ups and u > self.blow_up_speed and t - born >= self.blow_up_age:
                 removed = "core speed 12.0 m/s > 10.0"
+                fitness = self.blow_up_fitness
                 del self.robots[agent]
-            out[agent] = AgentStatus(6 * u * walked, u * walked, u * walked,
+            out[agent] = AgentStatus(fitness, u * walked, u * walked,
                                      (pos[0] + u * (t - born), pos[1]), removed)
         return out
 
@@ -116,6 +124,17 @@ def fake_world(config: ExperimentConfig, seed: int) -> FakeWorld:
 
 def fake_world_with_blow_ups(config: ExperimentConfig, seed: int) -> FakeWorld:
     return FakeWorld(config, seed, blow_ups=True)
+
+
+def fake_world_with_late_blow_ups(config: ExperimentConfig, seed: int) -> FakeWorld:
+    """Robots faster than 0.085 m/s (about one in six) blow up from 40 s of age: after their
+    first fitness samples, some before selection kills them."""
+    return FakeWorld(config, seed, blow_ups=True, blow_up_speed=0.085, blow_up_age=40.0)
+
+
+def fake_world_with_blow_ups_at_huge_fitness(config: ExperimentConfig, seed: int) -> FakeWorld:
+    """As :func:`fake_world_with_blow_ups`, but a robot that blows up is reported at 1e9 m."""
+    return FakeWorld(config, seed, blow_ups=True, blow_up_fitness=1e9)
 
 
 def finite_mean(values: list[float | None]) -> float:

@@ -71,6 +71,25 @@ def test_evolve_offline() -> None:
     assert "summary.csv" in out
 
 
+def test_evolve_in_a_notebook() -> None:
+    """Stepped from Python without a database: each step's best and mean, the same numbers by
+    ask/tell with the standard evaluation, an online run stepped birth by birth, no file."""
+    out = run_example("evolve_in_a_notebook")
+    stepped = {int(b): (float(best), float(mean)) for _, b, best, mean in re.findall(
+        rf"^generation (\d+): (\d+) births, best {NUMBER} m, mean {NUMBER} m", out, re.M)}
+    assert sorted(stepped) == [6, 12, 18, 24]
+    assert all(best >= mean for best, mean in stepped.values())
+    bests = [stepped[b][0] for b in sorted(stepped)]
+    assert bests == sorted(bests)  # (mu + lambda) never loses its best robot
+    told = {int(b): float(best) for b, best in re.findall(
+        rf"^ask/tell: (\d+) births, best {NUMBER} m", out, re.M)}
+    assert told == {b: best for b, (best, _) in stepped.items()}
+    assert len(numbers(r"^diversity over births: 6: (\d+\.\d+)", out)) == 1
+    online = [int(b) for b in re.findall(r"^t = \d+\.\d s: (\d+) births", out, re.M)]
+    assert online == [4, 5, 6, 7, 8]
+    assert "files written: 0" in out
+
+
 def test_online_world() -> None:
     out = run_example("online_world")
     for agent in ("robot_1", "robot_2", "robot_3"):

@@ -9,7 +9,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from revolve_env.fitness import SlidingWindowFitness, fitness_terms, window_fitness
+from revolve_env.fitness import (
+    FitnessWindows,
+    SlidingWindowFitness,
+    fitness_terms,
+    window_fitness,
+)
 
 
 def test_square_path_returns_home() -> None:
@@ -109,3 +114,68 @@ def test_long_life_stays_exact() -> None:
     assert got.v == pytest.approx(expected.v, rel=1e-12)
     assert got.s == pytest.approx(expected.s, rel=1e-12)
     assert len(online) == 12 * 60 + 1
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), window=st.floats(0.05, 2.0), stride=st.floats(0.001, 0.5))
+def test_many_windows_at_once_equal_each_robots_own_window_bit_for_bit(
+        seed: int, window: float, stride: float) -> None:
+    """FitnessWindows (one buffer, every robot at once) against one SlidingWindowFitness per
+    robot: births at other times (some at the latest sample time, as between two steps of an
+    env), deaths, long jumps that rebase the running sums, and a snapshot round trip."""
+    rng = np.random.default_rng(seed)
+    many = FitnessWindows(window=window, capacity=2)
+    alone: list[SlidingWindowFitness] = []
+    t = 0.0
+    for k in range(120):
+        if k == 0 or rng.uniform() < 0.1:  # a birth: it samples now, at the latest time
+            many.add(1)
+            alone.append(SlidingWindowFitness(window=window, capacity=2))
+            if k:
+                xy = rng.normal(size=(len(alone), 2))
+                many.push(t, xy, np.arange(len(alone)) == len(alone) - 1)
+                alone[-1].add(t, xy[-1])
+        if len(alone) > 1 and rng.uniform() < 0.05:  # a death
+            keep = np.ones(len(alone), dtype=bool)
+            keep[rng.integers(len(alone))] = False
+            many.remove(keep)
+            alone = [w for w, kept in zip(alone, keep, strict=True) if kept]
+        t += stride * rng.uniform(0.5, 1.5)
+        xy = rng.normal(size=(len(alone), 3)) * (500.0 if rng.uniform() < 0.1 else 1.0)
+        many.push(t, xy)
+        for w, p in zip(alone, xy, strict=True):
+            w.add(t, p)
+        f, v, s = many.terms()
+        want = [w.terms() for w in alone]
+        assert f.tolist() == [x.fitness for x in want]
+        assert v.tolist() == [x.v for x in want]
+        assert s.tolist() == [x.s for x in want]
+        if k % 40 == 39:
+            snapshots = [many.snapshot(i) for i in range(len(many))]
+            for snap, w in zip(snapshots, alone, strict=True):
+                mine = w.snapshot()
+                for key in ("t", "xy", "path"):
+                    np.testing.assert_array_equal(snap[key], mine[key])
+            many = FitnessWindows(window=window)
+            many.add(len(alone))
+            many.restore(snapshots)
+
+
+def test_windows_refuse_bad_input_and_a_robot_left_out_keeps_its_window() -> None:
+    many = FitnessWindows(window=1.0)
+    many.add(2)
+    many.push(0.0, np.zeros((2, 2)))
+    many.push(0.5, np.array([[1.0, 0.0], [0.0, 2.0]]))
+    with pytest.raises(ValueError, match="before"):
+        many.push(0.25, np.zeros((2, 2)))
+    with pytest.raises(ValueError, match="finite"):
+        many.push(1.0, np.array([[np.nan, 0.0], [0.0, 0.0]]))
+    with pytest.raises(ValueError, match="shape"):
+        many.push(1.0, np.zeros((3, 2)))
+    many.push(1.0, np.array([[2.0, 0.0], [9.0, 9.0]]), np.array([True, False]))
+    f, v, s = many.terms()
+    assert (v.tolist(), s.tolist()) == ([2.0, 2.0], [2.0, 2.0])
+    first, last, path, count = many.ends()
+    assert count.tolist() == [3, 2] and last[1].tolist() == [0.0, 2.0]
+    with pytest.raises(ValueError, match="window"):
+        FitnessWindows(window=0.0)

@@ -28,7 +28,7 @@ import time
 import traceback
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, TypeAlias
+from typing import Any, NoReturn, TypeAlias
 
 from evolution.cli.options import parse_set as _parse_set
 from evolution.cli.progress import ProgressDisplay, cli_logging, duration, metres
@@ -38,9 +38,12 @@ from evolution.cli.robots import (
     CliError,
     load_robot,
     non_negative_int,
-    positive_float,
     positive_int,
     robot_arguments,
+    seconds,
+    trust_argument,
+    workers,
+    writable_folder,
 )
 from evolution.cli.study import add_study
 from evolution.cli.viewer import add_show, add_watch
@@ -60,12 +63,14 @@ from evolution.experiments import (
     run,
     shipped_configs,
 )
+from evolution.experiments.api import check_resumable, work_left
 from evolution.experiments.callbacks import (
     TensorBoardLogger,
     TensorBoardUnavailableError,
     combine,
 )
-from evolution.experiments.integrity import check_writable, verify
+from evolution.experiments.folders import left_out_note
+from evolution.experiments.store import package_version
 from evolution.random_robot import RandomRobotError
 from evolution.reporting import report
 from revolve_env.body.examples import spider
@@ -116,12 +121,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if value is not None:
             overrides[key] = value
     config = load_config(args.config, overrides)
-    if Path(config.name).name != config.name or config.name in (".", ".."):
-        raise CliError(f"experiment name {config.name!r} cannot be a folder name inside --out")
     out = Path(args.out) / config.name
     targets = {i: config.births for i in range(config.runs)}
     bar = combine(ProgressDisplay(targets, label=config.name), *_tensorboard(args, config.name))
-    _say(f"{config.name}: {config.runs} run(s) x {config.births} births ({config.engine}) -> {out}")
+    _say(f"{config.name}: {config.runs} run(s) x {config.births} births ({config.mode}) -> {out}")
     if config.learning is not None:
         _say(_describe_learning(config))
     try:
@@ -141,8 +144,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _tensorboard(args: argparse.Namespace, name: str) -> list[TensorBoardLogger]:
-    """The TensorBoard logger of ``--tensorboard DIR`` (in ``DIR/<name>``), if asked for."""
-    return [TensorBoardLogger(Path(args.tensorboard) / name)] if args.tensorboard else []
+    """The TensorBoard logger of ``--tensorboard DIR`` (in ``DIR/<name>``), if asked for.
+
+    Raises:
+        CliError: ``DIR/<name>`` cannot be a folder (a file is in the way), checked now rather
+            than at the first commit point.
+    """
+    if not args.tensorboard:
+        return []
+    folder = Path(args.tensorboard) / name
+    writable_folder(folder, "--tensorboard")
+    return [TensorBoardLogger(folder)]
 
 
 def _experiment_dirs(root: Path) -> list[Path]:
@@ -157,29 +169,35 @@ def _experiment_dirs(root: Path) -> list[Path]:
 
 
 def _cmd_resume(args: argparse.Namespace) -> int:
+    if args.tensorboard:
+        writable_folder(Path(args.tensorboard), "--tensorboard")
     todo = []
     # Every database is checked before any is continued: a damaged or read-only one stops the
     # command with nothing changed.
     for folder in _experiment_dirs(Path(args.dir)):
+        config = check_resumable(folder / DB_NAME, args.trust_pickled_policies)
         with Store.open(folder / DB_NAME) as store:
-            config = verify(store, resumable=True)
             runs = store.runs()
-            if any(r.status != "finished" for r in runs):
-                check_writable(store)
-                todo.append((folder, config, runs))
+        if work_left(config, runs):
+            todo.append((folder, config, runs))
     if not todo:
         _say(f"nothing to resume: every run below {args.dir} has finished")
         return 0
+    if args.tensorboard:  # every folder checked before any run continues
+        for _, config, _ in todo:
+            writable_folder(Path(args.tensorboard) / config.name, "--tensorboard")
     for folder, config, runs in todo:
-        left = [r for r in runs if r.status != "finished"]
-        bar = combine(ProgressDisplay({r.run_id: config.births for r in left},
-                                  {r.run_id: r.births for r in left}, label=config.name),
+        births = {r.run_id: r.births for r in runs}
+        left = [i for i in range(config.runs) if i not in births
+                or next(r for r in runs if r.run_id == i).status != "finished"]
+        bar = combine(ProgressDisplay({i: config.births for i in left},
+                                      {i: births.get(i, 0) for i in left}, label=config.name),
                       *_tensorboard(args, config.name))
         _say(f"{config.name}: resuming {len(left)} run(s) in {folder}")
         if config.learning is not None:
             _say(_describe_learning(config) + " (rebuilt from the stored learning table)")
         try:
-            summary = resume(folder, bar)
+            summary = resume(folder, bar, trust_pickled_policies=args.trust_pickled_policies)
         except KeyboardInterrupt:
             bar.close()
             print(f"revolve: interrupted; finished work is saved in {folder}; continue with: "
@@ -195,11 +213,16 @@ def _cmd_report(args: argparse.Namespace) -> int:
     if not formats or any(f not in FIGURE_FORMATS for f in formats):
         raise CliError(f"--formats takes a comma-separated list of {', '.join(FIGURE_FORMATS)}; "
                        f"got {args.formats!r}")
-    result = report(args.dir, args.out, formats, brain_aware=args.brain_aware)
+    result = report(args.dir, args.out, formats, brain_aware=args.brain_aware,
+                    every_set=args.all)
     _say(f"{len(result.experiments)} experiment(s): "
          + ", ".join(f"{e.label} ({len(e.runs)} runs)" for e in result.experiments))
+    note = left_out_note(args.dir, result.left_out, "revolve report")
+    if note:
+        _say(note)
     for path in (*result.figures, *result.tables):
         _say(str(path))
+    _say(f"open in a browser: {result.page}")
     return 0
 
 
@@ -229,18 +252,19 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 def _cmd_demo(args: argparse.Namespace) -> int:
     started = time.perf_counter()
-    robot = spider()
-    outcome = evaluate_robot(EvalTask(0, robot, 3.0, args.seconds, 0))
-    if outcome.fitness is None:
-        raise CliError(f"the example spider could not be evaluated: {outcome.failure}")
-    _say(f"example spider: fitness {outcome.fitness:.3f} m over {args.seconds:g} s "
-         f"(path {outcome.v or 0:.3f} m, displacement {outcome.s or 0:.3f} m)")
+    # The config first: every value is checked before anything is simulated.
     config = ExperimentConfig(
         name="demo", population_size=args.population, offspring_size=args.population,
         births=args.births, evaluation_time=args.seconds, fertile_age=3.0 + args.seconds,
         diversity_interval=args.population, workers=args.workers, seed=args.seed,
         evolution=EvolutionConfig(initial_parts_mean=8.0, initial_parts_sd=3.0, max_parts=15),
     )
+    robot = spider()
+    outcome = evaluate_robot(EvalTask(0, robot, 3.0, args.seconds, 0))
+    if outcome.fitness is None:
+        raise CliError(f"the example spider could not be evaluated: {outcome.failure}")
+    _say(f"example spider: fitness {outcome.fitness:.3f} m over {args.seconds:g} s "
+         f"(path {outcome.v or 0:.3f} m, displacement {outcome.s or 0:.3f} m)")
     _say(f"evolving: {config.population_size} random robots, then ({config.population_size}+"
          f"{config.offspring_size}) generations up to {config.births} births")
     with tempfile.TemporaryDirectory(prefix="revolve-demo-") as tmp:
@@ -274,7 +298,15 @@ class _DefaultsFormatter(argparse.HelpFormatter):
         return f"{text} (default: %(default)s)"
 
 
-class _DefaultsParser(argparse.ArgumentParser):
+class _Parser(argparse.ArgumentParser):
+    """A parser whose errors are one line (exit status 2), as every other input error's."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``message`` on one line (no usage block) and exit with status 2."""
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see: {self.prog} --help)\n")
+
+
+class _DefaultsParser(_Parser):
     """A subcommand parser whose ``--help`` shows every option's default."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
@@ -284,11 +316,13 @@ class _DefaultsParser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``revolve`` (one subparser per subcommand)."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="revolve",
         description="Online and offline evolution of modular robots (the Revolve experiments).",
         epilog="Start with `revolve demo`; then `revolve run quick` and `revolve report results`.",
     )
+    parser.add_argument("--version", action="version",
+                        version=f"%(prog)s {package_version()}")
     chatter = parser.add_mutually_exclusive_group()
     chatter.add_argument("-v", "--verbose", action="store_true",
                          help="also log every commit point and every failure (DEBUG)")
@@ -328,7 +362,7 @@ def _add_run(sub: _Subparsers) -> None:
     p.add_argument("--births", type=positive_int,
                    help="stop each run after this many births (default: the config's)")
     p.add_argument("--seed", type=non_negative_int, help="experiment seed (default: the config's)")
-    p.add_argument("--workers", type=non_negative_int,
+    p.add_argument("--workers", type=workers,
                    help="worker processes, 0: all cores (default: the config's)")
     p.add_argument("--name", help="experiment name, the folder inside OUT (default: the config's)")
     p.add_argument("--out", default="results", metavar="DIR",
@@ -349,6 +383,7 @@ def _add_resume(sub: _Subparsers) -> None:
     )
     p.add_argument("dir", metavar="DIR", help="an experiment's results folder, or a folder of them")
     _tensorboard_argument(p)
+    trust_argument(p)
     p.set_defaults(handler=_cmd_resume)
 
 
@@ -361,16 +396,20 @@ def _tensorboard_argument(parser: argparse.ArgumentParser) -> None:
 
 def _add_report(sub: _Subparsers) -> None:
     p = sub.add_parser(
-        "report", help="figures and tables comparing experiments",
-        description="Compare every experiment at or below DIR. Writes fitness_over_births, "
-                    "final_fitness, diversity_over_births, final_diversity, failed_births and "
-                    "curve_tests (PNG and PDF), summary.csv, tests_per_run.csv (Mann-Whitney "
-                    "U, A12 and Holm on one value per run), tests_pooled_descriptive.csv, "
-                    "curve_tests.csv and summary.md into DIR/report (or --out). When an "
-                    "experiment learns (a [learning] table), summary.csv/summary.md also give "
-                    "the mean inborn and learned fitness and the learner failures, and "
-                    "learning_gain (PNG/PDF) compares inborn and learned fitness. "
-                    "--brain-aware adds the brain-aware diversity.",
+        "report", help="figures, tables and a browser page comparing experiments",
+        description="Compare the experiments at or below DIR: one study, or the experiments "
+                    "outside any study (what is left out is named; --all compares every set). "
+                    "Each pair is compared at the most births both reached, and robots lost to "
+                    "blow-ups are counted apart. Writes index.html (the whole report on one "
+                    "page), fitness_over_births, final_fitness, diversity_over_births, "
+                    "final_diversity, lost_robots and curve_tests (PNG and PDF), summary.csv, "
+                    "tests_per_run.csv (Mann-Whitney U, A12 with its exact interval and Holm "
+                    "on one value per run), tests_pooled_descriptive.csv, curve_tests.csv and "
+                    "summary.md into DIR/report (or --out). When an experiment learns (a "
+                    "[learning] table), summary.csv/summary.md also give the mean inborn and "
+                    "learned fitness and the learner failures, and learning_gain (PNG/PDF) "
+                    "compares inborn and learned fitness. --brain-aware adds the brain-aware "
+                    "diversity. What each table and figure means: docs/reports.md.",
     )
     p.add_argument("dir", metavar="DIR", help="results folder (as given to `revolve run --out`)")
     p.add_argument("--out", metavar="DIR", help="output folder")
@@ -378,6 +417,9 @@ def _add_report(sub: _Subparsers) -> None:
                    help="figure formats, comma-separated: png, pdf, svg")
     p.add_argument("--brain-aware", action="store_true",
                    help="also the brain-aware diversity (body + neural distance; slower)")
+    p.add_argument("--all", action="store_true",
+                   help="compare every set of experiments below DIR (studies and lone "
+                        "experiments together, each pair at the births both reached)")
     p.set_defaults(handler=_cmd_report)
 
 
@@ -406,10 +448,10 @@ def _add_demo(sub: _Subparsers) -> None:
     p.add_argument("--births", type=positive_int, default=30, help="births")
     p.add_argument("--population", type=positive_int, default=6,
                    help="population size and children per generation")
-    p.add_argument("--seconds", type=positive_float, default=12.0,
+    p.add_argument("--seconds", type=seconds, default=12.0,
                    help="evaluation time per robot after 3 s insertion, seconds")
     p.add_argument("--seed", type=non_negative_int, default=0, help="seed")
-    p.add_argument("--workers", type=non_negative_int, default=0,
+    p.add_argument("--workers", type=workers, default=0,
                    help="worker processes")
     p.add_argument("--out", metavar="DIR", help="keep the demo's results in DIR/demo")
     p.set_defaults(handler=_cmd_demo)

@@ -45,7 +45,7 @@ from typing import NoReturn, TextIO
 from tqdm import tqdm
 from tqdm.contrib.logging import logging_redirect_tqdm
 
-from evolution.experiments import ProgressEvent
+from evolution.experiments import EventObserver, ProgressEvent
 
 __all__ = ["ProgressBar", "ProgressDisplay", "cli_logging", "duration", "metres"]
 
@@ -179,8 +179,11 @@ RunKey = tuple[str, int]
 """A run of the display: (label, run id)."""
 
 
-class ProgressDisplay:
+class ProgressDisplay(EventObserver):
     """Progress of one or several experiments' runs (see the module doc).
+
+    A progress callback of :func:`evolution.run` (or of a study, :meth:`feed`), and an
+    observer of a loop stepped in Python (:class:`~evolution.experiments.loop.Evolution`).
 
     Args:
         targets: Births at which each run stops, by run id (more with :meth:`add_runs`).

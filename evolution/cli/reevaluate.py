@@ -22,11 +22,13 @@ from tqdm import tqdm
 
 from evolution.cli.robots import (
     EXIT_INTERRUPTED,
-    non_negative_float,
-    non_negative_int,
-    positive_int,
+    non_negative_seconds,
+    number,
+    trust_argument,
+    workers,
 )
-from evolution.experiments.reevaluate import reevaluate
+from evolution.experiments.folders import left_out_note
+from evolution.experiments.reevaluate import MAX_K, reevaluate
 from evolution.reporting import find_experiments
 from evolution.reporting.optimism import EXPLANATION, markdown, optimism_rows, read_reevaluations
 
@@ -78,19 +80,29 @@ def _cmd_reevaluate(args: argparse.Namespace) -> int:
     try:
         summary = reevaluate(args.results, k=args.k, which=which, window_offsets=offsets,
                              shared_world=args.shared_world, workers=args.workers,
-                             progress=count)
+                             progress=count, include_unfinished=args.include_unfinished,
+                             trust_pickled_policies=args.trust_pickled_policies,
+                             every_set=args.all)
     except KeyboardInterrupt:
         print("revolve reevaluate: interrupted; finished reevaluations are saved; run the same "
               "command again to continue", file=sys.stderr)
         return EXIT_INTERRUPTED
     finally:
         count.close()
+    for run in summary.skipped:
+        print(f"skipped run {run.run_id} of {run.database.parent}: {run.status} at "
+              f"{run.births} of {run.target} births (--include-unfinished reevaluates its last "
+              "committed population)", flush=True)
     print(f"{summary.planned} reevaluation(s) asked for in {len(summary.databases)} "
           f"database(s): {summary.added} new, {summary.planned - summary.evaluated} stored "
           "already", flush=True)
-    rows = optimism_rows(read_reevaluations(find_experiments(args.results)))
+    note = left_out_note(args.results, summary.left_out, "revolve reevaluate")
+    if note:
+        print(note, flush=True)
+    rows = optimism_rows(read_reevaluations(find_experiments(args.results, every_set=args.all)))
+    more = " --all" if args.all else ""
     print("\n".join(["", *markdown(rows), "", EXPLANATION, "",
-                     f"next: revolve report {args.results}"]), flush=True)
+                     f"next: revolve report {args.results}{more}"]), flush=True)
     return 0
 
 
@@ -98,7 +110,9 @@ def add_reevaluate(sub: Any) -> None:
     """Register the ``reevaluate`` subcommand on ``revolve``'s subparsers."""
     p = sub.add_parser(
         "reevaluate", help="evaluate stored robots again: the optimism of a single evaluation",
-        description="Evaluate the final population of every run below RESULTS (or, with "
+        description="Evaluate the final population of every run of one set of experiments "
+                    "below RESULTS (a study, or the experiments outside any study; --all: "
+                    "every set) (or, with "
                     "--best, the best robot of each generation / online birth) K more times "
                     "under fresh conditions (the run's own with a random heading: new headings "
                     "and noise draws, seeded), store the results in each experiment's database, "
@@ -110,15 +124,23 @@ def add_reevaluate(sub: Any) -> None:
     )
     p.add_argument("results", metavar="RESULTS",
                    help="results folder (as given to `revolve run --out`), or one experiment's")
-    p.add_argument("--k", type=positive_int, default=10, help="reevaluations per robot")
+    p.add_argument("--k", type=number(int, 1, strict=False, high=MAX_K), default=10,
+                   help="reevaluations per robot")
     p.add_argument("--best", action="store_true",
                    help="the best robot of each commit point instead of the final population")
-    p.add_argument("--window-offset", type=non_negative_float, action="append",
+    p.add_argument("--window-offset", type=non_negative_seconds, action="append",
                    metavar="S",
                    help="seconds lived before the fitness window, one setting each (repeatable; "
                         "default: 0, the run's own window)")
     p.add_argument("--shared-world", action="store_true",
                    help="evaluate a run's robots together in one world per repeat")
-    p.add_argument("--workers", type=non_negative_int, default=0,
+    p.add_argument("--workers", type=workers, default=0,
                    help="worker processes, 0: all cores")
+    p.add_argument("--include-unfinished", action="store_true",
+                   help="also runs that have not finished (interrupted or still running: their "
+                        "last committed population); by default they are skipped, and listed")
+    trust_argument(p)
+    p.add_argument("--all", action="store_true",
+                   help="every set of experiments below RESULTS (by default one: a study, or "
+                        "the experiments outside any study, as revolve report takes them)")
     p.set_defaults(handler=_cmd_reevaluate)

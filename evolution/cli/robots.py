@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from evolution.experiments import DB_NAME, ExperimentConfig, Store, StoreError
+from evolution.experiments.config import MAX_SECONDS, MAX_WORKERS
 from evolution.experiments.integrity import verify
 from evolution.experiments.records import LearningRecord, RobotRecord
 from revolve_env.body.examples import EXAMPLES, example
@@ -27,13 +29,19 @@ __all__ = [
     "CliError",
     "StoredRobot",
     "load_robot",
+    "no_db",
     "non_negative_float",
     "non_negative_int",
+    "non_negative_seconds",
     "number",
     "positive_float",
     "positive_int",
     "robot_arguments",
+    "seconds",
     "stored_robot",
+    "trust_argument",
+    "workers",
+    "writable_folder",
 ]
 
 
@@ -45,21 +53,25 @@ class CliError(ValueError):
     """Bad command-line input (reported on one line, exit status 2)."""
 
 
-def number(kind: type[int | float], low: float, strict: bool) -> Callable[[str], Any]:
-    """An argparse type: ``kind`` parsed from text, finite, above ``low``.
+def number(kind: type[int | float], low: float, strict: bool,
+           high: float = math.inf) -> Callable[[str], Any]:
+    """An argparse type: ``kind`` parsed from text, finite, above ``low``, at most ``high``.
 
-    With ``strict`` false, ``low`` itself is allowed.
+    With ``strict`` false, ``low`` itself is allowed. ``high`` bounds what could hang the
+    machine (frames, repeats, workers, seconds).
     """
     noun = "an integer" if kind is int else "a number"
 
     def parse(text: str) -> int | float:
         try:
             value = kind(text)
-        except ValueError:
+        except (ValueError, OverflowError):
             raise argparse.ArgumentTypeError(f"not {noun}: {text!r}") from None
         if not math.isfinite(value) or (value <= low if strict else value < low):
             bound = f"> {low:g}" if strict else f">= {low:g}"
             raise argparse.ArgumentTypeError(f"must be {bound}, got {text}")
+        if value > high:
+            raise argparse.ArgumentTypeError(f"must be <= {high:g}, got {text}")
         return value
 
     return parse
@@ -69,6 +81,36 @@ positive_int = number(int, 1, strict=False)
 non_negative_int = number(int, 0, strict=False)
 positive_float = number(float, 0.0, strict=True)
 non_negative_float = number(float, 0.0, strict=False)
+workers = number(int, 0, strict=False, high=MAX_WORKERS)
+"""Worker processes (0: all cores), at most :data:`~evolution.experiments.config.MAX_WORKERS`."""
+seconds = number(float, 0.0, strict=True, high=MAX_SECONDS)
+"""A simulated duration, at most :data:`~evolution.experiments.config.MAX_SECONDS`."""
+non_negative_seconds = number(float, 0.0, strict=False, high=MAX_SECONDS)
+"""A simulated duration that may be 0, at most ``MAX_SECONDS``."""
+
+
+def trust_argument(parser: argparse.ArgumentParser) -> None:
+    """``--trust-pickled-policies``: load SB3 policies that older versions saved as pickles."""
+    parser.add_argument("--trust-pickled-policies", action="store_true",
+                        help="also load SB3 policies saved as pickles by older versions of "
+                             "revolve-env; unpickling can run any code the file holds, so use "
+                             "it only for a results folder whose author you trust")
+
+
+def writable_folder(path: Path, option: str) -> None:
+    """Refuse a folder that cannot be made or written, before anything runs.
+
+    Raises:
+        CliError: a file is in the way (``path`` or one of its parents), or the nearest
+            existing parent cannot be written.
+    """
+    for place in (path, *path.parents):
+        if place.exists():
+            if not place.is_dir():
+                raise CliError(f"{option} {path}: {place} is a file, not a folder")
+            if not os.access(place, os.W_OK | os.X_OK):
+                raise CliError(f"{option} {path}: cannot write in {place}")
+            return
 
 
 def robot_arguments(parser: argparse.ArgumentParser) -> None:
@@ -78,8 +120,8 @@ def robot_arguments(parser: argparse.ArgumentParser) -> None:
                              "sensor_crawler, bar_walker)")
     parser.add_argument("--db", metavar="DIR",
                         help="take the robot from this experiment's results directory instead")
-    parser.add_argument("--run", type=non_negative_int, default=0,
-                        help="run of --db")
+    parser.add_argument("--run", type=non_negative_int,
+                        help="run of --db (default: 0)")
     parser.add_argument("--robot", dest="robot_id", type=non_negative_int, metavar="ID",
                         help="robot id (birth index) within the run of --db")
     parser.add_argument("--best", action="store_true",
@@ -125,33 +167,34 @@ def stored_robot(args: argparse.Namespace) -> StoredRobot:
         raise CliError("give either a robot file/example or --db, not both")
     if (args.robot_id is None) == (not args.best):
         raise CliError("with --db, give --robot ID or --best")
+    run = 0 if args.run is None else args.run
     db = Path(args.db)
     db = db if db.name == DB_NAME else db / DB_NAME
     with Store.open(db) as store:
         config = verify(store)
         seeds = {r.run_id: r.seed for r in store.runs()}
-        if args.run not in seeds:
-            raise CliError(f"{db} has no run {args.run}")
+        if run not in seeds:
+            raise CliError(f"{db} has no run {run}")
         if args.best:
-            final = [(f, rid) for rid, f in store.final_population(args.run)
+            final = [(f, rid) for rid, f in store.final_population(run)
                      if f is not None and math.isfinite(f)]
             if not final:
-                raise CliError(f"run {args.run} of {db} has no evaluated population yet")
+                raise CliError(f"run {run} of {db} has no evaluated population yet")
             robot_id = max(final)[1]
         else:
             robot_id = args.robot_id
         try:
-            record = store.robot(args.run, robot_id)
+            record = store.robot(run, robot_id)
         except KeyError as error:
             raise CliError(str(error.args[0])) from None
-        learning = store.learning(args.run, [robot_id])
-        samples = store.fitness_samples(args.run, robot_id)
+        learning = store.learning(run, [robot_id])
+        samples = store.fitness_samples(run, robot_id)
     try:
         robot = record.robot()
     except ValueError as error:  # RobotError, or a genome that is not JSON
-        raise StoreError(f"{db} is damaged: robot {robot_id} of run {args.run} does not "
+        raise StoreError(f"{db} is damaged: robot {robot_id} of run {run} does not "
                          f"decode ({error})") from None
-    return StoredRobot(db, config, seeds[args.run], record,
+    return StoredRobot(db, config, seeds[run], record,
                        learning[0] if learning else None, robot,
                        samples[-1].time if samples else None)
 
@@ -161,10 +204,24 @@ def load_robot(args: argparse.Namespace) -> tuple[Robot, str]:
     if args.db is not None:
         stored = stored_robot(args)
         return stored.robot, stored.name
+    no_db(args)
     if args.robot is None:
         raise CliError("give a robot JSON file, an example name "
                        f"({', '.join(EXAMPLES)}) or --db DIR --robot ID")
     return robot_file(args.robot)
+
+
+def no_db(args: argparse.Namespace) -> None:
+    """Refuse ``--best``, ``--robot`` or ``--run`` without ``--db`` (they would be ignored).
+
+    Raises:
+        CliError: one of them is given.
+    """
+    given = [flag for flag, value in (("--best", args.best), ("--robot", args.robot_id),
+                                      ("--run", args.run)) if value not in (None, False)]
+    if given:
+        raise CliError(f"{' and '.join(given)} {'names' if len(given) == 1 else 'name'} a "
+                       "robot of a results database: give --db DIR too")
 
 
 def robot_file(name: str) -> tuple[Robot, str]:

@@ -24,7 +24,7 @@ from typing import Any
 
 from evolution.cli.options import parse_set
 from evolution.cli.progress import ProgressDisplay, duration, metres
-from evolution.cli.robots import EXIT_INTERRUPTED, CliError, non_negative_int, positive_int
+from evolution.cli.robots import EXIT_INTERRUPTED, CliError, non_negative_int, positive_int, workers
 from evolution.experiments import ProgressEvent
 from evolution.experiments.study import PAPER_EXPERIMENTS, StudyPlan, prepare_study, run_study
 from evolution.reporting import report
@@ -83,7 +83,7 @@ def _describe(plan: StudyPlan) -> None:
         left = (f"{len(e.jobs)} run(s) to do" if e.jobs else "finished")
         if e.jobs and any(e.done.values()):
             left += f" ({sum(e.done.values())} births already committed)"
-        _say(f"  {e.name}: {c.runs} run(s) x {c.births} births ({c.engine}, "
+        _say(f"  {e.name}: {c.runs} run(s) x {c.births} births ({c.mode}, "
              f"{c.world.engine}): {left} -> {e.out_dir}")
 
 
@@ -120,6 +120,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
     _say(f"report of {len(result.experiments)} experiment(s) in {result.out_dir}:")
     for path in (*result.figures, *result.tables):
         _say(f"  {path}")
+    _say(f"open in a browser: {result.page}")
     return 0
 
 
@@ -151,7 +152,7 @@ def add_study(sub: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--only", nargs="+", metavar="NAME",
                    help="run only these experiments (shipped names or TOML paths; default: "
                         f"{' '.join(PAPER_EXPERIMENTS)}); a later call may add the others")
-    p.add_argument("--workers", type=non_negative_int, default=0,
+    p.add_argument("--workers", type=workers, default=0,
                    help="runs at once: worker processes, 0: all cores (Ray: CPUs of a local "
                         "instance)")
     p.add_argument("--evaluator", choices=("local", "ray"), default="local",

@@ -31,7 +31,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import tempfile
 import time
 import warnings
 from collections.abc import Callable
@@ -46,20 +45,23 @@ import revolve_env
 from evolution.cli.robots import (
     CliError,
     StoredRobot,
-    non_negative_float,
+    no_db,
     non_negative_int,
+    non_negative_seconds,
+    number,
     positive_float,
     robot_arguments,
     robot_file,
+    seconds,
     stored_robot,
 )
-from evolution.evaluation import LocalEvaluator, evaluation_seed
-from evolution.experiments import DB_NAME, ExperimentConfig, RunJob, Store, execute_run
+from evolution.evaluation import evaluation_seed
+from evolution.experiments import DB_NAME, Evolution, ExperimentConfig, Store
 from evolution.experiments.config import WorldSettings
 from evolution.experiments.integrity import verify
 from evolution.experiments.online_world import PopulationWorld
 from evolution.experiments.records import FitnessSample, RobotRecord
-from evolution.experiments.run import ReplayError, run_seed
+from evolution.experiments.run import ReplayError, run_seed, world_seed
 from revolve_env.body.robot import PartType, Robot
 from revolve_env.body.serialize import from_json
 from revolve_env.conditions import IDEAL, EvaluationConditions
@@ -67,10 +69,15 @@ from revolve_env.conditions import IDEAL, EvaluationConditions
 if TYPE_CHECKING:
     from revolve_env.envs.recording import Video
 
-__all__ = ["TOLERANCE", "add_show", "add_watch", "fitness_reasons"]
+__all__ = ["MAX_FPS", "MAX_FRAMES", "TOLERANCE", "add_show", "add_watch", "fitness_reasons",
+           "render_setup"]
 
 TOLERANCE = 1e-6
 """Stored and re-simulated fitness within this many metres are the same."""
+MAX_FPS = 60.0
+"""Most frames per simulated second: one per control period (1/60 s)."""
+MAX_FRAMES = 2000
+"""Most frames of one video: they are held in memory (480 x 360 RGB, 0.5 MB each)."""
 
 
 def _say(text: str) -> None:
@@ -99,6 +106,8 @@ class _Plan:
 def _plan(args: argparse.Namespace) -> _Plan:
     """The robot and simulation ``show`` (or ``watch ROBOT``) asks for."""
     if getattr(args, "db", None) is None:
+        if hasattr(args, "best"):  # show's robot arguments
+            no_db(args)
         robot, name = robot_file(args.robot) if args.robot is not None else _no_robot()
         return _Plan(robot, name, args.seconds or 12.0,
                      3.0 if args.insertion is None else args.insertion,
@@ -129,7 +138,7 @@ def _no_robot() -> tuple[Robot, str]:
 
 def _stored_kind(stored: StoredRobot) -> str:
     config = stored.config
-    if config.engine == "online":
+    if config.mode == "online":
         when = "" if stored.fitness_time is None else f" at t = {stored.fitness_time:.1f} s"
         return (f"its last {config.evaluation_time:g} s sliding-window sample in the shared "
                 f"online world{when}")
@@ -143,7 +152,7 @@ def fitness_reasons(plan: _Plan) -> list[str]:
     if stored is None:
         return []
     config, reasons = stored.config, []
-    if config.engine == "online":
+    if config.mode == "online":
         reasons.append("its stored fitness was measured in the shared online world (other "
                        "robots, collisions, its birth place and heading, a sliding window), "
                        "the re-simulation is alone at the origin")
@@ -194,14 +203,52 @@ def _describe(plan: _Plan, video: Video) -> list[str]:
     return lines
 
 
+def _frames(seconds: float, fps: float) -> None:
+    """Refuse a video of more than :data:`MAX_FRAMES` frames (all are held in memory).
+
+    Raises:
+        CliError: ``seconds * fps`` frames would be too many.
+    """
+    if seconds * fps > MAX_FRAMES:
+        raise CliError(f"{seconds:g} s at {fps:g} frames per second would be "
+                       f"{seconds * fps:.0f} frames, more than {MAX_FRAMES} (about "
+                       f"{MAX_FRAMES * 518_400 / 1e9:.0f} GB of memory): give fewer --seconds "
+                       "or a lower --fps")
+
+
+def render_setup(engine: str) -> None:
+    """Make rendering on ``engine`` possible here, before anything loads it.
+
+    MuJoCo: an offscreen OpenGL backend that works (:mod:`revolve_env.envs.offscreen`).
+
+    Raises:
+        CliError: none works here (one line: what to install or set).
+    """
+    if engine != "mujoco":
+        return  # pybullet renders with its own software renderer
+    from revolve_env.envs.offscreen import OffscreenGLError, choose_mujoco_gl
+
+    try:
+        choose_mujoco_gl()
+    except OffscreenGLError as error:
+        raise CliError(str(error)) from None
+
+
 def _cmd_show(args: argparse.Namespace) -> int:
     # Imported here: it loads the physics engine, which the other commands never need.
-    from revolve_env.envs.recording import BlowUpError, record_robot
-    from revolve_env.envs.video import VideoError
+    from revolve_env.envs.video import VideoError, check_video
 
     plan = _plan(args)
     _check_drivable(plan)
     out = Path(args.out) if args.out else Path(f"{plan.name}.gif")
+    _frames(plan.insertion + plan.seconds, args.fps)
+    try:
+        check_video(out, args.fps)
+    except VideoError as error:
+        raise CliError(f"cannot show {plan.name}: {error}") from None
+    render_setup(plan.engine)
+    from revolve_env.envs.recording import BlowUpError, record_robot
+
     try:
         with warnings.catch_warnings(record=True) as notes:
             warnings.simplefilter("always", UserWarning)
@@ -217,13 +264,15 @@ def _cmd_show(args: argparse.Namespace) -> int:
     return 0
 
 
-def _timing_arguments(p: argparse.ArgumentParser, seconds: str) -> None:
-    p.add_argument("--seconds", type=positive_float, help=seconds)
-    p.add_argument("--insertion", type=non_negative_float,
+def _timing_arguments(p: argparse.ArgumentParser, help_seconds: str,
+                      kind: Callable[[str], Any] = seconds) -> None:
+    p.add_argument("--seconds", type=kind, help=help_seconds)
+    p.add_argument("--insertion", type=non_negative_seconds,
                    help="settling time shown first, seconds (default: the stored insertion, "
                         "else 3)")
-    p.add_argument("--fps", type=positive_float, default=15.0,
-                   help="frames per simulated second (a GIF plays at most 50)")
+    p.add_argument("--fps", type=number(float, 0.0, strict=True, high=MAX_FPS), default=15.0,
+                   help=f"frames per simulated second, at most {MAX_FPS:g} (one per control "
+                        "period; a GIF plays at most 50)")
     p.add_argument("--engine", choices=revolve_env.ENGINES,
                    help="physics engine (default: the stored one, else pybullet)")
 
@@ -257,7 +306,7 @@ class RecordingWorld(PopulationWorld):
 
     It advances in frame-sized pieces (whole control periods, so the physics is stepped exactly
     as by :class:`PopulationWorld`: rendering reads the state, never changes it) and tells the
-    engine what one call would have told it.
+    loop what one call would have told it.
 
     Args:
         config: The experiment.
@@ -316,8 +365,9 @@ def replay_online(config: ExperimentConfig, run_id: int, stored: Store | None, e
                   sink: FrameSink) -> int:
     """Replay run ``run_id`` of an online experiment, sending a frame every ``every`` steps.
 
-    The run is re-executed from its seed into a temporary database, exactly as ``resume``
-    replays it; with ``stored`` the replayed robots are checked against the stored ones.
+    The run is stepped again from its seed (the loop, :class:`~evolution.experiments.loop.
+    Evolution`, in a recording world; nothing is written), exactly as ``resume`` replays it;
+    with ``stored`` the replayed robots and fitness samples are checked against the stored ones.
 
     Returns:
         The births of the replay.
@@ -325,23 +375,21 @@ def replay_online(config: ExperimentConfig, run_id: int, stored: Store | None, e
     Raises:
         ReplayError: a replayed robot differs from the stored one (a bug).
     """
-    with tempfile.TemporaryDirectory(prefix="revolve-watch-") as tmp:
-        db = Path(tmp) / DB_NAME
-        Store.create(db, config.to_dict(), config.seed).close()
-        with Store.open(db) as store:
-            store.add_run(run_id, run_seed(config.seed, run_id))
-
-        def factory(cfg: ExperimentConfig, seed: int) -> RecordingWorld:
-            return RecordingWorld(cfg, seed, every, sink)
-
-        job = RunJob(str(db), run_id, config, factory, config.training_center())
-        execute_run(job, LocalEvaluator(workers=1), lambda event: None)
-        with Store.open(db) as store:
-            replayed = store.robots(run_id)
-            samples = store.fitness_samples(run_id)
+    robots: list[RobotRecord] = []
+    samples: list[FitnessSample] = []
+    world = RecordingWorld(config, world_seed(run_seed(config.seed, run_id)), every, sink)
+    try:
+        with Evolution(config, run_id=run_id, world=world) as evolution:
+            while not evolution.done:
+                records = evolution.step().records
+                robots += records.robots
+                samples += records.fitness
+    finally:
+        world.close()
     if stored is not None:
-        _check_replay(stored, run_id, replayed, samples)
-    return len(replayed)
+        # In the store's order (Store.fitness_samples): by time, then robot.
+        _check_replay(stored, run_id, robots, sorted(samples, key=lambda s: (s.time, s.robot_id)))
+    return len(robots)
 
 
 def _check_replay(stored: Store, run_id: int, robots: list[RobotRecord],
@@ -405,6 +453,7 @@ def _write(frames: list[NDArray[np.uint8]], out: Path, fps: float) -> Path:
 
 
 def _watch_results(args: argparse.Namespace, folder: Path) -> int:
+    from revolve_env.envs.video import VideoError, check_video
     from revolve_env.envs.watch import control_period, has_display
 
     db = folder if folder.name == DB_NAME else folder / DB_NAME
@@ -412,11 +461,12 @@ def _watch_results(args: argparse.Namespace, folder: Path) -> int:
         config = verify(store)
         if args.run not in {r.run_id for r in store.runs()}:
             raise CliError(f"{db} has no run {args.run}")
-        if config.engine != "online":
+        if config.mode != "online":
             raise CliError(f"{config.name} is an offline experiment (robots evaluated alone): "
                            "watch one of its robots with `revolve show --db DIR --robot ID`")
         if args.record is None and not has_display():
             raise _no_display("an online run")
+        stored_time = next(r.sim_time for r in store.runs() if r.run_id == args.run)
         if args.engine is not None and args.engine != config.world.engine:
             _say(f"note: replaying on {args.engine}; the run was stored from "
                  f"{config.world.engine}, so this world differs from the stored one")
@@ -426,6 +476,14 @@ def _watch_results(args: argparse.Namespace, folder: Path) -> int:
             config = config.replace(max_sim_time=min(limit or math.inf, args.seconds))
         dt = control_period(config.world.engine)
         every = max(1, round(1.0 / (args.fps * dt)))
+        if args.record:
+            _frames(min(stored_time, math.inf if args.seconds is None else args.seconds),
+                    1.0 / (every * dt))
+            try:
+                check_video(args.record, 1.0 / (every * dt))
+            except VideoError as error:
+                raise CliError(str(error)) from None
+        render_setup(config.world.engine)
         frames: list[NDArray[np.uint8]] = []
         show: FrameSink = (lambda frame, t: frames.append(frame)) if args.record else _Window()
         end = math.inf if args.seconds is None else args.seconds - 0.5 * dt
@@ -492,5 +550,6 @@ def add_watch(sub: Any) -> None:
     p.add_argument("--run", type=non_negative_int, default=0, help="run of the results")
     p.add_argument("--record", metavar="OUT", help="write a video (.mp4 or .gif), no window")
     _timing_arguments(p, "a robot: evaluation time after insertion (default 12); results: stop "
-                         "the replay at this simulated time (default: the run's end), seconds")
+                         "the replay at this simulated time (default: the run's end), seconds",
+                      positive_float)
     p.set_defaults(handler=_cmd_watch)

@@ -7,23 +7,34 @@ evaluates whole generations with it.
 
 from __future__ import annotations
 
-from evolution.evaluation.pool import Evaluator, LocalEvaluator, RayEvaluator, make_evaluator
+from evolution.evaluation.pool import (
+    Evaluator,
+    LocalEvaluator,
+    RayEvaluator,
+    make_evaluator,
+    shares,
+)
 from evolution.evaluation.tasks import (
+    BatchFunction,
     EvalOutcome,
     EvalTask,
     EvaluateFunction,
     InfancyReport,
     LearningSummary,
+    batched,
     episode_outcome,
     evaluate_after_infancy,
     evaluate_robot,
+    evaluate_robots,
     evaluate_task,
+    evaluate_tasks,
     evaluation_seed,
     infancy_seed,
     run_infancy,
 )
 
 __all__ = [
+    "BatchFunction",
     "EvalOutcome",
     "EvalTask",
     "EvaluateFunction",
@@ -32,12 +43,16 @@ __all__ = [
     "LearningSummary",
     "LocalEvaluator",
     "RayEvaluator",
+    "batched",
     "episode_outcome",
     "evaluate_after_infancy",
     "evaluate_robot",
+    "evaluate_robots",
     "evaluate_task",
+    "evaluate_tasks",
     "evaluation_seed",
     "infancy_seed",
     "make_evaluator",
     "run_infancy",
+    "shares",
 ]

@@ -2,7 +2,10 @@
 
 An evaluator does two things:
 
-* ``evaluate(tasks)``: evaluate robots in isolation (offline scenarios), results in task order;
+* ``evaluate(tasks)``: evaluate robots in isolation (offline scenarios), results in task order:
+  the tasks are shared out among the workers, and each worker evaluates its share side by side
+  with the batch form of the evaluation function (:func:`~evolution.evaluation.batched`: for the
+  default one, every robot in a scene of its own, each outcome the one it gets alone);
 * ``run_jobs(fn, jobs, on_event)``: run whole experiment runs side by side, forwarding their
   progress events to ``on_event`` in this process.
 
@@ -47,10 +50,18 @@ from multiprocessing.managers import SyncManager
 from typing import Any, Protocol, Self, TypeVar, runtime_checkable
 
 from evolution.evaluation.lifeline import guard_worker
-from evolution.evaluation.tasks import EvalOutcome, EvalTask, EvaluateFunction, evaluate_task
+from evolution.evaluation.tasks import (
+    BatchFunction,
+    EvalOutcome,
+    EvalTask,
+    EvaluateFunction,
+    batched,
+    evaluate_task,
+)
 
 __all__ = [
     "Evaluator", "JobFunction", "LocalEvaluator", "RayEvaluator", "RemoteJob", "make_evaluator",
+    "shares",
 ]
 
 _CANCEL_WAIT = 60.0
@@ -146,10 +157,16 @@ class LocalEvaluator:
         return self._pool
 
     def evaluate(self, tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
-        """Evaluate in worker processes (in this process when ``workers == 1``)."""
+        """Evaluate in worker processes (in this process when ``workers == 1``).
+
+        Each worker gets one share of the tasks (:func:`shares`) and evaluates it side by side.
+        """
+        batch = batched(self.function)
         if self._workers == 1 or len(tasks) <= 1:
-            return [self.function(task) for task in tasks]
-        return list(self._executor().map(self.function, tasks))
+            return batch(tasks)
+        parts = shares(tasks, self._workers)
+        done = self._executor().map(batch, [[tasks[i] for i in part] for part in parts])
+        return _in_task_order(len(tasks), parts, list(done))
 
     def run_jobs(
         self,
@@ -203,6 +220,33 @@ class LocalEvaluator:
         raise TypeError("a LocalEvaluator owns processes and cannot be pickled")
 
 
+def shares(tasks: Sequence[EvalTask], k: int) -> list[list[int]]:
+    """The tasks (their indices) shared out among ``k`` workers, about the same work each.
+
+    Largest robots first, each to the share with the fewest parts so far (the cost of a
+    simulation grows with the robot). Outcomes do not depend on the sharing.
+    """
+    k = max(1, min(k, len(tasks)))
+    # a task of a function that evaluates something else than EvalTasks weighs 1
+    cost = [t.robot.num_parts() if isinstance(t, EvalTask) else 1 for t in tasks]
+    parts: list[list[int]] = [[] for _ in range(k)]
+    load = [0] * k
+    for i in sorted(range(len(tasks)), key=lambda i: -cost[i]):
+        j = load.index(min(load))
+        parts[j].append(i)
+        load[j] += cost[i]
+    return [sorted(part) for part in parts if part]
+
+
+def _in_task_order(n: int, parts: list[list[int]], done: list[list[EvalOutcome]]
+                   ) -> list[EvalOutcome]:
+    out: list[EvalOutcome | None] = [None] * n
+    for part, outcomes in zip(parts, done, strict=True):
+        for i, outcome in zip(part, outcomes, strict=True):
+            out[i] = outcome
+    return [o for o in out if o is not None]
+
+
 def _drain(events: queue.Queue[EventT] | None, emit: Callable[[EventT], None]) -> None:
     if events is None:
         return
@@ -213,8 +257,8 @@ def _drain(events: queue.Queue[EventT] | None, emit: Callable[[EventT], None]) -
             return
 
 
-def _ray_evaluate(function: EvaluateFunction, task: EvalTask) -> EvalOutcome:
-    return function(task)
+def _ray_evaluate(batch: BatchFunction, tasks: list[EvalTask]) -> list[EvalOutcome]:
+    return batch(tasks)
 
 
 class _Inbox:
@@ -270,7 +314,8 @@ class RemoteJob(Protocol):
 class RayEvaluator:
     """Ray tasks, on a local instance or an existing cluster.
 
-    Offline evaluations become one task each; whole runs become one task each (each run then
+    Offline evaluations become one task per share of them (one share per CPU, evaluated side by
+    side in that task); whole runs become one task each (each run then
     evaluates its robots inside its task; tasks spread over the nodes). A run task never opens
     the database: a job that is a :class:`RemoteJob` (an experiment run) goes out as its
     :meth:`~RemoteJob.for_remote_worker` copy, whose store is an actor on the driver's node
@@ -332,9 +377,11 @@ class RayEvaluator:
         return max(1, int(resources.get("CPU", 1)))
 
     def evaluate(self, tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
-        """One Ray task per evaluation; results in task order."""
-        refs = [self._evaluate.remote(self.function, task) for task in tasks]
-        return list(self._ray.get(refs))
+        """One Ray task per share of the tasks (one share per CPU); results in task order."""
+        batch = batched(self.function)
+        parts = shares(tasks, self.workers)
+        refs = [self._evaluate.remote(batch, [tasks[i] for i in part]) for part in parts]
+        return _in_task_order(len(tasks), parts, list(self._ray.get(refs)))
 
     def run_jobs(
         self,

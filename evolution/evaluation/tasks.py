@@ -2,18 +2,24 @@
 
 :func:`evaluate_task` is the evaluation of the experiments: the Training Center first (the task's
 infancy hook, run by :func:`run_infancy`, which never fails the run), then the robot that lives
-on, evaluated alone at the origin (:func:`evaluate_robot`).
+on, evaluated alone at the origin (:func:`evaluate_robot`). :func:`evaluate_tasks` is the same
+for many tasks at once: the robots that need no hook or policy go side by side through
+:func:`revolve_env.evaluate_many` (each in a scene of its own), which pays the per-step work
+outside the physics engine once for all; :func:`batched` gives an evaluation function's batch
+form, which the evaluators call with their share of the tasks.
 
 Determinism: an evaluation is a pure function of the robot, the timing and its seed, and the seed
 is derived from the run's seed and the robot's id (:func:`evaluation_seed`), so results do not
-depend on the number of workers or on which worker ran what.
+depend on the number of workers, on which worker ran what, or on which robots were evaluated
+side by side (a robot's scene is its own: its outcome is bit for bit the one it gets alone).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Any, Protocol, cast
+from functools import partial
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,7 +28,11 @@ from evolution.lifecycle import InfancyHook, LearningSummary, SummarizingInfancy
 from revolve_env.body.robot import Robot
 from revolve_env.conditions import IDEAL, EvaluationConditions
 
+if TYPE_CHECKING:
+    from revolve_env.evaluation import EvaluationResult
+
 __all__ = [
+    "BatchFunction",
     "DrivingPolicy",
     "EvalOutcome",
     "EvalTask",
@@ -30,9 +40,11 @@ __all__ = [
     "InfancyReport",
     "LearningSummary",
     "evaluate_after_infancy",
+    "batched",
     "evaluate_robot",
     "episode_outcome",
     "evaluate_task",
+    "evaluate_tasks",
     "evaluation_seed",
     "infancy_seed",
     "run_infancy",
@@ -109,6 +121,9 @@ class EvalOutcome:
 EvaluateFunction = Callable[[EvalTask], EvalOutcome]
 """A picklable (module-level) function evaluating one task."""
 
+BatchFunction = Callable[[Sequence[EvalTask]], list[EvalOutcome]]
+"""A picklable function evaluating many tasks: outcomes in task order."""
+
 
 def evaluation_seed(run_seed: int, robot_id: int) -> int:
     """The seed of a robot's evaluation: a function of the run's seed and the robot's id only."""
@@ -139,9 +154,39 @@ def evaluate_robot(task: EvalTask) -> EvalOutcome:
 
     result = evaluate(task.robot, seconds=task.seconds, insertion=task.insertion, seed=task.seed,
                       engine=task.engine, conditions=task.conditions)
+    return _outcome(result)
+
+
+def _outcome(result: EvaluationResult) -> EvalOutcome:
     if result.blow_up is not None:
         return EvalOutcome(None, failure=f"blow-up: {result.blow_up}")
     return EvalOutcome(float(result.fitness), float(result.v), float(result.s))
+
+
+def evaluate_robots(tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
+    """:func:`evaluate_robot` of every task, the ones without a policy side by side.
+
+    Tasks of the same engine, timing and conditions go through one
+    :func:`revolve_env.evaluate_many`; every outcome is bit for bit the one
+    :func:`evaluate_robot` gives the task alone. Outcomes in task order.
+    """
+    from revolve_env.evaluation import evaluate_many  # the physics: see evaluate_robot
+
+    outcomes: list[EvalOutcome | None] = [None] * len(tasks)
+    groups: dict[tuple[str, float, float, EvaluationConditions], list[int]] = {}
+    for i, task in enumerate(tasks):
+        if task.policy is not None:
+            outcomes[i] = evaluate_robot(task)
+        else:
+            key = (task.engine, task.insertion, task.seconds, task.conditions)
+            groups.setdefault(key, []).append(i)
+    for (engine, insertion, seconds, conditions), members in groups.items():
+        results = evaluate_many([tasks[i].robot for i in members], seconds=seconds,
+                                insertion=insertion, seeds=[tasks[i].seed for i in members],
+                                engine=engine, conditions=conditions)
+        for i, result in zip(members, results, strict=True):
+            outcomes[i] = _outcome(result)
+    return [o for o in outcomes if o is not None]
 
 
 def _evaluate_with_policy(task: EvalTask, policy: DrivingPolicy) -> EvalOutcome:
@@ -238,3 +283,41 @@ def evaluate_task(task: EvalTask) -> EvalOutcome:
     :func:`revolve_env.evaluate`.
     """
     return evaluate_after_infancy(task, evaluate_robot)
+
+
+def evaluate_tasks(tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
+    """:func:`evaluate_task` of every task, in task order, the plain ones side by side.
+
+    Tasks with an infancy hook go one by one (their learner evaluates its own candidates);
+    the others through :func:`evaluate_robots`. Each outcome is the one :func:`evaluate_task`
+    gives the task alone, bit for bit.
+    """
+    outcomes: list[EvalOutcome | None] = [None] * len(tasks)
+    plain = [i for i, task in enumerate(tasks) if task.infancy is None]
+    for i, task in enumerate(tasks):
+        if task.infancy is not None:
+            outcomes[i] = evaluate_task(task)
+    for i, outcome in zip(plain, evaluate_robots([tasks[i] for i in plain]), strict=True):
+        outcomes[i] = outcome
+    return [o for o in outcomes if o is not None]
+
+
+def _one_by_one(function: EvaluateFunction, tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
+    return [function(task) for task in tasks]
+
+
+_BATCHED: dict[EvaluateFunction, BatchFunction] = {
+    evaluate_task: evaluate_tasks,
+    evaluate_robot: evaluate_robots,
+}
+
+
+def batched(function: EvaluateFunction) -> BatchFunction:
+    """The batch form of an evaluation function (picklable): outcomes in task order.
+
+    :func:`evaluate_task` and :func:`evaluate_robot` have their own
+    (:func:`evaluate_tasks`, :func:`evaluate_robots`); any other function is called task by
+    task.
+    """
+    batch = _BATCHED.get(function)
+    return batch if batch is not None else partial(_one_by_one, function)

@@ -4,10 +4,13 @@ Modules, bottom up: :mod:`~evolution.experiments.errors`, :mod:`~evolution.exper
 (the shipped TOML configs, the one scenario registry), :mod:`~evolution.experiments.config`
 (:class:`ExperimentConfig`), :mod:`~evolution.experiments.store` (SQLite results, exact resume),
 :mod:`~evolution.experiments.remote_store` (what a run needs from the store; under Ray a store
-actor on the driver's node), :mod:`~evolution.experiments.run` (what both engines share),
-:mod:`~evolution.experiments.offline`
-and :mod:`~evolution.experiments.online` (the engines), :mod:`~evolution.experiments.online_world`
-(the population env as the online world), :mod:`~evolution.experiments.engine` (one run),
+actor on the driver's node), :mod:`~evolution.experiments.run` (the records and interfaces of a
+run), :mod:`~evolution.experiments.state` (a run's state and the steps both modes share),
+:mod:`~evolution.experiments.offline` and :mod:`~evolution.experiments.online` (the two modes),
+:mod:`~evolution.experiments.online_world` (the population env as the online world),
+:mod:`~evolution.experiments.loop` (:class:`Evolution`, the loop you can step, and its
+observers), :mod:`~evolution.experiments.store_observer` (the results store as an observer; one
+run in its results folder),
 :mod:`~evolution.experiments.api` (:func:`run` / :func:`resume` of a whole experiment),
 :mod:`~evolution.experiments.study` (the paper's five experiments on one pool),
 :mod:`~evolution.experiments.reevaluate` (re-evaluations of stored robots) and
@@ -18,37 +21,53 @@ from __future__ import annotations
 
 from evolution.experiments.api import ExperimentSummary, ProgressCallback, resume, run
 from evolution.experiments.config import ConfigError, ExperimentConfig, load_config, preset
-from evolution.experiments.engine import default_world, execute_run
+from evolution.experiments.loop import (
+    EventObserver,
+    Evolution,
+    Observer,
+    ProgressObserver,
+    default_world,
+)
 from evolution.experiments.registry import learning_names, shipped_configs
 from evolution.experiments.run import (
     AgentStatus,
     Birth,
+    Member,
     OnlineWorld,
     ProgressEvent,
     ReplayError,
     RunJob,
     RunSummary,
+    Step,
     WorldFactory,
     run_seed,
     world_seed,
 )
 from evolution.experiments.store import DB_NAME, Store, StoreError
+from evolution.experiments.store_observer import StoreObserver, execute_run
 
 __all__ = [
     "DB_NAME",
     "AgentStatus",
     "Birth",
     "ConfigError",
+    "EventObserver",
+    "Evolution",
     "ExperimentConfig",
     "ExperimentSummary",
+    "Member",
+    "Observer",
     "OnlineWorld",
     "ProgressCallback",
     "ProgressEvent",
+    "ProgressObserver",
     "ReplayError",
     "RunJob",
     "RunSummary",
+    "Step",
     "Store",
     "StoreError",
+    "StoreObserver",
     "WorldFactory",
     "default_world",
     "execute_run",

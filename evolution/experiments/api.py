@@ -2,18 +2,19 @@
 
 from __future__ import annotations
 
-import json
 import os
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import revolve_env
 from evolution.evaluation import Evaluator, make_evaluator
-from evolution.experiments.config import ConfigError, ExperimentConfig, load_config
-from evolution.experiments.engine import execute_run
+from evolution.experiments.config import ConfigError, ExperimentConfig, as_config
 from evolution.experiments.integrity import check_writable, verify
+from evolution.experiments.loop import infancy_for
+from evolution.experiments.records import RunRecord
+from evolution.experiments.results_folder import refuse_pickled
 from evolution.experiments.run import (
     ProgressEvent,
     RunJob,
@@ -23,6 +24,7 @@ from evolution.experiments.run import (
     run_seed,
 )
 from evolution.experiments.store import DB_NAME, Store, StoreError
+from evolution.experiments.store_observer import execute_run
 from evolution.lifecycle import InfancyHook
 
 __all__ = [
@@ -34,6 +36,7 @@ __all__ = [
     "pending_jobs",
     "resume",
     "run",
+    "work_left",
 ]
 
 
@@ -80,8 +83,8 @@ def run(
             and ``config.workers`` (closed at the end only if made here).
         world_factory: Makes the online world of a run (default: the population environment).
         infancy: The Training Center: an infancy hook, usually a
-            :class:`~evolution.learning.TrainingCenter` (both engines; see
-            :mod:`evolution.experiments.engine` for when it runs, how learning is recorded and what
+            :class:`~evolution.learning.TrainingCenter` (both modes; see
+            :mod:`evolution.experiments.loop` for when it runs, how learning is recorded and what
             Lamarckian inheritance changes). Default: the one ``config.learning`` describes
             (stored with the results; :func:`resume` rebuilds it). A hook given here without
             ``config.learning`` is not stored: pass the same one to :func:`resume`.
@@ -97,12 +100,12 @@ def run(
         StoreError: ``out_dir`` already holds results (of this or another experiment).
         KeyboardInterrupt: Ctrl-C; what finished is committed, ``resume(out_dir)`` continues.
     """
-    config = _as_config(config)
-    infancy = _infancy_for(config, infancy)
+    config = as_config(config)
+    infancy = infancy_for(config, infancy)
     check_infancy(infancy)
     out = Path(out_dir)
     db_path = out / DB_NAME
-    if db_path.exists():
+    if db_path.exists() and not Store.is_empty(db_path):  # an empty one is replaced
         _refuse_existing(out, db_path, config)
     if out.exists() and not out.is_dir():
         raise StoreError(f"{out} exists and is not a directory")
@@ -117,6 +120,7 @@ def resume(
     evaluator: Evaluator | None = None,
     world_factory: WorldFactory | None = None,
     infancy: InfancyHook | None = None,
+    trust_pickled_policies: bool = False,
 ) -> ExperimentSummary:
     """Continue an interrupted experiment to the result an uninterrupted one would have given.
 
@@ -126,19 +130,26 @@ def resume(
 
     The database is checked before anything is written to it
     (:func:`~evolution.experiments.integrity.verify`): a damaged or read-only one is refused
-    and left as it was.
+    and left as it was. Runs that were never registered (a kill right after the database was
+    created) are registered and run.
+
+    ``trust_pickled_policies``: an online SB3 run may reload policies that older versions saved
+    as pickles; unpickling can run code, so they are refused unless this is true (only for a
+    results folder whose author you trust).
 
     Raises:
-        StoreError: no usable results database in ``out_dir`` (missing, corrupt, newer schema,
-            damaged, its stored configuration invalid for this package version, or read-only).
+        StoreError: no usable results database in ``out_dir`` (missing, corrupt, empty, newer
+            schema, damaged, its stored configuration invalid for this package version, or
+            read-only), or a saved policy that cannot be used (a pickled one not trusted).
         ConfigError: ``infancy`` differs from the stored learning table's Training Center.
     """
     check_infancy(infancy)
     db_path = Path(out_dir) / DB_NAME
-    config = check_resumable(db_path)
-    infancy = _infancy_for(config, infancy)
+    config = check_resumable(db_path, trust_pickled_policies)
+    infancy = infancy_for(config, infancy)
     check_infancy(infancy)
-    return _execute(config, db_path, progress, evaluator, world_factory, infancy)
+    return _execute(config, db_path, progress, evaluator, world_factory, infancy,
+                    trust_pickled_policies)
 
 
 def _execute(
@@ -148,8 +159,10 @@ def _execute(
     evaluator: Evaluator | None,
     world_factory: WorldFactory | None,
     infancy: InfancyHook | None,
+    trust_pickled_policies: bool = False,
 ) -> ExperimentSummary:
-    jobs = pending_jobs(config, db_path, world_factory, infancy)
+    jobs = [replace(job, trust_pickled_policies=trust_pickled_policies)
+            for job in pending_jobs(config, db_path, world_factory, infancy)]
     used = evaluator or make_evaluator(config.evaluator, config.workers, config.ray_address)
     try:
         summaries = used.run_jobs(execute_run, jobs, progress)
@@ -159,22 +172,35 @@ def _execute(
     return ExperimentSummary(db_path.parent, db_path, tuple(summaries))
 
 
-def check_resumable(db_path: Path) -> ExperimentConfig:
+def check_resumable(db_path: Path, trust_pickled_policies: bool = False) -> ExperimentConfig:
     """The stored configuration of a results database that can be continued.
 
     The database is checked before anything is written to it
     (:func:`~evolution.experiments.integrity.verify`), and, when a run is left to do, that it can
-    be written.
+    be written and that the policies its online runs reload are not pickles (unless trusted).
 
     Raises:
-        StoreError: missing, corrupt, newer, damaged or (with work left) read-only database.
+        StoreError: missing, corrupt, newer, damaged or (with work left) read-only database,
+            or an unfinished online run that would load a pickled policy (not trusted).
     """
     with Store.open(db_path) as store:
         config = verify(store, resumable=True)
         runs = store.runs()
-        if len(runs) < config.runs or any(r.status != "finished" for r in runs):
+        if work_left(config, runs):
             check_writable(store)
+            if config.mode == "online":  # offline runs never reload a policy
+                refuse_pickled(store, {r.run_id for r in runs if r.status != "finished"},
+                               trust_pickled_policies)
     return config
+
+
+def work_left(config: ExperimentConfig, runs: Sequence[RunRecord]) -> bool:
+    """Whether an experiment has runs to do: unfinished, or never registered.
+
+    A run killed between creating its database and registering its runs has none registered:
+    that is work left (``resume`` registers and runs them), not a finished experiment.
+    """
+    return len(runs) < config.runs or any(r.status != "finished" for r in runs)
 
 
 def pending_jobs(config: ExperimentConfig, db_path: Path, world_factory: WorldFactory | None,
@@ -240,37 +266,3 @@ def config_differences(stored: ExperimentConfig, wanted: ExperimentConfig) -> li
     a, b = flat_keys(stored.to_dict()), flat_keys(wanted.to_dict())
     return [f"{k}: {a.get(k)!r} stored vs {b.get(k)!r}" for k in sorted(set(a) | set(b))
             if a.get(k) != b.get(k)]
-
-
-def _infancy_for(config: ExperimentConfig, infancy: InfancyHook | None) -> InfancyHook | None:
-    """The infancy hook of a run: ``config.learning``'s Training Center, or ``infancy``.
-
-    Raises:
-        ConfigError: both are given and differ (which one would the stored results describe?).
-    """
-    center = config.training_center()
-    if center is None:
-        return infancy
-    if infancy is not None and infancy != center:
-        raise ConfigError(
-            "the config has a learning table and infancy= gives another Training Center; give "
-            "one of them (the learning table is stored with the results, infancy= is not)"
-        )
-    return center
-
-
-def _as_config(config: ExperimentConfig | str | os.PathLike[str] | Mapping[str, Any]
-               ) -> ExperimentConfig:
-    if isinstance(config, ExperimentConfig):
-        return config
-    if isinstance(config, (str, os.PathLike)):
-        return load_config(config)
-    if isinstance(config, Mapping):
-        return ExperimentConfig.from_dict(config)
-    raise ConfigError(f"config must be an ExperimentConfig, a shipped config name, a TOML "
-                      "path or a dict, "
-                      f"got {config!r}")
-
-
-def _json_roundtrip(data: dict[str, Any]) -> dict[str, Any]:
-    return dict(json.loads(json.dumps(data, sort_keys=True)))

@@ -1,4 +1,4 @@
-"""Progress callbacks: TensorBoard scalars, and several callbacks as one.
+"""Progress callbacks and observers: TensorBoard scalars, and several callbacks as one.
 
 Any run takes a progress callback (``evolution.run(config, out, progress)``,
 ``evolution.resume(out, progress)``, ``revolve run ... --tensorboard DIR``)::
@@ -7,6 +7,12 @@ Any run takes a progress callback (``evolution.run(config, out, progress)``,
 
     with TensorBoardLogger("tb/scenario1") as tensorboard:
         evolution.run("scenario1", "results/scenario1", combine(tensorboard, print))
+
+Both are also observers (:class:`~evolution.experiments.loop.EventObserver`) of a loop stepped in
+Python, with or without a database::
+
+    with TensorBoardLogger("tb/quick") as tensorboard:
+        Evolution("quick", observers=[tensorboard]).run()
 
 :class:`TensorBoardLogger` writes one TensorBoard run per experiment run (``LOG_DIR/run0``,
 ``LOG_DIR/run1``, ...) with these scalars, against births (the step):
@@ -36,6 +42,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from evolution.experiments.loop import EventObserver
 from evolution.experiments.run import ProgressEvent
 
 __all__ = ["Combined", "TensorBoardLogger", "TensorBoardUnavailableError", "combine"]
@@ -48,7 +55,7 @@ class TensorBoardUnavailableError(ImportError):
     """The packages that write TensorBoard files (``tensorboard``, ``torch``) are missing."""
 
 
-class Combined:
+class Combined(EventObserver):
     """Several progress callbacks called in turn with every event (see :func:`combine`).
 
     Args:
@@ -86,7 +93,7 @@ def combine(*callbacks: Callable[[ProgressEvent], Any]) -> Combined:
     return Combined(*callbacks)
 
 
-class TensorBoardLogger:
+class TensorBoardLogger(EventObserver):
     """A progress callback writing each run's scalars to TensorBoard (see the module doc).
 
     Args:

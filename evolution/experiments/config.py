@@ -1,10 +1,10 @@
 """Experiment configuration: :class:`ExperimentConfig`, and shipped configs by name.
 
-One engine runs every scenario; a scenario is an :class:`ExperimentConfig`. The shipped ones
+One evolution loop runs every scenario; a scenario is an :class:`ExperimentConfig`. The shipped ones
 (:mod:`~evolution.experiments.registry`; 30 runs each unless named otherwise):
 
 ============ ======= ==================== ================ ===================
-name          engine  population/offspring new robots       survivor selection
+name          mode    population/offspring new robots       survivor selection
 ============ ======= ==================== ================ ===================
 scenario1     offline 15 + 15              reproduction     fitness (15 fittest)
 scenario2     offline 15 + 1               reproduction     fitness
@@ -14,11 +14,18 @@ baseline_b    offline 15 + 15              reproduction     random
 quick         offline 15 + 15, 150 births  reproduction     fitness (1 run)
 ============ ======= ==================== ================ ===================
 
-The baselines run on the offline (15+15) engine by default: it is the cheapest setup (isolated
+The baselines run offline (15+15) by default: it is the cheapest setup (isolated
 evaluations parallelise over all cores) and directly comparable to scenario 1, which is what the
-paper's sanity check needs. Set ``engine = "online"`` to run a baseline in the online world
+paper's sanity check needs. Set ``mode = "online"`` to run a baseline in the online world
 instead (random survivor selection then kills as many robots as the online rule would, chosen
 uniformly).
+
+``mode`` is the switch between offline and online evolution; ``engine`` names only the physics
+engine (``[world] engine = "pybullet" | "mujoco"``). Before, the top-level switch was called
+``engine`` too: a config (TOML file, dict, ``--set engine=online``) that still uses that name is
+read as ``mode`` with a one-line warning saying to rename it (:func:`renamed_keys`); results
+databases store the new name (their stored configs are upgraded in place when opened, schema
+version 5).
 
 The ``[evaluation]`` table (:class:`~revolve_env.conditions.EvaluationConditions`) gives the
 conditions of every evaluation of a run, offline (each robot's isolated evaluation, seeded by
@@ -32,7 +39,7 @@ seeded from the run's world seed)::
     actuator_noise = 0.0     # std of Gaussian noise on every normalised hinge target
 
 The default is a random heading and no noise: online newborns face random headings, so offline
-robots do too, and the two engines' fitness are comparable (the fitness ``v + 5 s`` itself does
+robots do too, and the two modes' fitness are comparable (the fitness ``v + 5 s`` itself does
 not depend on the heading, but a robot's gait meets the world in another direction). Override
 on the command line with ``--set evaluation.heading=0``.
 """
@@ -41,6 +48,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import logging
 import math
 import os
 from collections.abc import Mapping
@@ -53,10 +61,46 @@ from evolution.config import EvolutionConfig
 from evolution.experiments.errors import ConfigError
 from evolution.experiments.registry import read_toml, shipped_config, shipped_configs
 from evolution.learning import TrainingCenter, training_center_from_dict
-from revolve_env.conditions import EvaluationConditions
+from revolve_env.conditions import MAX_RADIUS, EvaluationConditions
 
-__all__ = ["DEFAULT_EVALUATION", "ConfigError", "ExperimentConfig", "WorldSettings",
-           "load_config", "preset"]
+__all__ = ["DEFAULT_EVALUATION", "MAX_BIRTHS", "MAX_RADIUS", "MAX_SECONDS", "MAX_WORKERS",
+           "ConfigError", "ExperimentConfig", "WorldSettings", "as_config", "check_name",
+           "load_config", "preset", "renamed_keys"]
+
+_log = logging.getLogger(__name__)
+
+# Upper bounds: a value beyond them cannot be what a researcher meant, and would hang the
+# machine (a billion births, a million worker processes) or break the physics (MuJoCo aborts on
+# a robot placed 1e30 m away) long after the command started.
+MAX_SECONDS = 3600.0
+"""Longest insertion, evaluation, fertile age or conception interval: a simulated hour (the
+paper's are 3, 12, 15 and 15 s). Seconds."""
+MAX_BIRTHS = 10_000_000
+"""Most births of a run (the paper's: 3000)."""
+MAX_WORKERS = 1024
+"""Most worker processes (0 means all cores)."""
+_MAX_INTS = {"population_size": 10_000, "offspring_size": 10_000, "tournament_size": 10_000,
+             "births": MAX_BIRTHS, "min_alive": 1000, "max_alive": 1000,
+             "max_conception_attempts": 10_000, "diversity_interval": MAX_BIRTHS,
+             "checkpoint_interval": MAX_BIRTHS, "runs": 10_000, "seed": 2**63 - 1,
+             "workers": MAX_WORKERS}
+"""Upper bound of each integer key (``seed``: what SQLite's integers hold)."""
+
+
+def check_name(name: object, what: str = "name") -> str:
+    """``name`` if it can name a results folder: printable text, no path.
+
+    Raises:
+        ConfigError: not text, empty, longer than 100 characters, a control character, a
+            slash or backslash, or ``.`` / ``..``.
+    """
+    if not isinstance(name, str) or not name:
+        raise ConfigError(f"{what} must be a non-empty string, got {name!r}")
+    if (len(name) > 100 or not name.isprintable() or "/" in name or "\\" in name
+            or name in (".", "..")):
+        raise ConfigError(f"{what} {name!r} cannot name a folder: give at most 100 printable "
+                          "characters without / or \\ (not . or ..)")
+    return name
 
 _NESTED = ("evaluation", "evolution", "learning", "world")
 """Config keys that are tables, merged key by key by presets and overrides."""
@@ -86,7 +130,7 @@ DEFAULT_EVALUATION = EvaluationConditions(heading="random")
 (offline as online; the module docstring says why)."""
 
 _CHOICES: dict[str, tuple[str, ...]] = {
-    "engine": ("offline", "online"),
+    "mode": ("offline", "online"),
     "new_robots": ("reproduction", "random"),
     "survivor_selection": ("fitness", "random"),
     "evaluator": ("local", "ray"),
@@ -99,7 +143,8 @@ class ExperimentConfig:
 
     Attributes:
         name: Free-form experiment name (goes into the results).
-        engine: ``"offline"`` (isolated evaluations, generations) or ``"online"`` (one world).
+        mode: ``"offline"`` (isolated evaluations, generations) or ``"online"`` (one world).
+            Formerly ``engine`` (still read, with a warning: :func:`renamed_keys`).
         population_size: Offline: the constant population (mu). Online: robots at the start.
         offspring_size: Offline: children per generation (lambda); ignored online.
         new_robots: ``"reproduction"`` (two tournament parents) or ``"random"`` (Baseline A).
@@ -138,7 +183,7 @@ class ExperimentConfig:
     """
 
     name: str = "custom"
-    engine: str = "offline"
+    mode: str = "offline"
     population_size: int = 15
     offspring_size: int = 15
     new_robots: str = "reproduction"
@@ -187,6 +232,8 @@ class ExperimentConfig:
                 raise ConfigError(f"{key} must be an integer, got {value!r}")
             if value < low:
                 raise ConfigError(f"{key} must be >= {low}, got {value}")
+            if value > _MAX_INTS[key]:
+                raise ConfigError(f"{key} must be <= {_MAX_INTS[key]}, got {value}")
         floats = {
             "insertion": (0.0, False), "evaluation_time": (0.0, True), "fertile_age": (0.0, False),
             "conception_interval": (0.0, True), "birth_radius": (0.0, False),
@@ -202,6 +249,14 @@ class ExperimentConfig:
         for key in ("death_threshold", "cull_fraction"):
             if getattr(self, key) > 1:
                 raise ConfigError(f"{key} must be <= 1, got {getattr(self, key)}")
+        for key, high, unit in (("insertion", MAX_SECONDS, "s"),
+                                ("evaluation_time", MAX_SECONDS, "s"),
+                                ("fertile_age", MAX_SECONDS, "s"),
+                                ("conception_interval", MAX_SECONDS, "s"),
+                                ("birth_radius", MAX_RADIUS, "m"),
+                                ("birth_clearance", MAX_RADIUS, "m")):
+            if getattr(self, key) > high:
+                raise ConfigError(f"{key} must be <= {high:g} {unit}, got {getattr(self, key)}")
         if self.max_sim_time is not None and not (
             _finite_number(self.max_sim_time) and self.max_sim_time > 0
         ):
@@ -211,7 +266,7 @@ class ExperimentConfig:
             raise ConfigError(
                 f"fertile_age ({self.fertile_age} s) must be >= insertion ({self.insertion} s)"
             )
-        if self.engine == "offline" and self.fertile_age > self.insertion + self.evaluation_time:
+        if self.mode == "offline" and self.fertile_age > self.insertion + self.evaluation_time:
             raise ConfigError(
                 "offline robots are mature once evaluated: fertile_age must be <= insertion + "
                 f"evaluation_time ({self.insertion + self.evaluation_time} s), "
@@ -220,7 +275,7 @@ class ExperimentConfig:
         if self.min_alive > self.max_alive:
             raise ConfigError(
                 f"min_alive ({self.min_alive}) must be <= max_alive ({self.max_alive})")
-        if self.engine == "online" and not self.min_alive <= self.population_size <= self.max_alive:
+        if self.mode == "online" and not self.min_alive <= self.population_size <= self.max_alive:
             raise ConfigError(
                 f"online population_size ({self.population_size}) must lie within "
                 f"[min_alive, max_alive] = [{self.min_alive}, {self.max_alive}]"
@@ -235,8 +290,11 @@ class ExperimentConfig:
         if self.ray_address is not None and not isinstance(self.ray_address, str):
             raise ConfigError(f"ray_address must be a string, got {self.ray_address!r}")
         _check_tables(self)
-        if not isinstance(self.name, str) or not self.name:
-            raise ConfigError(f"name must be a non-empty string, got {self.name!r}")
+        check_name(self.name)
+        period = revolve_env.WorldConfig().with_engine(self.world.engine).control_period
+        if self.evaluation_time < period:
+            raise ConfigError(f"evaluation_time must cover one control period ({period:.6g} s "
+                              f"on {self.world.engine}), got {self.evaluation_time}")
         if self.learning is not None:
             if not isinstance(self.learning, Mapping):
                 raise ConfigError(f"learning must be a table of parameters, got {self.learning!r}")
@@ -266,7 +324,7 @@ class ExperimentConfig:
         Raises:
             ConfigError: unknown key (named), unknown preset, or a value out of range.
         """
-        data = dict(data)
+        data = renamed_keys(data)
         base: dict[str, Any] = {}
         if "preset" in data:
             name = data.pop("preset")
@@ -399,6 +457,7 @@ def load_config(name_or_path: str | os.PathLike[str],
             f"{', '.join(sorted(shipped_configs()))} (or give the path of a TOML config file)")
     if not overrides:
         return config
+    overrides = renamed_keys(overrides)  # before merging: the override's mode wins the file's
     data = config.to_dict()
     nested = _NESTED
     for table in nested:
@@ -424,12 +483,59 @@ def preset(name: str, **overrides: Any) -> ExperimentConfig:
     """
     config = ExperimentConfig.from_toml(shipped_config(name))
     if overrides:
+        overrides = renamed_keys(overrides)
         known = {f.name for f in fields(ExperimentConfig)}
         unknown = sorted(set(overrides) - known)
         if unknown:
             raise ConfigError(f"unknown experiment config key(s): {', '.join(unknown)}")
         config = config.replace(**overrides)
     return config
+
+
+def renamed_keys(data: Mapping[str, Any]) -> dict[str, Any]:
+    """``data`` (top-level config keys) with the old name of ``mode`` renamed.
+
+    ``engine = "offline" | "online"`` at the top level is what ``mode`` was called before
+    ``engine`` came to mean the physics engine only (``[world] engine``). It is still read, as
+    ``mode``, with a one-line warning (logged: ``revolve`` prints it) saying to rename it.
+
+    Raises:
+        ConfigError: a top-level ``engine`` names a physics engine (it belongs in ``[world]``),
+            or it disagrees with a ``mode`` given beside it.
+    """
+    out = dict(data)
+    if "engine" not in out:
+        return out
+    old = out.pop("engine")
+    if isinstance(old, str) and old in revolve_env.ENGINES:
+        raise ConfigError(
+            f"engine = {old!r} at the top level: the physics engine is set in the [world] table "
+            f"(world.engine = {old!r}; on the command line --set world.engine={old}); the "
+            "top-level switch between offline and online evolution is mode")
+    if "mode" in out and out["mode"] != old:
+        raise ConfigError(f"engine = {old!r} (the old name of mode) disagrees with mode = "
+                          f"{out['mode']!r}: give mode only")
+    out["mode"] = old  # validated with the other keys
+    _log.warning("config key engine = %r is the old name of mode: write mode = %r (engine now "
+                 "names only the physics engine, world.engine)", old, old)
+    return out
+
+
+def as_config(config: ExperimentConfig | str | os.PathLike[str] | Mapping[str, Any]
+              ) -> ExperimentConfig:
+    """An :class:`ExperimentConfig` from itself, a shipped name, a TOML path or a dict.
+
+    Raises:
+        ConfigError: unknown name, unreadable file, invalid configuration, or another type.
+    """
+    if isinstance(config, ExperimentConfig):
+        return config
+    if isinstance(config, (str, os.PathLike)):
+        return load_config(config)
+    if isinstance(config, Mapping):
+        return ExperimentConfig.from_dict(config)
+    raise ConfigError(f"config must be an ExperimentConfig, a shipped config name, a TOML "
+                      f"path or a dict, got {config!r}")
 
 
 def _finite_number(value: object) -> bool:

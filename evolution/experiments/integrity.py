@@ -11,8 +11,14 @@ refuse a damaged database on one line and change nothing. :func:`check_writable`
 
 What is checked (``runs`` as the config's ``runs``, ``births`` a run's births):
 
-* meta: the stored config is an object and a valid :class:`ExperimentConfig`;
-* every column holds its type (``typeof``), lifecycle stages are known ones;
+* meta: the stored config is an object and a valid :class:`ExperimentConfig` (its name
+  printable and path-free), the seed a whole number;
+* every table has exactly this package's columns; every column holds its type (``typeof``),
+  lifecycle stages are known ones;
+* no population snapshot lists a robot twice;
+* files: the ``checkpoints`` and ``policies`` folders and every policy file the learning table
+  refers to lie inside the results folder (:func:`~evolution.experiments.results_folder.inside`:
+  no absolute path, no ``..``, no symbolic link leading out), each reference well formed;
 * runs: ids within the config's runs, ``0 <= births <=`` the config's births;
 * checkpoints: one per run that has births, matching its run row; the generator state is one a
   ``PCG64`` accepts; the engine state is an object with the engine's keys, naming robots born;
@@ -29,8 +35,10 @@ What is checked (``runs`` as the config's ``runs``, ``births`` a run's births):
 
 from __future__ import annotations
 
+import functools
 import json
 import math
+import re
 import sqlite3
 from collections.abc import Mapping
 from typing import Any
@@ -39,6 +47,8 @@ import numpy as np
 
 from evolution.experiments.config import ExperimentConfig
 from evolution.experiments.errors import ConfigError
+from evolution.experiments.records import SCHEMA, TABLES
+from evolution.experiments.results_folder import PolicyReference, inside
 from evolution.experiments.store import Store, StoreError
 from evolution.lifecycle import Stage
 
@@ -91,7 +101,11 @@ def verify(store: Store, resumable: bool = False) -> ExperimentConfig:
     """
     config = stored_config(store)
     try:
+        _check_meta(store)
+        _check_columns(store)
         _check_types(store)
+        _check_duplicates(store)
+        _check_files(store)
         for run_id, status, births in store.query("SELECT run_id, status, births FROM runs"):
             _check_run(store, config, run_id, births, resumable and status != "finished")
         stray = store.query(
@@ -136,6 +150,57 @@ def check_writable(store: Store) -> None:
     except sqlite3.OperationalError as error:
         raise StoreError(f"{store.path} cannot be written ({error}); resume needs write access "
                          "to the database and its folder") from None
+
+
+def _check_meta(store: Store) -> None:
+    text = store.meta().get("seed")
+    if not isinstance(text, str) or not re.fullmatch(r"[0-9]{1,19}", text):
+        raise StoreError(f"table meta: the seed {text!r} is not a whole number")
+
+
+@functools.cache
+def _schema_columns() -> dict[str, frozenset[str]]:
+    """The columns of each table of a database this package creates."""
+    db = sqlite3.connect(":memory:")
+    try:
+        db.executescript(SCHEMA)
+        return {table: frozenset(row[1] for row in db.execute(f"PRAGMA table_info({table})"))
+                for table in TABLES}
+    finally:
+        db.close()
+
+
+def _check_columns(store: Store) -> None:
+    for table, expected in sorted(_schema_columns().items()):
+        found = {row[1] for row in store.query(f"PRAGMA table_info({table})")}
+        if found != expected:
+            extra, missing = sorted(found - expected), sorted(expected - found)
+            what = (f"column(s) {', '.join(extra)} it should not have" if extra
+                    else f"no column(s) {', '.join(missing)}")
+            raise StoreError(f"table {table} has {what}")
+
+
+def _check_duplicates(store: Store) -> None:
+    rows = store.query("SELECT run_id, births, robot_id FROM population GROUP BY run_id, births, "
+                       "robot_id HAVING COUNT(*) > 1 LIMIT 1")
+    if rows:
+        run_id, births, robot_id = rows[0]
+        raise StoreError(f"run {run_id}: the population snapshot at births {births} lists "
+                         f"robot {robot_id} more than once")
+
+
+def _check_files(store: Store) -> None:
+    """The folders and policy files the database refers to lie inside the results folder."""
+    folder = store.path.parent
+    for name in ("checkpoints", "policies"):
+        if (folder / name).exists() or (folder / name).is_symlink():
+            inside(folder, name, "folder")
+    for run_id, robot_id, text in store.query(
+            "SELECT run_id, robot_id, policy FROM learning WHERE policy IS NOT NULL"):
+        try:
+            PolicyReference.parse(text).check(folder)
+        except StoreError as error:
+            raise StoreError(f"run {run_id}: robot {robot_id}'s policy: {error}") from None
 
 
 def _check_types(store: Store) -> None:
@@ -262,7 +327,7 @@ def _check_engine_state(where: str, config: ExperimentConfig, state: Mapping[str
     last = state.get("last_diversity_births")
     if last is not None and not _is_id(last, births + 1):
         raise StoreError(f"{what} has last_diversity_births {last!r}")
-    if config.engine == "online":
+    if config.mode == "online":
         alive = state.get("alive")
         if not isinstance(alive, list) or not all(_is_id(a, births) for a in alive):
             raise StoreError(f"{what} has no list of living robot ids ('alive')")

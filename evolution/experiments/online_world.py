@@ -1,4 +1,4 @@
-"""The online world of the engine over the PettingZoo population environment (issue 4).
+"""The online world of the loop over the PettingZoo population environment (issue 4).
 
 Adapts :class:`revolve_env.envs.population.PopulationEnv` to
 :class:`evolution.experiments.run.OnlineWorld`: robots are added with ``add_robot(robot, position,
@@ -37,15 +37,15 @@ class PopulationWorld:
     Args:
         config: The experiment (timing, birth disc, robot limits).
         seed: Seeds the env's generator (birth positions and headings) and its noise generator
-            (``config.evaluation``'s sensor and actuator noise); the engine spawns it from the
-            run's seed sequence, independent of the engine's own generator.
+            (``config.evaluation``'s sensor and actuator noise); the loop spawns it from the
+            run's seed sequence, independent of the loop's own generator.
     """
 
     def __init__(self, config: ExperimentConfig, seed: int) -> None:
         # Imported here: it loads the physics engine, which offline runs never need.
         from revolve_env.envs.population import PopulationEnv
 
-        # The run's own robots only (no default initial robots); the engine never adds more
+        # The run's own robots only (no default initial robots); the loop never adds more
         # robots than ``config.births``.
         self._env: PopulationEnv = PopulationEnv(
             max_births=max(config.births, 1), initial_robots=(), insertion_time=config.insertion,
@@ -95,7 +95,7 @@ class PopulationWorld:
                        for agent, policy in self._policies.items()}
             _, _, terminations, truncations, infos = self._env.step(actions)
             for agent, info in infos.items():
-                # A robot the engine removed before this call gets one last report; keeping
+                # A robot the loop removed before this call gets one last report; keeping
                 # it would hold every dead robot's info for the rest of the run.
                 if agent in before:
                     self._last[agent] = info

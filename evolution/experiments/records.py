@@ -2,7 +2,7 @@
 
 :class:`~evolution.experiments.store.Store` writes and reads them (its module docstring
 describes each table). The records are plain data: a :class:`Batch` collects one commit point's
-records and is cleared after it, the others are frozen.
+records (a new one for each), the others are frozen.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ if TYPE_CHECKING:
 __all__ = [
     "CONDITIONS_OF_OLD_RUNS",
     "LEARNING_TABLE",
+    "MODE_OF_OLD_CONFIGS",
     "MIGRATIONS",
     "SCHEMA",
     "SCHEMA_V1",
@@ -42,7 +43,7 @@ __all__ = [
     "RunRecord",
 ]
 
-SCHEMA_VERSION = 4
+SCHEMA_VERSION = 5
 """Version of the database layout; a database with a newer one is refused, an older one is
 upgraded when opened (see the module docstring)."""
 
@@ -192,6 +193,17 @@ was noisy; infants of the Training Center learned at heading 0 in both (the seco
 pins that in the learning table). Written out literally on purpose: a migration must not change
 when the code's defaults do, and this statement is the one home of that rule."""
 
+MODE_OF_OLD_CONFIGS = """
+UPDATE meta SET value = json_remove(json_set(value, '$.mode', json_extract(value, '$.engine')),
+                                    '$.engine')
+WHERE key = 'config' AND json_valid(value) AND json_type(value) = 'object'
+    AND json_type(value, '$.engine') IS NOT NULL AND json_type(value, '$.mode') IS NULL;
+"""
+"""Schema version 5: the stored config's switch between offline and online evolution is called
+``mode``; it was ``engine``, a word that now names only the physics engine (``world.engine``).
+Nothing else changes: the runs continue and report as before. (A config with neither key is
+offline, the default of both names.)"""
+
 SCHEMA = SCHEMA_V1 + LEARNING_TABLE + POLICY_COLUMN + REEVALUATIONS_TABLE
 """The current layout (version :data:`SCHEMA_VERSION`)."""
 
@@ -199,7 +211,8 @@ TABLES = frozenset(re.findall(r"CREATE TABLE (\w+)", SCHEMA))
 """The tables of the current layout (an opened database must have them all)."""
 
 MIGRATIONS: dict[int, str] = {1: LEARNING_TABLE, 2: POLICY_COLUMN,
-                               3: REEVALUATIONS_TABLE + CONDITIONS_OF_OLD_RUNS}
+                               3: REEVALUATIONS_TABLE + CONDITIONS_OF_OLD_RUNS,
+                               4: MODE_OF_OLD_CONFIGS}
 """For each old version, the statements that bring it to the next one."""
 
 
@@ -224,7 +237,11 @@ class RobotRecord:
         birth_time: Simulated time of delivery; ``None`` if never delivered. Seconds.
         death_time: Simulated time of death; ``None`` while alive. Seconds.
         death_cause: Why it died (``"survivor selection"``, ``"blow-up: ..."``); ``None`` alive.
-        fitness: Last known fitness (offline: the evaluation; online: the last sample).
+        fitness: Last known fitness (offline: the evaluation; online: the last sample);
+            ``None`` for a robot lost to a failure (a blow-up, a failed evaluation, a body the
+            engine could not build: its ``death_cause`` says which). Databases written before
+            this rule hold 0.0 for robots lost in the shared world; reports read loss from
+            the ``failures`` table, so both report alike.
     """
 
     run_id: int
@@ -300,7 +317,9 @@ class LearningRecord:
         failures: Learner evaluations that failed (blow-ups).
         policy: ``None``, or the saved policy that drives the robot (an SB3 learner), as JSON:
             ``{"file": path relative to the results folder, "digest": SHA-256 of its
-            parameters}`` (:func:`evolution.learning.sb3.save_policy`).
+            parameters, "sha256": SHA-256 of the file}``
+            (:class:`~evolution.experiments.results_folder.PolicyReference`; older databases
+            have no ``sha256`` and a pickled ``.pkl`` file).
     """
 
     robot_id: int
@@ -405,8 +424,9 @@ class Batch:
     robots: list[RobotRecord] = field(default_factory=list)
     deaths: list[tuple[int, float, str, float | None]] = field(default_factory=list)
     """(robot_id, time, cause, final fitness) of robots stored earlier that died now."""
-    fitness_updates: list[tuple[int, float]] = field(default_factory=list)
-    """(robot_id, fitness): latest fitness of robots stored earlier."""
+    fitness_updates: list[tuple[int, float | None]] = field(default_factory=list)
+    """(robot_id, fitness): latest fitness of robots stored earlier; ``None`` for a robot lost
+    to a blow-up in the shared world (stored as NULL: lost, not 0 m)."""
     fitness: list[FitnessSample] = field(default_factory=list)
     transitions: list[Transition] = field(default_factory=list)
     population: list[tuple[int, float | None]] | None = None
@@ -414,18 +434,6 @@ class Batch:
     diversity: float | None = None
     failures: list[FailureRecord] = field(default_factory=list)
     learning: list[LearningRecord] = field(default_factory=list)
-
-    def clear(self) -> None:
-        """Forget everything (after it has been written)."""
-        self.robots.clear()
-        self.deaths.clear()
-        self.fitness_updates.clear()
-        self.fitness.clear()
-        self.transitions.clear()
-        self.population = None
-        self.diversity = None
-        self.failures.clear()
-        self.learning.clear()
 
 
 @dataclass(frozen=True, slots=True)

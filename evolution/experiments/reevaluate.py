@@ -35,8 +35,12 @@ it again finds every row stored (the key holds no timestamp) and evaluates nothi
 ``k`` adds only the missing repeats. Results are committed every few evaluations, so Ctrl-C
 loses only the evaluations in flight.
 
+Which databases: one set of experiments below ``path``, as a report takes them
+(:func:`evolution.experiments.folders.select_results`: a study, or the experiments outside any
+study; ``every_set=True`` takes them all); the summary names what was left out.
+
 From the command line: ``revolve reevaluate RESULTS [--k 10] [--best] [--window-offset S ...]
-[--shared-world] [--workers N]``, then ``revolve report RESULTS``.
+[--shared-world] [--workers N] [--all]``, then ``revolve report RESULTS``.
 """
 
 from __future__ import annotations
@@ -52,18 +56,23 @@ from typing import Any, Literal
 import numpy as np
 
 from evolution.evaluation import EvalOutcome, EvalTask, Evaluator, make_evaluator
+from evolution.experiments import results_folder
+from evolution.experiments.config import MAX_SECONDS
+from evolution.experiments.folders import ResultSet, select_results
 from evolution.experiments.integrity import check_writable, verify
 from evolution.experiments.records import ReevaluationRecord
-from evolution.experiments.store import DB_NAME, Store, StoreError
+from evolution.experiments.store import Store, StoreError
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import from_json
 from revolve_env.conditions import RANDOM_HEADING, EvaluationConditions
 
 __all__ = [
     "KINDS",
+    "MAX_K",
     "Chosen",
     "ReevaluationSummary",
     "SharedWorldJob",
+    "SkippedRun",
     "choose",
     "reevaluate",
     "reevaluation_conditions",
@@ -73,6 +82,8 @@ __all__ = [
 
 KINDS = ("final", "best")
 """What ``which`` may be."""
+MAX_K = 1000
+"""Most repeats per robot and setting (a larger K only costs time: the CI is over runs)."""
 
 _TAG = 0x2E7A1
 """Tags the reevaluation seeds apart from the runs' evaluation seeds (tag 0x0E7A1)."""
@@ -186,6 +197,25 @@ def choose(store: Store, run_id: int, which: str, mature_age: float = 0.0) -> li
 
 
 @dataclass(frozen=True, slots=True)
+class SkippedRun:
+    """An unfinished run that :func:`reevaluate` left out.
+
+    Attributes:
+        database: Its experiment's database.
+        run_id: The run.
+        status: Its status (``pending``, ``running`` or ``interrupted``).
+        births: Its births so far.
+        target: The births it runs to.
+    """
+
+    database: Path
+    run_id: int
+    status: str
+    births: int
+    target: int
+
+
+@dataclass(frozen=True, slots=True)
 class ReevaluationSummary:
     """What :func:`reevaluate` did.
 
@@ -194,12 +224,17 @@ class ReevaluationSummary:
         planned: Evaluations the arguments ask for (robots x repeats x settings).
         evaluated: Of those, evaluations run by this call (the others were stored already).
         added: Rows written by this call.
+        skipped: Unfinished runs left out (``include_unfinished`` was false).
+        left_out: The sets of experiments below the path that were not reevaluated
+            (:func:`~evolution.experiments.folders.select_results`).
     """
 
     databases: tuple[Path, ...]
     planned: int
     evaluated: int
     added: int
+    skipped: tuple[SkippedRun, ...] = ()
+    left_out: tuple[ResultSet, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -230,6 +265,9 @@ def reevaluate(
     *,
     evaluator: Evaluator | None = None,
     progress: ProgressFunction | None = None,
+    include_unfinished: bool = False,
+    trust_pickled_policies: bool = False,
+    every_set: bool = False,
 ) -> ReevaluationSummary:
     """Reevaluate the chosen robots of every experiment at or below ``path`` (module docs).
 
@@ -245,33 +283,46 @@ def reevaluate(
         seed: Base of the reevaluation seeds; default: each experiment's seed.
         evaluator: Where the evaluations run (default: a local pool of ``workers``).
         progress: Called with (evaluations done, planned) after every commit.
+        include_unfinished: Also reevaluate runs that have not finished (interrupted, or still
+            running: their population is the last committed one); by default they are left
+            out and listed in the summary's ``skipped``.
+        trust_pickled_policies: Load SB3 policies that older versions saved as pickles (which
+            can run code: only for a results folder whose author you trust).
+        every_set: Every set of experiments below ``path`` (studies and lone experiments
+            together), not only the one :func:`~evolution.experiments.folders.select_results`
+            takes.
 
     Returns:
         What was planned and written.
 
     Raises:
-        StoreError: no results database below ``path``, or a damaged or read-only one (checked,
-            all of them, before anything is evaluated).
-        ValueError: a bad ``k``, ``which`` or window offset.
+        StoreError: no results database below ``path``, a damaged or read-only one, or a
+            saved policy that cannot be used (checked, all of them, before anything is
+            evaluated), or several studies and nothing else below ``path`` without
+            ``every_set``.
+        ValueError: a bad ``k`` (1 to :data:`MAX_K`), ``which`` or window offset (0 to
+            :data:`~evolution.experiments.config.MAX_SECONDS`).
         KeyboardInterrupt: Ctrl-C; everything committed stays, running again continues.
     """
-    if isinstance(k, bool) or not isinstance(k, int) or k < 1:
-        raise ValueError(f"k must be an integer >= 1, got {k!r}")
+    if isinstance(k, bool) or not isinstance(k, int) or not 1 <= k <= MAX_K:
+        raise ValueError(f"k must be an integer from 1 to {MAX_K}, got {k!r}")
     if which not in KINDS:
         raise ValueError(f"which must be one of {', '.join(map(repr, KINDS))}, got {which!r}")
     offsets = tuple(float(o) for o in window_offsets)
-    if not offsets or any(not (math.isfinite(o) and o >= 0) for o in offsets):
-        raise ValueError(f"window offsets must be finite numbers of seconds >= 0, got "
-                         f"{list(window_offsets)!r}")
-    plans = [_plan(db, k, which, offsets, shared_world, conditions, seed)
-             for db in _databases(Path(path))]
-    total = sum(len(todo) for _, _, todo in plans)
+    if not offsets or any(not (math.isfinite(o) and 0 <= o <= MAX_SECONDS) for o in offsets):
+        raise ValueError(f"window offsets must be numbers of seconds from 0 to {MAX_SECONDS:g}, "
+                         f"got {list(window_offsets)!r}")
+    selection = select_results(path, every_set, "revolve reevaluate")
+    plans = [_plan(db, k, which, offsets, shared_world, conditions, seed, include_unfinished,
+                   trust_pickled_policies)
+             for db in selection.databases]
+    total = sum(len(plan.todo) for plan in plans)
     used = evaluator or make_evaluator("local", workers)
     done = added = 0
     try:
-        for db, _, todo in plans:
-            with Store.open(db) as store:
-                for records in _evaluate(todo, used, shared_world, db.parent):
+        for plan in plans:
+            with Store.open(plan.db) as store:
+                for records in _evaluate(plan.todo, used, shared_world, plan.policies):
                     added += store.add_reevaluations(records)
                     done += len(records)
                     if progress is not None:
@@ -279,30 +330,34 @@ def reevaluate(
     finally:
         if evaluator is None:
             used.close()
-    return ReevaluationSummary(tuple(db for db, _, _ in plans),
-                               sum(asked for _, asked, _ in plans), total, added)
-
-
-def _databases(path: Path) -> list[Path]:
-    if not path.exists():
-        raise StoreError(f"no such results directory: {path}")
-    if path.is_file():
-        paths = [path] if path.name == DB_NAME else []
-    else:
-        paths = sorted(path.rglob(DB_NAME))
-    if not paths:
-        raise StoreError(f"no results database ({DB_NAME}) at or below {path}")
-    return paths
+    return ReevaluationSummary(tuple(plan.db for plan in plans),
+                               sum(plan.asked for plan in plans), total, added,
+                               tuple(run for plan in plans for run in plan.skipped),
+                               selection.left_out)
 
 
 _Todo = tuple[Chosen, _Setting, int, int]
 """One evaluation to run: the robot, the setting, the repeat and the seed."""
 
 
+@dataclass(frozen=True, slots=True)
+class _DatabasePlan:
+    """What one database asks for: its evaluations and the policies they need."""
+
+    db: Path
+    asked: int
+    todo: list[_Todo]
+    policies: dict[tuple[int, int], Any]
+    skipped: list[SkippedRun]
+
+
 def _plan(db: Path, k: int, which: str, offsets: tuple[float, ...], shared_world: bool,
-          conditions: EvaluationConditions | None, seed: int | None
-          ) -> tuple[Path, int, list[_Todo]]:
-    """The database, the evaluations asked of it, and those not stored yet (checked first)."""
+          conditions: EvaluationConditions | None, seed: int | None, include_unfinished: bool,
+          trust_pickled: bool) -> _DatabasePlan:
+    """The evaluations asked of a database and those not stored yet (checked first).
+
+    The saved policies they need are loaded here, before anything is evaluated.
+    """
     with Store.open(db) as store:
         config = verify(store)
         check_writable(store)
@@ -310,11 +365,17 @@ def _plan(db: Path, k: int, which: str, offsets: tuple[float, ...], shared_world
         used = reevaluation_conditions(store.config, conditions)
         settings = [_Setting(which, used, config.insertion + o, config.evaluation_time,
                              shared_world, config.world.engine) for o in offsets]
-        mature_age = config.fertile_age if config.engine == "online" else 0.0
+        mature_age = config.fertile_age if config.mode == "online" else 0.0
         stored = {r.key for r in store.reevaluations(which)}
         todo: list[_Todo] = []
+        policies: dict[tuple[int, int], Any] = {}
+        skipped: list[SkippedRun] = []
         asked = 0
         for run in store.runs():
+            if run.status != "finished" and not include_unfinished:
+                skipped.append(SkippedRun(db, run.run_id, run.status, run.births,
+                                          config.births))
+                continue
             chosen = choose(store, run.run_id, which, mature_age)
             asked += len(chosen) * k * len(settings)
             for setting in settings:
@@ -326,7 +387,12 @@ def _plan(db: Path, k: int, which: str, offsets: tuple[float, ...], shared_world
                     missing = [item for item in items if _key(item) not in stored]
                     # A shared world is lived again whole: its robots meet the same neighbours.
                     todo += items if shared_world and missing else missing
-    return db, asked, todo
+        if not shared_world:  # a shared world drives every robot by its inborn network
+            for c, _, _, _ in todo:
+                if c.policy is not None and (c.run_id, c.robot_id) not in policies:
+                    policies[c.run_id, c.robot_id] = results_folder.load_policy(
+                        db.parent, c.run_id, c.robot, c.policy, trust_pickled)
+    return _DatabasePlan(db, asked, todo, policies, skipped)
 
 
 def _key(item: _Todo) -> tuple[int, str, int, str, float, bool, int, int]:
@@ -345,45 +411,21 @@ def _record(c: Chosen, setting: _Setting, repeat: int, seed: int, outcome: EvalO
 
 
 def _evaluate(todo: list[_Todo], evaluator: Evaluator, shared_world: bool,
-              folder: Path) -> Iterator[list[ReevaluationRecord]]:
+              policies: Mapping[tuple[int, int], Any]) -> Iterator[list[ReevaluationRecord]]:
     """Yield the records of ``todo`` chunk by chunk, each chunk ready to commit."""
     if shared_world:
         yield from _evaluate_shared(todo, evaluator)
         return
     chunk = max(1, evaluator.workers * _CHUNK)
-    policies: dict[tuple[int, int], Any] = {}
     for start in range(0, len(todo), chunk):
         part = todo[start:start + chunk]
         tasks = [EvalTask(c.robot_id, c.robot, setting.insertion, setting.seconds, s,
                           engine=setting.engine, conditions=setting.conditions,
-                          policy=_policy(c, folder, policies))
+                          policy=policies.get((c.run_id, c.robot_id)))
                  for c, setting, _, s in part]
         outcomes = evaluator.evaluate(tasks)
         yield [_record(c, setting, repeat, s, outcome, c.controller)
                for (c, setting, repeat, s), outcome in zip(part, outcomes, strict=True)]
-
-
-def _policy(c: Chosen, folder: Path, cache: dict[tuple[int, int], Any]) -> Any:
-    """The saved policy that drove ``c`` (``None`` for a robot without one).
-
-    Raises:
-        StoreError: the policy file is missing, damaged or not the recorded one.
-    """
-    if c.policy is None:
-        return None
-    key = (c.run_id, c.robot_id)
-    if key not in cache:
-        from evolution.learning.sb3 import PolicyFileError, load_policy
-
-        try:
-            ref = json.loads(c.policy)
-            cache[key] = load_policy(folder / str(ref["file"]), c.robot, str(ref["digest"]))
-        except (ValueError, KeyError, TypeError) as error:
-            if isinstance(error, PolicyFileError):
-                raise StoreError(f"run {c.run_id}: {error}") from None
-            raise StoreError(f"run {c.run_id}: malformed policy reference {c.policy!r}"
-                             ) from None
-    return cache[key]
 
 
 @dataclass(frozen=True, slots=True)

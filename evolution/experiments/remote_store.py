@@ -19,21 +19,19 @@ run killed anywhere loses at most the work since its last commit, as locally.
 
 from __future__ import annotations
 
-import json
 import pickle
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Any, Protocol
 
-from evolution.experiments import snapshot
+from evolution.experiments import results_folder, snapshot
 from evolution.experiments.store import (
     Batch,
     Checkpoint,
     LearningRecord,
     RobotRecord,
     Store,
-    StoreError,
 )
 from revolve_env.body.robot import Robot
 
@@ -47,7 +45,7 @@ class RunStore(Protocol):
         """Set a run's status (``pending``, ``running``, ``interrupted``, ``finished``)."""
 
     def commit(self, run_id: int, batch: Batch, checkpoint: Checkpoint) -> None:
-        """Write one commit point atomically, then clear ``batch``."""
+        """Write one commit point atomically."""
 
     def checkpoint(self, run_id: int) -> Checkpoint | None:
         """The latest commit point of a run, ``None`` before the first."""
@@ -79,15 +77,18 @@ class RunStore(Protocol):
         """Write an SB3 policy (reset first) before the commit that references it.
 
         Returns:
-            The learning record's reference: JSON ``{"file": ..., "digest": ...}``.
+            The learning record's reference: JSON ``{"file": ..., "digest": ..., "sha256": ...}``.
         """
 
-    def load_policy(self, run_id: int, robot: Robot, reference: str) -> Any:
+    def load_policy(self, run_id: int, robot: Robot, reference: str,
+                    trust_pickled: bool = False) -> Any:
         """The policy a learning record references, checked against ``robot``.
 
+        ``trust_pickled``: also load an older pickled policy (which can run code).
+
         Raises:
-            StoreError: one line naming the file: missing, damaged, of another body, or not
-                the one the store recorded.
+            StoreError: one line naming the file: outside the results folder, missing, damaged,
+                of another body, not the one the store recorded, or pickled (not trusted).
         """
 
     def close(self) -> None:
@@ -144,28 +145,13 @@ class LocalRunStore:
         snapshot.prune(self.store.path, run_id, keep)
 
     def save_policy(self, run_id: int, robot_id: int, policy: Any) -> str:
-        """Write ``<results>/policies/run<r>_robot<id>.pkl``; the learning record's reference."""
-        from evolution.learning.sb3 import save_policy
+        """Write ``<results>/policies/run<r>_robot<id>.safetensors``; the record's reference."""
+        return results_folder.save_policy(self.folder, run_id, robot_id, policy)
 
-        relative = f"policies/run{run_id}_robot{robot_id}.pkl"
-        digest = save_policy(policy, self.folder / relative)
-        return json.dumps({"file": relative, "digest": digest}, sort_keys=True)
-
-    def load_policy(self, run_id: int, robot: Robot, reference: str) -> Any:
-        """The policy file ``reference`` names in the results folder, checked."""
-        from evolution.learning.sb3 import PolicyFileError, load_policy
-
-        try:
-            ref = json.loads(reference)
-            path = self.folder / str(ref["file"])
-            digest = str(ref["digest"])
-        except (ValueError, KeyError, TypeError) as error:
-            raise StoreError(f"run {run_id}: malformed policy reference {reference!r}"
-                             ) from error
-        try:
-            return load_policy(path, robot, digest)
-        except PolicyFileError as error:
-            raise StoreError(f"run {run_id}: {error}") from error
+    def load_policy(self, run_id: int, robot: Robot, reference: str,
+                    trust_pickled: bool = False) -> Any:
+        """The policy file ``reference`` names inside the results folder, checked."""
+        return results_folder.load_policy(self.folder, run_id, robot, reference, trust_pickled)
 
     def close(self) -> None:
         """Close the database."""
@@ -230,12 +216,8 @@ class RemoteStore:
         self._call("set_status", run_id, status)
 
     def commit(self, run_id: int, batch: Batch, checkpoint: Checkpoint) -> None:
-        """Write one commit point in the driver's database (one transaction there).
-
-        Then clear ``batch``, as :meth:`Store.commit` does.
-        """
+        """Write one commit point in the driver's database (one transaction there)."""
         self._call("commit", run_id, batch, checkpoint)
-        batch.clear()
 
     def checkpoint(self, run_id: int) -> Checkpoint | None:
         """The run's latest commit point, from the driver's database."""
@@ -275,9 +257,10 @@ class RemoteStore:
         result: str = self._call("save_policy", run_id, robot_id, policy)
         return result
 
-    def load_policy(self, run_id: int, robot: Robot, reference: str) -> Any:
+    def load_policy(self, run_id: int, robot: Robot, reference: str,
+                    trust_pickled: bool = False) -> Any:
         """A policy from the driver's results folder, checked there."""
-        return self._call("load_policy", run_id, robot, reference)
+        return self._call("load_policy", run_id, robot, reference, trust_pickled)
 
     def close(self) -> None:
         """Nothing to release here: the driver closes the database (:func:`host_store`)."""

@@ -1,62 +1,50 @@
-"""What both engines share: a run's state, its records, commit points and replay checks.
+"""The records and interfaces of a run: what crosses between the loop, its worlds and observers.
 
-A run is a loop of *commit points* (see :mod:`evolution.experiments.engine` for both engines).
-Between two commit points the engine conceives robots (two tournament parents, or at random),
-delivers them, lets them live, selects survivors, and collects every record in a
-:class:`~evolution.experiments.store.Batch`; at the commit point the batch and a checkpoint are
-written in one transaction. While an online run replays up to its last checkpoint
-(:attr:`RunState.replay_until`), every robot it makes is checked against the stored one and
-nothing is written.
+A run is the evolution loop (:class:`~evolution.experiments.loop.Evolution`) stepped from its
+start, or from a checkpoint, to its end. Each step ends at a *commit point*: the
+:class:`Step` carries every record made since the previous one (a
+:class:`~evolution.experiments.store.Batch`) and the :class:`~evolution.experiments.store.
+Checkpoint` an exact continuation needs; the store observer
+(:mod:`~evolution.experiments.store_observer`) writes both in one transaction. While a run
+resumes by replay (:class:`Replay`), every robot it makes is checked against the stored one and
+its steps are marked ``replayed`` (nothing new to write). The state and the steps both modes
+share are :class:`~evolution.experiments.state.RunState`'s.
 """
 
 from __future__ import annotations
 
 import json
-import math
-import time
-from collections import Counter
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from evolution.diversity import diversity
-from evolution.evaluation import LearningSummary
 from evolution.experiments.config import ExperimentConfig
 from evolution.experiments.remote_store import RunStore, host_store
-from evolution.experiments.store import (
-    Batch,
-    Checkpoint,
-    FailureRecord,
-    LearningRecord,
-    RobotRecord,
-    StoreError,
-)
-from evolution.lifecycle import InfancyHook, Lifecycle, LifecycleTiming
-from evolution.operators import reproduce
-from evolution.random_robot import random_robot
-from evolution.selection import select_parents
+from evolution.experiments.store import Batch, Checkpoint, LearningRecord, StoreError
+from evolution.lifecycle import InfancyHook, Lifecycle
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import from_json, to_json
 
 __all__ = [
     "AgentStatus",
     "Birth",
+    "Member",
     "OnlineWorld",
     "ProgressEvent",
+    "Replay",
     "ReplayError",
     "RestorableWorld",
     "RunJob",
     "RunSummary",
+    "Step",
     "WorldFactory",
-    "Member",
-    "RunState",
-    "StopRun",
     "check_infancy",
     "decode",
     "genome",
+    "json_norm",
     "run_seed",
     "world_seed",
 ]
@@ -69,7 +57,7 @@ class ReplayError(StoreError):
 def run_seed(experiment_seed: int, run_id: int) -> int:
     """The seed of run ``run_id`` of an experiment.
 
-    The engine's generator is ``default_rng(run_seed)``, i.e. ``SeedSequence(run_seed)``; the
+    The loop's generator is ``default_rng(run_seed)``, i.e. ``SeedSequence(run_seed)``; the
     online world's is spawned from that same sequence (:func:`world_seed`), so the two streams
     are independent.
     """
@@ -80,7 +68,7 @@ def world_seed(run_seed: int) -> int:
     """The seed of a run's online world: the first child spawned from ``SeedSequence(run_seed)``.
 
     Before, the world was seeded with ``run_seed`` itself, so its generator drew the very numbers
-    the engine's did.
+    the loop's did.
     """
     child = np.random.SeedSequence(run_seed).spawn(1)[0]
     return int(child.generate_state(1)[0])
@@ -170,7 +158,7 @@ class Birth:
 
 
 class OnlineWorld(Protocol):
-    """What the online engine needs from a world holding the whole population."""
+    """What online evolution needs from a world holding the whole population."""
 
     @property
     def time(self) -> float:
@@ -231,6 +219,8 @@ class RunJob:
 
     ``store``: where the run reads and writes its records; ``None``: it opens ``db_path``
     itself. A job sent to another machine carries a remote one (:meth:`for_remote_worker`).
+    ``trust_pickled_policies``: a resumed run may load SB3 policies saved as pickles by older
+    versions (unpickling can run code: only for a results folder whose author is trusted).
     """
 
     db_path: str
@@ -240,6 +230,7 @@ class RunJob:
     infancy: InfancyHook | None = None
     stop_after_commits: int | None = None
     store: RunStore | None = None
+    trust_pickled_policies: bool = False
 
     @contextmanager
     def for_remote_worker(self) -> Iterator[RunJob]:
@@ -255,7 +246,7 @@ class RunJob:
 
 @dataclass(slots=True)
 class Member:
-    """A living robot known to the engine.
+    """A living robot known to the loop.
 
     ``robot`` is the genome the member passes to its children: the inborn one, or the learned
     one (``learned``) under Lamarckian inheritance. ``policy`` is the SB3 policy that drives it
@@ -273,18 +264,70 @@ class Member:
     policy_ref: str | None = None
 
 
-class StopRun(Exception):
-    """Internal: stop after a number of commit points (used by tests and benchmarks)."""
+@dataclass(frozen=True, slots=True)
+class Step:
+    """One step of the evolution loop: a commit point and the records made since the last one.
+
+    Offline a step is one generation (the first: the initial population); online it runs the
+    conception ticks up to the next commit point (every ``checkpoint_interval`` births; the
+    first: the initial population). Observers must not change the records.
+
+    Attributes:
+        records: Every record of the step: robots born, fitness samples, lifecycle transitions,
+            deaths, failures, learning, the population's ``(robot_id, fitness)`` and, when due,
+            its diversity.
+        checkpoint: Where the run stands after the step: births, simulated time, generation,
+            the generator's state and what else an exact continuation needs.
+        replayed: The step repeated a commit point already stored (a resume by replay):
+            nothing in it is new.
+    """
+
+    records: Batch
+    checkpoint: Checkpoint
+    replayed: bool = False
+
+    @property
+    def births(self) -> int:
+        """Robots born so far."""
+        return self.checkpoint.births
+
+    @property
+    def sim_time(self) -> float:
+        """Simulated time. Seconds."""
+        return self.checkpoint.sim_time
+
+    @property
+    def generation(self) -> int:
+        """Offline: the generation just made (0: the initial population). Online: ticks so far."""
+        return self.checkpoint.generation
+
+
+@dataclass(frozen=True, slots=True)
+class Replay:
+    """A resume by deterministic replay: the run again from birth 0 up to a stored checkpoint.
+
+    Attributes:
+        until: The checkpoint to reach; its births and generator state are checked there.
+        genomes: The stored genome (compact JSON) of every robot born, by robot id; every
+            replayed robot is checked against its own.
+        policies: ``policies(robot_id, robot)``: the stored learning record of a robot that
+            lived driven by a saved policy and that policy, loaded (its Training Center is not
+            run again); ``None`` for any other robot.
+    """
+
+    until: Checkpoint
+    genomes: Mapping[int, str]
+    policies: Callable[[int, Robot], tuple[LearningRecord, Any] | None]
 
 
 # ---------------------------------------------------------------------------------------------
 
 
 def check_infancy(hook: InfancyHook | None) -> None:
-    """Refuse an infancy hook the engine cannot honour.
+    """Refuse an infancy hook the loop cannot honour.
 
-    Learners of a policy outside the genome (stable-baselines3) are accepted: the engines save
-    the policy with the results and let it drive the robot (offline evaluation, online life).
+    Learners of a policy outside the genome (stable-baselines3) are accepted: the loop lets the
+    policy drive the robot (offline evaluation, online life) and the store observer saves it.
 
     Raises:
         TypeError: ``hook`` is not callable.
@@ -305,259 +348,7 @@ def decode(stored: str) -> Robot:
     return from_json(stored)
 
 
-def _finite(values: Sequence[float | None]) -> np.ndarray:
-    return np.array([v for v in values if v is not None and math.isfinite(v)], dtype=float)
-
-
-class RunState:
-    """State and shared steps of one run (both engines)."""
-
-    def __init__(self, job: RunJob, store: RunStore,
-                 emit: Callable[[ProgressEvent], None]) -> None:
-        self.job = job
-        self.config = job.config
-        self.run_id = job.run_id
-        self.seed = run_seed(self.config.seed, self.run_id)
-        self.store = store
-        self.emit = emit
-        self.timing = LifecycleTiming(self.config.insertion, self.config.fertile_age)
-        self.rng = np.random.default_rng(self.seed)
-        self.births = 0
-        self.sim_time = 0.0
-        self.generation = 0
-        self.batch = Batch()
-        self.population: list[Member] = []
-        self.last_diversity_births: int | None = None
-        self.last_commit_births = 0
-        self.commits = 0
-        self.started = time.perf_counter()
-        self.sim_time_at_start = 0.0
-        self.replay_until: Checkpoint | None = None
-        self.stored_genomes: dict[int, str] = {}
-        self.failure_counts: Counter[str] = Counter()
-        check_infancy(job.infancy)
-        self.infancy = job.infancy
-        self.lamarckian = bool(getattr(job.infancy, "lamarckian", False))
-
-    # -- conception --------------------------------------------------------------------------
-
-    def choose_parents(self, candidates: Sequence[Member]) -> tuple[Member, Member]:
-        """Two distinct parents by tournament on fitness (the second among the others)."""
-        fitness = np.array([m.fitness for m in candidates], dtype=float)
-        a, b = select_parents(fitness, self.rng, self.config.tournament_size)
-        return candidates[a], candidates[b]
-
-    def conceive(
-        self, candidates: Sequence[Member], time_s: float, random: bool = False
-    ) -> tuple[Robot, int | None, int | None, str]:
-        """A new genome: random, or a child of two tournament parents among ``candidates``.
-
-        Failed crossovers are recorded and retried with new parents, up to
-        ``max_conception_attempts``; after that the robot is random (``"random-fallback"``).
-        """
-        config = self.config
-        if random or config.new_robots == "random":
-            return random_robot(self.rng, config.evolution), None, None, "random"
-        candidates = [m for m in candidates if m.fitness is not None and math.isfinite(m.fitness)]
-        if len(candidates) < 2:
-            self.batch.failures.append(FailureRecord(
-                self.births, time_s, "no-parents",
-                f"{len(candidates)} mature robot(s); conceived a random robot"))
-            return random_robot(self.rng, config.evolution), None, None, "random-fallback"
-        for _ in range(config.max_conception_attempts):
-            a, b = self.choose_parents(candidates)
-            result = reproduce(a.robot, b.robot, self.rng, config.evolution)
-            if result.child is not None:
-                return result.child, a.robot_id, b.robot_id, "reproduction"
-            self.batch.failures.append(FailureRecord(
-                self.births, time_s, "crossover",
-                f"parents {a.robot_id} and {b.robot_id}: {result.failure}"))
-        self.batch.failures.append(FailureRecord(
-            self.births, time_s, "conception",
-            f"{config.max_conception_attempts} parent pairs gave no child; random robot"))
-        return random_robot(self.rng, config.evolution), None, None, "random-fallback"
-
-    def new_member(self, robot: Robot, parents: tuple[int | None, int | None], origin: str,
-                   conceived: float, born: float) -> tuple[Member, RobotRecord]:
-        """Register a conceived and delivered robot; checks it against the store on replay."""
-        robot_id = self.births
-        self.births += 1
-        stored = genome(robot)
-        replaying = self.replay_until is not None and robot_id in self.stored_genomes
-        if replaying and self.stored_genomes[robot_id] != stored:
-            raise ReplayError(
-                f"run {self.run_id}: replay made a different robot {robot_id} than the stored "
-                "one; the simulation is not deterministic on this machine, cannot resume"
-            )
-        life = Lifecycle(robot_id, self.timing)
-        note = "random" if parents[0] is None else f"parents {parents[0]},{parents[1]}"
-        life.conceive(conceived, note if origin != "random-fallback" else "random (fallback)")
-        life.deliver(born)
-        record = RobotRecord(self.run_id, robot_id, stored, parents[0], parents[1], origin,
-                             self.generation, conceived, born)
-        return Member(robot_id, robot, life), record
-
-    # -- infancy -----------------------------------------------------------------------------
-
-    def record_infancy(self, member: Member, time_s: float, failure: str | None,
-                       learning: LearningSummary | None, learned: Robot | None) -> None:
-        """Record what the Training Center did for ``member`` (born at ``time_s``).
-
-        Under Lamarckian inheritance the learned robot (``None``: nothing learned) becomes the
-        genome it passes on.
-        """
-        if failure is not None:
-            self.batch.failures.append(FailureRecord(member.robot_id, time_s, "learner", failure))
-            return
-        if learning is None:
-            return
-        if learning.policy is not None:
-            member.policy = learning.policy
-            if member.policy_ref is None:  # a policy loaded on replay is already saved
-                member.policy_ref = self.save_policy(member)
-        self.batch.learning.append(LearningRecord(
-            member.robot_id, time_s, "lamarckian" if self.lamarckian else "darwinian",
-            genome(learned) if learned is not None else None, learning.inborn_fitness,
-            learning.learned_fitness, learning.evaluations, learning.sim_seconds,
-            learning.failures, member.policy_ref))
-        if self.lamarckian and learned is not None:
-            member.robot = learned
-            member.learned = True
-
-    def save_policy(self, member: Member) -> str:
-        """Write ``member.policy`` beside the database (before the commit that references it).
-
-        Returns:
-            The learning record's reference: JSON ``{"file": ..., "digest": ...}``.
-        """
-        return self.store.save_policy(self.run_id, member.robot_id, member.policy)
-
-    def load_policy(self, robot: Robot, reference: str) -> Any:
-        """The policy a learning record references, checked against ``robot``.
-
-        Raises:
-            StoreError: one line naming the file: missing, damaged, of another body, or not the
-                one the store recorded.
-        """
-        return self.store.load_policy(self.run_id, robot, reference)
-
-    # -- deaths ------------------------------------------------------------------------------
-
-    def kill(self, member: Member, time_s: float, cause: str) -> None:
-        """Record a death (the member must be alive)."""
-        member.lifecycle.die(time_s, cause)
-        self.batch.deaths.append((member.robot_id, time_s, cause, member.fitness))
-
-    def flush_transitions(self, members: Sequence[Member]) -> None:
-        """Move the members' new lifecycle transitions into the batch."""
-        for m in members:
-            self.batch.transitions.extend(m.lifecycle.transitions)
-            m.lifecycle.transitions.clear()
-
-    # -- commit points -------------------------------------------------------------------------
-
-    def restore_counters(self, checkpoint: Checkpoint) -> None:
-        """Take the clock, counters and generator of a checkpoint (both engines' resume)."""
-        self.births = checkpoint.births
-        self.sim_time = checkpoint.sim_time
-        self.sim_time_at_start = checkpoint.sim_time
-        self.generation = checkpoint.generation
-        self.rng.bit_generator.state = checkpoint.rng_state
-        self.last_diversity_births = checkpoint.engine_state.get("last_diversity_births")
-
-    def diversity_due(self) -> bool:
-        """True when this commit point should measure the population's diversity."""
-        interval = self.config.diversity_interval
-        if interval == 0:
-            return False
-        if self.last_diversity_births is None:
-            return True
-        return self.births // interval > self.last_diversity_births // interval
-
-    def commit(self, engine_state: dict[str, Any], flushed: Sequence[Member]) -> None:
-        """Write the batch and the checkpoint (or, while replaying, check and drop them)."""
-        self.last_commit_births = self.births
-        self.flush_transitions(flushed)
-        self.batch.population = [(m.robot_id, m.fitness) for m in self.population]
-        if self.diversity_due():
-            self.batch.diversity = float(diversity([m.robot for m in self.population]))
-            self.last_diversity_births = self.births
-        engine_state = {**engine_state, "last_diversity_births": self.last_diversity_births}
-        checkpoint = Checkpoint(self.births, self.sim_time, self.generation,
-                                dict(self.rng.bit_generator.state), engine_state)
-        if self.replay_until is not None:
-            target = self.replay_until
-            if self.births < target.births:
-                self.batch.clear()
-                self._progress(replaying=True)
-                return
-            same_rng = _json_norm(checkpoint.rng_state) == _json_norm(target.rng_state)
-            if self.births != target.births or not same_rng:
-                raise ReplayError(
-                    f"run {self.run_id}: replay reached {self.births} births with a different "
-                    f"state than the checkpoint ({target.births} births); cannot resume exactly"
-                )
-            self.batch.clear()
-            self.replay_until = None
-            self.stored_genomes.clear()
-            self.started = time.perf_counter()
-            self.sim_time_at_start = self.sim_time
-            self._progress()
-            return
-        self.failure_counts.update(f.kind for f in self.batch.failures)
-        written = self.save_snapshot()
-        if written is not None:
-            checkpoint.engine_state["snapshot"] = written
-        self.store.commit(self.run_id, self.batch, checkpoint)
-        self.committed(written)
-        self.commits += 1
-        self._progress()
-        if self.job.stop_after_commits is not None and self.commits >= self.job.stop_after_commits:
-            raise StopRun
-
-    def save_snapshot(self) -> dict[str, Any] | None:
-        """Write what an exact continuation needs beside the database (before the commit).
-
-        Returns:
-            The reference the checkpoint keeps, or ``None`` (the default: nothing written, the
-            engine resumes otherwise).
-        """
-        return None
-
-    def committed(self, snapshot: dict[str, Any] | None) -> None:
-        """Called once a checkpoint referencing ``snapshot`` (or none) is committed."""
-
-    def _stats(self) -> tuple[float, float]:
-        values = _finite([m.fitness for m in self.population])
-        if values.size == 0:
-            return math.nan, math.nan
-        return float(values.max()), float(values.mean())
-
-    def event(self, replaying: bool = False, finished: bool = False) -> ProgressEvent:
-        """Where the run stands now."""
-        wall = time.perf_counter() - self.started
-        best, mean = self._stats()
-        speed = (self.sim_time - self.sim_time_at_start) / wall if wall > 0 else math.nan
-        return ProgressEvent(self.run_id, self.births, self.config.births, self.sim_time, best,
-                             mean, len(self.population), speed, wall, replaying, finished,
-                             tuple(sorted(self.failure_counts.items())))
-
-    def _progress(self, replaying: bool = False) -> None:
-        self.emit(self.event(replaying=replaying))
-
-    def done(self) -> bool:
-        """True once the run reached its births or its simulated-time limit."""
-        limit = self.config.max_sim_time
-        return self.births >= self.config.births or (limit is not None and self.sim_time >= limit)
-
-    def summary(self, status: str) -> RunSummary:
-        """How the run ended (``status``: ``finished`` or ``interrupted``)."""
-        best, mean = self._stats()
-        return RunSummary(self.run_id, self.seed, self.births, self.sim_time, best, mean,
-                          len(self.population), time.perf_counter() - self.started, status)
-
-
-def _json_norm(value: object) -> object:
+def json_norm(value: object) -> object:
+    """``value`` as JSON reads it back (tuples as lists, keys as text): for comparing states."""
     return json.loads(json.dumps(value, sort_keys=True))
-
 

@@ -1,7 +1,7 @@
 """Snapshot files: what an exact continuation of an online run needs, next to its database.
 
 A checkpoint of an online run on an engine that restores exactly (MuJoCo) writes the state of
-its world and engine to ``<database folder>/checkpoints/run<id>.b<births>.snapshot`` *before* the
+its world and loop to ``<database folder>/checkpoints/run<id>.b<births>.snapshot`` *before* the
 checkpoint's transaction, and the checkpoint's ``engine_state`` references it
 (:func:`reference`: file name, SHA-256, births). The file is written to a temporary name and
 renamed, so a reader never sees half a file; once the checkpoint is committed, the run's older
@@ -10,7 +10,8 @@ newer file that no checkpoint references: the next commit point prunes it.
 
 The format is a pickle of plain data only (dicts, lists, numbers, strings, NumPy arrays), read
 back with an unpickler that refuses any other class: a damaged or foreign file is a
-:class:`SnapshotError`, never code run.
+:class:`SnapshotError`, never code run. The file must lie inside the results folder (a symbolic
+link leading out of it is refused, :func:`~evolution.experiments.results_folder.inside`).
 """
 
 from __future__ import annotations
@@ -22,6 +23,9 @@ import os
 import pickle
 from pathlib import Path
 from typing import Any
+
+from evolution.experiments.errors import StoreError
+from evolution.experiments.results_folder import inside
 
 __all__ = ["FORMAT", "SnapshotError", "prune", "read", "reference", "snapshot_path", "write"]
 
@@ -51,8 +55,16 @@ class _PlainUnpickler(pickle.Unpickler):
 
 
 def snapshot_path(db_path: str | Path, run_id: int, births: int) -> Path:
-    """Where the snapshot of run ``run_id`` at ``births`` births lives, beside the database."""
-    return Path(db_path).parent / "checkpoints" / f"run{run_id}.b{births}.snapshot"
+    """Where the snapshot of run ``run_id`` at ``births`` births lives, beside the database.
+
+    Raises:
+        SnapshotError: that place leads outside the results folder (a symbolic link).
+    """
+    try:
+        return inside(Path(db_path).parent, f"checkpoints/run{run_id}.b{births}.snapshot",
+                      "snapshot file")
+    except StoreError as error:
+        raise SnapshotError(str(error)) from None
 
 
 def write(path: Path, data: dict[str, Any]) -> str:
@@ -112,7 +124,10 @@ def read(db_path: str | Path, run_id: int, ref: object, births: int) -> dict[str
 
 def prune(db_path: str | Path, run_id: int, keep: str | None) -> None:
     """Delete run ``run_id``'s snapshot files except ``keep`` (a file name), best effort."""
-    folder = Path(db_path).parent / "checkpoints"
+    try:
+        folder = inside(Path(db_path).parent, "checkpoints", "snapshot folder")
+    except StoreError:
+        return  # a folder leading elsewhere: nothing of ours to delete there
     if not folder.is_dir():
         return
     for path in folder.glob(f"run{run_id}.b*.snapshot"):

@@ -4,7 +4,7 @@ Standard library ``sqlite3``, write-ahead log, versioned schema. Runs write thei
 batches, one transaction per *commit point* (an offline generation, an online birth): a batch
 holds the robots, fitness samples, lifecycle transitions, population snapshot, diversity values
 and failures since the previous commit point, together with the run's *checkpoint* (births,
-simulated time, the random generator's state and the engine's state). A killed run therefore
+simulated time, the random generator's state and the loop's state). A killed run therefore
 loses at most the work since its last commit, and a resumed run starts exactly from the
 checkpoint.
 
@@ -37,12 +37,14 @@ with it (``"learned"``), so a resumed run continues with the same genomes.
 
 Schema versions: 1 had no ``learning`` table; 2 had no ``learning.policy`` column (the reference
 to a saved SB3 policy in ``<results>/policies/``); 3 had no ``reevaluations`` table, and its
-stored configs no ``evaluation`` table. An older database is upgraded in place when opened, in
-one transaction (the empty ``learning`` and ``reevaluations`` tables and the ``policy`` column,
-NULL in old rows, are added; a stored config without ``evaluation`` gains the conditions its runs
-lived under, :data:`~evolution.experiments.records.CONDITIONS_OF_OLD_RUNS`: heading 0 offline,
-a random heading online, no noise; the version is set to 4; nothing else changes); a database
-newer than this package is refused.
+stored configs no ``evaluation`` table; 4 named the stored config's offline/online switch
+``engine``. An older database is upgraded in place when opened, in one transaction (the empty
+``learning`` and ``reevaluations`` tables and the ``policy`` column, NULL in old rows, are added;
+a stored config without ``evaluation`` gains the conditions its runs lived under,
+:data:`~evolution.experiments.records.CONDITIONS_OF_OLD_RUNS`: heading 0 offline, a random
+heading online, no noise; its ``engine`` key becomes ``mode``,
+:data:`~evolution.experiments.records.MODE_OF_OLD_CONFIGS`; the version is set to 5; nothing
+else changes); a database newer than this package is refused.
 
 The query functions at the bottom (``fitness_over_births``, ``final_population``, ...) are what
 reports and plots read.
@@ -79,36 +81,25 @@ from evolution.experiments.records import (
 from evolution.lifecycle import Stage, Transition
 
 __all__ = [
-    "DB_NAME",
-    "SCHEMA_VERSION",
-    "Batch",
-    "Checkpoint",
-    "DiversityPoint",
-    "FailureRecord",
-    "FitnessSample",
-    "FitnessSeries",
-    "LearningRecord",
-    "ReevaluationRecord",
-    "RobotRecord",
-    "RunRecord",
-    "Store",
-    "StoreError",
-    "package_version",
+    "DB_NAME", "SCHEMA_VERSION", "Batch", "Checkpoint", "DiversityPoint", "FailureRecord",
+    "FitnessSample", "FitnessSeries", "LearningRecord", "ReevaluationRecord", "RobotRecord",
+    "RunRecord", "Store", "StoreError", "package_version",
 ]
 
 DB_NAME = "results.sqlite"
 """File name of the database inside a results directory."""
 
 
-
 def package_version() -> str:
-    """The installed version of ``revolve-env`` (``"unknown"`` when not installed)."""
+    """The installed version of ``revolve-env``; not installed: the package's own version."""
     from importlib.metadata import PackageNotFoundError, version
 
     try:
         return version("revolve-env")
-    except PackageNotFoundError:
-        return "unknown"
+    except PackageNotFoundError:  # run from a checkout (PYTHONPATH)
+        import revolve_env
+
+        return revolve_env.__version__
 
 
 def _nullable(value: float | None) -> float | None:
@@ -144,10 +135,16 @@ class Store:
     def create(cls, path: str | Path, config: dict[str, Any], seed: int) -> Store:
         """Create a new database at ``path`` (which must not exist) for an experiment.
 
+        An empty database (no tables: a run killed while it created its database) holds no
+        results and is replaced.
+
         Raises:
             StoreError: ``path`` already exists (existing results are never overwritten).
         """
         path = Path(path)
+        if path.exists() and cls.is_empty(path):
+            for leftover in (path, Path(f"{path}-wal"), Path(f"{path}-shm")):
+                leftover.unlink(missing_ok=True)
         if path.exists():
             raise StoreError(f"{path} already exists; refusing to overwrite existing results")
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -173,6 +170,21 @@ class Store:
             path.unlink(missing_ok=True)
             raise
         return cls(db, path)
+
+    @staticmethod
+    def is_empty(path: str | Path) -> bool:
+        """Whether ``path`` is a SQLite database without any table (or an empty file).
+
+        A run killed before its database's first transaction leaves one: it holds nothing.
+        """
+        try:
+            db = sqlite3.connect(path, timeout=60.0)
+            try:
+                return not db.execute("SELECT 1 FROM sqlite_master LIMIT 1").fetchall()
+            finally:
+                db.close()
+        except sqlite3.DatabaseError:  # not a database at all: not ours to replace
+            return False
 
     @classmethod
     def open(cls, path: str | Path) -> Store:
@@ -333,7 +345,6 @@ class Store:
                 "UPDATE runs SET births = ?, sim_time = ?, generation = ? WHERE run_id = ?",
                 (checkpoint.births, checkpoint.sim_time, checkpoint.generation, run_id),
             )
-        batch.clear()
 
     def add_reevaluations(self, records: Sequence[ReevaluationRecord]) -> int:
         """Write reevaluations in one transaction; rows whose key is stored already are kept.
@@ -521,6 +532,11 @@ def _check_database(db: sqlite3.Connection, path: Path, check: tuple[str] | None
     """
     if check is None or check[0] != "ok":
         raise StoreError(f"{path} is corrupt: integrity check says {check!r}")
+    if not db.execute("SELECT 1 FROM sqlite_master LIMIT 1").fetchall():
+        raise StoreError(
+            f"{path} is empty: the experiment was stopped while it created its database, "
+            "before storing anything; start it again with the same `revolve run` (or `revolve "
+            "study`) command, which replaces an empty database")
     try:
         rows = dict(db.execute("SELECT key, value FROM meta").fetchall())
     except sqlite3.DatabaseError as error:

@@ -51,10 +51,11 @@ from evolution.experiments.api import (
     flat_keys,
     pending_jobs,
 )
-from evolution.experiments.config import ConfigError, ExperimentConfig, load_config
-from evolution.experiments.engine import execute_run
+from evolution.experiments.config import ConfigError, ExperimentConfig, check_name, load_config
+from evolution.experiments.folders import STUDY_FILE
 from evolution.experiments.run import ProgressEvent, RunJob, RunSummary, WorldFactory, check_infancy
 from evolution.experiments.store import DB_NAME, Store, StoreError
+from evolution.experiments.store_observer import execute_run
 
 __all__ = [
     "PAPER_EXPERIMENTS",
@@ -74,8 +75,6 @@ __all__ = [
 PAPER_EXPERIMENTS = ("scenario1", "scenario2", "scenario3", "baseline_a", "baseline_b")
 """The paper's five experiments, in its order."""
 
-STUDY_FILE = "study.json"
-"""The study's settings, in its results folder."""
 
 _STUDY_KEYS = ("runs", "births", "seed")
 """Settings given as arguments of :func:`study`, not as overrides."""
@@ -171,7 +170,7 @@ class StudyEvent:
 
 def execute_study_job(job: StudyJob, evaluator: Evaluator,
                       emit: Callable[[StudyEvent], None]) -> RunSummary:
-    """One run of a study (:func:`~evolution.experiments.engine.execute_run`), events tagged.
+    """One run of a study (:func:`~evolution.experiments.execute_run`), events tagged.
 
     Its progress events reach ``emit`` as :class:`StudyEvent` with the experiment's name.
     """
@@ -255,7 +254,8 @@ def prepare_study(
     configs = _configs(experiments, settings, execution)
     names = _check_study_file(out, settings, [c.name for c in configs])
     existing = {c.name: _check_existing(out / c.name, c) for c in configs
-                if (out / c.name / DB_NAME).exists()}
+                if (out / c.name / DB_NAME).exists()
+                and not Store.is_empty(out / c.name / DB_NAME)}  # an empty one is replaced
     out.mkdir(parents=True, exist_ok=True)
     _write_json(out / STUDY_FILE, {**settings, "experiments": names})
     planned = []
@@ -287,7 +287,7 @@ def run_study(plan: StudyPlan, progress: StudyProgress | None = None,
         KeyboardInterrupt: Ctrl-C; what was committed stays.
     """
     # Longest first: an online run simulates a whole world per birth.
-    order = sorted(plan.experiments, key=lambda e: e.config.engine != "online")
+    order = sorted(plan.experiments, key=lambda e: e.config.mode != "online")
     jobs = [StudyJob(e.name, job) for e in order for job in e.jobs]
     started = time.perf_counter()
     summaries: list[RunSummary] = []
@@ -356,8 +356,6 @@ def _configs(experiments: Sequence[str], settings: Mapping[str, Any],
             raise ConfigError(text if str(name) in text else f"{name}: {text}") from None
         if any(c.name == config.name for c in configs):
             raise ConfigError(f"experiment {config.name!r} is given twice")
-        if Path(config.name).name != config.name or config.name in (".", ".."):
-            raise ConfigError(f"experiment name {config.name!r} cannot be a folder name")
         configs.append(config)
     return configs
 
@@ -374,7 +372,7 @@ def _check_study_file(out: Path, settings: Mapping[str, Any], names: list[str]) 
         return names
     try:
         stored = json.loads(path.read_text(encoding="utf-8"))
-        known = list(stored["experiments"])
+        known = [check_name(n, "experiment name") for n in stored["experiments"]]
         differ = [f"{k}: {stored[k]!r} stored, {settings[k]!r} now" for k in _STUDY_KEYS
                   if stored[k] != settings[k]]
         differ += _flat_differences(stored["overrides"], settings["overrides"])

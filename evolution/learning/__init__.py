@@ -20,9 +20,10 @@ the inborn robot and lands in the failures table as kind ``"learner"``. With
 ``inheritance="lamarckian"`` the engine reproduces from the learned genome, otherwise from the
 inborn one (the ``robots`` table always holds the inborn genome). :class:`SB3Learner` trains a
 policy outside the genome (Darwinian only): the engine saves it with the results
-(``<results>/policies/run<r>_robot<id>.pkl``, :func:`save_policy`, referenced from the learning
-record's ``policy`` column) and lets it drive the robot: its offline evaluation (same seed and
-window, the single-robot env with ``controller="agent"``) or its online life (an
+(``<results>/policies/run<r>_robot<id>.safetensors``, :func:`save_policy`: numbers and plain
+data that load without running code, :mod:`~evolution.learning.policy_file`; referenced from the
+learning record's ``policy`` column) and lets it drive the robot: its offline evaluation (same
+seed and window, the single-robot env with ``controller="agent"``) or its online life (an
 agent-controlled robot of the population env, ``PolicyAgent.act`` on its observation every
 control step). A resumed online run reloads the policies from their files (:func:`load_policy`).
 A ``budget`` below the learner's ``min_budget`` (one learning step) is refused.
@@ -48,14 +49,8 @@ from evolution.learning.params import (
     evaluate_in_env,
     evaluate_params,
 )
-from evolution.learning.sb3 import (
-    PolicyAgent,
-    PolicyFileError,
-    SB3Learner,
-    load_policy,
-    rollout_fitness,
-    save_policy,
-)
+from evolution.learning.policy_file import PolicyFileError, load_policy, save_policy
+from evolution.learning.sb3 import PolicyAgent, SB3Learner, rollout_fitness
 
 __all__ = [
     "LEARNERS",

@@ -24,7 +24,7 @@ config a one-line ``ConfigError``): CMA-ES needs the inborn evaluation and one g
 candidate, SB3 its two evaluations and one rollout (``n_steps * n_envs`` steps; off-policy:
 ``learning_starts`` and one ``train_freq``). Each learner's ``min_budget`` gives the figure.
 With ``learner = "sb3"`` the run saves every trained policy in ``<results>/policies/`` and the
-policy drives the robot (see :mod:`evolution.experiments.engine`).
+policy drives the robot (see :mod:`evolution.experiments.loop`).
 
 :class:`~evolution.experiments.config.ExperimentConfig` keeps the table (``config.learning``): it is
 stored with the results, :func:`evolution.run` builds the Training Center from it, and

@@ -23,11 +23,11 @@ rounded *down* to whole rollouts (SB3 itself would round up and overspend). The 
 ``learning_starts`` steps and one ``train_freq``); the Training Center refuses a smaller one.
 :attr:`LearningResult.sim_seconds` reports what was used, never more than the budget.
 
-Saved policies (:func:`save_policy` / :func:`load_policy`): an experiment keeps every trained
-policy in its results folder as a pickle of the :class:`PolicyAgent` (the SB3 policy network,
-the robot it was trained on, the action mode and the control period), written atomically; the
-store references it with a digest of the policy's parameters, and loading checks the file, the
-digest and the body.
+Saved policies (:mod:`evolution.learning.policy_file`): an experiment keeps every trained
+policy in its results folder as a file of numbers and plain data that loads without running
+code (the SB3 policy network's parameters, its constructor arguments, the robot it was trained
+on, the action mode and the control period); the store references it with the file's SHA-256
+and a digest of the policy's parameters, and loading checks both and the body.
 
 The policy lives outside the genome, so an SB3 learner is Darwinian only
 (:class:`~evolution.learning.base.TrainingCenter` refuses ``"lamarckian"`` for it).
@@ -37,21 +37,17 @@ SB3 and torch are imported only when a learner trains (``pip install 'revolve-en
 
 from __future__ import annotations
 
-import hashlib
 import inspect
 import math
-import os
-import pickle
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import partial
-from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from evolution.learning.base import LearningResult, check_budget, same_body
+from evolution.learning.base import LearningResult, check_budget
 from revolve_env.body.robot import Layer, Robot
 from revolve_env.conditions import IDEAL, EvaluationConditions
 
@@ -61,12 +57,8 @@ if TYPE_CHECKING:
 __all__ = [
     "Policy",
     "PolicyAgent",
-    "PolicyFileError",
     "SB3Learner",
-    "load_policy",
-    "policy_digest",
     "rollout_fitness",
-    "save_policy",
 ]
 
 ActionMode = Literal["targets", "modulate"]
@@ -343,6 +335,7 @@ class SB3Learner:
         """
         from stable_baselines3.common.callbacks import BaseCallback
         from stable_baselines3.common.env_util import make_vec_env
+        from stable_baselines3.common.logger import Logger
         from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
         from revolve_env.brain import get_params
@@ -377,6 +370,9 @@ class SB3Learner:
             model = _algorithm_class(self.algorithm)(
                 self.policy, venv, seed=seed, device="cpu", verbose=0, **dict(self.algorithm_kwargs)
             )
+            # A logger with no output: SB3's default one makes an empty SB3-<time> folder in the
+            # system's temporary folder at every learn(), even when it writes nothing.
+            model.set_logger(Logger(folder=None, output_formats=[]))
             model.learn(total_timesteps=steps, callback=_Record())
             used = int(model.num_timesteps)
         finally:
@@ -399,82 +395,3 @@ class SB3Learner:
             failures=failures[0],
             policy=agent,
         )
-
-
-class PolicyFileError(ValueError):
-    """A saved policy that cannot be used: unreadable, damaged, or for another body."""
-
-
-def policy_digest(agent: PolicyAgent) -> str:
-    """SHA-256 of the policy's parameters (name, shape and bytes of each, in order).
-
-    A function of the trained numbers only, so a deterministic training gives the same digest
-    whatever else SB3 or torch would write into a file.
-    """
-    h = hashlib.sha256(f"{agent.action}:{agent.control_period!r}".encode())
-    state = getattr(agent.policy, "state_dict", None)
-    if state is None:
-        raise TypeError(f"{type(agent.policy).__name__} has no state_dict(): not an SB3 policy")
-    for name, tensor in state().items():
-        values = np.ascontiguousarray(tensor.detach().cpu().numpy())
-        h.update(f"{name}:{values.dtype}:{values.shape}".encode())
-        h.update(values.tobytes())
-    return h.hexdigest()
-
-
-def save_policy(agent: PolicyAgent, path: str | os.PathLike[str]) -> str:
-    """Write ``agent`` (a pickle) atomically to ``path``: a temporary file, then a rename.
-
-    Returns:
-        :func:`policy_digest` of the agent, for the store to keep.
-
-    Raises:
-        OSError: the file cannot be written.
-    """
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    agent.reset()
-    blob = pickle.dumps({"format": 1, "agent": agent}, protocol=5)
-    temporary = target.with_name(f".{target.name}.{os.getpid()}.tmp")
-    try:
-        with open(temporary, "wb") as f:
-            f.write(blob)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(temporary, target)
-    finally:
-        temporary.unlink(missing_ok=True)
-    return policy_digest(agent)
-
-
-def load_policy(path: str | os.PathLike[str], robot: Robot,
-                digest: str | None = None) -> PolicyAgent:
-    """The :class:`PolicyAgent` saved at ``path``, checked against ``robot`` and ``digest``.
-
-    Raises:
-        PolicyFileError: naming the file: missing or unreadable, not a saved policy (damaged),
-            parameters that differ from ``digest``, or trained on another body or network.
-    """
-    name = os.fspath(path)
-    try:
-        with open(name, "rb") as f:
-            content = pickle.load(f)  # noqa: S301 - the run's own results folder
-    except OSError as error:
-        raise PolicyFileError(f"policy file {name}: {error.strerror or error}") from error
-    except Exception as error:  # noqa: BLE001 - any unpickling failure means a damaged file
-        raise PolicyFileError(f"policy file {name} is damaged ({type(error).__name__}: "
-                              f"{error})") from error
-    agent = content.get("agent") if isinstance(content, dict) else None
-    if not isinstance(agent, PolicyAgent) or content.get("format") != 1:
-        raise PolicyFileError(f"policy file {name} does not hold a saved PolicyAgent")
-    if not same_body(agent.robot, robot):
-        raise PolicyFileError(f"policy file {name} was trained on another body or network "
-                              "than this robot's")
-    try:
-        found = policy_digest(agent)
-    except Exception as error:  # noqa: BLE001 - a damaged network
-        raise PolicyFileError(f"policy file {name} is damaged ({error})") from error
-    if digest is not None and found != digest:
-        raise PolicyFileError(f"policy file {name} does not match its record in the store "
-                              "(parameters differ)")
-    return agent

@@ -1,9 +1,12 @@
 """Reports over results directories: tables, statistics and figures of stored experiments.
 
-Modules: :mod:`~evolution.reporting.data` (stored experiments read back),
-:mod:`~evolution.reporting.tables` (summary table and significance tests),
-:mod:`~evolution.reporting.stats` (Mann-Whitney U, A12 and its bootstrap interval, Holm),
-:mod:`~evolution.reporting.figures` (the paper's figures) and :mod:`~evolution.reporting.report`
+Modules: :mod:`~evolution.reporting.data` (stored experiments read back, one set at a time,
+populations at the births a pair is compared at), :mod:`~evolution.reporting.tables` (summary
+table and significance tests, like with like), :mod:`~evolution.reporting.stats` (Mann-Whitney
+U, A12 and its exact interval, Holm), :mod:`~evolution.reporting.style` and
+:mod:`~evolution.reporting.figures` (the paper's figures), :mod:`~evolution.reporting.optimism`
+(re-evaluations), :mod:`~evolution.reporting.reproduce` (the commands that make a report again),
+:mod:`~evolution.reporting.page` (``index.html``) and :mod:`~evolution.reporting.report`
 (:func:`report`, all of them written into one folder).
 """
 
@@ -14,10 +17,13 @@ from evolution.reporting.data import (
     LABELS,
     PAPER_ORDER,
     ExperimentData,
+    Included,
+    PopulationAt,
     RunData,
     births_axis,
     find_experiments,
     load_experiment,
+    load_included,
     runs_on_grid,
     step_on_grid,
 )
@@ -40,12 +46,15 @@ __all__ = [
     "REPORT_DIR",
     "TESTED_SAMPLES",
     "ExperimentData",
+    "Included",
+    "PopulationAt",
     "Report",
     "RunData",
     "births_axis",
     "curve_rows",
     "find_experiments",
     "load_experiment",
+    "load_included",
     "mann_whitney_rows",
     "pooled_rows",
     "report",

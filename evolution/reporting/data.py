@@ -5,18 +5,29 @@ going: a robot lost before its first fitness (a blow-up during its isolated eval
 before its first sample in the shared world, a body the engine could not build, a non-finite
 fitness: the failure kinds of :data:`FAILED_BIRTH_KINDS`) is a *failed birth*. The engines count
 failed births in their births counter (an offline generation 0 with two blow-ups ends at 17);
-the report does not: every births axis counts births as defined here (so generation 0 ends at
-15 and the next at 30 in scenario 1), and failed births are counted apart
-(:attr:`RunData.failed_births`, the ``failed_births`` column, the ``failed_births`` figure).
-Robots lost after they had a fitness (online blow-ups of living robots) stay births; they are
-counted in :attr:`RunData.lost_robots` with the failed ones.
+the report's axes do not: every births axis counts births as defined here (so generation 0 ends
+at 15 and the next at 30 in scenario 1), and failed births are counted apart
+(:attr:`RunData.failed_births`, the ``failed_births`` column). Robots lost after they had a
+fitness (online blow-ups of living robots) stay births; every lost robot, failed births
+included, is in :attr:`RunData.lost_ids` (the ``lost_robots`` column and figure). A lost robot
+is recognised by its failure record, so databases written before lost robots were stored
+without fitness (online blow-ups kept 0.0) report the same.
+
+Budgets. A run's budget counts births as its engine does (``births`` of the config, failed
+births included: a run that lost a robot still reached its budget). The tests compare runs at
+equal *engine* births (:attr:`RunData.engine_births`, :meth:`ExperimentData.populations_at`):
+each run's population at the last commit point at or before them.
+
+Which experiments: :func:`load_included` takes one set of experiments below a folder (a study,
+or the experiments outside any study; :mod:`evolution.experiments.folders`) and says what it
+left out.
 """
 
 from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -25,8 +36,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evolution.diversity import brain_aware_diversity, diversity
+from evolution.experiments.folders import ResultSet, select_results
 from evolution.experiments.integrity import verify
-from evolution.experiments.store import DB_NAME, FitnessSeries, RunRecord, Store, StoreError
+from evolution.experiments.records import PopulationSnapshot
+from evolution.experiments.store import DB_NAME, FitnessSeries, RunRecord, Store
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import from_json
 
@@ -35,10 +48,14 @@ __all__ = [
     "LABELS",
     "PAPER_ORDER",
     "ExperimentData",
+    "Included",
+    "PopulationAt",
     "RunData",
     "find_experiments",
     "births_axis",
+    "common_births",
     "load_experiment",
+    "load_included",
     "runs_on_grid",
     "step_on_grid",
 ]
@@ -71,6 +88,23 @@ def births_axis(engine_births: NDArray[Any], failed_ids: NDArray[Any]) -> NDArra
     return b - np.searchsorted(failed, b, side="left").astype(np.int64)
 
 @dataclass(frozen=True, slots=True)
+class PopulationAt:
+    """One run's population at the last commit point at or before some engine births.
+
+    Attributes:
+        births: The engine's births at that commit point (failed births included).
+        fitness: Finite fitness values of its members. Metres.
+        diversity: Its body diversity (``nan`` with fewer than 2 robots).
+        brain_diversity: Its brain-aware diversity (``nan`` unless asked for).
+    """
+
+    births: int
+    fitness: NDArray[np.float64]
+    diversity: float
+    brain_diversity: float = math.nan
+
+
+@dataclass(frozen=True, slots=True)
 class RunData:
     """What a report needs from one run.
 
@@ -89,12 +123,17 @@ class RunData:
             (same records, same order). Metres.
         learner_failures: Infancies whose learner failed (the infant kept its inborn brain).
         failed_births: Ids of the robots lost before their first fitness (not births).
-        lost_robots: Robots lost to a failure of :data:`FAILED_BIRTH_KINDS`, failed births and
-            robots lost later in life together.
+        lost_ids: Ids of every robot lost to a failure of :data:`FAILED_BIRTH_KINDS`, failed
+            births and robots lost later in life together.
         brain_diversity: Brain-aware diversity at ``diversity_births`` (empty unless asked
             for; see :func:`evolution.diversity.brain_aware_diversity`).
         final_brain_diversity: Brain-aware diversity of the last population (``nan`` unless
             asked for or with fewer than 2 robots).
+        engine_births: Births as the engine counts them (failed births included): what the
+            run's budget counts.
+        commit_births: The engine's births at each commit point (parallel to ``fitness``).
+        at: Populations at engine births below ``engine_births`` that a report compares
+            (filled by :func:`load_included`; see :meth:`population_at`).
 
     ``births``, ``fitness.births`` and ``diversity_births`` count births as the module
     docstring defines them (failed births left out).
@@ -112,15 +151,40 @@ class RunData:
     learned_fitness: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     learner_failures: int = 0
     failed_births: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
-    lost_robots: int = 0
+    lost_ids: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
     brain_diversity: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     final_brain_diversity: float = math.nan
+    engine_births: int = 0
+    commit_births: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
+    at: Mapping[int, PopulationAt] = field(default_factory=dict)
 
-    def failed_births_over_births(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-        """Cumulative failed births (y) against births (x) at each failure."""
-        ids = np.sort(self.failed_births)
-        x = births_axis(ids, ids)
-        return x, np.arange(1, ids.size + 1, dtype=np.int64)
+    @property
+    def lost_robots(self) -> int:
+        """Robots lost to a failure, failed births included."""
+        return int(self.lost_ids.size)
+
+    def lost_before(self, births: int) -> int:
+        """Robots lost among the run's first ``births`` births (engine count: robot ids)."""
+        return int(np.sum(self.lost_ids < births))
+
+    def population_at(self, births: int) -> PopulationAt:
+        """The population at the last commit point at or before ``births`` engine births.
+
+        The final population from ``engine_births`` on.
+
+        Raises:
+            KeyError: ``births`` was not prepared (:func:`load_included` prepares the births a
+                report compares).
+        """
+        if births >= self.engine_births:
+            return PopulationAt(self.engine_births, self.final_fitness, self.final_diversity,
+                                self.final_brain_diversity)
+        return self.at[births]
+
+    def lost_over_births(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """Cumulative lost robots (y) against the report's births (x) at each robot's birth."""
+        ids = np.sort(self.lost_ids)
+        return births_axis(ids, self.failed_births), np.arange(1, ids.size + 1, dtype=np.int64)
 
 
 @dataclass(frozen=True, slots=True)
@@ -133,6 +197,7 @@ class ExperimentData:
         config: The stored experiment configuration.
         runs: Runs with at least one commit point, by id.
         registered_runs: Runs in the database (including those that never committed).
+        study: The study folder it belongs to (``None``: outside any study).
     """
 
     label: str
@@ -140,6 +205,25 @@ class ExperimentData:
     config: dict[str, Any]
     runs: tuple[RunData, ...]
     registered_runs: int = 0
+    study: Path | None = None
+
+    @property
+    def budget(self) -> int:
+        """Births per run the configuration asked for (engine count)."""
+        return int(self.config.get("births", 0))
+
+    @property
+    def reached(self) -> int:
+        """The fewest engine births a run reached (0 without runs): what every run reached."""
+        return min((r.engine_births for r in self.runs), default=0)
+
+    def populations_at(self, births: int) -> list[PopulationAt]:
+        """Every run's population at ``births`` engine births (:meth:`RunData.population_at`)."""
+        return [r.population_at(births) for r in self.runs]
+
+    def lost_before(self, births: int) -> int:
+        """Robots lost among the first ``births`` births of its runs, all runs together."""
+        return sum(r.lost_before(births) for r in self.runs)
 
     @property
     def name(self) -> str:
@@ -159,8 +243,8 @@ class ExperimentData:
 
     @property
     def online(self) -> bool:
-        """True for the online engine (fitness is a sliding window in the shared world)."""
-        return self.config.get("engine") == "online"
+        """True for online evolution (fitness is a sliding window in the shared world)."""
+        return self.config.get("mode") == "online"
 
     def final_fitness(self) -> NDArray[np.float64]:
         """Fitness of every robot of every run's final population, pooled. Metres."""
@@ -214,15 +298,17 @@ def _final_diversity(store: Store, run_id: int, members: Sequence[int]) -> float
     return float(diversity(_robots(store, run_id, members)))
 
 
-def _failed_births(store: Store, run_id: int) -> tuple[NDArray[np.int64], int]:
-    """Ids of the robots lost before their first fitness, and how many robots were lost."""
+def _lost(store: Store, run_id: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Ids of the robots lost before their first fitness, and of every lost robot.
+
+    A lost robot has a failure record of :data:`FAILED_BIRTH_KINDS`; it is a failed birth when
+    it never had a fitness sample (its stored fitness says nothing: older databases kept 0.0
+    for robots lost in the shared world).
+    """
     lost = sorted({f.robot_id for f in store.failures(run_id)
                    if f.kind in FAILED_BIRTH_KINDS and f.robot_id is not None})
-    if not lost:
-        return np.zeros(0, np.int64), 0
-    fitness = {r.robot_id: r.fitness for r in store.robots(run_id, lost)}
-    failed = [i for i in lost if fitness.get(i) is None]
-    return np.array(failed, dtype=np.int64), len(lost)
+    failed = [i for i in lost if not store.fitness_samples(run_id, i)]
+    return np.array(failed, dtype=np.int64), np.array(lost, dtype=np.int64)
 
 
 def _brain_diversity(store: Store, run_id: int, engine_births: NDArray[np.int64]
@@ -250,7 +336,7 @@ def _load_run(store: Store, record: RunRecord, brain_aware: bool) -> RunData | N
     series = store.fitness_over_births(run_id)
     if series.births.size == 0:
         return None
-    failed, lost = _failed_births(store, run_id)
+    failed, lost = _lost(store, run_id)
     final = store.final_population(run_id)
     final_fitness = np.array(
         [f for _, f in final if f is not None and math.isfinite(f)], dtype=float)
@@ -271,7 +357,7 @@ def _load_run(store: Store, record: RunRecord, brain_aware: bool) -> RunData | N
         np.array([a for a, _ in pairs], dtype=float),
         np.array([b for _, b in pairs], dtype=float),
         len(store.failures(run_id, "learner")),
-        failed, lost, brain, final_brain,
+        failed, lost, brain, final_brain, record.births, series.births,
     )
 
 
@@ -306,29 +392,56 @@ def _order_key(experiment: ExperimentData) -> tuple[int, str]:
     return rank, experiment.label
 
 
-def find_experiments(root: str | os.PathLike[str], brain_aware: bool = False
-                     ) -> list[ExperimentData]:
-    """Every experiment at or below ``root``, in report order (the paper's five first).
+@dataclass(frozen=True, slots=True)
+class Included:
+    """The experiments a report compares, and what it left out.
 
-    ``brain_aware`` is passed to :func:`load_experiment`.
+    Attributes:
+        root: The folder (or database) given.
+        experiments: The experiments, in report order (:func:`find_experiments`).
+        left_out: Sets of experiments below ``root`` not included
+            (:func:`evolution.experiments.folders.select_results`).
+    """
 
-    Labels are the experiments' names; where two databases share a name, their paths relative
-    to ``root`` are used instead.
+    root: Path
+    experiments: tuple[ExperimentData, ...]
+    left_out: tuple[ResultSet, ...] = ()
+
+    @property
+    def budgets_differ(self) -> bool:
+        """True when the experiments' runs did not all reach the same engine births."""
+        return len({r.engine_births for e in self.experiments for r in e.runs}) > 1
+
+    @property
+    def common_births(self) -> int:
+        """The most engine births every run of every experiment reached."""
+        return common_births(self.experiments)
+
+
+def common_births(experiments: Sequence[ExperimentData]) -> int:
+    """The most engine births every run of every experiment reached (0 without runs)."""
+    return min((e.reached for e in experiments if e.runs), default=0)
+
+
+def load_included(root: str | os.PathLike[str], brain_aware: bool = False,
+                  every_set: bool = False) -> Included:
+    """Every experiment of one set at or below ``root``, ready to compare like with like.
+
+    The set is :func:`evolution.experiments.folders.select_results`'s (every set with
+    ``every_set``). Labels are the experiments' names; where two databases share a name, their
+    paths relative to ``root`` are used instead. Each run's population is read at every engine
+    births a pair of experiments is compared at (the fewest either reached), so
+    :meth:`ExperimentData.populations_at` answers for them. ``brain_aware`` is passed to
+    :func:`load_experiment`.
 
     Raises:
-        StoreError: ``root`` is missing, holds no results database, or one of them is unusable
-            (its path is named).
+        StoreError: ``root`` is missing, holds no results database, holds several studies and
+            nothing else (without ``every_set``), or one database is unusable (named).
     """
     root = Path(root)
-    if not root.exists():
-        raise StoreError(f"no such results directory: {root}")
-    if root.is_file():
-        paths = [root] if root.name == DB_NAME else []
-    else:
-        paths = sorted(root.rglob(DB_NAME))
-    if not paths:
-        raise StoreError(f"no results database ({DB_NAME}) at or below {root}")
-    experiments = [load_experiment(p, brain_aware=brain_aware) for p in paths]
+    selection = select_results(root, every_set)
+    experiments = [replace(load_experiment(p, brain_aware=brain_aware),
+                           study=selection.study_of(p)) for p in selection.databases]
     counts: dict[str, int] = {}
     for e in experiments:
         counts[e.label] = counts.get(e.label, 0) + 1
@@ -337,9 +450,49 @@ def find_experiments(root: str | os.PathLike[str], brain_aware: bool = False
     for e in experiments:
         if counts[e.label] > 1:
             relative = e.path.relative_to(base).as_posix() if e.path != base else e.path.name
-            e = ExperimentData(relative or e.label, e.path, e.config, e.runs, e.registered_runs)
+            e = replace(e, label=relative or e.label)
         relabelled.append(e)
-    return sorted(relabelled, key=_order_key)
+    reached = {e.reached for e in relabelled if e.runs}
+    prepared = [_with_populations_at(e, reached, brain_aware) for e in relabelled]
+    return Included(root, tuple(sorted(prepared, key=_order_key)), selection.left_out)
+
+
+def find_experiments(root: str | os.PathLike[str], brain_aware: bool = False,
+                     every_set: bool = False) -> list[ExperimentData]:
+    """The experiments of :func:`load_included`, in report order (the paper's five first)."""
+    return list(load_included(root, brain_aware, every_set).experiments)
+
+
+def _with_populations_at(e: ExperimentData, births: set[int], brain_aware: bool
+                         ) -> ExperimentData:
+    """``e`` with each run's population at every ``births`` below the run's own end."""
+    wanted = {r.run_id: sorted(b for b in births if b < r.engine_births) for r in e.runs}
+    if not any(wanted.values()):
+        return e
+    runs = []
+    with Store.open(e.path / DB_NAME) as store:
+        for r in e.runs:
+            snapshots = store.population_snapshots(r.run_id) if wanted[r.run_id] else []
+            at = {b: _population(store, r.run_id, snapshots, b, brain_aware)
+                  for b in wanted[r.run_id]}
+            runs.append(replace(r, at=at))
+    return replace(e, runs=tuple(runs))
+
+
+def _population(store: Store, run_id: int, snapshots: Sequence[PopulationSnapshot],
+                births: int, brain_aware: bool) -> PopulationAt:
+    """The population of the last snapshot at or before ``births`` engine births."""
+    before = [snap for snap in snapshots if snap[0] <= births]
+    if not before:  # not committed yet: nothing to compare
+        return PopulationAt(births, np.zeros(0), math.nan, math.nan)
+    at, _, members = before[-1]
+    ids = [rid for rid, _ in members]
+    fitness = np.array([f for _, f in members if f is not None and math.isfinite(f)],
+                       dtype=float)
+    robots = _robots(store, run_id, ids) if len(ids) >= 2 else []
+    return PopulationAt(
+        int(at), fitness, float(diversity(robots)) if robots else math.nan,
+        brain_aware_diversity(robots) if robots and brain_aware else math.nan)
 
 
 # --------------------------------------------------------------------------------------------

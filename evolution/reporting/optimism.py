@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -40,7 +40,9 @@ from evolution.experiments.records import ReevaluationRecord
 from evolution.experiments.store import DB_NAME, Store
 from evolution.reporting.data import ExperimentData
 from evolution.reporting.figures import save_figure
-from evolution.reporting.tables import write_csv
+from evolution.reporting.style import colors, legend_below
+from evolution.reporting.tables import Section, markdown_table, write_csv
+from evolution.reporting.tables import markdown as section_markdown
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -49,9 +51,13 @@ __all__ = [
     "OPTIMISM_COLUMNS",
     "OptimismRow",
     "RobotOptimism",
+    "MARKDOWN_COLUMNS",
     "bootstrap_ci",
+    "display_rows",
+    "markdown",
     "optimism_rows",
     "robot_optimism",
+    "section",
     "with_optimism",
     "write_optimism",
 ]
@@ -222,8 +228,16 @@ def read_reevaluations(experiments: Sequence[ExperimentData]
     return out
 
 
-def markdown(rows: Sequence[OptimismRow]) -> list[str]:
-    """The table in Markdown, CIs in brackets."""
+MARKDOWN_COLUMNS = ("experiment", "setting", "controller", "runs", "robots", "K",
+                    "failed reevaluations", "mean stored (m)", "mean reevaluated (m)",
+                    "optimism (m) [95 % CI]", "optimism %", "Spearman [95 % CI]",
+                    "best stays best")
+"""Columns of the optimism table in ``summary.md``, ``index.html`` and the CLI (CIs in
+brackets; ``failed reevaluations``: blow-ups, left out of the means)."""
+
+
+def display_rows(rows: Sequence[OptimismRow]) -> list[dict[str, str | int | float]]:
+    """The rows as cells of :data:`MARKDOWN_COLUMNS`, CIs in brackets."""
     def number(value: float, digits: int = 3) -> str:
         return "-" if not math.isfinite(value) else f"{value:.{digits}f}"
 
@@ -231,18 +245,17 @@ def markdown(rows: Sequence[OptimismRow]) -> list[str]:
         bounds = "" if not math.isfinite(low) else f" [{number(low)}, {number(high)}]"
         return number(value) + bounds
 
-    lines = ["| experiment | setting | controller | runs | robots | K | mean stored (m) | "
-             "mean reevaluated (m) | optimism (m) [95 % CI] | optimism % | Spearman [95 % CI] "
-             "| best stays best |", "|" + "---|" * 12]
-    for r in rows:
-        lines.append(
-            f"| {r.experiment} | {r.setting} | {r.controller} | {r.runs} | {r.robots} | {r.k} "
-            f"| {number(r.stored_mean)} | {number(r.reevaluated_mean)} "
-            f"| {ci(r.optimism, r.optimism_low, r.optimism_high)} "
-            f"| {number(r.optimism_percent, 1)} "
-            f"| {ci(r.spearman, r.spearman_low, r.spearman_high)} "
-            f"| {number(100 * r.best_stays_best, 0)} % |")
-    return lines
+    return [dict(zip(MARKDOWN_COLUMNS, (
+        r.experiment, r.setting, r.controller, r.runs, r.robots, r.k, r.failures,
+        number(r.stored_mean), number(r.reevaluated_mean),
+        ci(r.optimism, r.optimism_low, r.optimism_high), number(r.optimism_percent, 1),
+        ci(r.spearman, r.spearman_low, r.spearman_high),
+        f"{number(100 * r.best_stays_best, 0)} %"), strict=True)) for r in rows]
+
+
+def markdown(rows: Sequence[OptimismRow]) -> list[str]:
+    """The table in Markdown, CIs in brackets."""
+    return markdown_table(MARKDOWN_COLUMNS, display_rows(rows))
 
 
 EXPLANATION = (
@@ -255,31 +268,38 @@ EXPLANATION = (
 """What the table's columns mean (the Markdown section and the CLI print it under the table)."""
 
 
-def figure(rows: Sequence[OptimismRow]) -> Figure:
-    """Stored vs reevaluated fitness of every robot (left), optimism with its CI (right)."""
+def figure(rows: Sequence[OptimismRow], palette: Mapping[str, str] | None = None) -> Figure:
+    """Stored vs reevaluated fitness of every robot (left), optimism with its CI (right).
+
+    ``palette``: a colour per experiment title (the report's, so an experiment has one colour
+    in every figure); default the report's colours in row order.
+    """
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(11.0, 4.5), layout="constrained")
+    fig = Figure(figsize=(11.0, 5.2), layout="constrained")
     left, right = fig.subplots(1, 2)
-    colors = ("#1f77b4", "#d62728", "#2ca02c", "#7f7f7f", "#ff7f0e", "#9467bd", "#8c564b")
+    fallback = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000")
     low, high = math.inf, -math.inf
+    handles, labels = [], []
     for i, row in enumerate(rows):
+        color = (palette or {}).get(row.experiment, fallback[i % len(fallback)])
         pts = [(r.stored, r.reevaluated) for r in row.robots_of if math.isfinite(r.reevaluated)]
         if pts:
             x, y = np.array(pts).T
-            left.scatter(x, y, s=12, alpha=0.7, color=colors[i % len(colors)],
-                         label=f"{row.experiment}: {row.setting}")
+            handles.append(left.scatter(x, y, s=12, alpha=0.7, color=color, lw=0))
+            labels.append(f"{row.experiment}: {row.setting} ({row.failures} failed)")
             low, high = min(low, x.min(), y.min()), max(high, x.max(), y.max())
         err = ([[row.optimism - row.optimism_low], [row.optimism_high - row.optimism]]
                if math.isfinite(row.optimism_low) else None)
-        right.errorbar([row.optimism], [i], xerr=err, fmt="o", capsize=4,
-                       color=colors[i % len(colors)])
+        right.errorbar([row.optimism], [i], xerr=err, fmt="o", capsize=4, color=color)
     if math.isfinite(low):
-        left.plot([low, high], [low, high], color="black", lw=0.8, ls="--",
-                  label="no optimism (y = x)")
+        (diagonal,) = left.plot([low, high], [low, high], color="black", lw=0.8, ls="--")
+        handles.append(diagonal)
+        labels.append("no optimism (y = x)")
     left.set_xlabel("stored fitness (single evaluation), m")
     left.set_ylabel("mean reevaluated fitness, m")
-    left.legend(fontsize=6, loc="upper left")
+    left.grid(alpha=0.3)
+    legend_below(fig, handles, labels, ncols=2)
     right.axvline(0.0, color="black", lw=0.8)
     right.set_yticks(range(len(rows)),
                      [f"{r.experiment}\n{r.setting}" for r in rows], fontsize=6)
@@ -294,33 +314,41 @@ def figure(rows: Sequence[OptimismRow]) -> Figure:
     return fig
 
 
+def section(rows: Sequence[OptimismRow]) -> Section:
+    """The optimism table with what it means, as a section of ``summary.md`` and the page."""
+    return Section("Optimism of a single evaluation (revolve reevaluate)", (EXPLANATION,),
+                   MARKDOWN_COLUMNS, tuple(display_rows(rows)), name="optimism")
+
+
 def write_optimism(experiments: Sequence[ExperimentData], out_dir: Path,
                    formats: Sequence[str] = ("png", "pdf")
-                   ) -> tuple[tuple[Path, ...], tuple[Path, ...]]:
+                   ) -> tuple[tuple[Path, ...], tuple[Path, ...], Section | None]:
     """Write ``optimism.csv``, its ``summary.md`` section and ``optimism.<fmt>`` figures.
 
     Nothing is written when no experiment has reevaluations. The section is appended to
     ``out_dir/summary.md`` (written just before by the report's tables).
 
     Returns:
-        The figure paths and the new table path (``optimism.csv``).
+        The figure paths, the new table path (``optimism.csv``) and the section (``None``
+        when nothing was written).
     """
     rows = optimism_rows(read_reevaluations(experiments))
     if not rows:
-        return (), ()
+        return (), (), None
     table = out_dir / "optimism.csv"
     write_csv(table, OPTIMISM_COLUMNS, [row.cells() for row in rows])
-    summary = out_dir / "summary.md"
-    section = ["", "## Optimism of a single evaluation (revolve reevaluate)", "", EXPLANATION, ""]
-    section += markdown(rows)
-    with open(summary, "a", encoding="utf-8") as f:
-        f.write("\n".join(section) + "\n")
-    return tuple(save_figure(figure(rows), out_dir, "optimism", formats)), (table,)
+    part = section(rows)
+    with open(out_dir / "summary.md", "a", encoding="utf-8") as f:
+        f.write("\n".join(section_markdown(part)) + "\n")
+    palette = colors(experiments)
+    titles = {e.title: palette[e.label] for e in experiments}
+    return (tuple(save_figure(figure(rows, titles), out_dir, "optimism", formats)), (table,),
+            part)
 
 
 def with_optimism(experiments: Sequence[ExperimentData], out_dir: Path, formats: Sequence[str],
                   figures: tuple[Path, ...], tables: tuple[Path, ...]
-                  ) -> tuple[tuple[Path, ...], tuple[Path, ...]]:
+                  ) -> tuple[tuple[Path, ...], tuple[Path, ...], Section | None]:
     """:func:`write_optimism`, its files added to a report's ``figures`` and ``tables``."""
-    more_figures, more_tables = write_optimism(experiments, out_dir, formats)
-    return figures + more_figures, tables + more_tables
+    more_figures, more_tables, part = write_optimism(experiments, out_dir, formats)
+    return figures + more_figures, tables + more_tables, part

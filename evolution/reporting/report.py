@@ -8,23 +8,27 @@ reads them through :class:`~evolution.experiments.store.Store`, and writes into
 ====================================== ============================================================
 file                                    content
 ====================================== ============================================================
+``index.html``                          the whole report on one page: what is compared,
+                                        every figure and table, how to reproduce it, the
+                                        run settings (:mod:`evolution.reporting.page`)
 ``fitness_over_births.{png,pdf}``       population mean and best fitness over births, per
-                                        experiment: median over runs, band = interquartile range;
-                                        offline as steps per generation, online apart (a
-                                        different measurement)
-``final_fitness.{png,pdf}``             box plots of the final populations' fitness (robots
-                                        pooled) with each run's mean as a point
+                                        experiment: every run and the median over runs;
+                                        offline as steps per generation, online in its own
+                                        panels on the same y-scale
+``final_fitness.{png,pdf}``             every robot of the compared populations over a box per
+                                        experiment, each run's mean as a diamond
 ``diversity_over_births.{png,pdf}``     body diversity (mean pairwise tree edit distance) over
-                                        births, median and interquartile range over runs; with
+                                        births, every run and the median; with
                                         ``brain_aware`` a second panel, body + neural distance
-``final_diversity.{png,pdf}``           box plots of each run's final diversity (brain-aware too)
-``failed_births.{png,pdf}``             robots lost before their first fitness (blow-ups,
-                                        failed evaluations) over births, one line per run
+``final_diversity.{png,pdf}``           each run's diversity in the compared populations
+``lost_robots.{png,pdf}``               robots lost to blow-ups, unbuildable bodies and failed
+                                        evaluations over births, one line per run
 ``curve_tests.{png,pdf}``               every pair at equal births: A12 and significance
 ``summary.csv``                         one row per experiment (see :func:`summary_rows`)
-``tests_per_run.csv``                   the primary tests: one value per run, two-sided
-                                        Mann-Whitney U, A12 with a 95 % bootstrap interval,
-                                        Holm-Bonferroni (see :func:`mann_whitney_rows`)
+``tests_per_run.csv``                   the primary tests: one value per run, each pair at the
+                                        births both reached, two-sided Mann-Whitney U, A12
+                                        with its 95 % interval, Holm-Bonferroni (see
+                                        :func:`mann_whitney_rows`)
 ``tests_pooled_descriptive.csv``        the same on pooled robots, descriptive only
 ``curve_tests.csv``                     whole curves at equal births (see :func:`curve_rows`)
 ``summary.md``                          the tables in Markdown, with what each means
@@ -37,9 +41,13 @@ file                                    content
                                         (:mod:`evolution.reporting.optimism`)
 ====================================== ============================================================
 
-Births are counted the same way in every experiment and figure: failed births (robots lost
+Which experiments: one set below ``path``, a study or the experiments outside any study
+(:mod:`evolution.experiments.folders`); the report says what it left out, and ``every_set``
+compares every set. Like with like: every pair is compared at the most births both reached
+(:mod:`evolution.reporting.tables`), and robots lost to blow-ups are counted apart, never as
+0 m. Births are counted the same way in every experiment and figure: failed births (robots lost
 before their first fitness) are left out and shown apart (:mod:`evolution.reporting.data`).
-Statistics: :mod:`evolution.reporting.stats`.
+Statistics: :mod:`evolution.reporting.stats`. The reader's guide: ``docs/reports.md``.
 
 With infancy learning, ``summary.csv`` gains the columns of :data:`LEARNING_COLUMNS` (mean
 inborn and learned fitness as the learner measured them, and the learner failures), so runs with
@@ -57,9 +65,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from evolution.reporting.data import ExperimentData, find_experiments
+from evolution.experiments.folders import ResultSet
+from evolution.reporting.data import ExperimentData, load_included
 from evolution.reporting.figures import FIGURES, write_figures
 from evolution.reporting.optimism import with_optimism
+from evolution.reporting.page import write_page
+from evolution.reporting.reproduce import commands
 from evolution.reporting.tables import write_tables
 
 __all__ = ["REPORT_DIR", "Report", "report"]
@@ -77,12 +88,16 @@ class Report:
         experiments: The experiments compared, in report order.
         figures: Every figure file written.
         tables: Every table file written.
+        page: The report's page (``index.html``).
+        left_out: Sets of experiments below the path that were not compared.
     """
 
     out_dir: Path
     experiments: tuple[ExperimentData, ...]
     figures: tuple[Path, ...]
     tables: tuple[Path, ...]
+    page: Path
+    left_out: tuple[ResultSet, ...] = ()
 
 
 def report(
@@ -90,8 +105,9 @@ def report(
     out: str | os.PathLike[str] | None = None,
     formats: Sequence[str] = ("png", "pdf"),
     brain_aware: bool = False,
+    every_set: bool = False,
 ) -> Report:
-    """Compare every experiment at or below ``path``: figures and tables (see module docs).
+    """Compare the experiments at or below ``path``: figures, tables and a page (module docs).
 
     Args:
         path: A results directory (or a folder of them).
@@ -100,25 +116,35 @@ def report(
         formats: Figure file formats.
         brain_aware: Also compute the brain-aware diversity
             (:func:`evolution.diversity.brain_aware_diversity`) of the stored populations at
-            every diversity point and of the final ones (slower: their genomes are decoded).
+            every diversity point and of the compared ones (slower: their genomes are decoded).
+        every_set: Compare every set of experiments below ``path`` (studies and lone
+            experiments together), not only the one
+            :func:`~evolution.experiments.folders.select_results` takes.
 
     Returns:
         What was written.
 
     Raises:
-        StoreError: no results below ``path``, or an unusable database.
+        StoreError: no results below ``path``, several studies and nothing else without
+            ``every_set``, or an unusable database.
         ValueError: an unknown figure format.
     """
     for fmt in formats:
         if fmt not in ("png", "pdf", "svg"):
             raise ValueError(f"unknown figure format {fmt!r}; use png, pdf or svg")
-    experiments = find_experiments(path, brain_aware=brain_aware)
+    included = load_included(path, brain_aware, every_set)
+    experiments = list(included.experiments)
     root = Path(path)
     out_dir = Path(out) if out is not None else (
         root / REPORT_DIR if root.is_dir() else root.parent / REPORT_DIR)
     out_dir.mkdir(parents=True, exist_ok=True)
     figures = write_figures(experiments, out_dir, formats)
     assert len(figures) >= len(FIGURES) * len(formats)
-    tables = write_tables(experiments, out_dir)
-    figures, tables = with_optimism(experiments, out_dir, formats, figures, tables)
-    return Report(out_dir, tuple(experiments), figures, tables)
+    tables, parts = write_tables(included, out_dir)
+    figures, tables, optimism = with_optimism(experiments, out_dir, formats, figures, tables)
+    if optimism is not None:
+        parts.append(optimism)
+    page = write_page(included, out_dir, figures, tables, parts,
+                      commands(included, every_set, brain_aware, formats,
+                               None if out is None else str(out)))
+    return Report(out_dir, included.experiments, figures, tables, page, included.left_out)

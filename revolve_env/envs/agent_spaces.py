@@ -17,8 +17,8 @@ from numpy.typing import NDArray
 
 from revolve_env.body.validate import Limits
 from revolve_env.envs.members import Member
-from revolve_env.envs.observations import proprio_bounds, read_proprio, uniform_sensor_bounds
-from revolve_env.world import World, WorldConfig
+from revolve_env.envs.observations import proprio_bounds, uniform_sensor_bounds
+from revolve_env.world import WorldConfig
 
 __all__ = ["AgentSpaces", "Masks", "SpaceMode"]
 
@@ -120,15 +120,6 @@ class AgentSpaces:
         obs_mask.flags.writeable = False
         act_mask.flags.writeable = False
         self.masks[agent] = (obs_mask, act_mask)
-
-    def view(self, m: Member, world: World) -> NDArray[np.float64]:
-        """What the agent observes now: its sensor values (and hinge values), in its space."""
-        if not m.padded:
-            if not self.proprioception:
-                return m.obs
-            return np.concatenate((m.obs, read_proprio(world, m.handle)))
-        proprio = read_proprio(world, m.handle) if self.proprioception else None
-        return self.padded(m.obs, m.n_outputs, proprio)
 
     def padded(self, sensors: NDArray[np.float64], n_hinges: int,
                proprio: NDArray[np.float64] | None) -> NDArray[np.float64]:

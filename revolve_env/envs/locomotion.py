@@ -26,7 +26,7 @@ from revolve_env.body.serialize import load
 from revolve_env.body.validate import Limits, validate
 from revolve_env.brain import BatchController
 from revolve_env.conditions import EvaluationConditions, with_noise_shortcuts
-from revolve_env.envs.observations import proprio_bounds, read_proprio, saturated_sensor_bounds
+from revolve_env.envs.observations import hinge_values, proprio_bounds, saturated_sensor_bounds
 from revolve_env.evaluation import start_generator
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
 from revolve_env.world import World, WorldConfig
@@ -300,13 +300,13 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         targets = self._targets(np.asarray(action, dtype=np.float64).reshape(-1))
         if self.actuator_noise > 0:
             targets = targets + self.np_random.normal(0.0, self.actuator_noise, targets.shape)
-        world.set_targets(self._handle, targets)  # the world clips to [-1, 1]
+        world.set_all_targets(targets)  # the world clips to [-1, 1]; its one robot's
         world.step(1)
         self._step_count += 1
 
         self._blow_up = world.blow_up(self._handle)
         if self._step_count >= self._insertion_steps and self._blow_up is None:
-            self._fitness.add(world.time, world.core_position(self._handle))
+            self._fitness.add(world.time, world.states.core_pos[0])
         reward = self._get_reward()
         terminated = self._blow_up is not None
         truncated = not terminated and self._step_count >= self._total_steps
@@ -359,9 +359,10 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
 
     def _get_obs(self) -> NDArray[np.float64]:
         assert self._world is not None
-        obs = self._world.read_sensors(self._handle)
+        # the world's arrays: of its one robot
+        obs = self._world.sensor_values().copy()
         if self.proprioception:
-            obs = np.concatenate((obs, read_proprio(self._world, self._handle)))
+            obs = np.concatenate((obs, *hinge_values(self._world)))
         if self._blow_up is not None or not _all_finite(obs):
             return np.zeros(len(self._obs_low))
         if self.sensor_noise > 0:
@@ -378,7 +379,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
 
     def _get_info(self, reward: float) -> dict[str, Any]:
         assert self._world is not None
-        pos = self._world.core_position(self._handle)
+        pos = self._world.states.core_pos[0]
         return {
             "fitness": self._terms.fitness,
             "fitness_v": self._terms.v,

@@ -17,8 +17,8 @@ from revolve_env.body.robot import PartType, Robot
 from revolve_env.world import World, WorldConfig
 
 __all__ = [
-    "ACCEL_RANGE", "GYRO_RANGE", "HINGE_ANGLE_LIMIT", "IMU_VALUES", "proprio_bounds",
-    "read_proprio", "saturated_sensor_bounds", "uniform_sensor_bounds",
+    "ACCEL_RANGE", "GYRO_RANGE", "HINGE_ANGLE_LIMIT", "IMU_VALUES", "hinge_values",
+    "proprio_bounds", "read_proprio", "saturated_sensor_bounds", "uniform_sensor_bounds",
 ]
 
 # The IMU's full-scale ranges; the world saturates its readings there (one home: body/parts.py).
@@ -84,11 +84,22 @@ def proprio_bounds(
     return low, -low
 
 
-def read_proprio(world: World, handle: int) -> NDArray[np.float64]:
-    """Angles (radians) then angular velocities (rad/s) of a robot's active hinges.
+def hinge_values(world: World) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Angles (radians) and angular velocities (rad/s) of every robot's active hinges.
 
-    In controller output order (the order of the action entries), saturated at the bounds of
-    :func:`proprio_bounds`. Shape ``(2 n,)`` for ``n`` active hinges.
+    Flat, robots in the world's order, each in controller output order (the order of the
+    action entries), saturated at the bounds of :func:`proprio_bounds`.
+    """
+    limit = world.config.max_angular_speed
+    angles = np.minimum(np.maximum(world.hinge_angles(), -HINGE_ANGLE_LIMIT), HINGE_ANGLE_LIMIT)
+    speeds = np.minimum(np.maximum(world.hinge_velocities(), -limit), limit)
+    return angles, speeds
+
+
+def read_proprio(world: World, handle: int) -> NDArray[np.float64]:
+    """Angles (radians) then angular velocities (rad/s) of one robot's active hinges.
+
+    Its part of :func:`hinge_values`: shape ``(2 n,)`` for ``n`` active hinges.
     """
     limit = world.config.max_angular_speed
     angles = np.minimum(np.maximum(world.joint_angles(handle), -HINGE_ANGLE_LIMIT),

@@ -33,19 +33,20 @@ from revolve_env.brain import BatchController
 from revolve_env.conditions import EvaluationConditions
 from revolve_env.envs.agent_spaces import AgentSpaces, SpaceMode
 from revolve_env.envs.births import check_birth, initial_births, jittered
+from revolve_env.envs.living import Living, final_info
 from revolve_env.envs.members import (
     Controller,
     Dicts,
     Lifetimes,
     Member,
-    Report,
     noise_generator,
     sensor_bounds,
 )
 from revolve_env.envs.placement import Disc, clash, footprint_radius, place
 from revolve_env.envs.population_snapshot import member_snapshot, read_snapshot
-from revolve_env.fitness import DEFAULT_WINDOW, SlidingWindowFitness
+from revolve_env.fitness import DEFAULT_WINDOW
 from revolve_env.world import World, WorldConfig
+from revolve_env.world.backend import SnapshotMismatchError
 
 __all__ = ["ONLINE_CONDITIONS", "Controller", "Lifecycle", "PopulationEnv", "SpaceMode",
            "footprint_radius", "population_env", "sensor_bounds"]
@@ -201,7 +202,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
 
     ## Rewards
     ``reward = fitness(t) - fitness(t - control_period)`` with the sliding-window fitness
-    ``f = v + 5 s`` (:class:`~revolve_env.fitness.SlidingWindowFitness`, window
+    ``f = v + 5 s`` (:class:`~revolve_env.fitness.FitnessWindows`, window
     ``fitness_window``) over the core positions sampled after the insertion phase (the first
     ``insertion_time`` seconds of the robot's life, scored 0). On a blow-up the fitness is set to 0
     (that step's reward is minus the fitness so far). A removed robot's last reward is 0.
@@ -375,9 +376,12 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self._steps = 0
         self._world: World | None = None
         self._brain: BatchController | None = None
-        self._brain_in = np.zeros(0)
         self._brain_out = np.zeros(0)
-        self._brain_members: list[Member] = []
+        self._brain_rows = np.zeros(0, dtype=np.intp)  # rows of the brain robots, brain order
+        self._brain_inputs = np.zeros(0, dtype=np.intp)  # entries of the sensor values they read
+        self._brain_targets = np.zeros(0, dtype=np.intp)  # and of the flat targets they drive
+        self._living = Living(self.fitness_window, self.trajectory_stride, self._life,
+                              self._spaces)
         self._np_random: np.random.Generator | None = None
         self._np_random_seed: int | None = None
         self._noise: np.random.Generator | None = None  # sensor and actuator noise
@@ -453,10 +457,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         """Core positions ``(x, y)`` of the living robots, in birth order. Metres."""
         if self._world is None:
             return {}
-        world = self._world
-        centres = world.core_positions([self._members[a].handle for a in self.agents])
-        return {a: (float(p[0]), float(p[1]))
-                for a, p in zip(self.agents, centres, strict=True)}
+        centres = self._world.states.core_pos.tolist()  # rows: the agents, in birth order
+        return {a: (p[0], p[1]) for a, p in zip(self.agents, centres, strict=True)}
 
     def observe(self, agent: str) -> NDArray[np.float64]:
         """The current observation of a living robot (a copy, in its observation space).
@@ -471,11 +473,13 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         Raises:
             KeyError: naming the agent when it is unknown, not yet born, or dead.
         """
-        return self._member(agent, "observe").view.copy()
+        self._member(agent, "observe")
+        return self._living.view_of(self.agents.index(agent))
 
     def agent_info(self, agent: str) -> dict[str, Any]:
         """The current info of a living robot (as :meth:`step` reports it)."""
-        return self._get_info(self._member(agent, "agent_info"), None)
+        self._member(agent, "agent_info")
+        return self._living.info(self.agents.index(agent), self._spaces.masks, None)
 
     def _member(self, agent: str, what: str) -> Member:
         try:
@@ -500,12 +504,11 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             self._world.close()
         self._world = World(self.config)
         self._brain = BatchController(self.config.control_period)
-        self._brain_in = np.zeros(0)
-        self._brain_out = np.zeros(0)
-        self._brain_members = []
         self.agents = []
         self._members = {}
         self._dead = []
+        self._living.clear()
+        self._relayout_brains()
         self._spaces.reset()
         self._births = 0
         self._steps = 0
@@ -519,8 +522,10 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             entries = [make() for make in EXAMPLES.values()]
         for kwargs in initial_births(entries):
             self.add_robot(**kwargs)
-        obs = {a: self._members[a].view.copy() for a in self.agents}
-        infos = {a: self._get_info(self._members[a], None) for a in self.agents}
+        living = self._living
+        obs = dict(zip(self.agents, living.views(), strict=True))
+        infos = dict(zip(self.agents, living.infos(self._spaces.masks, [None] * len(living)),
+                         strict=True))
         return obs, infos
 
     def step(self, actions: Mapping[str, ArrayLike]) -> Dicts:
@@ -540,20 +545,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             # Robots it removed leave with this step's death report; their actions are dropped.
             checked = [(m, a) for m, a in checked if m.agent in self._members]
         self._physics(world, checked)
-
-        report = Report()
-        for member, death in self._dead:
-            report.add(member.agent, member.view.copy(), 0.0, True, False,
-                       self._get_info(member, death))
-        self._dead = []
-        truncate = self.max_steps is not None and self._steps >= self.max_steps
-        blown = self._observe_living(world, truncate, report)
-        for m in blown:
-            self._drop(m)
-        if truncate:
-            for agent in list(self.agents):
-                self._drop(self._members[agent])
-        return report.dicts()
+        return self._report(world)
 
     def _checked_actions(
         self, actions: Mapping[str, ArrayLike]
@@ -568,57 +560,71 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         return checked
 
     def _physics(self, world: World, checked: list[tuple[Member, NDArray[np.float64]]]) -> None:
-        """Set every hinge target (actions, then one batch step of the brains); step the world."""
+        """Set every hinge target (actions, then one batch step of the brains); step the world.
+
+        Actuator noise draws robot after robot: the agents in the order of ``actions``, then
+        the brain robots in birth order.
+        """
         brain, noise, sd = self._brain, self._noise, self.conditions.actuator_noise
         assert brain is not None and noise is not None
-        for member, a in checked:
+        if checked:
+            offsets = world.output_offsets
+            rows = world.rows([m.handle for m, _ in checked])
+            index = np.concatenate([np.arange(offsets[r], offsets[r + 1]) for r in rows.tolist()])
+            values = np.concatenate([a for _, a in checked])
             if sd > 0:
-                a = a + noise.normal(0.0, sd, a.shape)
-            world.set_targets(member.handle, a)  # clips to [-1, 1]
-        if self._brain_members:
-            brain_in = self._brain_in
-            for m in self._brain_members:
-                brain_in[m.in_slice] = m.obs
-            brain.step(brain_in, self._brain_out)
-            for m in self._brain_members:
-                targets = self._brain_out[m.out_slice]
-                if sd > 0:
-                    targets = targets + noise.normal(0.0, sd, targets.shape)
-                world.set_targets(m.handle, targets)
+                values = values + noise.normal(0.0, sd, values.shape)
+            world.set_target_entries(index, values)  # clips to [-1, 1]
+        if self._brain_rows.size:
+            brain.step(self._living.obs[self._brain_inputs], self._brain_out)
+            targets = self._brain_out
+            if sd > 0:
+                targets = targets + noise.normal(0.0, sd, targets.shape)
+            world.set_target_entries(self._brain_targets, targets)
         world.step(1)
         self._steps += 1
 
-    def _observe_living(self, world: World, truncate: bool, report: Report) -> list[Member]:
-        """Read every living robot after the physics, report it; the ones that blew up."""
-        blown: list[Member] = []
-        for agent in self.agents:
-            m = self._members[agent]
-            m.age_steps += 1
-            previous = m.terms.fitness
-            m.blow_up = world.blow_up(m.handle)
-            if m.blow_up is not None:
-                m.blow()
-                blown.append(m)
-            else:
-                self._sense(world, m)
-            report.add(agent, m.view.copy(), m.terms.fitness - previous, m.blow_up is not None,
-                       truncate and m.blow_up is None,
-                       self._get_info(m, "blow_up" if m.blow_up is not None else None))
-        return blown
-
-    def _sense(self, world: World, m: Member) -> None:
-        """A robot's sensors, view, position, trajectory and fitness after a step."""
-        # No clipping needed without noise: touch and light sensors read in [0, 1].
+    def _report(self, world: World) -> Dicts:
+        """The five dicts after the physics: every robot sensed at once, then the dicts."""
+        living, masks = self._living, self._spaces.masks
+        obs: dict[str, NDArray[np.float64]] = {}
+        rewards: dict[str, float] = {}
+        terminations: dict[str, bool] = {}
+        truncations: dict[str, bool] = {}
+        infos: dict[str, dict[str, Any]] = {}
+        for member, death in self._dead:  # removed since the last step: one last report
+            final = member.final
+            obs[member.agent] = final.view.copy()
+            rewards[member.agent] = 0.0
+            terminations[member.agent] = True
+            truncations[member.agent] = False
+            infos[member.agent] = final_info(member, self._life, death, masks[member.agent])
+        self._dead = []
+        truncate = self.max_steps is not None and self._steps >= self.max_steps
+        blown = world.blown_up if world.any_blown_up else None
+        previous = living.f.copy()
         assert self._noise is not None
-        m.sense(world.read_sensors(m.handle), self.conditions.sensor_noise, self._noise)
-        m.view = self._spaces.view(m, world)
-        position = world.core_position(m.handle)
-        m.position = position
-        if m.age_steps % self.trajectory_stride == 0:
-            m.record(position)
-        if m.age_steps >= self._life.insertion_steps:
-            m.fitness.add(self.time, position)
-            m.terms = m.fitness.terms()
+        living.sense(world, self.time, self._noise, self.conditions.sensor_noise, blown)
+        agents = self.agents
+        deaths: list[str | None] = [None] * len(agents)
+        if blown is not None:
+            for row in np.flatnonzero(blown).tolist():
+                member = living.members[row]
+                member.blow_up = world.blow_up(member.handle)
+                deaths[row] = "blow_up"
+        obs.update(zip(agents, living.views(), strict=True))
+        rewards.update(zip(agents, (living.f - previous).tolist(), strict=True))
+        ended = blown.tolist() if blown is not None else [False] * len(agents)
+        terminations.update(zip(agents, ended, strict=True))
+        truncations.update(zip(agents, [truncate and not e for e in ended], strict=True))
+        infos.update(zip(agents, living.infos(masks, deaths), strict=True))
+        if blown is not None:
+            for row in reversed(np.flatnonzero(blown).tolist()):
+                self._drop(living.members[row])
+        if truncate:
+            for agent in list(self.agents):
+                self._drop(self._members[agent])
+        return obs, rewards, terminations, truncations, infos
 
     def render(self) -> NDArray[np.uint8] | None:
         """An RGB image ``(height, width, 3)`` of the whole arena (``render_mode="rgb_array"``).
@@ -663,7 +669,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self._brain = None
         self.agents = []
         self._members = {}
-        self._brain_members = []
+        self._living.clear()
 
     # -- snapshots -------------------------------------------------------------------------------
     @property
@@ -696,9 +702,9 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             "rng_seed": self._np_random_seed,
             "noise_rng": None if self._noise is None else dict(self._noise.bit_generator.state),
             "births": self._births, "steps": self._steps,
-            "members": [member_snapshot(m, brain, with_robot=False)
-                        for m in self._members.values()],
-            "dead": [(member_snapshot(m, None, with_robot=True), death)
+            "members": [member_snapshot(m, self._living.final(row), brain, with_robot=False)
+                        for row, m in enumerate(self._living.members)],
+            "dead": [(member_snapshot(m, m.final, None, with_robot=True), death)
                      for m, death in self._dead],
             **self._spaces.snapshot(),
         }
@@ -718,8 +724,9 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             self._world.close()
         self._world = None
         self._brain = None
-        self.agents, self._members, self._dead, self._brain_members = [], {}, [], []
-        restored = read_snapshot(snapshot, self.config)
+        self.agents, self._members, self._dead = [], {}, []
+        self._living.clear()
+        restored = read_snapshot(snapshot, self.config, self._life)
         self._world, self._brain = restored.world, restored.brain
         self._np_random, self._np_random_seed = restored.rng, snapshot["rng_seed"]
         self._noise = restored.noise if restored.noise is not None else \
@@ -729,6 +736,11 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self.agents = [m.agent for m in restored.members]
         self._dead = restored.dead
         self._spaces.restore(restored.masks, restored.spaces, restored.uniform)
+        try:
+            self._living.restore(restored.members, restored.rows)
+        except (KeyError, TypeError, ValueError) as e:
+            self.close()
+            raise SnapshotMismatchError(f"damaged population snapshot: {e!r}") from e
         self._relayout_brains()
 
     # -- births and deaths -----------------------------------------------------------------------
@@ -774,23 +786,23 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         member = Member(
             agent=agent, robot=robot, controlled_by=controlled_by, handle=handle,
             brain=brain.add(spec) if spec is not None else None, birth_step=self._steps,
-            birth_position=xy, born_inside=inside, yaw=heading, radius=radius,
-            obs=np.zeros(len(low)),
-            position=world.core_position(handle), fitness=SlidingWindowFitness(self.fitness_window),
-            n_outputs=n_outputs, padded=padded, sensor_low=low, sensor_high=high,
+            birth_time=self._steps * self._life.dt, birth_position=xy, born_inside=inside,
+            yaw=heading, radius=radius, n_outputs=n_outputs, padded=padded, sensor_low=low,
+            sensor_high=high,
         )
         assert self._noise is not None
-        member.sense(world.read_sensors(handle), self.conditions.sensor_noise, self._noise)
-        member.view = self._spaces.view(member, world)
-        member.record(member.position)
-        if self._life.insertion_steps == 0:
-            member.fitness.add(self.time, member.position)
+        obs = member.sense(world.read_sensors(handle), self.conditions.sensor_noise, self._noise)
         self._births += 1
         self._members[agent] = member
         self.agents.append(agent)
         self._spaces.register(agent, low, high, n_outputs, padded)
-        if member.brain is not None:
-            self._relayout_brains()
+        living = self._living
+        living.add(member, obs, world.core_position(handle), world)
+        row = len(living) - 1
+        living.trajectories.append(np.array([row]), living.position[row:row + 1])
+        if self._life.insertion_steps == 0:
+            living.first_sample(row, self.time)
+        self._relayout_brains()
         return agent
 
     def _birth_position(self, agent: str, position: tuple[float, float] | None,
@@ -835,24 +847,32 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self._dead.append((member, "removed"))
 
     def _drop(self, member: Member) -> None:
+        """Take a robot out of the world and the arrays; keep its last state for its report."""
         assert self._world is not None and self._brain is not None
+        living = self._living
+        row = self.agents.index(member.agent)
+        member.final = living.final(row)
         self._world.remove_robot(member.handle)
         del self._members[member.agent]
         self.agents.remove(member.agent)
+        living.remove(row, self._world)
         if member.brain is not None:
             self._brain.remove(member.brain)
-            self._relayout_brains()
+        self._relayout_brains()
 
     def _relayout_brains(self) -> None:
-        """Recompute every brain robot's slice of the flat controller arrays (after a change)."""
+        """Where every brain robot's inputs come from and its outputs go (after a change)."""
         assert self._brain is not None
         brain = self._brain
-        self._brain_members = [m for m in self._members.values() if m.brain is not None]
-        for m in self._brain_members:
-            assert m.brain is not None
-            m.in_slice = brain.input_slice(m.brain)
-            m.out_slice = brain.output_slice(m.brain)
-        self._brain_in = np.zeros(brain.n_inputs)
+        rows = [row for row, m in enumerate(self._living.members) if m.brain is not None]
+        self._brain_rows = np.array(rows, dtype=np.intp)
+        self._brain_inputs = self._living.brain_inputs(self._brain_rows)
+        if self._world is not None and rows:
+            offsets = self._world.output_offsets
+            self._brain_targets = np.concatenate([np.arange(offsets[r], offsets[r + 1])
+                                                  for r in rows])
+        else:
+            self._brain_targets = np.zeros(0, dtype=np.intp)
         self._brain_out = np.zeros(brain.n_outputs)
 
     def _discs(self) -> list[Disc]:
@@ -869,11 +889,6 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         """The first living robot whose footprint is too close to a disc at ``xy``, else None."""
         k = clash(self._discs(), xy, radius, self.birth_clearance)
         return None if k is None else list(self._members)[k]
-
-    # -- private ---------------------------------------------------------------------------------
-    def _get_info(self, m: Member, death: str | None) -> dict[str, Any]:
-        return m.info(self._life, death, self._spaces.masks[m.agent])
-
 
 def population_env(**kwargs: Any) -> PopulationEnv:
     """Make a :class:`PopulationEnv` (keyword arguments as documented there)."""

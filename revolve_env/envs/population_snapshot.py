@@ -18,25 +18,25 @@ from revolve_env.body.serialize import from_json, to_json
 from revolve_env.brain import BatchController
 from revolve_env.brain.spec import NetworkSpec
 from revolve_env.envs.agent_spaces import Masks
-from revolve_env.envs.members import Controller, Member, sensor_bounds
-from revolve_env.fitness import FitnessTerms, SlidingWindowFitness
+from revolve_env.envs.living import Final
+from revolve_env.envs.members import Controller, Lifetimes, Member, sensor_bounds
 from revolve_env.world import World, WorldConfig
 from revolve_env.world.backend import SnapshotMismatchError
 
 __all__ = ["Restored", "member_restore", "member_snapshot", "read_snapshot"]
 
 
-def member_snapshot(m: Member, brain: BatchController | None, with_robot: bool) -> dict[str, Any]:
-    """One robot's bookkeeping (and its controller state; its body too ``with_robot``)."""
+def member_snapshot(m: Member, state: Final, brain: BatchController | None,
+                    with_robot: bool) -> dict[str, Any]:
+    """One robot's bookkeeping and its state (and its controller's; its body too ``with_robot``)."""
     out: dict[str, Any] = {
         "agent": m.agent, "controlled_by": m.controlled_by, "handle": m.handle,
         "birth_step": m.birth_step, "birth_position": list(m.birth_position),
-        "born_inside": m.born_inside, "yaw": m.yaw, "radius": m.radius, "obs": m.obs.copy(),
-        "position": m.position.copy(), "fitness": m.fitness.snapshot(),
-        "terms": [m.terms.fitness, m.terms.v, m.terms.s], "age_steps": m.age_steps,
-        "trajectory": m.trajectory[: m.n_trajectory].copy(),
-        "trajectory_capacity": len(m.trajectory), "blow_up": m.blow_up,
-        "n_outputs": m.n_outputs, "padded": m.padded, "view": m.view.copy(),
+        "born_inside": m.born_inside, "yaw": m.yaw, "radius": m.radius, "obs": state.obs,
+        "position": state.position, "fitness": state.fitness,
+        "terms": list(state.terms), "age_steps": state.age_steps,
+        "trajectory": state.trajectory, "trajectory_capacity": state.trajectory_room,
+        "blow_up": m.blow_up, "n_outputs": m.n_outputs, "padded": m.padded, "view": state.view,
         "brain": None,
     }
     if with_robot:
@@ -46,34 +46,40 @@ def member_snapshot(m: Member, brain: BatchController | None, with_robot: bool) 
     return out
 
 
-def member_restore(e: dict[str, Any], robot: Robot, brain: BatchController | None) -> Member:
-    """A robot's bookkeeping back from :func:`member_snapshot` (its network added to ``brain``)."""
+def member_restore(e: dict[str, Any], robot: Robot, brain: BatchController | None,
+                   life: Lifetimes) -> Member:
+    """A robot's bookkeeping back from :func:`member_snapshot` (its network added to ``brain``).
+
+    Its per-step state is read into the env's arrays from the same entry
+    (:meth:`~revolve_env.envs.living.Living.restore`); a dead robot's is its ``final`` here.
+    """
     handle: int | None = None
     if e["brain"] is not None:
         assert brain is not None
         values, time = e["brain"]
         handle = brain.add(NetworkSpec.from_robot(robot))
         brain.set_state(handle, values, float(time))
-    trajectory = np.asarray(e["trajectory"], dtype=np.float64).reshape(-1, 3)
-    capacity = max(int(e["trajectory_capacity"]), len(trajectory), 1)
-    stored = np.empty((capacity, 3))
-    stored[: len(trajectory)] = trajectory
-    fitness, v, s = (float(x) for x in e["terms"])
     x, y = (float(c) for c in e["birth_position"])
     controlled_by: Controller = "brain" if e["controlled_by"] == "brain" else "agent"
     low, high = sensor_bounds(robot)
-    return Member(
+    birth_step = int(e["birth_step"])
+    member = Member(
         agent=str(e["agent"]), robot=robot, controlled_by=controlled_by,
-        handle=int(e["handle"]), brain=handle, birth_step=int(e["birth_step"]),
-        birth_position=(x, y), born_inside=bool(e["born_inside"]), yaw=float(e["yaw"]),
-        radius=float(e["radius"]), obs=np.array(e["obs"], dtype=np.float64),
-        position=np.array(e["position"], dtype=np.float64),
-        fitness=SlidingWindowFitness.from_snapshot(e["fitness"]),
-        terms=FitnessTerms(fitness, v, s), age_steps=int(e["age_steps"]),
-        trajectory=stored, n_trajectory=len(trajectory), blow_up=e["blow_up"],
-        n_outputs=int(e["n_outputs"]), padded=bool(e["padded"]),
-        view=np.array(e["view"], dtype=np.float64), sensor_low=low, sensor_high=high,
+        handle=int(e["handle"]), brain=handle, birth_step=birth_step,
+        birth_time=birth_step * life.dt, birth_position=(x, y), born_inside=bool(e["born_inside"]),
+        yaw=float(e["yaw"]), radius=float(e["radius"]), blow_up=e["blow_up"],
+        n_outputs=int(e["n_outputs"]), padded=bool(e["padded"]), sensor_low=low,
+        sensor_high=high,
     )
+    trajectory = np.asarray(e["trajectory"], dtype=np.float64).reshape(-1, 3)
+    member.final = Final(
+        obs=np.array(e["obs"], dtype=np.float64), view=np.array(e["view"], dtype=np.float64),
+        position=np.array(e["position"], dtype=np.float64).reshape(3),
+        terms=tuple(float(x) for x in e["terms"]),  # type: ignore[arg-type]
+        age_steps=int(e["age_steps"]), trajectory=trajectory,
+        trajectory_room=max(int(e["trajectory_capacity"]), len(trajectory), 1),
+        fitness=dict(e["fitness"]))
+    return member
 
 
 @dataclass
@@ -83,6 +89,7 @@ class Restored:
     world: World
     brain: BatchController
     members: list[Member]
+    rows: list[dict[str, Any]]  # the living members' entries (their per-step state)
     dead: list[tuple[Member, str]]
     rng: np.random.Generator
     noise: np.random.Generator | None  # None: a snapshot from before the noise generator
@@ -93,7 +100,7 @@ class Restored:
     uniform: list[str]
 
 
-def read_snapshot(snapshot: dict[str, Any], config: WorldConfig) -> Restored:
+def read_snapshot(snapshot: dict[str, Any], config: WorldConfig, life: Lifetimes) -> Restored:
     """Rebuild a snapshot's world and robots (a damaged one: :class:`SnapshotMismatchError`).
 
     Raises:
@@ -104,9 +111,9 @@ def read_snapshot(snapshot: dict[str, Any], config: WorldConfig) -> Restored:
     try:
         world.restore(snapshot["world"])
         brain = BatchController(config.control_period)
-        members = [member_restore(e, world.robot(int(e["handle"])), brain)
-                   for e in snapshot["members"]]
-        dead = [(member_restore(e, from_json(e["robot"]), None), str(death))
+        rows = list(snapshot["members"])
+        members = [member_restore(e, world.robot(int(e["handle"])), brain, life) for e in rows]
+        dead = [(member_restore(e, from_json(e["robot"]), None, life), str(death))
                 for e, death in snapshot["dead"]]
         rng = np.random.Generator(np.random.PCG64())
         rng.bit_generator.state = snapshot["rng"]
@@ -127,5 +134,5 @@ def read_snapshot(snapshot: dict[str, Any], config: WorldConfig) -> Restored:
         if isinstance(e, (KeyError, TypeError, ValueError, IndexError)):
             raise SnapshotMismatchError(f"damaged population snapshot: {e!r}") from e
         raise
-    return Restored(world, brain, members, dead, rng, noise, masks, spaces_, births, steps,
+    return Restored(world, brain, members, rows, dead, rng, noise, masks, spaces_, births, steps,
                     uniform)

@@ -28,7 +28,7 @@ from revolve_env.body.robot import Robot
 from revolve_env.conditions import EvaluationConditions
 from revolve_env.envs.episode import run_episode
 from revolve_env.envs.locomotion import LocomotionEnv
-from revolve_env.envs.video import VideoError, write_video
+from revolve_env.envs.video import VideoError, check_video, write_video
 
 __all__ = ["BlowUpError", "Video", "record_robot"]
 
@@ -111,6 +111,8 @@ def record_robot(
 
     Raises:
         ValueError: bad timing, or a robot the environment cannot drive (no hinge).
+        VideoError: a video that could not be written (:func:`check_video`), before anything
+            is simulated.
     """
     if not (math.isfinite(fps) and fps > 0):
         raise VideoError(f"fps must be a positive number, got {fps}")
@@ -120,6 +122,7 @@ def record_robot(
     try:
         dt = env.config.control_period
         every = max(1, round(1.0 / (fps * dt)))
+        check_video(path, 1.0 / (every * dt))  # before the simulation, not after it
         frames: list[NDArray[np.uint8]] = []
         trail: list[tuple[float, float]] = []
         steps = [0]

@@ -23,8 +23,8 @@ from numpy.typing import NDArray
 
 from revolve_env.envs.population import PopulationEnv
 
-__all__ = ["GIF_MAX_FPS", "VideoError", "gif_delays", "mp4_available", "record_video",
-           "write_video"]
+__all__ = ["GIF_MAX_FPS", "VideoError", "check_video", "gif_delays", "mp4_available",
+           "record_video", "write_video"]
 
 
 class VideoError(ValueError):
@@ -51,6 +51,36 @@ def gif_delays(frames: int, fps: float) -> list[int]:
     """
     edges = [round(100.0 * k / fps) for k in range(frames + 1)]
     return [10 * (b - a) for a, b in zip(edges, edges[1:], strict=False)]
+
+
+def check_video(path: str | os.PathLike[str], fps: float) -> None:
+    """Refuse, before any frame is made, a video :func:`write_video` could not write.
+
+    Args:
+        path: The video file to write.
+        fps: Its frames per second.
+
+    Raises:
+        VideoError: a non-positive frame rate, a suffix other than ``.gif`` or ``.mp4``, a GIF
+            faster than :data:`GIF_MAX_FPS`, or a folder that does not exist.
+    """
+    out = Path(path)
+    if not (math.isfinite(fps) and fps > 0):
+        raise VideoError(f"fps must be a positive number, got {fps}")
+    suffix = out.suffix.lower()
+    if suffix not in (".gif", ".mp4"):
+        raise VideoError(f"video path must end in .gif or .mp4, got {out.name!r}")
+    if suffix == ".gif" or not mp4_available():
+        _check_gif_fps(fps)
+    folder = out.parent
+    if not folder.is_dir():
+        raise VideoError(f"cannot write {out}: {folder} is not a folder")
+
+
+def _check_gif_fps(fps: float) -> None:
+    if fps > GIF_MAX_FPS:
+        raise VideoError(f"a GIF cannot play {fps:g} frames per second (at most "
+                         f"{GIF_MAX_FPS:g}): take fewer frames, or write an MP4")
 
 
 def write_video(
@@ -82,12 +112,8 @@ def write_video(
         if a.dtype != np.uint8:
             # A float image in [0, 1] cast to uint8 would come out black: refuse, do not guess.
             raise ValueError(f"frame {k} must be uint8 RGB (0-255), got dtype {a.dtype}")
-    if not (math.isfinite(fps) and fps > 0):
-        raise VideoError(f"fps must be a positive number, got {fps}")
-    suffix = out.suffix.lower()
-    if suffix not in (".gif", ".mp4"):
-        raise VideoError(f"video path must end in .gif or .mp4, got {out.name!r}")
-    if suffix == ".mp4":
+    check_video(out, fps)
+    if out.suffix.lower() == ".mp4":
         if mp4_available():
             import imageio.v2 as imageio
 
@@ -98,9 +124,7 @@ def write_video(
         out = out.with_suffix(".gif")
         warnings.warn(f"MP4 needs ffmpeg (pip install imageio-ffmpeg), which is not installed: "
                       f"writing a GIF instead, to {out}", UserWarning, stacklevel=2)
-    if fps > GIF_MAX_FPS:
-        raise VideoError(f"a GIF cannot play {fps:g} frames per second (at most "
-                         f"{GIF_MAX_FPS:g}): take fewer frames, or write an MP4")
+    _check_gif_fps(fps)
     from PIL import Image
 
     images = [Image.fromarray(np.asarray(f, dtype=np.uint8)) for f in frames]

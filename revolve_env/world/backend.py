@@ -9,7 +9,9 @@ through a handful of batched primitives (one call per control period for all rob
 * :meth:`PhysicsBackend.step`,
 * :meth:`PhysicsBackend.read`: the core poses, velocities and hinge states of all robots as
   arrays (:class:`BodyStates`),
-* :meth:`PhysicsBackend.link_poses` and :meth:`PhysicsBackend.contacts` for the sensors,
+* :meth:`PhysicsBackend.link_poses` and :meth:`PhysicsBackend.touching` for the sensors: the
+  poses of, and whether anything touches, any links of any robots at once, named by engine ids
+  that :meth:`PhysicsBackend.link_index` gives once per birth or death,
 * :meth:`PhysicsBackend.render`,
 * :meth:`PhysicsBackend.snapshot` / :meth:`PhysicsBackend.restore`: the engine's whole state, for
   an exact continuation in a scene rebuilt from the same robots (where
@@ -121,13 +123,23 @@ class PhysicsBackend(Protocol):
         """The state of every robot (see :class:`BodyStates`)."""
         ...
 
-    def link_poses(self, key: int, links: list[int]) -> list[tuple[NDArray[np.float64],
-                                                                   NDArray[np.float64]]]:
-        """World position (metres) and rotation (3x3) of the frames of some links of a robot."""
+    def link_index(self, key: int, links: NDArray[np.intp]) -> NDArray[np.intp]:
+        """Engine ids of some model links of a robot, for :meth:`link_poses` and :meth:`touching`.
+
+        Valid until the next :meth:`add`, :meth:`remove`, :meth:`reset` or :meth:`restore`.
+        """
         ...
 
-    def contacts(self, key: int) -> frozenset[int]:
-        """Model link indices of a robot that touch anything now."""
+    def link_poses(self, ids: NDArray[np.intp]) -> tuple[NDArray[np.float64],
+                                                         NDArray[np.float64]]:
+        """World positions (k, 3) (metres) and rotations (k, 3, 3) of the frames of links ``ids``.
+
+        ``ids`` may name links of any robots (from :meth:`link_index`); one call for all.
+        """
+        ...
+
+    def touching(self, ids: NDArray[np.intp]) -> NDArray[np.bool_]:
+        """Whether each of the links ``ids`` (any robots') touches anything now, shape (k,)."""
         ...
 
     def total_mass(self, key: int) -> float:
@@ -189,8 +201,19 @@ class PhysicsBackend(Protocol):
         ...
 
 
-def make_backend(config: WorldConfig, *, gui: bool = False) -> PhysicsBackend:
+_ISOLATED: dict[str, tuple[str, str]] = {
+    "pybullet": ("revolve_env.world.isolated", "IsolatedBackend"),
+    "mujoco": ("revolve_env.world.mujoco_scenes", "MujocoScenes"),
+}
+"""The backend of an isolated world (a scene per robot) for each engine."""
+
+
+def make_backend(config: WorldConfig, *, gui: bool = False,
+                 isolated: bool = False) -> PhysicsBackend:
     """A fresh backend of ``config.engine`` built from ``config``.
+
+    With ``isolated``, every robot is in a scene of its own
+    (:class:`~revolve_env.world.isolated.IsolatedBackend`).
 
     Raises:
         ValueError: unknown engine name.
@@ -198,7 +221,7 @@ def make_backend(config: WorldConfig, *, gui: bool = False) -> PhysicsBackend:
         RuntimeError: the engine could not start (e.g. a GUI without a display).
     """
     require_engine(config.engine)
-    module, cls, _ = _REGISTRY[config.engine]
+    module, cls = _ISOLATED[config.engine] if isolated else _REGISTRY[config.engine][:2]
     backend: PhysicsBackend = getattr(importlib.import_module(module), cls)(config, gui=gui)
     return backend
 

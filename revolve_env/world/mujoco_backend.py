@@ -1,4 +1,4 @@
-"""The MuJoCo backend (it and :mod:`~revolve_env.world.mujoco_scene` alone import ``mujoco``).
+"""The MuJoCo backend (it, ``mujoco_scene`` and ``mujoco_scenes`` alone import ``mujoco``).
 
 The scene is an :class:`mujoco.MjSpec` that one :class:`MujocoBackend` owns with the compiled
 ``MjModel``/``MjData`` pair. Each robot is built from the same engine-neutral
@@ -93,6 +93,7 @@ current state instead.
 from __future__ import annotations
 
 import hashlib
+import importlib
 import math
 import os
 import sys
@@ -114,6 +115,26 @@ __all__ = ["SERVO_KV", "MujocoBackend"]
 
 _XYZ = np.arange(3)
 _STATE = int(mujoco.mjtState.mjSTATE_INTEGRATION)
+#: What a control period saves to replay itself should it diverge: time, positions, velocities,
+#: the solver's warm start (in that order in the saved array).
+_SAVED = int(mujoco.mjtState.mjSTATE_TIME | mujoco.mjtState.mjSTATE_QPOS
+             | mujoco.mjtState.mjSTATE_QVEL | mujoco.mjtState.mjSTATE_WARMSTART)
+# einsum's kernel without np.einsum's dispatch, which costs twice the product for a few robots
+# (the same function: np.einsum(..., optimize=False) calls it).
+_c_einsum = getattr(importlib.import_module("numpy._core.multiarray"), "c_einsum", np.einsum)
+
+
+class _Views:
+    """NumPy views of one ``MjData``'s arrays, made once (each attribute access makes a new one)."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        self.data = data
+        self.qpos: NDArray[np.float64] = data.qpos
+        self.qvel: NDArray[np.float64] = data.qvel
+        self.xpos: NDArray[np.float64] = data.xpos
+        self.xmat: NDArray[np.float64] = data.xmat
+        self.ctrl: NDArray[np.float64] = data.ctrl
+        self.start = np.empty(mujoco.mj_stateSize(model, _SAVED))
 
 
 def _all_finite(a: NDArray[np.float64]) -> bool:
@@ -174,6 +195,12 @@ class MujocoBackend:
         self._root_bodies = np.zeros(0, dtype=np.intp)
         self._diverged = np.zeros(0, dtype=bool)
         self._root_dofs = np.zeros(0, dtype=np.intp)
+        self._root_lin = np.zeros((0, 3), dtype=np.intp)
+        self._root_ang = np.zeros((0, 3), dtype=np.intp)
+        self._read_qpos = np.zeros(0, dtype=np.intp)
+        self._read_qvel = np.zeros(0, dtype=np.intp)
+        self._cached_views: _Views | None = None
+        self._future: dict[int, int] | None = None  # see link_index()
         self._hinge_qpos = np.zeros(0, dtype=np.intp)
         self._hinge_dofs = np.zeros(0, dtype=np.intp)
         self._torque = self.config.max_torque
@@ -247,11 +274,20 @@ class MujocoBackend:
         robots = self._robots.values()
         self._root_bodies = np.array([r.bodies[0] for r in robots], dtype=np.intp)
         self._diverged = np.array([r.diverged for r in robots], dtype=bool)
+        self._diverged.flags.writeable = False
         self._root_qpos = np.array([r.qpos.start for r in robots], dtype=np.intp)
         self._root_dofs = np.array([r.dofs.start for r in robots], dtype=np.intp)
+        self._root_lin = self._root_dofs[:, None] + _XYZ  # the free joints' linear velocities
+        self._root_ang = self._root_lin + 3  # and angular velocities (body frame)
         none = np.zeros(0, dtype=np.intp)
         self._hinge_qpos = np.concatenate([r.hinge_qpos for r in robots]) if robots else none
         self._hinge_dofs = np.concatenate([r.hinge_dofs for r in robots]) if robots else none
+        # read()'s two gathers (qpos, qvel), each one fresh array for its fields
+        self._read_qpos = np.concatenate(((self._root_qpos[:, None] + _XYZ).ravel(),
+                                          self._hinge_qpos))
+        self._read_qvel = np.concatenate((self._root_lin.ravel(), self._root_ang.ravel(),
+                                          self._hinge_dofs))
+        self._future = None  # a death changes where the survivors' bodies will be
 
     # -- robots -------------------------------------------------------------------------------
     def add(self, model: RobotModel, position: tuple[float, float, float], yaw: float) -> int:
@@ -289,15 +325,16 @@ class MujocoBackend:
         if max_torque != self._torque:
             self._torque = max_torque
             self._model.actuator_forcerange[:] = (-max_torque, max_torque)
-        self._data.ctrl[:] = velocities  # actuators: robots in order, each in output order
+        self._views().ctrl[:] = velocities  # actuators: robots in order, each in output order
 
     def step(self, substeps: int) -> None:
         self._sync()
         m, d = self._model, self._data
-        start = self._save()
+        v = self._views()
+        mujoco.mj_getState(m, d, v.start, _SAVED)  # the period's start, should it diverge
         try:
             mujoco.mj_step(m, d, substeps)
-            finite = _all_finite(d.qvel) and _all_finite(d.qpos)
+            finite = _all_finite(v.qvel) and _all_finite(v.qpos)
         except mujoco.FatalError:
             # A non-finite state reached a later physics step's collision pass: its bounding boxes
             # overlap everything and exhaust MuJoCo's arena. The data may be half-updated.
@@ -305,23 +342,27 @@ class MujocoBackend:
             self._data.ctrl[:] = d.ctrl
             finite = False
         if not finite:
-            self._replay(start, substeps)
+            self._replay(v.start.copy(), substeps)
         self._kinematics_fresh = False
         self._touching = None
 
-    def _save(self) -> tuple[float, NDArray[np.float64], NDArray[np.float64],
-                             NDArray[np.float64]]:
-        d = self._data
-        return d.time, d.qpos.copy(), d.qvel.copy(), d.qacc_warmstart.copy()
+    def _views(self) -> _Views:
+        """NumPy views of the current ``MjData``'s arrays (remade after every compile)."""
+        v = self._cached_views
+        if v is None or v.data is not self._data:
+            v = self._cached_views = _Views(self._model, self._data)
+        return v
 
-    def _load(self, state: tuple[float, NDArray[np.float64], NDArray[np.float64],
-                                 NDArray[np.float64]]) -> None:
-        d = self._data
-        d.time = state[0]
-        d.qpos[:], d.qvel[:], d.qacc_warmstart[:] = state[1:]
+    def _save(self) -> NDArray[np.float64]:
+        """Time, positions, velocities and the solver's warm start (``_SAVED``) now."""
+        state = np.empty(mujoco.mj_stateSize(self._model, _SAVED))
+        mujoco.mj_getState(self._model, self._data, state, _SAVED)
+        return state
 
-    def _replay(self, start: tuple[float, NDArray[np.float64], NDArray[np.float64],
-                                   NDArray[np.float64]], substeps: int) -> None:
+    def _load(self, state: NDArray[np.float64]) -> None:
+        mujoco.mj_setState(self._model, self._data, state, _SAVED)
+
+    def _replay(self, start: NDArray[np.float64], substeps: int) -> None:
         """Redo a control period whose end state is not finite, one physics step at a time.
 
         MuJoCo's constraint solver spreads a NaN from one robot to every robot of the scene
@@ -330,23 +371,27 @@ class MujocoBackend:
         start of the period, at rest, mark them diverged and redo the step without them.
         """
         m, d = self._model, self._data
+        nq = m.nq
+        start_qpos = start[1:1 + nq]  # _SAVED's layout: time, qpos, qvel, warm start
         self._load(start)
         for _ in range(substeps):
             before = self._save()
+            before_qpos, before_qvel = before[1:1 + nq], before[1 + nq:1 + nq + m.nv]
             mujoco.mj_step(m, d)
             if _all_finite(d.qvel) and _all_finite(d.qpos):
                 continue
             culprits = [r for r in self._robots.values()
-                        if not (_all_finite(before[1][r.qpos]) and _all_finite(before[2][r.dofs])
+                        if not (_all_finite(before_qpos[r.qpos])
+                                and _all_finite(before_qvel[r.dofs])
                                 and _all_finite(d.qacc_smooth[r.dofs]))]
             if culprits:
                 self._load(before)
                 for r in culprits:
-                    self._still(r, start[1])
+                    self._still(r, start_qpos)
                 mujoco.mj_step(m, d)
             for r in self._robots.values():  # whatever is still not finite
                 if not (_all_finite(d.qpos[r.qpos]) and _all_finite(d.qvel[r.dofs])):
-                    self._still(r, start[1])
+                    self._still(r, start_qpos)
 
     def _still(self, r: _Robot, qpos: NDArray[np.float64]) -> None:
         """Put a robot at rest at its pose in ``qpos`` and mark it diverged."""
@@ -355,7 +400,10 @@ class MujocoBackend:
         d.qvel[r.dofs] = 0.0
         d.qacc_warmstart[r.dofs] = 0.0
         r.diverged = True
-        self._diverged[list(self._robots.values()).index(r)] = True
+        diverged = self._diverged.copy()  # a new array: earlier reads keep what they saw
+        diverged[list(self._robots.values()).index(r)] = True
+        diverged.flags.writeable = False
+        self._diverged = diverged
 
     def _kinematics(self) -> None:
         """Body poses of the current state (``mj_step`` leaves them one physics step old)."""
@@ -365,32 +413,51 @@ class MujocoBackend:
 
     def read(self) -> BodyStates:
         self._kinematics()
-        d = self._data
-        v = d.qvel
-        rd = self._root_dofs[:, None]
-        rot = d.xmat[self._root_bodies].reshape(-1, 3, 3)
+        v = self._views()
+        n = self._root_bodies.shape[0]
+        q = v.qpos[self._read_qpos]  # the roots' positions (a free joint's body sits at its
+        w = v.qvel[self._read_qvel]  # first three qpos), hinges; velocities, spins, hinge speeds
+        rot = v.xmat[self._root_bodies].reshape(-1, 3, 3)
         return BodyStates(
-            core_pos=d.xpos[self._root_bodies],  # the root body frame: the core centre
+            core_pos=q[:3 * n].reshape(n, 3),  # the root body frame: the core centre
             core_rot=rot,
-            core_vel=v[rd + _XYZ],  # the free joint: velocity of the root frame's origin, world
-            core_angvel=np.einsum("nij,nj->ni", rot, v[rd + _XYZ + 3]),  # MuJoCo: body frame
-            joint_pos=d.qpos[self._hinge_qpos],
-            joint_vel=v[self._hinge_dofs],
-            diverged=self._diverged.copy(),
+            core_vel=w[:3 * n].reshape(n, 3),  # the free joint: the root frame origin's, world
+            core_angvel=_c_einsum("nij,nj->ni", rot, w[3 * n:6 * n].reshape(n, 3)),  # MuJoCo:
+            joint_pos=q[3 * n:],  # body frame
+            joint_vel=w[6 * n:],
+            diverged=self._diverged,
         )
 
     # -- sensors --------------------------------------------------------------------------------
-    def link_poses(self, key: int, links: list[int]) -> list[tuple[NDArray[np.float64],
-                                                                   NDArray[np.float64]]]:
-        self._kinematics()
-        ids = self._robots[key].bodies[links]
-        return [(self._data.xpos[i].copy(), self._data.xmat[i].reshape(3, 3).copy())
-                for i in ids]
+    def link_index(self, key: int, links: NDArray[np.intp]) -> NDArray[np.intp]:
+        """Body ids in the scene of the robots present (valid until the next add or remove).
 
-    def contacts(self, key: int) -> frozenset[int]:
+        With deaths pending (see :meth:`remove`), the ids of the model they will compile to:
+        :meth:`link_poses` and :meth:`touching` compile it before they read.
+        """
+        robot = self._robots[key]
+        if not self._deaths_pending:
+            ids: NDArray[np.intp] = robot.bodies[links]
+            return ids
+        if self._future is None:  # each robot's first body, the robots laid out in order
+            self._future, body = {}, 1
+            for k, r in self._robots.items():
+                self._future[k] = body
+                body += r.layout.nbody
+        future: NDArray[np.intp] = self._future[key] + robot.layout.bodies[links]
+        return future
+
+    def link_poses(self, ids: NDArray[np.intp]) -> tuple[NDArray[np.float64],
+                                                         NDArray[np.float64]]:
+        self._sync()  # the ids are those of the scene without the robots removed
+        self._kinematics()
+        d = self._data
+        return d.xpos[ids], d.xmat[ids].reshape(-1, 3, 3)
+
+    def touching(self, ids: NDArray[np.intp]) -> NDArray[np.bool_]:
         self._sync()  # the contacts of the scene without the robots removed
-        bodies = self._robots[key].bodies
-        return frozenset(np.flatnonzero(self._touching_now()[bodies]).tolist())
+        touching: NDArray[np.bool_] = self._touching_now()[ids]
+        return touching
 
     def total_mass(self, key: int) -> float:
         return float(self._model.body_subtreemass[self._robots[key].bodies[0]])

@@ -121,6 +121,7 @@ class PybulletBackend:
         self._closed = False
         self._bodies: dict[int, _Body] = {}
         self._shape_cache: dict[tuple[bytes, bytes, bytes], tuple[int, int]] = {}
+        self._links: list[tuple[int, int]] = []  # link_index's table: (multibody, link)
         self._next_key = 0
         self._setup()
 
@@ -155,6 +156,7 @@ class PybulletBackend:
         pb.resetSimulation(physicsClientId=self._cid)
         self._bodies.clear()
         self._shape_cache.clear()
+        self._links = []
         self._setup()
 
     def close(self) -> None:
@@ -241,6 +243,7 @@ class PybulletBackend:
             )
         key = self._next_key
         self._next_key += 1
+        self._links = []
         self._bodies[key] = _Body(body=body, model=model, position=position, yaw=yaw,
                                   active_joints=[i - 1 for i in model.active_links],
                                   all_joints=all_joints)
@@ -260,6 +263,7 @@ class PybulletBackend:
         does not continue exactly (see the module doc).
         """
         pb.removeBody(self._bodies.pop(key).body, physicsClientId=self._cid)
+        self._links = []
 
     # -- stepping -------------------------------------------------------------------------------
     def set_joint_velocities(self, velocities: NDArray[np.float64], max_torque: float) -> None:
@@ -316,17 +320,38 @@ class PybulletBackend:
         )
 
     # -- sensors --------------------------------------------------------------------------------
-    def link_poses(self, key: int, links: list[int]) -> list[tuple[NDArray[np.float64],
-                                                                   NDArray[np.float64]]]:
-        b = self._bodies[key]
-        states = pb.getLinkStates(b.body, [i - 1 for i in links], computeForwardKinematics=1,
-                                  physicsClientId=self._cid)
-        return [(np.asarray(s[4]), quat_to_matrix(s[5])) for s in states]
+    def link_index(self, key: int, links: NDArray[np.intp]) -> NDArray[np.intp]:
+        """Rows of a table of (multibody, pybullet link) pairs, emptied by every change."""
+        body = self._bodies[key].body
+        start = len(self._links)
+        self._links += [(body, int(link) - 1) for link in links]
+        return np.arange(start, len(self._links), dtype=np.intp)
 
-    def contacts(self, key: int) -> frozenset[int]:
-        b = self._bodies[key]
-        return frozenset(c[3] + 1 for c in pb.getContactPoints(bodyA=b.body,
-                                                               physicsClientId=self._cid))
+    def link_poses(self, ids: NDArray[np.intp]) -> tuple[NDArray[np.float64],
+                                                         NDArray[np.float64]]:
+        pos = np.empty((len(ids), 3))
+        rot = np.empty((len(ids), 3, 3))
+        pairs = [self._links[i] for i in ids.tolist()]
+        start = 0
+        while start < len(pairs):  # one call per multibody, for its links in a row
+            body = pairs[start][0]
+            stop = start + 1
+            while stop < len(pairs) and pairs[stop][0] == body:
+                stop += 1
+            states = pb.getLinkStates(body, [link for _, link in pairs[start:stop]],
+                                      computeForwardKinematics=1, physicsClientId=self._cid)
+            for k, s in enumerate(states, start):
+                pos[k] = s[4]
+                rot[k] = quat_to_matrix(s[5])
+            start = stop
+        return pos, rot
+
+    def touching(self, ids: NDArray[np.intp]) -> NDArray[np.bool_]:
+        touched = set()
+        for c in pb.getContactPoints(physicsClientId=self._cid):  # every contact of the world
+            touched.add((c[1], c[3]))
+            touched.add((c[2], c[4]))
+        return np.array([self._links[i] in touched for i in ids.tolist()], dtype=bool)
 
     def total_mass(self, key: int) -> float:
         b = self._bodies[key]

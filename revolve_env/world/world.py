@@ -15,18 +15,28 @@ from typing import Any, Self
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from revolve_env.body.parts import IMU_ACCEL_RANGE, IMU_GYRO_RANGE
 from revolve_env.body.robot import Robot
-from revolve_env.body.serialize import from_json, to_json
+from revolve_env.body.serialize import to_json
 from revolve_env.world.backend import (
+    BodyStates,
     PhysicsBackend,
     PlacedModel,
     SnapshotMismatchError,
     make_backend,
 )
+from revolve_env.world.blowups import Screen, all_calm, reason
 from revolve_env.world.config import WorldConfig
-from revolve_env.world.model import LightSensorModel, TouchSensorModel, build_model
-from revolve_env.world.robot_state import RobotState, all_finite, empty_states, robot_state
+from revolve_env.world.model import build_model
+from revolve_env.world.robot_state import (
+    Layout,
+    RobotState,
+    all_finite,
+    empty_states,
+    layout,
+    restored_states,
+    robot_state,
+)
+from revolve_env.world.sensing import IMU_HIGH, IMU_LOW, imu_readings, light_intensity
 
 __all__ = ["World"]
 
@@ -41,8 +51,10 @@ class World:
     clipped to the servo's speed, with the servo's torque limit; passive hinges turn freely.
 
     Robots collide with the ground and with each other (not with themselves: the boxes of a
-    RoboGen hinge interpenetrate by design). The physics engine is ``config.engine``
-    (``"pybullet"`` or ``"mujoco"``); the rules above are the same for all.
+    RoboGen hinge interpenetrate by design), unless the world is ``isolated``: then each robot
+    is in a scene of its own and moves exactly as it would alone, whichever robots are beside it
+    (side-by-side evaluations). The physics engine is ``config.engine`` (``"pybullet"`` or
+    ``"mujoco"``); the rules above are the same for all.
 
     Use as a context manager, or call :meth:`close`::
 
@@ -53,12 +65,16 @@ class World:
             print(world.core_position(h))
     """
 
-    def __init__(self, config: WorldConfig | None = None, *, gui: bool = False) -> None:
+    def __init__(self, config: WorldConfig | None = None, *, gui: bool = False,
+                 isolated: bool = False) -> None:
         """Start a fresh engine of ``config.engine`` and build the ground.
 
         Args:
             config: Physics settings; defaults to ``WorldConfig()`` (pybullet).
             gui: Open the engine's window instead of running headless (pybullet only).
+            isolated: Every robot in a scene of its own
+                (:mod:`~revolve_env.world.isolated`): robots never meet, and each moves
+                exactly as in a world of its own. No snapshots, no GUI.
 
         Raises:
             EngineUnavailableError: the engine's package is not installed.
@@ -66,15 +82,23 @@ class World:
                 while another GUI is open, or of an engine that has none.
         """
         self.config = config if config is not None else WorldConfig()
-        self._backend: PhysicsBackend = make_backend(self.config, gui=gui)
+        self._backend: PhysicsBackend = make_backend(self.config, gui=gui, isolated=isolated)
         self._closed = False
         self._robots: dict[int, RobotState] = {}
         self._next_handle = 0
         self._time = 0.0
         self._now = empty_states()
         self._prev_vel = np.zeros((0, 3))
-        self._active_index = np.zeros(0, dtype=np.intp)
-        self._imu: NDArray[np.float64] | None = None  # every robot's IMU, computed on demand
+        self._layout = Layout()
+        self._targets = np.zeros(0)  # every active hinge's target, robots in row order. Radians
+        self._blown = np.zeros(0, dtype=bool)  # rows with a blow-up reason
+        self._n_blown = 0
+        self._screen = Screen(0, 0, self.config)
+        self._target_scale = math.radians(self.config.range_deg)  # radians per normalized unit
+        self._light = np.asarray(self.config.light_position, dtype=np.float64)
+        # every robot's IMU and sensor values, computed on demand once per control period
+        self._imu: NDArray[np.float64] | None = None
+        self._sensors: NDArray[np.float64] | None = None
 
     def reset(self) -> None:
         """Remove every robot and restart the simulation from time 0 with the same engine.
@@ -87,6 +111,7 @@ class World:
         self._robots.clear()
         self._time = 0.0
         self._relayout()
+        self._targets = np.zeros(0)
 
     # -- lifetime ---------------------------------------------------------------------------
     def close(self) -> None:
@@ -194,12 +219,13 @@ class World:
         handle = self._next_handle
         self._next_handle += 1
         previous = self._prev_vel
+        targets = self._targets
         self._robots[handle] = state
         self._relayout()
         # Survivors keep the velocity of the last period for their IMU; the newborn is at rest.
         self._prev_vel = np.concatenate((previous, self._now.core_vel[state.row:state.row + 1]))
-        self._imu = None
-        state.blow_up = self._check_blow_up(state)
+        self._targets = np.concatenate((targets, np.zeros(model.n_outputs)))
+        self._flag(state, self._check_blow_up(state))
         return handle
 
     # -- export -------------------------------------------------------------------------------
@@ -214,6 +240,7 @@ class World:
 
         Raises:
             EngineUnavailableError: the ``mujoco`` package is not installed.
+            NotImplementedError: an ``isolated`` world (each robot in a scene of its own).
         """
         self._check_open()
         return self._backend.mjcf()
@@ -245,7 +272,7 @@ class World:
             "prev_vel": self._prev_vel.copy(), "backend": backend,
             "robots": [
                 {"handle": h, "key": s.key, "robot": to_json(s.robot, indent=None),
-                 "placed": list(s.placed), "yaw": s.yaw, "targets": s.targets.copy(),
+                 "placed": list(s.placed), "yaw": s.yaw, "targets": self._robot_targets(s).copy(),
                  "blow_up": s.blow_up}
                 for h, s in self._robots.items()
             ],
@@ -263,42 +290,22 @@ class World:
         if snapshot.get("engine") != self.engine:
             raise SnapshotMismatchError(f"the snapshot is of engine {snapshot.get('engine')!r}, "
                                         f"this world runs {self.engine!r}")
-        robots: dict[int, RobotState] = {}
-        placed: list[PlacedModel] = []
-        try:
-            for entry in snapshot["robots"]:
-                robot = from_json(entry["robot"])
-                model = build_model(robot)
-                x, y, z = (float(v) for v in entry["placed"])
-                state = robot_state(int(entry["key"]), model, robot, (x, y, z),
-                                     float(entry["yaw"]))
-                targets = np.array(entry["targets"], dtype=np.float64)
-                if targets.shape != state.targets.shape:
-                    raise SnapshotMismatchError(f"robot {entry['handle']}: {targets.shape[0]} "
-                                                f"targets for {model.n_outputs} active hinges")
-                state.targets = targets
-                state.blow_up = entry["blow_up"]
-                robots[int(entry["handle"])] = state
-                placed.append((state.key, model, state.placed, state.yaw))
-            prev_vel = np.array(snapshot["prev_vel"], dtype=np.float64).reshape(-1, 3)
-            if prev_vel.shape[0] != len(robots):
-                raise SnapshotMismatchError("the snapshot's IMU state does not fit its robots")
-        except (KeyError, TypeError, ValueError) as e:
-            if isinstance(e, SnapshotMismatchError):
-                raise
-            raise SnapshotMismatchError(f"damaged world snapshot: {e}") from e
+        robots, targets, prev_vel = restored_states(snapshot)
+        placed: list[PlacedModel] = [(r.key, r.model, r.placed, r.yaw) for r in robots.values()]
         self._robots.clear()
         self._time = 0.0
         try:
             self._backend.restore(placed, snapshot["backend"])
         except BaseException:
             self._relayout()
+            self._targets = np.zeros(0)
             raise
         self._robots = robots
         self._next_handle = int(snapshot["next_handle"])
         self._time = float(snapshot["time"])
         self._relayout()
         self._prev_vel = prev_vel
+        self._targets = targets
 
     def remove_robot(self, handle: int) -> None:
         """Take a robot out of the world; its bodies are deleted.
@@ -309,26 +316,42 @@ class World:
         state = self._state(handle)
         keep = np.ones(len(self._robots), dtype=bool)
         keep[state.row] = False
+        targets = np.delete(self._targets, np.s_[self._output_slice(state)])
         self._backend.remove(state.key)
         del self._robots[handle]
         previous = self._prev_vel[keep]
         self._relayout()
         self._prev_vel = previous
-        self._imu = None
+        self._targets = targets
 
     def _relayout(self) -> None:
-        """Rows and hinge offsets of every robot, and a fresh read (after a birth or death)."""
-        start = 0
-        active: list[NDArray[np.intp]] = []
-        for row, state in enumerate(self._robots.values()):
-            state.row = row
-            state.joint_start = start
-            active.append(start + state.active_local)
-            start += state.n_joints
-        self._active_index = np.concatenate(active) if active else np.zeros(0, dtype=np.intp)
+        """Rows, index arrays and a fresh read of every robot (after a birth, death or restore).
+
+        The targets are the caller's to lay out (``_targets`` is left as it was).
+        """
+        states = list(self._robots.values())
+        self._layout = layout(states, self._backend)
+        self._screen = Screen(len(states), sum(s.n_joints for s in states), self.config)
+        self._blown = np.array([s.blow_up is not None for s in states], dtype=bool)
+        self._n_blown = int(np.count_nonzero(self._blown))
         self._now = self._backend.read() if self._robots else empty_states()
         self._prev_vel = self._now.core_vel.copy()
         self._imu = None
+        self._sensors = None
+
+    def _output_slice(self, state: RobotState) -> slice:
+        offsets = self._layout.output_offsets
+        return slice(int(offsets[state.row]), int(offsets[state.row + 1]))
+
+    def _robot_targets(self, state: RobotState) -> NDArray[np.float64]:
+        return self._targets[self._output_slice(state)]
+
+    def _flag(self, state: RobotState, reason: str | None) -> None:
+        """Record a robot's first blow-up reason (``None``: nothing to record)."""
+        if reason is not None and state.blow_up is None:
+            state.blow_up = reason
+            self._blown[state.row] = True
+            self._n_blown += 1
 
     # -- control ------------------------------------------------------------------------------
     def set_targets(self, handle: int, targets: ArrayLike) -> None:
@@ -345,14 +368,50 @@ class World:
                 f"robot {handle} has {state.model.n_outputs} active hinges, "
                 f"got {t.shape[0]} targets"
             )
-        if not all_finite(t):
-            if state.blow_up is None:
-                state.blow_up = (f"non-finite hinge targets at t={self._time:.3f} s "
-                                 "(the controller's outputs diverged)")
-            state.targets = np.zeros_like(state.targets)
+        self._write_targets(self._output_slice(state), t)
+
+    def set_all_targets(self, targets: NDArray[np.float64]) -> None:
+        """Set every robot's targets at once: :meth:`set_targets` for the flat array of all.
+
+        Args:
+            targets: ``(n_outputs,)`` float64, normalized; each robot's active hinges in output
+                order, robots in insertion order (:attr:`output_offsets` delimits them).
+        """
+        self._check_open()
+        if targets.shape != self._targets.shape:
+            raise ValueError(f"expected {self._targets.shape[0]} targets (every active hinge), "
+                             f"got shape {targets.shape}")
+        self._write_targets(slice(None), targets)
+
+    def set_target_entries(self, index: NDArray[np.intp], targets: NDArray[np.float64]) -> None:
+        """Set some entries of the flat targets (:meth:`set_all_targets`'s layout) at once.
+
+        The rules of :meth:`set_targets` apply robot by robot: a robot with a non-finite entry
+        is blown up and all its hinges are held at 0.
+        """
+        self._check_open()
+        if index.shape != targets.shape:
+            raise ValueError(f"{index.shape} target entries but {targets.shape} values")
+        self._write_targets(index, targets)
+
+    def _write_targets(self, where: slice | NDArray[np.intp],
+                       targets: NDArray[np.float64]) -> None:
+        if not all_finite(targets):
+            rows = self._layout.output_rows[where]
+            bad = np.unique(rows[~np.isfinite(targets)])
+            for state in self._robots.values():
+                if state.row in bad:
+                    self._flag(state, f"non-finite hinge targets at t={self._time:.3f} s "
+                                      "(the controller's outputs diverged)")
+            keep = ~np.isin(rows, bad)
+            index = np.arange(self._targets.shape[0])[where]
+            self._write_targets(index[keep], targets[keep])
+            for r in bad.tolist():
+                offsets = self._layout.output_offsets
+                self._targets[offsets[r]:offsets[r + 1]] = 0.0
             return
         # minimum/maximum: np.clip's Python wrapper costs more than the clipping (hot path)
-        state.targets = np.minimum(np.maximum(t, -1.0), 1.0) * math.radians(self.config.range_deg)
+        self._targets[where] = np.minimum(np.maximum(targets, -1.0), 1.0) * self._target_scale
 
     def step(self, n: int = 1) -> None:
         """Advance ``n`` control periods (each ``config.substeps`` physics steps)."""
@@ -362,12 +421,13 @@ class World:
         c = self.config
         backend = self._backend
         k = c.servo_gain / c.control_period
+        active = self._layout.active_index
         for _ in range(n):
-            if self._active_index.size:
+            if active.size:
                 # RoboGen's servo law, for every active hinge of every robot at once.
-                targets = np.concatenate([s.targets for s in self._robots.values()])
-                q = self._now.joint_pos[self._active_index]
-                vel = np.minimum(np.maximum(k * (targets - q), -c.max_velocity), c.max_velocity)
+                q = self._now.joint_pos[active]
+                vel = np.minimum(np.maximum(k * (self._targets - q), -c.max_velocity),
+                                 c.max_velocity)
                 backend.set_joint_velocities(vel, c.max_torque)
             backend.step(c.substeps)
             self._time += c.control_period
@@ -375,65 +435,24 @@ class World:
                 self._prev_vel = self._now.core_vel
                 self._now = backend.read()
                 self._imu = None
+                self._sensors = None
                 self._check_blow_ups()
 
     # -- blow-ups -----------------------------------------------------------------------------
     def _check_blow_ups(self) -> None:
-        """Flag every robot whose state is non-finite or beyond a sane speed.
+        """Flag every robot that blew up (:mod:`~revolve_env.world.blowups`).
 
-        One batched test for the common case where none is, then the exact per-robot test.
+        One screen of all robots at once, then robot by robot only when the screen fails.
         """
-        c = self.config
-        s = self._now
-        # A NaN anywhere makes its max/min NaN and the comparison False; |v|_max * sqrt(3)
-        # bounds the speed |v| from above.
-        screen = 0.999 / math.sqrt(3.0)
-        calm = (
-            float(np.abs(s.core_vel).max()) <= screen * c.max_linear_speed
-            and float(np.abs(s.core_angvel).max()) <= screen * c.max_angular_speed
-            and (s.joint_vel.size == 0
-                 or float(np.abs(s.joint_vel).max()) <= 0.999 * c.max_angular_speed)
-            and float(s.core_pos[:, 2].min()) >= -0.999
-            and all_finite(s.core_pos) and all_finite(s.joint_pos)
-            and not s.diverged.any()
-        )
-        if calm:
+        if all_calm(self._now, self._screen):
             return
         for state in self._robots.values():
             if state.blow_up is None:
-                state.blow_up = self._check_blow_up(state)
+                self._flag(state, self._check_blow_up(state))
 
     def _check_blow_up(self, state: RobotState) -> str | None:
-        c = self.config
-        s = self._now
-        r = state.row
         joints = slice(state.joint_start, state.joint_start + state.n_joints)
-        joint_vel = s.joint_vel[joints]
-        finite = (not s.diverged[r]
-                  and all(all_finite(a[r]) for a in (s.core_pos, s.core_rot, s.core_vel,
-                                                      s.core_angvel))
-                  and all_finite(s.joint_pos[joints]) and all_finite(joint_vel))
-        if not finite:
-            return f"non-finite state (NaN or infinity) at t={self._time:.3f} s"
-        vx, vy, vz = s.core_vel[r]
-        speed = math.sqrt(vx * vx + vy * vy + vz * vz)
-        if speed > c.max_linear_speed:
-            return (f"core speed {speed:.1f} m/s exceeds {c.max_linear_speed} m/s "
-                    f"at t={self._time:.3f} s")
-        wx, wy, wz = s.core_angvel[r]
-        spin = math.sqrt(wx * wx + wy * wy + wz * wz)
-        if spin > c.max_angular_speed:
-            return (f"core spin {spin:.1f} rad/s exceeds {c.max_angular_speed} rad/s "
-                    f"at t={self._time:.3f} s")
-        if joint_vel.size:
-            fastest = float(np.abs(joint_vel).max())
-            if fastest > c.max_angular_speed:
-                return (f"hinge speed {fastest:.1f} rad/s exceeds {c.max_angular_speed} rad/s "
-                        f"at t={self._time:.3f} s")
-        z = float(s.core_pos[r, 2])
-        if z < -1.0:
-            return f"core fell through the ground (z={z:.2f} m) at t={self._time:.3f} s"
-        return None
+        return reason(self._now, state.row, joints, self.config, self._time)
 
     def blow_up(self, handle: int) -> str | None:
         """Why the robot's simulation blew up (NaN, or a part beyond a sane speed), else None.
@@ -442,7 +461,66 @@ class World:
         """
         return self._state(handle).blow_up
 
+    @property
+    def any_blown_up(self) -> bool:
+        """Whether any robot has blown up (cheaper than ``blown_up.any()``)."""
+        return self._n_blown > 0
+
+    @property
+    def blown_up(self) -> NDArray[np.bool_]:
+        """Which robots have blown up (:meth:`blow_up` is not None), rows in insertion order.
+
+        A read-only copy (later blow-ups do not change it).
+        """
+        self._check_open()
+        flags = self._blown.copy()
+        flags.flags.writeable = False
+        return flags
+
     # -- state --------------------------------------------------------------------------------
+    @property
+    def targets(self) -> NDArray[np.float64]:
+        """Position targets of every active hinge, robots in insertion order (a copy). Radians."""
+        self._check_open()
+        return self._targets.copy()
+
+    def hinge_targets(self, handle: int) -> NDArray[np.float64]:
+        """Position targets of a robot's active hinges, output order (a copy). Radians."""
+        return self._robot_targets(self._state(handle)).copy()
+
+    @property
+    def states(self) -> BodyStates:
+        """Every robot's state after the last control period, rows in insertion order.
+
+        Read-only arrays, replaced (not changed) by every step, birth and death.
+        """
+        self._check_open()
+        return self._now
+
+    def rows(self, handles: tuple[int, ...] | list[int]) -> NDArray[np.intp]:
+        """The rows of some robots in the world's arrays (valid until the next birth or death)."""
+        return np.array([self._state(h).row for h in handles], dtype=np.intp)
+
+    @property
+    def input_offsets(self) -> NDArray[np.intp]:
+        """Where each robot's part of :meth:`sensor_values` starts, and the total (n + 1,)."""
+        return self._layout.input_offsets
+
+    @property
+    def output_offsets(self) -> NDArray[np.intp]:
+        """Where each robot's part of the flat targets starts, and the total (n + 1,)."""
+        return self._layout.output_offsets
+
+    def hinge_angles(self) -> NDArray[np.float64]:
+        """Angles of every active hinge, robots in insertion order (flat targets' layout). Rad."""
+        self._check_open()
+        return self._now.joint_pos[self._layout.active_index]
+
+    def hinge_velocities(self) -> NDArray[np.float64]:
+        """Angular velocities of every active hinge, laid out like :meth:`hinge_angles`. Rad/s."""
+        self._check_open()
+        return self._now.joint_vel[self._layout.active_index]
+
     def core_position(self, handle: int) -> NDArray[np.float64]:
         """Position of the core's centre. Metres, shape (3,)."""
         pos: NDArray[np.float64] = self._now.core_pos[self._state(handle).row].copy()
@@ -481,17 +559,45 @@ class World:
     def _imus(self) -> NDArray[np.float64]:
         """The core IMU of every robot, (n, 6): accelerometer then gyroscope, core frame."""
         if self._imu is None:
-            c = self.config
-            s = self._now
-            accel = (s.core_vel - self._prev_vel) * (1.0 / c.control_period)
-            accel[:, 2] += c.gravity
-            # rows: R^T a, R^T w (a stacked matmul: the same bits as one robot's)
-            self._imu = (np.concatenate((accel, s.core_angvel), axis=1).reshape(-1, 2, 3)
-                         @ s.core_rot).reshape(-1, 6)
+            c, s = self.config, self._now
+            self._imu = imu_readings(s.core_vel, self._prev_vel, s.core_angvel, s.core_rot,
+                                     c.control_period, c.gravity)
         return self._imu
+
+    def sensor_values(self) -> NDArray[np.float64]:
+        """Every robot's sensor values, one flat read-only array (robots in insertion order).
+
+        Each robot's values are those of :meth:`read_sensors`, in controller input order;
+        :attr:`input_offsets` delimits them. Computed once per control period for all robots.
+        """
+        self._check_open()
+        if self._sensors is None:
+            self._sensors = self._sense()
+        return self._sensors
+
+    def _sense(self) -> NDArray[np.float64]:
+        lay, s, c = self._layout, self._now, self.config
+        out = np.empty(lay.n_inputs)
+        if lay.n:
+            # The real sensor saturates at full scale (NaN passes: a blow-up stays visible).
+            out[lay.imu_dest] = np.minimum(np.maximum(self._imus(), IMU_LOW), IMU_HIGH)
+        if lay.touch_ids.size:
+            out[lay.touch_dest] = self._backend.touching(lay.touch_ids)
+        if lay.light_dest.size:
+            rows = lay.light_root_rows
+            pos, rot = s.core_pos[rows], s.core_rot[rows]
+            if lay.light_link_ids.size:
+                link_pos, link_rot = self._backend.link_poses(lay.light_link_ids)
+                pos, rot = np.concatenate((pos, link_pos)), np.concatenate((rot, link_rot))
+            out[lay.light_dest] = light_intensity(pos, rot, lay.light_points, lay.light_facings,
+                                                  self._light, c.light_range)
+        out.flags.writeable = False
+        return out
 
     def read_sensors(self, handle: int) -> NDArray[np.float64]:
         """All sensor values of a robot, in controller input order (float64, shape (n_inputs,)).
+
+        A copy of its part of :meth:`sensor_values`:
 
         * Core IMU (6 values): accelerometer x, y, z (m/s^2, specific force in the core frame: a
           robot at rest reads +g along the up axis) and gyroscope x, y, z (rad/s, core frame).
@@ -503,49 +609,9 @@ class World:
           ``d`` the distance to the light and ``a`` the angle between the sensor's facing and the
           direction to the light (no occlusion).
         """
-        state = self._state(handle)
-        model = state.model
-        out = np.empty(model.n_inputs)
-        if model.n_inputs == 0:
-            return out
-        s = self._now
-        r = state.row
-        core_rot = s.core_rot[r]
-        link_pose: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]] = {
-            0: (s.core_pos[r], core_rot)
-        }
-        if state.sensor_links:
-            poses = self._backend.link_poses(state.key, state.sensor_links)
-            link_pose.update(zip(state.sensor_links, poses, strict=True))
-        contacts: frozenset[int] | None = None  # model link indices touching anything
-        c = self.config
-        light = np.asarray(c.light_position)
-        k = 0
-        for kind, sensor in model.sensors:
-            if kind == "imu":
-                # The real sensor saturates at full scale (NaN passes: a blow-up stays visible).
-                imu = self._imus()[r]
-                out[k:k + 3] = np.minimum(np.maximum(imu[:3], -IMU_ACCEL_RANGE), IMU_ACCEL_RANGE)
-                out[k + 3:k + 6] = np.minimum(np.maximum(imu[3:], -IMU_GYRO_RANGE), IMU_GYRO_RANGE)
-                k += 6
-            elif kind == "touch":
-                assert isinstance(sensor, TouchSensorModel)
-                if contacts is None:
-                    contacts = self._backend.contacts(state.key)
-                out[k] = 1.0 if sensor.links[0] in contacts else 0.0
-                out[k + 1] = 1.0 if sensor.links[1] in contacts else 0.0
-                k += 2
-            else:
-                assert isinstance(sensor, LightSensorModel)
-                pos, rot = link_pose[sensor.link]
-                where = pos + rot @ sensor.position
-                facing = rot @ sensor.direction
-                to_light = light - where
-                d = math.sqrt(float(to_light.dot(to_light)))  # np.linalg.norm's own formula
-                cos_a = float(facing @ to_light) / d if d > 0 else 1.0
-                out[k] = max(0.0, cos_a) / (1.0 + (d / c.light_range) ** 2)
-                k += 1
-        return out
+        row = self._state(handle).row
+        offsets = self._layout.input_offsets
+        return self.sensor_values()[offsets[row]:offsets[row + 1]].copy()
 
     # -- rendering ----------------------------------------------------------------------------
     def render(

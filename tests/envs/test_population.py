@@ -335,13 +335,13 @@ def test_brains_keep_their_own_network_when_another_brain_robot_dies() -> None:
     reference = ReferenceBatchController(dt)
     reference.add(sensor_crawler())
     out = np.zeros(reference.n_outputs)
-    inputs = env._members[second].obs.copy()  # the brain's first input: the birth observation
+    inputs = env.observe(second)  # the brain's first input: the birth observation
     for k in range(30):
         if k == 10:
             env.remove_robot(first)  # shifts every later robot's slice in the batch arrays
         reference.step(inputs, out)
         obs, _, _, _, _ = env.step({})
-        world_targets = env.world._robots[env._members[second].handle].targets
+        world_targets = env.world.hinge_targets(env._members[second].handle)
         np.testing.assert_allclose(world_targets, np.clip(out, -1, 1) * math.radians(45.0),
                                    atol=1e-9)
         inputs = obs[second]

@@ -109,7 +109,8 @@ def test_sensor_noise_reaches_what_brains_read_and_agents_observe() -> None:
     truth = env.world.read_sensors(m.handle)
     seen = env.observe(agent)
     assert not np.array_equal(seen, truth)
-    np.testing.assert_array_equal(seen, m.obs)  # the brain's inputs are the same noisy values
+    brain_reads = env._living.obs_of(env.agents.index(agent))
+    np.testing.assert_array_equal(seen, brain_reads)  # the brain's inputs: the same noisy values
     # Touch and light values stay in [0, 1]; only the IMU is unbounded.
     low, high = m.sensor_low, m.sensor_high
     assert np.all(seen >= low) and np.all(seen <= high)
@@ -124,14 +125,14 @@ def test_actuator_noise_reaches_the_targets_of_agents_and_brains() -> None:
     brain = env.add_robot(EXAMPLES["spider"](), (1.0, 0.0))
     env.step({driven: np.zeros(8, dtype=np.float32)})
     for agent in (driven, brain):
-        targets = env.world._robots[env._members[agent].handle].targets
+        targets = env.world.hinge_targets(env._members[agent].handle)
         assert np.count_nonzero(targets) == len(targets)
         assert np.all(np.abs(targets) <= 1.0)  # the world clips
     quiet = _env()
     quiet.reset(seed=1)
     q = quiet.add_robot(EXAMPLES["spider"](), (0.0, 0.0), controlled_by="agent")
     quiet.step({q: np.zeros(8, dtype=np.float32)})
-    assert not np.any(quiet.world._robots[quiet._members[q].handle].targets)
+    assert not np.any(quiet.world.hinge_targets(quiet._members[q].handle))
 
 
 def test_snapshots_carry_the_noise_generator_exactly() -> None:

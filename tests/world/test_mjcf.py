@@ -78,6 +78,13 @@ def test_a_pybullet_worlds_mjcf_is_the_mujoco_world_of_its_robots() -> None:
         assert _mjb(mujoco.MjModel.from_xml_string(texts[0])) == _mjb(model)
 
 
+def test_an_isolated_world_is_no_one_mjcf_scene() -> None:
+    with World(MJ, isolated=True) as world:
+        world.add_robot(spider())
+        with pytest.raises(NotImplementedError, match="a scene per robot"):
+            world.to_mjcf()
+
+
 def test_without_mujoco_the_export_is_one_clear_error(monkeypatch: pytest.MonkeyPatch) -> None:
     registry = dict(registry_module._REGISTRY)
     registry["mujoco"] = ("revolve_env.world.mujoco_backend", "MujocoBackend", "no_such_mujoco")
@@ -97,8 +104,9 @@ def test_evaluation_mjcf_is_the_model_evaluate_steps(monkeypatch: pytest.MonkeyP
 
     class Recording(World):
         def step(self, n: int = 1) -> None:
-            if not stepped:
-                stepped.append(_mjb(self.backend._model))  # type: ignore[attr-defined]
+            if not stepped:  # evaluate's world is isolated: the robot's scene of its own
+                (scene,) = self.backend._scenes.values()  # type: ignore[attr-defined]
+                stepped.append(_mjb(scene._model))
             super().step(n)
 
     monkeypatch.setattr(evaluation, "World", Recording)

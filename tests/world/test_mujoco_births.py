@@ -206,3 +206,39 @@ def test_a_blow_up_that_makes_mujoco_fail_is_contained_like_any_other(
     failed, failed_reason = run()
     assert len(failures) == 1 and reason is not None and failed_reason == reason
     np.testing.assert_array_equal(failed, plain)  # as if MuJoCo had returned the NaN
+
+
+def test_a_failing_mj_step_in_an_isolated_world_is_contained_as_in_a_world_alone(
+        tmp_path: Any, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)  # MuJoCo logs its NaN warning to ./MUJOCO_LOG.TXT
+    real_step = mujoco.mj_step
+    failures = []
+
+    def failing(m: Any, d: Any, nstep: int = 1) -> None:
+        real_step(m, d, nstep)
+        if nstep > 1 and not np.isfinite(d.qvel).all():
+            failures.append(d.time)
+            raise mujoco.FatalError("mj_stackAlloc: out of memory")
+
+    def run() -> tuple[np.ndarray, str | None]:
+        with World(MJ, isolated=True) as world:
+            calm = world.add_robot(spider())
+            bad = world.add_robot(spider())
+            path = []
+            for i in range(20):
+                if i == 10:  # a hinge of the second robot (its scene's data and saved state)
+                    scenes = _backend(world)
+                    m, d, *_, views, _ = scenes._plan[1]
+                    for qvel in (d.qvel, views[scenes._parity][1 + m.nq:]):
+                        qvel[6] = np.nan
+                world.set_all_targets(np.full(world.output_offsets[-1], 0.3))
+                world.step()
+                path.append(np.concatenate([world.core_position(calm), world.core_position(bad),
+                                            world.sensor_values()]))
+            return np.array(path), world.blow_up(bad)
+
+    plain, reason = run()
+    monkeypatch.setattr(mujoco, "mj_step", failing)  # the module the scenes call
+    failed, failed_reason = run()
+    assert len(failures) == 1 and reason is not None and failed_reason == reason
+    np.testing.assert_array_equal(failed, plain)  # as if MuJoCo had returned the NaN

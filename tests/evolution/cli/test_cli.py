@@ -108,7 +108,7 @@ def test_resolve_config_from_name_path_and_overrides(tmp_path: Path) -> None:
     path = tmp_path / "mine.toml"
     path.write_text('preset = "scenario3"\nname = "mine"\nbirths = 40\n')
     config = resolve_config(str(path))
-    assert (config.engine, config.name, config.births) == ("online", "mine", 40)
+    assert (config.mode, config.name, config.births) == ("online", "mine", 40)
     with pytest.raises(ConfigError, match="unknown scenario 'scenario4'"):
         resolve_config("scenario4")
     with pytest.raises(ConfigError, match="no such config file"):
@@ -246,10 +246,13 @@ def test_run_then_report(fake_physics: None, tmp_path: Path,
     with open(report_dir / "tests_per_run.csv", newline="") as f:
         tests = list(csv.DictReader(f))
     assert {r["sample"] for r in tests} == {"run_mean_fitness", "run_best_fitness",
-                                            "final_diversity", "final_brain_diversity"}
+                                            "run_diversity", "run_brain_diversity"}
+    assert {r["births"] for r in tests} == {"18"}
     assert len(tests) == 4
     assert all(0.0 <= float(r["p_value"]) <= 1.0 for r in tests)
     assert (report_dir / "summary.md").is_file()
+    assert (report_dir / "index.html").is_file()
+    assert f"open in a browser: {report_dir / 'index.html'}" in capsys.readouterr().out
 
 
 def test_ctrl_c_then_resume(monkeypatch: pytest.MonkeyPatch, tmp_path: Path,

@@ -15,7 +15,7 @@ from experiment_fakes import CtrlCEvaluator, dump_results, fake_evaluate, fake_w
 
 from evolution.cli import main
 from evolution.evaluation import LocalEvaluator
-from evolution.experiments import engine
+from evolution.experiments import loop
 from evolution.experiments import study as study_module
 from evolution.experiments.store import DB_NAME, Store
 from evolution.experiments.study import PAPER_EXPERIMENTS
@@ -32,7 +32,7 @@ def fake_physics(monkeypatch: pytest.MonkeyPatch) -> None:
     """Studies started by the CLI evaluate robots and live online with the fast stand-ins."""
     monkeypatch.setattr(study_module, "make_evaluator",
                         lambda *a, **k: LocalEvaluator(workers=1, function=fake_evaluate))
-    monkeypatch.setattr(engine, "default_world", fake_world)
+    monkeypatch.setattr(loop, "default_world", fake_world)
 
 
 def test_help_shows_every_default(capsys: pytest.CaptureFixture[str]) -> None:
@@ -79,7 +79,7 @@ def test_study_then_report(fake_physics: None, tmp_path: Path,
 def test_ctrl_c_names_the_command_that_continues(monkeypatch: pytest.MonkeyPatch,
                                                  tmp_path: Path,
                                                  capsys: pytest.CaptureFixture[str]) -> None:
-    monkeypatch.setattr(engine, "default_world", fake_world)
+    monkeypatch.setattr(loop, "default_world", fake_world)
     monkeypatch.setattr(study_module, "make_evaluator", lambda *a, **k: CtrlCEvaluator(4 + 4 + 2))
     out = tmp_path / "study"
     argv = ["study", "--out", str(out), "--runs", "2", "--births", "16", "--seed", "5", *TINY,

@@ -76,7 +76,8 @@ def test_sigkill_of_an_offline_run_leaves_no_process_and_no_open_pipe(tmp_path: 
                                                                       runs: int) -> None:
     """One run evaluates in a pool of 2 workers; two runs go side by side in 2 worker processes
     that send progress through a ``Manager``."""
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+    # TMPDIR: the killed processes cannot remove their temporary folders; they stay in ours.
+    env = {**os.environ, "TMPDIR": str(tmp_path), "PYTHONPATH": os.pathsep.join(
         filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
     command = [sys.executable, "-m", "evolution.cli", "run", "quick", "--births", "60",
                "--workers", "2", "--runs", str(runs), "--out", str(tmp_path),
@@ -117,9 +118,9 @@ with LocalEvaluator(2, function=time.sleep, start_method={method!r}) as pool:
 
 
 @pytest.mark.parametrize("method", ["spawn", "forkserver"])
-def test_pool_workers_die_with_their_owner(method: str) -> None:
+def test_pool_workers_die_with_their_owner(method: str, tmp_path: Path) -> None:
     """Whatever the start method, the pool's processes end when their owner is SIGKILLed."""
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+    env = {**os.environ, "TMPDIR": str(tmp_path), "PYTHONPATH": os.pathsep.join(
         filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
     proc = subprocess.Popen([sys.executable, "-c", OWNER.format(method=method)], cwd=ROOT,
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)

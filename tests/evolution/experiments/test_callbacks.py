@@ -12,7 +12,7 @@ from experiment_fakes import kill_after as killer
 
 from evolution import experiments
 from evolution.evaluation import LocalEvaluator
-from evolution.experiments import ProgressEvent, preset
+from evolution.experiments import Evolution, ProgressEvent, preset
 from evolution.experiments.callbacks import (
     TensorBoardLogger,
     TensorBoardUnavailableError,
@@ -50,6 +50,20 @@ def test_a_run_writes_its_scalars_against_births(tmp_path: Path) -> None:
     assert scalars["fitness/best"][-1][1] == pytest.approx(last.best)
     assert scalars["fitness/mean"][-1][1] == pytest.approx(last.mean)
     assert [v for _, v in scalars["population/size"]] == [15.0] * 4
+
+
+def test_the_logger_observes_a_loop_stepped_in_python(tmp_path: Path) -> None:
+    """Attached to the loop itself (no database, no progress callback), the logger writes the
+    scalars ``evolution.run`` makes it write."""
+    config = small(preset("scenario1", runs=1, births=45))
+    with TensorBoardLogger(tmp_path / "run") as tensorboard:
+        experiments.run(config, tmp_path / "out", tensorboard, evaluator=SERIAL)
+    with TensorBoardLogger(tmp_path / "loop") as tensorboard:
+        Evolution(config, evaluator=SERIAL, observers=[tensorboard]).run()
+    looped, stored = _scalars(tmp_path / "loop" / "run0"), _scalars(tmp_path / "run" / "run0")
+    assert [step for step, _ in looped["fitness/best"]] == [15, 30, 45, 45]
+    for tag in ("fitness/best", "fitness/mean", "population/size", "failures/total"):
+        assert looped[tag] == stored[tag], tag
 
 
 def test_unknown_fitness_and_replays_are_not_written(tmp_path: Path) -> None:

@@ -27,7 +27,7 @@ NOISE = {"sensor_noise": 0.1, "actuator_noise": 0.1}
 def test_the_default_is_a_random_heading_without_noise_offline_and_online() -> None:
     assert ExperimentConfig().evaluation == DEFAULT_EVALUATION == EvaluationConditions("random")
     assert ExperimentConfig.from_dict({}).evaluation == DEFAULT_EVALUATION
-    assert ExperimentConfig.from_dict({"engine": "online"}).evaluation == DEFAULT_EVALUATION
+    assert ExperimentConfig.from_dict({"mode": "online"}).evaluation == DEFAULT_EVALUATION
 
 
 @pytest.mark.parametrize("name", sorted(shipped_configs()))
@@ -83,14 +83,14 @@ def test_the_training_center_learns_under_the_conditions() -> None:
 
 # -- runs under conditions (real physics) -------------------------------------------------------
 
-def tiny(engine: str, **evaluation: Any) -> ExperimentConfig:
+def tiny(mode: str, **evaluation: Any) -> ExperimentConfig:
     """A few seconds of real physics: 6 births, 1 s windows (robots of the shipped size: the
     small ones of the other tests barely move in 1 s, so neither heading nor noise shows)."""
-    name = "scenario3" if engine == "online" else "scenario1"
+    name = "scenario3" if mode == "online" else "scenario1"
     values: dict[str, Any] = dict(
         runs=1, births=6, population_size=3, offspring_size=3, insertion=0.5,
         evaluation_time=1.0, fertile_age=1.5, diversity_interval=0, workers=1)
-    if engine == "online":
+    if mode == "online":
         values.update(min_alive=2, max_alive=5, conception_interval=1.0, checkpoint_interval=2)
     return load_config(name, {**values, "evaluation": evaluation})
 
@@ -109,9 +109,9 @@ def _fitness(results: dict[str, Any]) -> list[Any]:
     return results["fitness"]
 
 
-@pytest.mark.parametrize("engine", ["offline", "online"])
-def test_same_seed_and_conditions_give_the_same_database(tmp_path: Path, engine: str) -> None:
-    config = tiny(engine, heading="random", position_jitter=0.1, **NOISE)
+@pytest.mark.parametrize("mode", ["offline", "online"])
+def test_same_seed_and_conditions_give_the_same_database(tmp_path: Path, mode: str) -> None:
+    config = tiny(mode, heading="random", position_jitter=0.1, **NOISE)
     assert _run(config, tmp_path / "a") == _run(config, tmp_path / "b")
 
 
@@ -124,11 +124,11 @@ def test_offline_heading_zero_is_todays_offline_evaluation(tmp_path: Path) -> No
                                             tmp_path / "random"))
 
 
-@pytest.mark.parametrize("engine", ["offline", "online"])
-def test_noise_moves_the_fitness_reproducibly(tmp_path: Path, engine: str) -> None:
-    quiet = _run(tiny(engine, heading="random"), tmp_path / "quiet")
-    noisy = _run(tiny(engine, heading="random", **NOISE), tmp_path / "noisy")
+@pytest.mark.parametrize("mode", ["offline", "online"])
+def test_noise_moves_the_fitness_reproducibly(tmp_path: Path, mode: str) -> None:
+    quiet = _run(tiny(mode, heading="random"), tmp_path / "quiet")
+    noisy = _run(tiny(mode, heading="random", **NOISE), tmp_path / "noisy")
     assert _fitness(noisy) != _fitness(quiet)
-    assert noisy == _run(tiny(engine, heading="random", **NOISE), tmp_path / "again")
+    assert noisy == _run(tiny(mode, heading="random", **NOISE), tmp_path / "again")
     # Noise has its own generators: the same robots are born, at the same times.
     assert ([r[:3] for r in noisy["robots"]][:3] == [r[:3] for r in quiet["robots"]][:3])

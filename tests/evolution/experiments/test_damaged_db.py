@@ -2,7 +2,8 @@
 
 One small interrupted offline experiment and one online experiment (fast physics stand-ins)
 are made once; each case copies one,
-damages one table (emptied, rows deleted, a wrong type, an inconsistent checkpoint), and runs
+damages one table (emptied, rows deleted, a wrong type, an inconsistent checkpoint, a duplicated
+row, an extra column, a stored name that is a path, a policy reference leading out), and runs
 ``resume``, ``report`` and ``show --db`` through :func:`evolution.cli.main`: each must exit 2
 with one line on stderr (no traceback), and the database's bytes must be unchanged.
 A read-only database is refused by ``resume`` and still readable by ``report`` and ``show``.
@@ -26,13 +27,16 @@ from experiment_fakes import fake_evaluate, fake_world, small
 from evolution import experiments
 from evolution.cli import main
 from evolution.evaluation import LocalEvaluator
-from evolution.experiments import ProgressEvent, api, engine, preset
+from evolution.experiments import ProgressEvent, api, loop, preset
 from evolution.experiments.integrity import verify
 from evolution.experiments.store import DB_NAME, Store
 
 SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
 HALF = ("rowid IN (SELECT rowid FROM {t} ORDER BY rowid DESC "
         "LIMIT (SELECT COUNT(*) / 2 + 1 FROM {t}))")  # the latest half of a table
+
+LEARNING_ROW = ("INSERT INTO learning (run_id, robot_id, time, inheritance, failures, policy) "
+                "VALUES (0, 1, 0.0, 'darwinian', 0, '{policy}')")
 
 # (case id, SQL that damages the database)
 DAMAGES: list[tuple[str, str]] = [
@@ -84,6 +88,21 @@ DAMAGES: list[tuple[str, str]] = [
     ("stray-run-robots", "INSERT INTO robots SELECT 7, robot_id, genome, parent_a, parent_b, "
                          "origin, generation, conceived_time, birth_time, death_time, "
                          "death_cause, fitness FROM robots WHERE run_id = 0"),
+    # Issue 20: damages that `resume` used to continue (exit 0).
+    ("population-duplicate-row", "INSERT INTO population SELECT * FROM population "
+                                 "WHERE rowid = 1"),
+    ("robots-extra-column", "ALTER TABLE robots ADD COLUMN extra TEXT; "
+                            "UPDATE robots SET extra = 'x'"),
+    ("meta-seed-not-an-integer", "UPDATE meta SET value = '1.5' WHERE key = 'seed'"),
+    ("meta-config-name-a-path", "UPDATE meta SET value = json_set(value, '$.name', '../evil') "
+                                "WHERE key = 'config'"),
+    ("meta-config-name-control", "UPDATE meta SET value = json_set(value, '$.name', "
+                                 "'a' || char(7)) WHERE key = 'config'"),
+    ("learning-policy-absolute", LEARNING_ROW.format(policy='{"file": "/etc/passwd", '
+                                                            '"digest": "x"}')),
+    ("learning-policy-parent", LEARNING_ROW.format(policy='{"file": "../../x.safetensors", '
+                                                          '"digest": "x"}')),
+    ("learning-policy-malformed", LEARNING_ROW.format(policy="policies/x.pkl")),
 ]
 
 
@@ -137,7 +156,7 @@ def online(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture
 def fake_physics(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(api, "make_evaluator", lambda *a, **k: SERIAL)
-    monkeypatch.setattr(engine, "default_world", fake_world)
+    monkeypatch.setattr(loop, "default_world", fake_world)
 
 
 def _digest(folder: Path) -> str:
@@ -182,7 +201,7 @@ def test_the_undamaged_databases_are_usable(interrupted: Path, online: Path) -> 
         assert [(r.status, r.births) for r in store.runs()] == [("interrupted", 30),
                                                                  ("pending", 0)]
     with Store.open(online / DB_NAME) as store:
-        assert verify(store, resumable=True).engine == "online"
+        assert verify(store, resumable=True).mode == "online"
         assert [r.status for r in store.runs()] == ["interrupted", "pending"]
 
 
@@ -297,3 +316,19 @@ def test_resume_of_a_folder_changes_nothing_when_one_experiment_is_damaged(
     line = _one_line_error(capsys, ["resume", str(tmp_path)])
     assert "no checkpoint" in line
     assert {name: _digest(tmp_path / name) for name in ("a", "b")} == digests
+
+
+@pytest.mark.parametrize("name", ["checkpoints", "policies"])
+def test_a_folder_of_the_results_that_leads_outside_is_refused(
+        online: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], fake_physics: None,
+        name: str) -> None:
+    """Resume would write snapshots or policies through it: refused before anything runs."""
+    folder = tmp_path / "exp"
+    shutil.copytree(online, folder)
+    (tmp_path / "elsewhere").mkdir()
+    (folder / name).symlink_to(tmp_path / "elsewhere")
+    digest = _digest(folder)
+    for command, argv in _commands(folder, tmp_path).items():
+        line = _one_line_error(capsys, argv)
+        assert line.startswith(f"revolve {command}: error: ") and "outside" in line, line
+    assert _digest(folder) == digest and list((tmp_path / "elsewhere").iterdir()) == []

@@ -210,7 +210,7 @@ class RecordingWorld(FakeWorld):
 
 def online_config(**kw: Any) -> ExperimentConfig:
     base: dict[str, Any] = {
-        "name": "online-learning", "engine": "online", "population_size": 8, "min_alive": 8,
+        "name": "online-learning", "mode": "online", "population_size": 8, "min_alive": 8,
         "max_alive": 12, "births": 20, "insertion": 1.0, "evaluation_time": 4.0,
         "fertile_age": 5.0, "conception_interval": 5.0, "checkpoint_interval": 4,
         "diversity_interval": 0, "evolution": NO_MUTATION}

@@ -202,10 +202,14 @@ def test_bad_arguments(results: Path, tmp_path: Path) -> None:
     import evolution
 
     assert evolution.reevaluate is reevaluate  # the lazy facade
-    with pytest.raises(ValueError, match="k must be an integer >= 1"):
+    with pytest.raises(ValueError, match="k must be an integer from 1 to 1000"):
         reevaluate(results, k=0)
+    with pytest.raises(ValueError, match="k must be an integer from 1 to 1000"):
+        reevaluate(results, k=10**9)  # hours of evaluations that no interval needs
     with pytest.raises(ValueError, match="window offsets"):
         reevaluate(results, window_offsets=(-1.0,))
+    with pytest.raises(ValueError, match="window offsets"):
+        reevaluate(results, window_offsets=(1e9,))
     with pytest.raises(StoreError, match="no such results directory"):
         reevaluate(tmp_path / "missing")
     (tmp_path / "empty").mkdir()
@@ -221,6 +225,7 @@ def _as_version_3(db: Path) -> None:
     con.execute("DROP TABLE reevaluations")
     config = json.loads(con.execute("SELECT value FROM meta WHERE key = 'config'").fetchone()[0])
     config.pop("evaluation", None)
+    config["engine"] = config.pop("mode")  # what schema 3 called it
     con.execute("UPDATE meta SET value = ? WHERE key = 'config'", (json.dumps(config),))
     con.execute("UPDATE meta SET value = '3' WHERE key = 'schema_version'")
     con.commit()
@@ -236,8 +241,9 @@ def test_version_3_run_is_upgraded_and_keeps_every_row(study: Path, tmp_path: Pa
     _as_version_3(db)
     before = dump_results(db)
     with Store.open(db) as store:
-        assert store.meta()["schema_version"] == "4"
+        assert store.meta()["schema_version"] == "5"
         assert store.config["evaluation"]["heading"] == 0.0  # an offline run: heading 0
+        assert store.config["mode"] == "offline" and "engine" not in store.config
     assert dump_results(db) == before
 
 
@@ -332,3 +338,19 @@ def test_a_robot_driven_by_a_saved_policy_is_reevaluated_with_it(tmp_path: Path)
         assert row.fitness == evaluate_robot(EvalTask(
             robot_id, robots[robot_id], 0.5, 1.0, row.seed, policy=agent,
             conditions=ideal)).fitness != evaluate_robot(task).fitness
+
+
+def test_unfinished_runs_are_skipped_unless_asked_and_said(
+        results: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A run still running (or interrupted) has no final population yet: left out, and said."""
+    with sqlite3.connect(results / "quick" / DB_NAME) as con:
+        con.execute("UPDATE runs SET status = 'running' WHERE run_id = 1")
+    con.close()
+    assert main(["reevaluate", str(results), "--k", "1", "--workers", "1"]) == 0
+    out = capsys.readouterr().out
+    assert f"skipped run 1 of {results / 'quick'}: running at 16 of 16 births" in out
+    assert "--include-unfinished" in out
+    assert {row[0] for row in _rows(results)} == {0}
+    summary = reevaluate(results, k=1, workers=1, include_unfinished=True)
+    assert summary.skipped == () and summary.added > 0
+    assert {row[0] for row in _rows(results)} == {0, 1}

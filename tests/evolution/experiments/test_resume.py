@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import sqlite3
 from pathlib import Path
 from typing import Any
@@ -78,6 +79,36 @@ def test_online_kill_and_resume_replays_to_the_same_result(tmp_path: Path) -> No
     experiments.resume(out, events.append, evaluator=SERIAL, world_factory=fake_world)
     assert any(e.replaying for e in events) and events[-1].finished
     assert dump(out / "results.sqlite") == reference
+
+
+def _as_version_4(db: Path) -> None:
+    """What the version before ``mode`` wrote: the stored config's switch named ``engine``."""
+    con = sqlite3.connect(db)
+    config = json.loads(con.execute("SELECT value FROM meta WHERE key = 'config'").fetchone()[0])
+    config["engine"] = config.pop("mode")
+    con.execute("UPDATE meta SET value = ? WHERE key = 'config'",
+                (json.dumps(config, sort_keys=True),))
+    con.execute("UPDATE meta SET value = '4' WHERE key = 'schema_version'")
+    con.commit()
+    con.close()
+
+
+@pytest.mark.parametrize("name, kill", [("scenario1", 30), ("scenario3", 33)])
+def test_a_version_4_run_resumes_to_the_same_numbers(tmp_path: Path, name: str,
+                                                     kill: int) -> None:
+    """A run interrupted under schema 4 (its config says ``engine = "offline" | "online"``) is
+    upgraded when resumed, continues to the results of an uninterrupted run, and keeps its
+    mode."""
+    config = small_preset(name, births=60, checkpoint_interval=5, diversity_interval=7)
+    reference = _uninterrupted(config, tmp_path / "ref", world_factory=fake_world)
+    out = tmp_path / "old"
+    with pytest.raises(Kill):
+        experiments.run(config, out, killer(kill), evaluator=SERIAL, world_factory=fake_world)
+    _as_version_4(out / "results.sqlite")
+    experiments.resume(out, evaluator=SERIAL, world_factory=fake_world)
+    assert dump(out / "results.sqlite") == reference
+    with Store.open(out / "results.sqlite") as store:
+        assert store.config["mode"] == config.mode and "engine" not in store.config
 
 
 def test_resume_refuses_a_tampered_online_run(tmp_path: Path) -> None:

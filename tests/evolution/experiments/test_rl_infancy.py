@@ -3,6 +3,7 @@ killed and resumed to the same database, budgets checked at config time."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import shutil
 import sqlite3
@@ -143,7 +144,14 @@ def test_a_bad_policy_file_is_one_line_naming_it_and_changes_nothing(
     elif damage == "garbage":
         second.write_bytes(b"not a policy at all")
     elif damage == "another body":
+        # The record's SHA-256 follows the file, so that the body is what differs.
         second.write_bytes(first.read_bytes())
+        with sqlite3.connect(out / "results.sqlite") as con:
+            con.execute("UPDATE learning SET policy = json_set(policy, '$.sha256', ?) WHERE "
+                        "json_extract(policy, '$.file') = ?",
+                        (hashlib.sha256(first.read_bytes()).hexdigest(),
+                         str(second.relative_to(out))))
+        con.close()
     else:
         second.unlink()
     before = dump(out / "results.sqlite")
@@ -242,3 +250,144 @@ def test_the_online_world_asks_the_policy_every_control_step() -> None:
         assert policy.seen == round(0.5 / world._env.config.control_period)
     finally:
         world.close()
+
+
+# -- results folders that must not run code (issue 20) ------------------------------------------
+
+
+class _Evil:
+    """Unpickled, it creates ``marker``: what a policy file from a stranger could do."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (open, (str(self.marker), "w"))
+
+
+def _as_pickle(out: Path, robot_id: int, content: Any, digest: str = "0" * 64) -> None:
+    """Robot ``robot_id``'s policy replaced by a pickle as older versions wrote them."""
+    import pickle
+
+    (out / "policies" / f"run0_robot{robot_id}.pkl").write_bytes(pickle.dumps(content))
+    reference = json.dumps({"file": f"policies/run0_robot{robot_id}.pkl", "digest": digest})
+    with sqlite3.connect(out / "results.sqlite") as con:
+        con.execute("UPDATE learning SET policy = ? WHERE run_id = 0 AND robot_id = ?",
+                    (reference, robot_id))
+    con.close()
+
+
+def _cli_error(capsys: pytest.CaptureFixture[str], argv: list[str]) -> str:
+    from evolution.cli import main
+
+    status = main(argv)
+    err = capsys.readouterr().err
+    assert status == 2 and "Traceback" not in err, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+def test_resume_refuses_a_pickled_policy_without_running_it(
+        online_killed: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from evolution.experiments import api
+
+    monkeypatch.setattr(api, "make_evaluator", lambda *a, **k: SERIAL)
+    out = tmp_path / "killed"
+    shutil.copytree(online_killed, out)
+    marker = tmp_path / "marker"
+    with Store.open(out / "results.sqlite") as store:
+        robot_id = store.learning(0)[0].robot_id
+    _as_pickle(out, robot_id, {"format": 1, "agent": _Evil(marker)})
+    before = dump(out / "results.sqlite")
+    line = _cli_error(capsys, ["resume", str(out)])
+    assert "older pickled policy" in line and "--trust-pickled-policies" in line, line
+    assert not marker.exists()
+    assert dump(out / "results.sqlite") == before
+
+
+def test_a_policy_file_that_is_a_pickle_in_disguise_is_damaged_and_runs_nothing(
+        online_killed: Path, tmp_path: Path) -> None:
+    """The new format's reference, its SHA-256 right, but the file a pickle: never unpickled."""
+    import pickle
+
+    out = tmp_path / "killed"
+    shutil.copytree(online_killed, out)
+    marker = tmp_path / "marker"
+    target = _policies(out)[0]
+    blob = pickle.dumps({"format": 1, "agent": _Evil(marker)})
+    target.write_bytes(blob)
+    with sqlite3.connect(out / "results.sqlite") as con:
+        con.execute("UPDATE learning SET policy = json_set(policy, '$.sha256', ?) WHERE "
+                    "json_extract(policy, '$.file') = ?",
+                    (hashlib.sha256(blob).hexdigest(), str(target.relative_to(out))))
+    con.close()
+    before = dump(out / "results.sqlite")
+    with pytest.raises(StoreError, match="is damaged") as error:
+        experiments.resume(out, evaluator=SERIAL)
+    assert str(target) in str(error.value) and "\n" not in str(error.value)
+    assert not marker.exists()
+    assert dump(out / "results.sqlite") == before
+
+
+def test_a_trusted_pickled_policy_resumes_to_the_same_results(
+        online_ref: Path, online_killed: Path, tmp_path: Path) -> None:
+    """A folder of an older version (pickled policies) continues with the opt-in, as before."""
+    from evolution.learning import load_policy
+
+    out = tmp_path / "killed"
+    shutil.copytree(online_killed, out)
+    with Store.open(out / "results.sqlite") as store:
+        records = store.learning(0)
+        robots = {r.robot_id: r.robot() for r in store.robots(0)}
+    for record in records:
+        assert record.policy is not None
+        ref = json.loads(record.policy)
+        agent = load_policy(out / ref["file"], robots[record.robot_id], ref["digest"])
+        _as_pickle(out, record.robot_id, {"format": 1, "agent": agent}, ref["digest"])
+        (out / ref["file"]).unlink()
+    with pytest.raises(StoreError, match="older pickled policy"):
+        experiments.resume(out, evaluator=SERIAL)
+    experiments.resume(out, evaluator=SERIAL, trust_pickled_policies=True)
+    resumed, reference = dump(out / "results.sqlite"), dump(online_ref / "results.sqlite")
+    assert {t: rows for t, rows in resumed.items() if t != "learning"} == {
+        t: rows for t, rows in reference.items() if t != "learning"}
+    # The learning rows are the same but for the older rows' references to their pickles.
+    assert [r[:-1] for r in resumed["learning"]] == [r[:-1] for r in reference["learning"]]
+
+
+def test_reevaluate_refuses_a_pickled_policy_before_evaluating_anything(
+        offline_ref: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "exp"
+    shutil.copytree(offline_ref, out)
+    marker = tmp_path / "marker"
+    with Store.open(out / "results.sqlite") as store:
+        final = {rid for rid, _ in store.final_population(0)}
+        robot_id = next(r.robot_id for r in store.learning(0) if r.robot_id in final)
+    _as_pickle(out, robot_id, {"format": 1, "agent": _Evil(marker)})
+    line = _cli_error(capsys, ["reevaluate", str(out), "--k", "1", "--workers", "1"])
+    assert "older pickled policy" in line and "--trust-pickled-policies" in line
+    assert not marker.exists()
+    with Store.open(out / "results.sqlite") as store:
+        assert store.reevaluations() == []
+
+
+@pytest.mark.parametrize("file", ["/etc/passwd", "../outside.safetensors",
+                                  "policies/../../outside.safetensors", "link/p.safetensors"])
+def test_a_policy_reference_leading_outside_the_folder_is_refused(
+        offline_ref: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        file: str) -> None:
+    out = tmp_path / "exp"
+    shutil.copytree(offline_ref, out)
+    (tmp_path / "elsewhere").mkdir()
+    (out / "link").symlink_to(tmp_path / "elsewhere")
+    with sqlite3.connect(out / "results.sqlite") as con:
+        con.execute("UPDATE learning SET policy = json_set(policy, '$.file', ?) WHERE rowid = "
+                    "(SELECT MIN(rowid) FROM learning WHERE policy IS NOT NULL)", (file,))
+    con.close()
+    for argv in (["reevaluate", str(out), "--k", "1"], ["report", str(out)],
+                 ["show", "--db", str(out), "--best", "--out", str(tmp_path / "x.gif")]):
+        line = _cli_error(capsys, argv)
+        assert "policy" in line and repr(file) in line, line
+    assert not (tmp_path / "x.gif").exists() and not (out / "report").exists()

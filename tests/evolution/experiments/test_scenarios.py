@@ -12,11 +12,13 @@ from pathlib import Path
 
 import pytest
 from experiment_fakes import (
+    dump_results,
     fake_evaluate,
     fake_evaluate_with_losses,
     fake_evaluate_with_nan,
     fake_world,
     fake_world_with_blow_ups,
+    fake_world_with_blow_ups_at_huge_fitness,
     picky_world,
     small,
 )
@@ -197,6 +199,33 @@ def test_online_blow_ups_are_recorded_and_minimum_kept(tmp_path: Path) -> None:
     assert store.runs()[0].births == 80
 
 
+def test_online_blow_ups_are_stored_as_lost_without_a_fitness(tmp_path: Path) -> None:
+    """A robot lost to a blow-up in the shared world is stored with no fitness (the world's
+    0 m after a blow-up is no measurement), its cause and a failure record."""
+    store = _run(small_preset("scenario3", births=80), tmp_path,
+                 world_factory=fake_world_with_blow_ups)
+    blown = store.failures(0, kind="blow-up")
+    assert blown
+    for f in blown:
+        record = store.robot(0, f.robot_id)
+        assert record.fitness is None
+        assert record.death_cause == f"blow-up: {f.detail}" and record.death_time == f.time
+        later = [m for _, t, m in store.population_snapshots(0) if t >= f.time]
+        assert all(f.robot_id not in dict(members) for members in later)
+
+
+def test_what_the_world_reports_at_a_blow_up_never_reaches_evolution(tmp_path: Path) -> None:
+    """Evolution is the same whether the world reports 0 m or 1e9 m for a robot that blows
+    up: a lost robot leaves the population before selection, and is stored without fitness."""
+    dumps = []
+    for world in (fake_world_with_blow_ups, fake_world_with_blow_ups_at_huge_fitness):
+        folder = tmp_path / world.__name__
+        _run(small_preset("scenario3", births=80), folder, world_factory=world).close()
+        dumps.append(dump_results(folder / "out" / "results.sqlite"))
+    assert dumps[0] == dumps[1]
+    assert any(cause and cause.startswith("blow-up") for *_, cause, _ in dumps[0]["robots"])
+
+
 def test_progress_reports_births_fitness_and_speed(tmp_path: Path) -> None:
     store = _run(small_preset("scenario1", births=45), tmp_path)
     events = store.events  # type: ignore[attr-defined]
@@ -209,9 +238,9 @@ def test_progress_reports_births_fitness_and_speed(tmp_path: Path) -> None:
 def test_presets_are_the_papers_experiments() -> None:
     s1, s2, s3 = (preset("scenario1", runs=1), preset("scenario2", runs=1),
                   preset("scenario3", runs=1))
-    assert ((s1.engine, s1.population_size, s1.offspring_size, s1.births)
+    assert ((s1.mode, s1.population_size, s1.offspring_size, s1.births)
             == ("offline", 15, 15, 3000))
-    assert (s2.offspring_size, s3.engine, s3.min_alive, s3.max_alive) == (1, "online", 8, 30)
+    assert (s2.offspring_size, s3.mode, s3.min_alive, s3.max_alive) == (1, "online", 8, 30)
     assert ((s1.tournament_size, s1.insertion, s1.evaluation_time, s1.fertile_age)
             == (4, 3.0, 12.0, 15.0))
     assert preset("baseline_a", runs=1).new_robots == "random"
@@ -232,14 +261,14 @@ def test_config_round_trips_through_dict_and_toml(tmp_path: Path) -> None:
 @pytest.mark.parametrize("data, message", [
     ({"birth": 10}, "unknown experiment config key\\(s\\): birth"),
     ({"preset": "scenario9"}, "unknown scenario 'scenario9'"),
-    ({"engine": "hybrid"}, "engine must be one of 'offline', 'online'"),
+    ({"mode": "hybrid"}, "mode must be one of 'offline', 'online'"),
     ({"births": 0}, "births must be >= 1"),
     ({"births": 10}, "births \\(10\\) must be >= population_size \\(15\\)"),
     ({"tournament_size": 2.5}, "tournament_size must be an integer"),
     ({"death_threshold": -0.1}, "death_threshold must be >= 0"),
     ({"death_threshold": 1.5}, "death_threshold must be <= 1"),
     ({"cull_fraction": 1.5}, "cull_fraction must be <= 1"),
-    ({"engine": "online", "population_size": 40}, "must lie within \\[min_alive, max_alive\\]"),
+    ({"mode": "online", "population_size": 40}, "must lie within \\[min_alive, max_alive\\]"),
     ({"min_alive": 31}, "min_alive \\(31\\) must be <= max_alive \\(30\\)"),
     ({"max_sim_time": -5.0}, "max_sim_time must be a positive"),
     ({"evolution": {"max_part": 3}}, "unknown evolution config key\\(s\\): max_part"),

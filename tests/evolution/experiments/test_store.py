@@ -72,7 +72,7 @@ def test_commit_writes_everything_and_queries_read_it(store: Store) -> None:
     batch.population = [(0, 1.0), (1, 3.0)]
     batch.diversity = 4.5
     store.commit(0, batch, _checkpoint(3, 45.0))
-    assert not batch.robots and batch.population is None  # cleared after writing
+    assert len(batch.robots) == 3  # left as it was: the loop's observers may read it after
 
     assert store.robot(0, 2).parent_a == 0 and store.robot(0, 2).parent_b == 1
     assert store.robot(0, 2).death_cause == "blow-up: too fast"
@@ -174,7 +174,7 @@ def test_version_1_database_is_upgraded_in_place(tmp_path: Path) -> None:
     db.commit()
     db.close()
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == str(SCHEMA_VERSION) == "4"
+        assert s.meta()["schema_version"] == str(SCHEMA_VERSION) == "5"
         assert s.learning(0) == [] and [r.robot_id for r in s.robots(0)] == [0]
         assert set(s.table_counts()) == TABLES
 
@@ -197,7 +197,7 @@ def test_version_2_database_gains_the_policy_column(tmp_path: Path) -> None:
     db.commit()
     db.close()
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == "4"
+        assert s.meta()["schema_version"] == "5"
         assert s.learning(0) == [LearningRecord(0, 0.0, "darwinian", None, 0.5, 0.75, 3, 21.0)]
 
 
@@ -250,15 +250,45 @@ def test_version_3_database_is_upgraded_in_place(
     _make_version_3(path, config)
     old_tables = sorted(TABLES - {"meta", "reevaluations"})
     before = _dump(path, old_tables)
+    renamed = {("mode" if k == "engine" else k): v for k, v in config.items()}
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == "4"
-        assert s.config == {**config, "evaluation": {
+        assert s.meta()["schema_version"] == "5"
+        assert s.config == {**renamed, "evaluation": {
             "heading": heading, "position_jitter": 0.0, "sensor_noise": 0.0,
             "actuator_noise": 0.0}}
         assert s.reevaluations() == [] and set(s.table_counts()) == TABLES
     assert _dump(path, old_tables) == before
     with Store.open(path) as s:  # opening again changes nothing more
         assert s.config["evaluation"]["heading"] == heading
+
+
+@pytest.mark.parametrize("mode", ["offline", "online", None])
+def test_version_4_database_names_its_mode(tmp_path: Path, mode: str | None) -> None:
+    """A version-4 database stored the switch between offline and online evolution as
+    ``engine``: opened, its stored config calls it ``mode`` with the same value (none stored:
+    offline, the default of both names), and every other row stays as it was."""
+    path = tmp_path / "results.sqlite"
+    config: dict[str, object] = {"name": "old", "births": 3, "world": {"engine": "mujoco"}}
+    if mode is not None:
+        config["engine"] = mode
+    with Store.create(path, config, 0) as s:
+        s.add_run(0, 7)
+        s.commit(0, Batch(robots=[_robot(0, 0.0)], population=[(0, 1.0)]), _checkpoint(1, 15.0))
+    db = sqlite3.connect(path)
+    db.execute("UPDATE meta SET value = '4' WHERE key = 'schema_version'")
+    db.commit()
+    db.close()
+    tables = sorted(TABLES - {"meta"})
+    before = _dump(path, tables)
+    expected = {k: v for k, v in config.items() if k != "engine"}
+    if mode is not None:
+        expected["mode"] = mode
+    with Store.open(path) as s:
+        assert s.meta()["schema_version"] == "5" and s.config == expected
+        assert ExperimentConfig.from_dict({**s.config, "births": 15}).mode == (mode or "offline")
+    assert _dump(path, tables) == before
+    with Store.open(path) as s:  # opening again changes nothing more
+        assert s.config == expected
 
 
 def test_upgrade_keeps_stored_conditions(tmp_path: Path) -> None:
@@ -308,7 +338,7 @@ def test_upgrade_pins_the_learning_conditions_of_old_runs(tmp_path: Path) -> Non
         {**stored, "population_size": 8, "births": 10}).training_center()
     assert center is not None
     assert center.learner.evaluation.conditions == IDEAL  # type: ignore[attr-defined]
-    fresh = ExperimentConfig.from_dict({"engine": "online", "learning": learning,
+    fresh = ExperimentConfig.from_dict({"mode": "online", "learning": learning,
                                         "population_size": 8, "births": 10})
     center = fresh.training_center()
     learner = center.learner if center is not None else None

@@ -4,6 +4,8 @@ driving an agent-controlled robot in the population env."""
 from __future__ import annotations
 
 import pickle
+import tempfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -79,7 +81,10 @@ def test_policy_agent_refuses_mismatched_shapes() -> None:
         PolicyAgent(ZeroPolicy(6), robot, "joints", DT)  # type: ignore[arg-type]
 
 
-def test_ppo_trains_and_its_policy_drives_the_robot_in_the_population_env() -> None:
+def test_ppo_trains_and_its_policy_drives_the_robot_in_the_population_env(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # SB3's default logger made an empty SB3-<time> folder in the temporary folder per learn().
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     robot = EXAMPLES["gecko"]()
     learner = SB3Learner("PPO", action="modulate", n_envs=2, vec_env="dummy", insertion=0.25,
                          seconds=1.0, control_period=DT,
@@ -90,6 +95,7 @@ def test_ppo_trains_and_its_policy_drives_the_robot_in_the_population_env() -> N
     assert learner.min_budget == pytest.approx(needed)
     budget = needed + 79 * DT
     result = learner.learn(robot, budget, np.random.default_rng(0))
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith("SB3-")]
     # Episodes are 38 steps (1.25 s): each env finished one during 40 steps.
     assert result.evaluations == 2 == len(result.fitness)
     assert result.sim_seconds == pytest.approx(needed) and result.sim_seconds <= budget

@@ -1,4 +1,5 @@
-"""Births counted without failed births, labels and colours, step drawing, brain-aware diversity.
+"""Births counted without failed births, lost robots, labels and colours, step drawing, shared
+scales, legends outside the data, brain-aware diversity.
 
 Runs use the physics stand-ins of ``experiment_fakes``: offline evaluations where one robot in
 five blows up, and the fake shared world.
@@ -17,8 +18,9 @@ from evolution.evaluation import LocalEvaluator
 from evolution.experiments import preset, run
 from evolution.experiments.store import DB_NAME, Store
 from evolution.reporting import find_experiments, report
-from evolution.reporting.data import LABELS, ExperimentData, births_axis
-from evolution.reporting.figures import PAPER_COLORS, colors, failed_births, fitness_over_births
+from evolution.reporting.data import LABELS, ExperimentData, births_axis, common_births
+from evolution.reporting.figures import curve_tests, final_fitness, fitness_over_births, lost_robots
+from evolution.reporting.style import PAPER_COLORS, colors, contrast_ratio, text_color
 from revolve_env.body.serialize import from_json
 
 LOSSY = LocalEvaluator(workers=1, function=fake_evaluate_with_losses)
@@ -55,30 +57,73 @@ def test_failed_births_are_not_births_and_are_counted_apart(results: Path) -> No
     assert sum(r.failed_births.size for r in offline.runs) > 0  # the fake did blow robots up
 
 
-def test_failed_births_figure_counts_every_failed_birth(results: Path) -> None:
+def _legend(figure: object) -> list[str]:
+    """The texts of the legend below a figure's panels."""
+    (legend,) = figure.subfigs[0].legends  # type: ignore[attr-defined]
+    return [t.get_text() for t in legend.get_texts()]
+
+
+def test_lost_robots_figure_counts_every_lost_robot(results: Path) -> None:
     experiments = find_experiments(results)
-    (ax,) = failed_births(experiments).axes[:1]
+    figure = lost_robots(experiments)
+    ax = figure.axes[0]
     offline = experiments[0]
     heights = [line.get_ydata()[-1] for line in ax.lines[:len(offline.runs)]]
-    assert heights == [r.failed_births.size for r in offline.runs]
+    assert heights == [r.lost_robots for r in offline.runs]
     assert all(line.get_drawstyle() == "steps-post" for line in ax.lines)
-    total = sum(r.failed_births.size for r in offline.runs)
-    assert f"{total} failed" in ax.get_legend_handles_labels()[1][0]
+    lost = sum(r.lost_robots for r in offline.runs)
+    failed = sum(r.failed_births.size for r in offline.runs)
+    assert lost > 0 and _legend(figure)[0].startswith(
+        f"Scenario 1 (15+15): {lost} lost ({failed} failed births")
 
 
-def test_offline_is_drawn_as_steps_and_online_in_its_own_row(results: Path) -> None:
+def test_offline_and_online_share_a_y_scale_with_every_run_drawn(results: Path) -> None:
     experiments = find_experiments(results)
     figure = fitness_over_births(experiments)
-    (off_mean, off_best, on_mean, on_best) = figure.axes[:4]
+    (off_mean, on_mean, off_best, on_best) = figure.axes[:4]
     assert "Offline" in off_mean.get_title() and "Online" in on_mean.get_title()
+    assert "best" in off_best.get_title() and "best" in on_best.get_title()
+    # One y-scale per row: offline and online fitness can be compared by eye.
+    assert off_mean.get_ylim() == on_mean.get_ylim() and off_best.get_ylim() == on_best.get_ylim()
+    # Budgets differ here (30 and 20 births), but robots were lost before their first fitness:
+    # the births axis is not the engines' count, so the caption says where runs compare.
+    assert not [line for line in off_mean.lines if line.get_linestyle() == ":"]
     curves = [line for line in off_mean.lines if len(line.get_xdata()) > 1]  # not the end dot
     assert curves and {line.get_drawstyle() for line in curves} == {"steps-post"}
     assert {line.get_drawstyle() for line in on_mean.lines} == {"default"}
-    labels = off_mean.get_legend_handles_labels()[1] + on_mean.get_legend_handles_labels()[1]
-    assert labels == ["Scenario 1 (15+15) (2 runs)", "Scenario 3 (online) (2 runs)"]
+    offline = experiments[0]
+    assert len(curves) == len(offline.runs) + 1  # every run, then the median
+    assert off_mean.get_legend() is None and on_mean.get_legend() is None  # none over the data
+    lost = sum(r.lost_robots for r in offline.runs)
+    assert _legend(figure) == [f"Scenario 1 (15+15): 2 runs, {lost} lost",
+                               "Scenario 3 (online): 2 runs, 0 lost"]
     caption = " ".join(" ".join(t.get_text() for sub in figure.subfigs for t in sub.texts).split())
     assert "sliding-window fitness" in caption and "isolated evaluation" in caption
-    assert "failed birth" in caption
+    assert "failed birth" in caption and "one y-scale" in caption
+    assert "every run reached 20 births" in caption
+
+
+def test_every_robot_of_the_compared_populations_is_a_point(results: Path) -> None:
+    """Scenario 1 ran 30 births, scenario 3 20: both are drawn at 20, like with like."""
+    experiments = find_experiments(results)
+    assert common_births(experiments) == 20
+    figure = final_fitness(experiments)
+    offline_ax, online_ax = figure.axes[:2]
+    assert offline_ax.get_ylim() == online_ax.get_ylim()
+    assert "at 20 births" in figure.subfigs[0].get_suptitle()
+    for ax, e in ((offline_ax, experiments[0]), (online_ax, experiments[1])):
+        robots, means = ax.collections[:2]
+        populations = [p.fitness for p in e.populations_at(20)]
+        np.testing.assert_allclose(np.sort(robots.get_offsets()[:, 1]),
+                                   np.sort(np.concatenate(populations)))
+        np.testing.assert_allclose(np.sort(means.get_offsets()[:, 1]),
+                                   np.sort([f.mean() for f in populations]))
+    # Offline at 20 births: generation 0, before the run's final generation.
+    assert all(p.births < r.engine_births == 30 for p, r in
+               zip(experiments[0].populations_at(20), experiments[0].runs, strict=True))
+    # The best robot is drawn however far it lies from the box.
+    best = max(p.fitness.max() for p in experiments[0].populations_at(20))
+    assert best in offline_ax.collections[0].get_offsets()[:, 1]
 
 
 def _fake(name: str, label: str | None = None) -> ExperimentData:
@@ -120,3 +165,24 @@ def test_brain_aware_report(results: Path, tmp_path: Path) -> None:
     assert r.final_brain_diversity == pytest.approx(brain_aware_diversity(robots))
     assert r.final_brain_diversity >= diversity(robots)
     assert (tmp_path / "out" / "diversity_over_births.png").stat().st_size > 5000
+
+
+def test_heatmap_text_reads_on_every_cell(results: Path) -> None:
+    """Cell text is black or white, whichever contrasts more: at least WCAG's 4.5 on every
+    colour of the scale (black text on the darkest cells was 1.5 to 2)."""
+    from matplotlib import colormaps
+    from matplotlib.colors import to_rgb
+
+    figure = curve_tests(find_experiments(results))
+    ax = figure.axes[0]
+    (image,) = ax.images
+    cells = image.get_array()
+    assert ax.texts
+    for text in ax.texts:
+        x, y = text.get_position()
+        background = image.cmap(image.norm(cells[int(y), int(x)]))
+        assert contrast_ratio(background, to_rgb(text.get_color())) >= 4.5
+    for value in np.linspace(0.0, 1.0, 101):
+        background = colormaps["RdBu_r"](value)
+        assert contrast_ratio(background, to_rgb(text_color(background))) >= 4.5
+    assert text_color((0.02, 0.19, 0.38)) == "white" and text_color((0.97, 0.97, 0.97)) == "black"

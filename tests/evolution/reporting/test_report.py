@@ -41,7 +41,7 @@ SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
 CANDIDATES = CandidateEvaluation(insertion=0.0, seconds=1.0, function=param_distance_fitness)
 NAMES = ("baseline_b", "scenario3", "scenario1")  # deliberately not in report order
 FIGURE_STEMS = ("fitness_over_births", "final_fitness", "diversity_over_births", "final_diversity",
-                "failed_births", "curve_tests")
+                "lost_robots", "curve_tests")
 
 
 @pytest.fixture(scope="module")
@@ -156,7 +156,7 @@ def test_summary_rows_match_the_stored_final_populations(
         assert float(row["final_fitness_max"]) == pytest.approx(pooled.max(), rel=1e-5)
         assert float(row["final_population_size_mean"]) == np.mean([len(f) for f in finals])
         assert float(row["final_diversity_mean"]) > 0  # random bodies differ
-    assert rows[0]["engine"] == "offline" and rows[1]["engine"] == "online"
+    assert rows[0]["mode"] == "offline" and rows[1]["mode"] == "online"
     # (15+15) keeps exactly 15 robots.
     assert float(rows[0]["final_population_size_mean"]) == 15
 
@@ -167,7 +167,7 @@ def test_per_run_tests_are_the_scipy_tests_of_one_value_per_run(
     rows = _rows(out / "tests_per_run.csv")
     assert list(rows[0]) == list(MANN_WHITNEY_COLUMNS)
     labels = ["scenario1", "scenario3", "baseline_b"]
-    samples = [s for s in TESTED_SAMPLES if s != "final_brain_diversity"]  # not asked for
+    samples = [s for s in TESTED_SAMPLES if s != "run_brain_diversity"]  # not asked for
     expected_pairs = [(s, a, b) for s in samples for a, b in combinations(labels, 2)]
     assert [(r["sample"], r["experiment_a"], r["experiment_b"]) for r in rows] == expected_pairs
     for r in rows:
@@ -191,7 +191,7 @@ def test_pooled_tests_are_kept_as_descriptive(
         results: Path, written: tuple[Path, dict[str, str]]) -> None:
     out, _ = written
     rows = _rows(out / "tests_pooled_descriptive.csv")
-    assert {r["sample"] for r in rows} == {"final_fitness"}
+    assert {r["sample"] for r in rows} == {"pooled_fitness"}
     pooled = {}
     for name in ("scenario1", "baseline_b"):
         with Store.open(results / name / DB_NAME) as store:
@@ -204,7 +204,7 @@ def test_pooled_tests_are_kept_as_descriptive(
     assert float(row["u_statistic"]) == pytest.approx(reference.statistic)
     assert int(row["n_a"]) == 30 and int(row["n_b"]) == 30
     text = (out / "summary.md").read_text()
-    assert "Descriptive only: pooled final populations" in text
+    assert "Descriptive only: pooled populations" in text
     assert "Holm-Bonferroni" in text
 
 
@@ -224,8 +224,8 @@ def test_curve_tests_compare_runs_at_equal_births(
 def test_markdown_summary_holds_both_tables(written: tuple[Path, dict[str, str]]) -> None:
     out, _ = written
     text = (out / "summary.md").read_text()
-    assert "| experiment | label | engine |" in text and "| sample | experiment_a |" in text
-    assert text.count("\n| final_fitness |") == 3
+    assert "| experiment | label | mode |" in text and "| sample | experiment_a |" in text
+    assert text.count("\n| pooled_fitness |") == 3
 
 
 def test_step_on_grid_holds_the_last_value_and_is_undefined_outside() -> None:

@@ -1,0 +1,335 @@
+"""The population env's living robots as arrays: one pass over all of them per step.
+
+:class:`Living` holds what changes every step for every living robot, one row per robot in birth
+order (the env's ``agents`` and the world's rows): ages, sensor values as the robots read them
+(noisy, clipped), observations in each agent's space, core positions, trajectories
+(:class:`~revolve_env.envs.trajectories.TrajectoryStore`), fitness windows
+(:class:`~revolve_env.fitness.FitnessWindows`) and fitness terms. :meth:`Living.sense` updates
+them all after the physics with array operations; the index arrays it uses are rebuilt at every
+birth and death (:meth:`Living.relayout`). Per-robot Python is left to births, deaths, snapshots
+and the five dicts of PettingZoo's API.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from revolve_env.envs.agent_spaces import AgentSpaces
+from revolve_env.envs.members import Lifetimes, Member
+from revolve_env.envs.observations import hinge_values
+from revolve_env.envs.trajectories import TrajectoryStore
+from revolve_env.fitness import FitnessWindows
+from revolve_env.world import World
+
+__all__ = ["Final", "Living", "final_info"]
+
+
+def _ints(values: list[int] | NDArray[np.intp]) -> NDArray[np.intp]:
+    return np.asarray(values, dtype=np.intp).reshape(-1)
+
+
+@dataclass
+class Final:
+    """What a robot that left the world last was (reported once more, and snapshot until then)."""
+
+    obs: NDArray[np.float64]
+    view: NDArray[np.float64]
+    position: NDArray[np.float64]
+    terms: tuple[float, float, float]
+    age_steps: int
+    trajectory: NDArray[np.float64]
+    trajectory_room: int
+    fitness: dict[str, Any]
+
+
+def _info(m: Member, life: Lifetimes, age: int, terms: tuple[float, float, float],
+          position: NDArray[np.float64], trajectory: NDArray[np.float64], death: str | None,
+          masks: tuple[NDArray[np.bool_], NDArray[np.bool_]]) -> dict[str, Any]:
+    """A robot's info dict from its values (see the env's class doc, Info)."""
+    return {
+        "age": age * life.dt, "birth_time": m.birth_time, "birth_position": m.birth_position,
+        "born_inside_disc": m.born_inside, "inserting": age < life.insertion_steps,
+        "is_mature": age >= life.maturity_steps, "fitness": terms[0], "fitness_v": terms[1],
+        "fitness_s": terms[2], "position": position, "trajectory": trajectory,
+        "controlled_by": m.controlled_by, "blow_up": m.blow_up, "death": death,
+        "obs_mask": masks[0], "act_mask": masks[1],
+    }
+
+
+def final_info(m: Member, life: Lifetimes, death: str, masks: tuple[NDArray[np.bool_],
+                                                                     NDArray[np.bool_]]
+               ) -> dict[str, Any]:
+    """The last info dict of a robot that left the world (from its :class:`Final` record)."""
+    final: Final = m.final
+    trajectory = final.trajectory.view()
+    trajectory.flags.writeable = False
+    return _info(m, life, final.age_steps, final.terms, final.position.copy(), trajectory,
+                 death, masks)
+
+
+class Living:
+    """The per-step state of every living robot (see the module doc). Rows: birth order."""
+
+    def __init__(self, fitness_window: float, trajectory_stride: int, life: Lifetimes,
+                 spaces: AgentSpaces) -> None:
+        self.fitness_window = fitness_window
+        self.stride = trajectory_stride
+        self.life = life
+        self.spaces = spaces
+        self.members: list[Member] = []
+        self.windows = FitnessWindows(fitness_window)
+        self.trajectories = TrajectoryStore()
+        self.ages = np.zeros(0, dtype=np.int64)  # control periods since birth
+        self.f, self.v, self.s = np.zeros(0), np.zeros(0), np.zeros(0)  # fitness terms. Metres
+        self.position = np.zeros((0, 3))  # last finite core positions. Metres
+        self.obs = np.zeros(0)  # sensor values as the robots read them, flat (world layout)
+        self.view = np.zeros(0)  # what the agents observe, flat
+        self._layout()
+
+    def __len__(self) -> int:
+        return len(self.members)
+
+    # -- births and deaths ---------------------------------------------------------------------
+    def add(self, member: Member, obs: NDArray[np.float64], position: NDArray[np.float64],
+            world: World) -> None:
+        """A newborn (last row), with its first sensor values and core position."""
+        self.members.append(member)
+        self.ages = np.append(self.ages, 0)
+        self.f, self.v, self.s = (np.append(a, 0.0) for a in (self.f, self.v, self.s))
+        self.position = np.concatenate((self.position, position.reshape(1, 3)))
+        self.obs = np.concatenate((self.obs, obs))
+        self.windows.add(1)
+        self.trajectories.add()
+        self.relayout(world)
+
+    def final(self, row: int) -> Final:
+        """A robot's last state, kept for its death report (and snapshots until then)."""
+        lo, hi = self._obs_offsets[row], self._obs_offsets[row + 1]
+        vlo, vhi = self._view_offsets[row], self._view_offsets[row + 1]
+        return Final(
+            obs=self.obs[lo:hi].copy(), view=self.view[vlo:vhi].copy(),
+            position=self.position[row].copy(),
+            terms=(float(self.f[row]), float(self.v[row]), float(self.s[row])),
+            age_steps=int(self.ages[row]), trajectory=self.trajectories.view(row).copy(),
+            trajectory_room=self.trajectories.room(row), fitness=self.windows.snapshot(row))
+
+    def remove(self, row: int, world: World) -> None:
+        """Forget a robot (after the world let it go)."""
+        keep = np.ones(len(self), dtype=bool)
+        keep[row] = False
+        entries = np.repeat(keep, np.diff(self._obs_offsets))
+        del self.members[row]
+        self.ages = self.ages[keep]
+        self.f, self.v, self.s = self.f[keep], self.v[keep], self.s[keep]
+        self.position = self.position[keep]
+        self.obs = self.obs[entries]
+        self.windows.remove(keep)
+        self.trajectories.remove(keep)
+        self.relayout(world)
+
+    def clear(self) -> None:
+        """No robots (a reset)."""
+        self.members = []
+        self.windows = FitnessWindows(self.fitness_window)
+        self.trajectories = TrajectoryStore()
+        self.ages = np.zeros(0, dtype=np.int64)
+        self.f, self.v, self.s = np.zeros(0), np.zeros(0), np.zeros(0)
+        self.position = np.zeros((0, 3))
+        self.obs = np.zeros(0)
+        self.view = np.zeros(0)
+        self._layout()
+
+    def relayout(self, world: World) -> None:
+        """Index arrays for the rows now, and every view from the sensor values (no physics)."""
+        self._layout()
+        self.view = self._views(self.obs, world, None)
+
+    def _layout(self) -> None:
+        spaces = self.spaces
+        proprio = spaces.proprioception
+        n_in = [len(m.sensor_low) for m in self.members]
+        n_out = [m.n_outputs for m in self.members]
+        self._obs_offsets = np.concatenate(([0], np.cumsum(n_in, dtype=np.intp)))
+        self._entry_row = np.repeat(np.arange(len(self)), n_in)
+        self._low = np.concatenate([m.sensor_low for m in self.members]) if n_in else np.zeros(0)
+        self._high = (np.concatenate([m.sensor_high for m in self.members]) if n_in
+                      else np.zeros(0))
+        u_in, u_out, u_size = spaces.u_inputs, spaces.u_outputs, len(spaces.u_low)
+        sizes, obs_dest, obs_lo, obs_hi, angle_dest, speed_dest = [], [], [], [], [], []
+        view = 0
+        for m, k, h in zip(self.members, n_in, n_out, strict=True):
+            if m.padded:
+                obs_dest.append(view + np.arange(k))
+                obs_lo.append(spaces.u_low[:k])
+                obs_hi.append(spaces.u_high[:k])
+                angle_dest.append(view + u_in + np.arange(h))
+                speed_dest.append(view + u_in + u_out + np.arange(h))
+                size = u_size
+            else:
+                obs_dest.append(view + np.arange(k))
+                obs_lo.append(np.full(k, -np.inf))
+                obs_hi.append(np.full(k, np.inf))
+                angle_dest.append(view + k + np.arange(h))
+                speed_dest.append(view + k + h + np.arange(h))
+                size = k + 2 * h if proprio else k
+            sizes.append(size)
+            view += size
+        self._view_offsets = np.concatenate(([0], np.cumsum(sizes, dtype=np.intp)))
+        self._view_row = np.repeat(np.arange(len(self)), sizes)
+        # Exact spaces without hinge values: the view is the sensor values themselves.
+        self._view_is_obs = not proprio and not any(m.padded for m in self.members)
+        cat = np.concatenate
+        self._obs_dest = _ints(cat(obs_dest)) if obs_dest else _ints([])
+        self._obs_lo = cat(obs_lo) if obs_lo else np.zeros(0)
+        self._obs_hi = cat(obs_hi) if obs_hi else np.zeros(0)
+        self._angle_dest = _ints(cat(angle_dest)) if angle_dest else _ints([])
+        self._speed_dest = _ints(cat(speed_dest)) if speed_dest else _ints([])
+        self._starts = self._view_offsets[:-1].tolist()
+        self._stops = self._view_offsets[1:].tolist()
+
+    # -- the step ------------------------------------------------------------------------------
+    def _views(self, obs: NDArray[np.float64], world: World,
+               blown: NDArray[np.bool_] | None) -> NDArray[np.float64]:
+        """Every agent's observation from the sensor values and the world's hinges, flat."""
+        if self._view_is_obs:
+            view = obs
+        else:
+            view = np.zeros(int(self._view_offsets[-1]))
+            # uniform blocks saturate the IMU at the uniform bounds; exact ones keep the values
+            view[self._obs_dest] = np.minimum(np.maximum(obs, self._obs_lo), self._obs_hi)
+            if self.spaces.proprioception:
+                view[self._angle_dest], view[self._speed_dest] = hinge_values(world)
+        if blown is not None:
+            view = view.copy() if view is obs else view
+            view[blown[self._view_row]] = 0.0
+        return view
+
+    def sense(self, world: World, time: float, noise: np.random.Generator, sensor_noise: float,
+              blown: NDArray[np.bool_] | None) -> None:
+        """After a step: every robot's sensor values, view, position, trajectory and fitness.
+
+        Args:
+            world: The world, just stepped.
+            time: Simulated time now. Seconds.
+            noise: The noise generator (drawn robot after robot, in row order).
+            sensor_noise: Standard deviation of the sensor noise (0: none drawn).
+            blown: Rows whose simulation blew up in this step (None: none): zero values and
+                fitness, last position kept, nothing recorded.
+        """
+        self.ages += 1
+        values = world.sensor_values()
+        position = world.states.core_pos
+        if blown is None:
+            obs = values
+            if sensor_noise > 0:
+                noisy = values + noise.normal(0.0, sensor_noise, values.shape)
+                obs = np.minimum(np.maximum(noisy, self._low), self._high)
+            self.position = position
+            due = slice(None) if self.stride == 1 else \
+                np.flatnonzero(self.ages % self.stride == 0)
+            sampling = self.ages >= self.life.insertion_steps
+        else:
+            ok = ~blown
+            entries = ok[self._entry_row]
+            obs = np.zeros(values.shape)
+            if sensor_noise > 0:
+                noisy = values[entries] + noise.normal(0.0, sensor_noise, int(entries.sum()))
+                obs[entries] = np.minimum(np.maximum(noisy, self._low[entries]),
+                                          self._high[entries])
+            else:
+                obs[entries] = values[entries]
+            self.position = np.where(ok[:, None], position, self.position)
+            due = np.flatnonzero(ok & (self.ages % self.stride == 0))
+            sampling = ok & (self.ages >= self.life.insertion_steps)
+        self.obs = obs
+        self.trajectories.append(due, self.position[due])
+        if sampling.any():
+            self.windows.push(time, self.position, sampling)
+            self.f, self.v, self.s = self.windows.terms()
+        if blown is not None:
+            self.f[blown] = self.v[blown] = self.s[blown] = 0.0
+        self.view = self._views(obs, world, blown)
+
+    def first_sample(self, row: int, time: float) -> None:
+        """A newborn's first fitness sample at its birth (when there is no insertion phase)."""
+        sampling = np.zeros(len(self), dtype=bool)
+        sampling[row] = True
+        self.windows.push(time, self.position, sampling)
+
+    # -- reading -------------------------------------------------------------------------------
+    def views(self) -> list[NDArray[np.float64]]:
+        """Every agent's observation: slices of one fresh copy (the env's stay its own)."""
+        copy = self.view.copy()
+        return [copy[a:b] for a, b in zip(self._starts, self._stops, strict=True)]
+
+    def view_of(self, row: int) -> NDArray[np.float64]:
+        """One agent's observation (a copy)."""
+        return self.view[self._starts[row]:self._stops[row]].copy()
+
+    def obs_of(self, row: int) -> NDArray[np.float64]:
+        """One robot's sensor values as its brain reads them (a copy)."""
+        return self.obs[self._obs_offsets[row]:self._obs_offsets[row + 1]].copy()
+
+    def infos(self, masks: dict[str, tuple[NDArray[np.bool_], NDArray[np.bool_]]],
+              deaths: list[str | None]) -> list[dict[str, Any]]:
+        """Every living robot's info dict (see the env's class doc, Info), in row order."""
+        life = self.life
+        ages = self.ages
+        age = (ages * life.dt).tolist()
+        inserting = (ages < life.insertion_steps).tolist()
+        mature = (ages >= life.maturity_steps).tolist()
+        f, v, s = self.f.tolist(), self.v.tolist(), self.s.tolist()
+        position = list(self.position.copy())
+        trajectories = self.trajectories.views()
+        out = []
+        for i, m in enumerate(self.members):
+            obs_mask, act_mask = masks[m.agent]
+            out.append({
+                "age": age[i], "birth_time": m.birth_time, "birth_position": m.birth_position,
+                "born_inside_disc": m.born_inside, "inserting": inserting[i],
+                "is_mature": mature[i], "fitness": f[i], "fitness_v": v[i], "fitness_s": s[i],
+                "position": position[i], "trajectory": trajectories[i],
+                "controlled_by": m.controlled_by, "blow_up": m.blow_up, "death": deaths[i],
+                "obs_mask": obs_mask, "act_mask": act_mask,
+            })
+        return out
+
+    def info(self, row: int, masks: dict[str, tuple[NDArray[np.bool_], NDArray[np.bool_]]],
+             death: str | None) -> dict[str, Any]:
+        """One living robot's info dict (as :meth:`infos` gives it)."""
+        m, life, age = self.members[row], self.life, int(self.ages[row])
+        return _info(m, life, age, (float(self.f[row]), float(self.v[row]), float(self.s[row])),
+                     self.position[row].copy(), self.trajectories.view(row), death,
+                     masks[m.agent])
+
+    def brain_inputs(self, rows: NDArray[np.intp]) -> NDArray[np.intp]:
+        """Entries of :attr:`obs` of the robots in ``rows``, one robot after the other."""
+        parts = [np.arange(self._obs_offsets[r], self._obs_offsets[r + 1]) for r in rows.tolist()]
+        return _ints(np.concatenate(parts)) if parts else _ints([])
+
+    # -- snapshots -----------------------------------------------------------------------------
+    def restore(self, members: list[Member], rows: list[dict[str, Any]]) -> None:
+        """Rows back from member snapshots (``population_snapshot.member_snapshot``)."""
+        self.clear()
+        self.members = list(members)
+        k = len(members)
+        self.ages = np.array([int(e["age_steps"]) for e in rows], dtype=np.int64)
+        terms = np.array([[float(x) for x in e["terms"]] for e in rows]).reshape(k, 3)
+        self.f, self.v, self.s = (terms[:, i].copy() for i in range(3))
+        self.position = np.array([e["position"] for e in rows], dtype=np.float64).reshape(k, 3)
+        self.obs = (np.concatenate([np.asarray(e["obs"], dtype=np.float64) for e in rows])
+                    if rows else np.zeros(0))
+        self.windows.add(k)
+        self.windows.restore([e["fitness"] for e in rows])
+        for e in rows:
+            trajectory = np.asarray(e["trajectory"], dtype=np.float64).reshape(-1, 3)
+            self.trajectories.add(trajectory, int(e["trajectory_capacity"]))
+        self._layout()
+        self.view = (np.concatenate([np.asarray(e["view"], dtype=np.float64) for e in rows])
+                     if rows else np.zeros(0))
+        if self.view.shape[0] != int(self._view_offsets[-1]):
+            raise ValueError("the snapshot's observations do not fit its robots' spaces")

@@ -1,0 +1,109 @@
+"""Every living robot's core trajectory, appended for all robots in one array write per step.
+
+:class:`TrajectoryStore` keeps each robot's samples contiguous (a segment of one arena) so that a
+robot's trajectory is a read-only view, handed out without a copy; the segments grow by
+doubling. A step appends to every robot that records with one fancy-index write. An arena is
+never written again where a view handed out may look: a full segment moves to fresh space, and
+when the arena runs out a new one is made (the old array lives on in the views that use it).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["TrajectoryStore"]
+
+_FIRST = 64  # samples a new robot's segment holds before it moves
+
+
+class TrajectoryStore:
+    """Core positions (metres) of many robots over their lives; rows follow births and deaths."""
+
+    def __init__(self, capacity: int = 4096) -> None:
+        self._arena = np.empty((capacity, 3))
+        self._read = self._read_only(self._arena)
+        self._used = 0  # rows of the arena handed to segments
+        self._start = np.zeros(0, dtype=np.intp)  # each robot's segment
+        self._length = np.zeros(0, dtype=np.intp)
+        self._room = np.zeros(0, dtype=np.intp)
+
+    @staticmethod
+    def _read_only(arena: NDArray[np.float64]) -> NDArray[np.float64]:
+        view = arena.view()
+        view.flags.writeable = False
+        return view
+
+    def __len__(self) -> int:
+        """Robots."""
+        return int(self._start.shape[0])
+
+    def add(self, samples: NDArray[np.float64] | None = None, room: int = _FIRST) -> None:
+        """A new robot (last row), with ``samples`` (T, 3) already recorded (default none)."""
+        k = 0 if samples is None else samples.shape[0]
+        room = max(room, k, 1)
+        start = self._allocate(room)
+        if k:
+            assert samples is not None
+            self._arena[start:start + k] = samples
+        self._start = np.append(self._start, start)
+        self._length = np.append(self._length, k)
+        self._room = np.append(self._room, room)
+
+    def remove(self, keep: NDArray[np.bool_]) -> None:
+        """Keep the robots where ``keep`` is True (the others' segments become free space)."""
+        self._start, self._length, self._room = (self._start[keep], self._length[keep],
+                                                 self._room[keep])
+
+    def clear(self) -> None:
+        """No robots."""
+        self.remove(np.zeros(len(self), dtype=bool))
+
+    def append(self, rows: NDArray[np.intp] | slice, positions: NDArray[np.float64]) -> None:
+        """Record ``positions`` (k, 3) for the robots in ``rows``, one sample each."""
+        length = self._length[rows]
+        if (length == self._room[rows]).any():
+            for row in np.arange(len(self))[rows][length == self._room[rows]].tolist():
+                self._move(row, 2 * int(self._room[row]))
+        self._arena[self._start[rows] + self._length[rows]] = positions
+        self._length[rows] += 1
+
+    def _move(self, row: int, room: int) -> None:
+        """Give a robot a segment of ``room`` samples with its samples so far."""
+        start, k = int(self._start[row]), int(self._length[row])
+        old = self._arena
+        new = self._allocate(room)  # may replace the arena: copy from the old one
+        self._arena[new:new + k] = old[start:start + k]
+        self._start[row] = new
+        self._room[row] = room
+
+    def _allocate(self, room: int) -> int:
+        """Rows for a segment at the end of the arena, in a new arena when it is full."""
+        if self._used + room > self._arena.shape[0]:
+            live = int(self._room.sum())
+            arena = np.empty((max(2 * (live + room), 4096), 3))
+            used = 0
+            for row in range(len(self)):  # compact the live segments into the new arena
+                s, k, r = int(self._start[row]), int(self._length[row]), int(self._room[row])
+                arena[used:used + k] = self._arena[s:s + k]
+                self._start[row] = used
+                used += r
+            self._arena, self._read, self._used = arena, self._read_only(arena), used
+        start = self._used
+        self._used += room
+        return start
+
+    def view(self, row: int) -> NDArray[np.float64]:
+        """A robot's trajectory so far, (T, 3), read-only (it does not see later samples)."""
+        s = int(self._start[row])
+        return self._read[s:s + int(self._length[row])]
+
+    def views(self) -> list[NDArray[np.float64]]:
+        """Every robot's :meth:`view`, in row order."""
+        read = self._read
+        return [read[s:e] for s, e in zip(self._start.tolist(),
+                                          (self._start + self._length).tolist(), strict=True)]
+
+    def room(self, row: int) -> int:
+        """Samples a robot's segment holds before it moves."""
+        return int(self._room[row])
