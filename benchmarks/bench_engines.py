@@ -30,7 +30,8 @@ same model, state and controls).
    and blow-ups counted. ``crowd-hour``: ``--crowd-minutes`` simulated minutes of ``--robots``
    robots (half walking examples, half random) packed in a 1 m disc with no clearance, each
    replaced after 60 s or when lost, on each of ``--crowd-engines``: blow-ups per 1,000
-   robot-lives.
+   robot-lives (``--mujoco-integrator before``: MuJoCo with the integrator it used before,
+   ``implicitfast`` with islands, as ``integrator_move.py`` sets it).
 
 Usage: ``python benchmarks/bench_engines.py [--only single evaluate crowd ...] [--seconds 3]
 [--robots 30] [--rank-robots 40] [--births 3000] [--repeats 2] [--robust-robots 2000]
@@ -56,6 +57,8 @@ from numpy.typing import NDArray
 from scipy.stats import spearmanr
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout
+
+from integrator_move import integrator_before
 
 from evolution.config import EvolutionConfig
 from evolution.operators import reproduce
@@ -495,6 +498,8 @@ def main() -> None:
     parser.add_argument("--robust-robots", type=int, default=2000)
     parser.add_argument("--crowd-minutes", type=float, default=5.0)
     parser.add_argument("--crowd-engines", nargs="+", choices=ENGINES, default=["mujoco"])
+    parser.add_argument("--mujoco-integrator", choices=("now", "before"), default="now",
+                        help="crowd-hour: MuJoCo's integrator as now (discrete) or as before")
     parser.add_argument("--memory-child", nargs=2, metavar=("ENGINE", "BIRTHS"),
                         help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -528,7 +533,12 @@ def main() -> None:
         robust(args.robust_robots)
     if "crowd-hour" in only:
         for engine in args.crowd_engines:
-            crowded_hour(engine, args.robots, args.crowd_minutes)
+            if engine == "mujoco" and args.mujoco_integrator == "before":
+                with integrator_before():  # implicitfast, islands on (integrator_move.py)
+                    print("MuJoCo as before: implicitfast, constraint islands on")
+                    crowded_hour(engine, args.robots, args.crowd_minutes)
+            else:
+                crowded_hour(engine, args.robots, args.crowd_minutes)
 
 
 if __name__ == "__main__":
