@@ -68,7 +68,7 @@ def bench_env(env: PopulationEnv, steps: int) -> tuple[float, float]:
 
 def bench_world(env: PopulationEnv, steps: int) -> tuple[float, float]:
     world = env.world
-    handles = [env._members[a].handle for a in env.agents]
+    handles = [env._roster.member(a, "bench").handle for a in env.agents]
     dt = env.config.control_period
 
     def run() -> None:
@@ -84,7 +84,7 @@ def bench_world(env: PopulationEnv, steps: int) -> tuple[float, float]:
 def bench_raw(env: PopulationEnv, steps: int) -> tuple[float, float]:
     world = env.world
     cid = world.backend.client_id  # type: ignore[attr-defined]  # drive pybullet directly
-    states = [world.backend._bodies[world._robots[env._members[a].handle].key]  # type: ignore[attr-defined]
+    states = [world.backend._bodies[world._robots[env._roster.member(a, "bench").handle].key]  # type: ignore[attr-defined]
               for a in env.agents]
     c = env.config
     dt = c.control_period

@@ -40,6 +40,7 @@ __all__ = [
     "LifecycleTiming",
     "Stage",
     "Transition",
+    "stage_of",
 ]
 
 
@@ -236,21 +237,40 @@ class Lifecycle:
         return self._move(Stage.DEATH, time, cause)
 
     def advance_to_age(self, age: float) -> list[Transition]:
-        """Perform the transitions a living robot of ``age`` seconds is due.
+        """Perform the transitions a living robot of ``age`` seconds is due (offline robots).
 
-        Each transition is stamped with the exact time it became due (birth + insertion,
-        birth + fertile age), not the time of the call, so the record does not depend on how
-        often the engine checks.
+        A robot living in a world follows the world's clock instead (:meth:`advance_to`).
+
+        Returns:
+            The transitions made (possibly none).
+        """
+        return self.advance_to(self.timing.stage_at(age))
+
+    def advance_to(self, due: Stage) -> list[Transition]:
+        """Perform the transitions that bring a living robot to stage ``due``.
+
+        ``due`` comes from the clock of the world the robot lives in (the population env counts
+        every robot's age in control periods and reports whether it is still inserting and
+        whether it is mature: :func:`stage_of`), so insertion and maturity have one clock. Each
+        transition is stamped with the exact time it became due (birth + insertion, birth +
+        fertile age), not the time of the call, so the record does not depend on how often the
+        engine checks.
 
         Returns:
             The transitions made (possibly none).
         """
         if self.birth_time is None or not self.alive:
             raise LifecycleError(f"robot {self.robot_id}: only a living robot ages")
-        due = self.timing.stage_at(age)
         made: list[Transition] = []
         if self.stage is Stage.DELIVERY and due in (Stage.INFANCY, Stage.MATURITY):
             made.append(self.begin_infancy(self.birth_time + self.timing.insertion))
         if self.stage is Stage.INFANCY and due is Stage.MATURITY:
             made.append(self.mature(self.birth_time + self.timing.fertile_age))
         return made
+
+
+def stage_of(inserting: bool, mature: bool) -> Stage:
+    """The stage of a living robot as its world's clock reports it (insertion, maturity)."""
+    if mature:
+        return Stage.MATURITY
+    return Stage.DELIVERY if inserting else Stage.INFANCY

@@ -7,8 +7,9 @@ function (a submodule of the same name would replace it once imported).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,8 +25,10 @@ from revolve_env.conditions import (
     add_sensor_noise,
     with_noise_shortcuts,
 )
-from revolve_env.fitness import DEFAULT_S_WEIGHT, fitness_terms
+from revolve_env.fitness import trajectory_window
+from revolve_env.tasks import Task, make_task, score
 from revolve_env.world import World, WorldConfig
+from revolve_env.world.signals import SignalReader, signal_reader
 
 __all__ = ["EvaluationResult", "evaluate", "evaluate_many", "evaluation_mjcf", "start_generator"]
 
@@ -47,7 +50,8 @@ class EvaluationResult:
     """Outcome of :func:`evaluate`.
 
     Attributes:
-        fitness: ``v + 5 s`` over the evaluation (0 if the simulation blew up). Metres.
+        fitness: The task's fitness over the evaluation (0 if the simulation blew up); the
+            default task's ``v + 5 s`` in metres.
         v: Horizontal path length of the core over the evaluation. Metres.
         s: Horizontal distance between the core's first and last positions. Metres.
         trajectory: Core positions at every control period of the evaluation, first row at the
@@ -74,6 +78,7 @@ def evaluate(
     limits: Limits | None = None,
     engine: str | None = None,
     conditions: EvaluationConditions | None = None,
+    task: Task | str | Mapping[str, Any] | None = None,
 ) -> EvaluationResult:
     """Run ``robot`` on its own controller in a fresh world and measure its fitness.
 
@@ -81,9 +86,9 @@ def evaluate(
 
     The robot is validated, dropped at the origin (or where ``conditions`` draw its start), left
     ``insertion`` seconds to settle (its controller already runs) and then followed for
-    ``seconds``; the fitness is ``v + 5 s`` over that span (:mod:`revolve_env.fitness`). The
-    network is stepped by the compiled :class:`~revolve_env.brain.BatchController` once per
-    control period.
+    ``seconds``; the fitness is ``task``'s over that span, by default the paper's ``v + 5 s``
+    (:class:`revolve_env.tasks.Locomotion`). The network is stepped by the compiled
+    :class:`~revolve_env.brain.BatchController` once per control period.
 
     Args:
         robot: The robot, with its neural network.
@@ -103,11 +108,13 @@ def evaluate(
         conditions: Start heading and position jitter around the origin, sensor and actuator
             noise (:class:`~revolve_env.conditions.EvaluationConditions`); default
             :data:`~revolve_env.conditions.IDEAL` (heading 0 at the origin, no noise).
+        task: What the robot is scored on (:func:`revolve_env.tasks.make_task`: a task, a
+            name, a table); default :class:`~revolve_env.tasks.Locomotion`.
 
     Raises:
         RobotError: the robot is invalid (before any physics runs).
-        ValueError: a bad timing or noise argument, noise given both ways, an unknown engine, or
-            a network whose inputs do not match the body's sensors.
+        ValueError: a bad timing or noise argument, noise given both ways, an unknown engine, a
+            network whose inputs do not match the body's sensors, or a bad task (``TaskError``).
         EngineUnavailableError: the engine's package is not installed.
         TypeError: ``conditions`` is not an ``EvaluationConditions``.
     """
@@ -116,7 +123,8 @@ def evaluate(
             raise ValueError(f"{name} must be a finite number >= 0, got {value}")
     conditions = with_noise_shortcuts(conditions, sensor_noise, actuator_noise)
     [result] = evaluate_many([robot], seconds=seconds, insertion=insertion, seeds=[seed],
-                             config=config, limits=limits, engine=engine, conditions=conditions)
+                             config=config, limits=limits, engine=engine, conditions=conditions,
+                             task=task)
     return result
 
 
@@ -130,6 +138,7 @@ def evaluate_many(
     limits: Limits | None = None,
     engine: str | None = None,
     conditions: EvaluationConditions | None = None,
+    task: Task | str | Mapping[str, Any] | None = None,
 ) -> list[EvaluationResult]:
     """:func:`evaluate` many robots side by side: the same results, for less work per robot.
 
@@ -150,6 +159,7 @@ def evaluate_many(
         engine: Physics engine; None keeps ``config.engine`` (pybullet by default).
         conditions: The conditions of every robot (each drawn from its own seed); default
             :data:`~revolve_env.conditions.IDEAL`.
+        task: What every robot is scored on; default :class:`~revolve_env.tasks.Locomotion`.
 
     Returns:
         One :class:`EvaluationResult` per robot, in order.
@@ -157,7 +167,8 @@ def evaluate_many(
     Raises:
         RobotError: a robot is invalid (before any physics runs).
         ValueError: a bad timing, a seed count that does not match, an unknown engine, a network
-            whose inputs do not match its body's sensors, or a robot the engine cannot build.
+            whose inputs do not match its body's sensors, a robot the engine cannot build, or a
+            bad task (``TaskError``).
         EngineUnavailableError: the engine's package is not installed.
         TypeError: ``conditions`` is not an ``EvaluationConditions``.
     """
@@ -170,6 +181,7 @@ def evaluate_many(
     if len(seeds) != len(robots):
         raise ValueError(f"{len(seeds)} seeds for {len(robots)} robots")
     conditions = with_noise_shortcuts(conditions, 0.0, 0.0)
+    scored = make_task(task)
     cfg = (config if config is not None else WorldConfig()).with_engine(engine)
     dt = cfg.control_period
     insertion_ticks = round(insertion / dt)
@@ -182,33 +194,38 @@ def evaluate_many(
     starts = [conditions.start(start_generator(seed)) for seed in seeds]
     with World(cfg, isolated=True) as world:
         paths = _rollout(world, robots, starts, insertion_ticks, evaluation_ticks, rngs,
-                         conditions.sensor_noise, conditions.actuator_noise)
+                         conditions.sensor_noise, conditions.actuator_noise, scored.signal)
+    window = trajectory_window([p for p, _, _ in paths],
+                               None if scored.signal is None else [g for _, g, _ in paths])
+    fitness = score(scored, window).tolist()
     results = []
-    for path, reason in paths:
+    for i, (path, _, reason) in enumerate(paths):
         if reason is not None:
             results.append(EvaluationResult(0.0, 0.0, 0.0, path, reason))
         else:
-            terms = fitness_terms(path, DEFAULT_S_WEIGHT)
-            results.append(EvaluationResult(terms.fitness, terms.v, terms.s, path, None))
+            results.append(EvaluationResult(fitness[i], float(window.v[i]), float(window.s[i]),
+                                            path, None))
     return results
 
 
 def _rollout(
     world: World, robots: Sequence[Robot], starts: Sequence[Start], insertion_ticks: int,
     evaluation_ticks: int, rngs: Sequence[np.random.Generator], sensor_noise: float,
-    actuator_noise: float,
-) -> list[tuple[NDArray[np.float64], str | None]]:
+    actuator_noise: float, signal: str | None = None,
+) -> list[tuple[NDArray[np.float64], NDArray[np.float64], str | None]]:
     """Drop ``robots`` into ``world`` at ``starts`` and let their own networks drive them.
 
     One pass per control period over every robot: their sensor values as one array, one call of
     the compiled controller for all networks, every target set at once. A robot whose
     simulation blows up leaves the world and the controller at once (``world`` must keep the
     others' physics apart from it: a world of one robot, or an isolated one); the others go on.
-    Noise draws from each robot's own generator in ``rngs``, robot by robot.
+    Noise draws from each robot's own generator in ``rngs``, robot by robot. A task's
+    ``signal`` (:mod:`revolve_env.world.signals`) is sampled with every core position.
 
     Returns:
-        Per robot: the core's path over the evaluation ticks (read-only, metres) and the
-        blow-up reason (``None`` if the simulation stayed sane).
+        Per robot: the core's path over the evaluation ticks (read-only, metres), the signal at
+        the same ticks (empty without a signal) and the blow-up reason (``None`` if the
+        simulation stayed sane).
     """
     n = len(robots)
     brain = BatchController(world.config.control_period)
@@ -226,6 +243,8 @@ def _rollout(
     noisy = sensor_noise > 0 or actuator_noise > 0
     outputs = np.zeros(brain.n_outputs)
     trajectory = np.empty((evaluation_ticks + 1, n, 3))
+    signals = np.empty((evaluation_ticks + 1, n) if signal is not None else (0, n))
+    reader: SignalReader | None = signal_reader(signal, robots, world)
     columns = np.arange(n)  # the robot (index into robots) of each world row
     rows = np.zeros(n, dtype=np.intp)  # trajectory rows of each robot that left
     recorded = 0  # trajectory rows of every robot still in the world
@@ -234,6 +253,8 @@ def _rollout(
     for tick in range(insertion_ticks + evaluation_ticks):
         if tick == insertion_ticks:
             trajectory[0, columns] = world.states.core_pos
+            if reader is not None:
+                signals[0, columns] = reader.read(world)
             recorded = 1
         inputs = world.sensor_values()
         if noisy:
@@ -252,18 +273,22 @@ def _rollout(
                 break
             outputs = np.zeros(brain.n_outputs)
             every = False
+            reader = signal_reader(signal, [robots[i] for i in columns.tolist()], world)
         if tick >= insertion_ticks:
             if every:
                 trajectory[recorded] = world.states.core_pos
             else:
                 trajectory[recorded, columns] = world.states.core_pos
+            if reader is not None:
+                signals[recorded, columns] = reader.read(world)
             recorded += 1
     rows[columns] = recorded
     out = []
     for i in range(n):
         path = trajectory[:rows[i], i].copy()
         path.setflags(write=False)
-        out.append((path, reasons[i]))
+        out.append((path, signals[:rows[i], i].copy() if signal is not None else signals[:0, i],
+                    reasons[i]))
     return out
 
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from evolution.config import EvolutionConfig
 from evolution.evaluation import EvalOutcome, EvalTask, evaluate_after_infancy
-from evolution.experiments import AgentStatus, Birth, ExperimentConfig, ProgressEvent
+from evolution.experiments import Birth, ExperimentConfig, ProgressEvent, RobotStatus
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import to_json
 from revolve_env.brain import get_params, param_bounds
@@ -73,45 +73,49 @@ class FakeWorld:
         self.config = config
         self._time = 0.0
         self._next = 0
-        self.robots: dict[str, tuple[float, float, tuple[float, float], float]] = {}
+        self.robots: dict[int, tuple[float, float, tuple[float, float], float]] = {}
         self.max_population = 0
         self.blow_ups = blow_ups
         self.blow_up_fitness = blow_up_fitness
         self.blow_up_speed = blow_up_speed
         self.blow_up_age = blow_up_age
         self.closed = False
-        self.policies: dict[str, Any] = {}
+        self.policies: dict[int, Any] = {}
 
     @property
     def time(self) -> float:
         return self._time
 
-    def add(self, robot: Robot, policy: Any = None) -> Birth:
-        agent = f"robot_{self._next}"
-        self.policies[agent] = policy
+    def add(self, robot: Robot, robot_id: int, policy: Any = None) -> Birth:
+        self.policies[robot_id] = policy
         position = (0.0, float(self._next))  # a row of lanes: never crowded
         self._next += 1
-        self.robots[agent] = (speed_of(to_json(robot, indent=None)), self._time, position, 0.0)
+        self.robots[robot_id] = (speed_of(to_json(robot, indent=None)), self._time, position,
+                                 0.0)
         self.max_population = max(self.max_population, len(self.robots))
-        return Birth(agent, position, True)
+        return Birth(robot_id, position, True)
 
-    def remove(self, agent: str) -> None:
-        del self.robots[agent]
+    def remove(self, robot_id: int) -> None:
+        del self.robots[robot_id]
 
-    def advance_to(self, t: float) -> dict[str, AgentStatus]:
+    def advance_to(self, t: float) -> dict[int, RobotStatus]:
         assert t >= self._time
         self._time = t
-        out: dict[str, AgentStatus] = {}
-        for agent, (u, born, pos, _) in list(self.robots.items()):
-            walked = max(0.0, min(t - born - self.config.insertion, self.config.evaluation_time))
+        out: dict[int, RobotStatus] = {}
+        for robot_id, (u, born, pos, _) in list(self.robots.items()):
+            age = t - born
+            walked = max(0.0, min(age - self.config.insertion, self.config.evaluation_time))
             removed = None
             fitness = 6 * u * walked
-            if self.blow_ups and u > self.blow_up_speed and t - born >= self.blow_up_age:
+            if self.blow_ups and u > self.blow_up_speed and age >= self.blow_up_age:
                 removed = "core speed 12.0 m/s > 10.0"
                 fitness = self.blow_up_fitness
-                del self.robots[agent]
-            out[agent] = AgentStatus(fitness, u * walked, u * walked,
-                                     (pos[0] + u * (t - born), pos[1]), removed)
+                del self.robots[robot_id]
+            out[robot_id] = RobotStatus(
+                robot_id, fitness, u * walked, u * walked,
+                np.array([pos[0] + u * age, pos[1], 0.0]), age=age,
+                inserting=age < self.config.insertion, mature=age >= self.config.fertile_age,
+                death=None if removed is None else "blow_up", blow_up=removed)
         return out
 
     def close(self) -> None:
@@ -201,11 +205,11 @@ class CtrlCEvaluator:
 class PickyWorld(FakeWorld):
     """A fake world whose engine cannot build every third robot it is given."""
 
-    def add(self, robot: Robot) -> Birth:
+    def add(self, robot: Robot, robot_id: int, policy: Any = None) -> Birth:
         self.offered = getattr(self, "offered", 0) + 1
         if self.offered % 3 == 0:
             raise ValueError("MuJoCo cannot build this robot: fake refusal")
-        return super().add(robot)
+        return super().add(robot, robot_id, policy)
 
 
 def picky_world(config: ExperimentConfig, seed: int) -> FakeWorld:

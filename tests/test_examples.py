@@ -139,7 +139,11 @@ def test_custom_fitness() -> None:
     assert sorted(rankings[0].split(", ")) == sorted(rankings[1].split(", ")) == sorted(
         revolve_env.EXAMPLES)
     for name in revolve_env.EXAMPLES:
-        numbers(rf"^{name}\s+{NUMBER}\s+{NUMBER}\s+{NUMBER}\s+{NUMBER}$", out)
+        numbers(rf"^{name}\s+{NUMBER}\s+{NUMBER}\s+{NUMBER}$", out)
+    # The task class is the env's reward: the episode's return is its fitness.
+    ret, fitness = numbers(rf"with ForwardDistance: return {NUMBER} m, fitness {NUMBER} m", out)
+    assert ret == fitness
+    assert "stored as {'name': '__main__:ForwardDistance', 'weight': 2.0}" in out
 
 
 def test_multi_agent_shared_policy() -> None:

@@ -17,7 +17,10 @@ def test_the_readme_has_python_examples() -> None:
 
 @pytest.mark.parametrize("index", range(len(BLOCKS)))
 def test_readme_python_block_runs(index: int, capsys: pytest.CaptureFixture[str]) -> None:
-    exec(compile(BLOCKS[index], f"README.md block {index}", "exec"), {"__name__": "__readme__"})
+    # dont_inherit: compiled as a user's script would be, without this module's __future__
+    # imports (string annotations would send dataclasses looking for a module "__readme__").
+    exec(compile(BLOCKS[index], f"README.md block {index}", "exec", dont_inherit=True),
+         {"__name__": "__readme__"})
     capsys.readouterr()
 
 
@@ -29,3 +32,16 @@ def test_readme_opens_with_the_two_setup_commands() -> None:
     assert len(commands) == 2
     ci = (Path(__file__).resolve().parents[1] / ".ci" / "run").read_text(encoding="utf-8")
     assert commands[1] in ci  # CI runs exactly the README's test command
+
+
+TOML_BLOCKS = re.findall(r"```toml\n(.*?)```", README.read_text(encoding="utf-8"), flags=re.S)
+
+
+@pytest.mark.parametrize("index", range(len(TOML_BLOCKS)))
+def test_readme_toml_block_is_a_valid_experiment_config(index: int) -> None:
+    import tomllib
+
+    from evolution.experiments import ExperimentConfig
+
+    config = ExperimentConfig.from_dict(tomllib.loads(TOML_BLOCKS[index]))
+    config.fitness_task()  # a task table names a task that resolves

@@ -320,20 +320,19 @@ class RecordingWorld(PopulationWorld):
         self._period = every * float(self._env.config.control_period)
         self._next = 0.0
         self._sink = sink
-        self._added = 0  # the engine's robot ids are its births, one add() per birth
-        self._who: dict[str, tuple[int, tuple[float, float, float]]] = {}
+        self._added = 0  # births asked for (robots born dead included)
+        self._colors: dict[int, tuple[float, float, float]] = {}
 
-    def add(self, robot: Robot, policy: Any = None) -> Any:
-        """Add the robot and remember its id (the birth index) and colour for the legend."""
-        robot_id = self._added
+    def add(self, robot: Robot, robot_id: int, policy: Any = None) -> Any:
+        """Add the robot and remember its colour for the legend."""
         self._added += 1
-        birth = super().add(robot, policy)
-        self._who[birth.agent] = (robot_id, robot.body.color)
+        birth = super().add(robot, robot_id, policy)
+        self._colors[robot_id] = robot.body.color
         return birth
 
     def advance_to(self, t: float) -> Any:
         """Advance to ``t`` frame by frame; the statuses one call would have given."""
-        merged: dict[str, Any] = {}
+        merged: dict[int, Any] = {}
         half = 0.5 * float(self._env.config.control_period)
         while self._next < t - half:
             self._merge(merged, super().advance_to(self._next))
@@ -343,18 +342,18 @@ class RecordingWorld(PopulationWorld):
         return merged
 
     @staticmethod
-    def _merge(merged: dict[str, Any], statuses: dict[str, Any]) -> None:
-        for agent, status in statuses.items():
-            if agent not in merged or merged[agent].removed is None:
-                merged[agent] = status
+    def _merge(merged: dict[int, Any], statuses: dict[int, Any]) -> None:
+        for robot_id, status in statuses.items():
+            if robot_id not in merged or merged[robot_id].death is None:
+                merged[robot_id] = status
 
     def _frame(self) -> None:
         from revolve_env.envs.watch import Label, label_frame
 
         labels = []
-        for agent in self._env.agents:
-            robot_id, color = self._who.get(agent, (-1, (0.5, 0.5, 0.5)))
-            fitness = float(self._last.get(agent, {}).get("fitness", 0.0))
+        for robot_id in self._env.robot_ids:
+            color = self._colors.get(robot_id, (0.5, 0.5, 0.5))
+            fitness = float(self._env.status(robot_id).fitness)
             labels.append(Label(f"#{robot_id}  {fitness:.3f} m", color, fitness))
         header = (f"t = {self.time:6.1f} s   births {self._added}   alive {len(labels)}   "
                   "(id, fitness)")

@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 from evolution.lifecycle import InfancyHook, LearningSummary, SummarizingInfancyHook
 from revolve_env.body.robot import Robot
 from revolve_env.conditions import IDEAL, EvaluationConditions
+from revolve_env.tasks import Locomotion, Task
 
 if TYPE_CHECKING:
     from revolve_env.evaluation import EvaluationResult
@@ -79,6 +80,8 @@ class EvalTask:
             :func:`evaluate_after_infancy` after an SB3 infancy).
         conditions: Start heading and jitter, sensor and actuator noise, drawn from ``seed``
             (:class:`~revolve_env.conditions.EvaluationConditions`).
+        task: What the robot is scored on (:mod:`revolve_env.tasks`; default the paper's
+            :class:`~revolve_env.tasks.Locomotion`).
     """
 
     robot_id: int
@@ -90,6 +93,7 @@ class EvalTask:
     engine: str = "pybullet"
     policy: DrivingPolicy | None = None
     conditions: EvaluationConditions = IDEAL
+    task: Task = Locomotion()
 
 
 @dataclass(frozen=True, slots=True)
@@ -97,7 +101,8 @@ class EvalOutcome:
     """What an evaluation gave.
 
     Attributes:
-        fitness: ``v + 5 s`` over the window; ``None`` when the evaluation failed. Metres.
+        fitness: The task's fitness over the window (``v + 5 s`` by default, metres); ``None``
+            when the evaluation failed.
         v: Path length over the window. Metres.
         s: Straight-line displacement over the window. Metres.
         failure: ``None``, or why the robot was lost (e.g. ``"blow-up: ..."``).
@@ -153,7 +158,7 @@ def evaluate_robot(task: EvalTask) -> EvalOutcome:
     from revolve_env.evaluation import evaluate
 
     result = evaluate(task.robot, seconds=task.seconds, insertion=task.insertion, seed=task.seed,
-                      engine=task.engine, conditions=task.conditions)
+                      engine=task.engine, conditions=task.conditions, task=task.task)
     return _outcome(result)
 
 
@@ -166,24 +171,24 @@ def _outcome(result: EvaluationResult) -> EvalOutcome:
 def evaluate_robots(tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
     """:func:`evaluate_robot` of every task, the ones without a policy side by side.
 
-    Tasks of the same engine, timing and conditions go through one
+    Tasks of the same engine, timing, conditions and task go through one
     :func:`revolve_env.evaluate_many`; every outcome is bit for bit the one
     :func:`evaluate_robot` gives the task alone. Outcomes in task order.
     """
     from revolve_env.evaluation import evaluate_many  # the physics: see evaluate_robot
 
     outcomes: list[EvalOutcome | None] = [None] * len(tasks)
-    groups: dict[tuple[str, float, float, EvaluationConditions], list[int]] = {}
+    groups: dict[tuple[str, float, float, EvaluationConditions, Task], list[int]] = {}
     for i, task in enumerate(tasks):
         if task.policy is not None:
             outcomes[i] = evaluate_robot(task)
         else:
-            key = (task.engine, task.insertion, task.seconds, task.conditions)
+            key = (task.engine, task.insertion, task.seconds, task.conditions, task.task)
             groups.setdefault(key, []).append(i)
-    for (engine, insertion, seconds, conditions), members in groups.items():
+    for (engine, insertion, seconds, conditions, scored), members in groups.items():
         results = evaluate_many([tasks[i].robot for i in members], seconds=seconds,
                                 insertion=insertion, seeds=[tasks[i].seed for i in members],
-                                engine=engine, conditions=conditions)
+                                engine=engine, conditions=conditions, task=scored)
         for i, result in zip(members, results, strict=True):
             outcomes[i] = _outcome(result)
     return [o for o in outcomes if o is not None]
@@ -196,7 +201,7 @@ def _evaluate_with_policy(task: EvalTask, policy: DrivingPolicy) -> EvalOutcome:
     env = LocomotionEnv(task.robot, insertion_time=task.insertion, evaluation_time=task.seconds,
                         fitness_window=task.seconds, control_period=policy.control_period,
                         controller="agent", action="targets", engine=task.engine,
-                        conditions=task.conditions)
+                        conditions=task.conditions, task=task.task)
     try:
         policy.reset()
         info = run_episode(env, task.seed, policy.act)

@@ -30,12 +30,12 @@ from evolution.experiments.loop import (
 )
 from evolution.experiments.registry import learning_names, shipped_configs
 from evolution.experiments.run import (
-    AgentStatus,
     Birth,
     Member,
     OnlineWorld,
     ProgressEvent,
     ReplayError,
+    RobotStatus,
     RunJob,
     RunSummary,
     Step,
@@ -48,7 +48,6 @@ from evolution.experiments.store_observer import StoreObserver, execute_run
 
 __all__ = [
     "DB_NAME",
-    "AgentStatus",
     "Birth",
     "ConfigError",
     "EventObserver",
@@ -62,6 +61,7 @@ __all__ = [
     "ProgressEvent",
     "ProgressObserver",
     "ReplayError",
+    "RobotStatus",
     "RunJob",
     "RunSummary",
     "Step",

@@ -49,7 +49,7 @@ from evolution.experiments.run import (
 )
 from evolution.experiments.state import RunState
 from evolution.experiments.store import Checkpoint, FailureRecord, FitnessSample
-from evolution.lifecycle import LearningSummary, Lifecycle, Stage
+from evolution.lifecycle import LearningSummary, Lifecycle, Stage, stage_of
 from evolution.selection import online_survivors
 from revolve_env.body.robot import Robot
 
@@ -137,8 +137,8 @@ class OnlineMode:
         state.batch.robots.append(record)
         try:
             # A robot with a policy is agent-controlled: the world asks the policy every step.
-            birth = (self.world.add(living) if member.policy is None
-                     else self.world.add(living, member.policy))
+            birth = (self.world.add(living, member.robot_id) if member.policy is None
+                     else self.world.add(living, member.robot_id, member.policy))
         except ValueError as error:
             # The physics engine cannot build this body (e.g. MuJoCo refuses its geometry): the
             # robot is born dead. Recorded, and the run goes on.
@@ -147,7 +147,6 @@ class OnlineMode:
             state.kill(member, time_s, cause)
             self.dead.append(member)
             return
-        member.agent = birth.agent
         if not birth.inside:
             x, y = birth.position
             state.batch.failures.append(FailureRecord(
@@ -161,29 +160,29 @@ class OnlineMode:
         statuses = self.world.advance_to(now)
         state.sim_time = now
         for m in list(state.population):
-            status = statuses.get(m.agent or "")
+            status = statuses.get(m.robot_id)
             if status is None:
                 continue
-            if status.removed is not None:
+            if status.death is not None:
                 # Lost: stored with no fitness (the world reports 0 m after a blow-up, which is
                 # no measurement). It leaves the population here, so selection never sees it.
-                cause = f"blow-up: {status.removed}"
-                state.batch.failures.append(
-                    FailureRecord(m.robot_id, now, "blow-up", status.removed))
+                reason = status.blow_up or status.death
+                cause = f"blow-up: {reason}"
+                state.batch.failures.append(FailureRecord(m.robot_id, now, "blow-up", reason))
                 m.fitness = None
                 state.batch.fitness_updates.append((m.robot_id, None))
                 self._bury(m, now, cause, remove=False)
                 continue
             m.fitness = status.fitness
-            assert m.lifecycle.birth_time is not None
-            m.lifecycle.advance_to_age(now - m.lifecycle.birth_time)
+            # Insertion and maturity on the world's clock (the env counts control periods).
+            m.lifecycle.advance_to(stage_of(status.inserting, status.mature))
             state.batch.fitness.append(FitnessSample(m.robot_id, now, status.fitness,
                                                      status.v, status.s))
             state.batch.fitness_updates.append((m.robot_id, status.fitness))
 
     def _bury(self, member: Member, now: float, cause: str, remove: bool = True) -> None:
-        if remove and member.agent is not None:
-            self.world.remove(member.agent)
+        if remove:
+            self.world.remove(member.robot_id)
         self.state.kill(member, now, cause)
         self.state.population.remove(member)
         self.dead.append(member)
@@ -243,7 +242,7 @@ class OnlineMode:
             "population": [
                 {"robot_id": m.robot_id, "genome": genome(m.robot),
                  "stage": None if m.lifecycle.stage is None else m.lifecycle.stage.value,
-                 "birth_time": m.lifecycle.birth_time, "fitness": m.fitness, "agent": m.agent,
+                 "birth_time": m.lifecycle.birth_time, "fitness": m.fitness,
                  "learned": m.learned, "policy": m.policy_ref,
                  "policy_state": None if m.policy is None else m.policy.get_state()}
                 for m in state.population
@@ -302,7 +301,7 @@ class OnlineMode:
                        Lifecycle(int(e["robot_id"]), state.timing,
                                  None if e["stage"] is None else Stage(e["stage"]),
                                  e["birth_time"]),
-                       e["fitness"], e["agent"], bool(e["learned"]))
+                       e["fitness"], bool(e["learned"]))
                 for e in loop["population"]
             ]
             for m, e in zip(population, loop["population"], strict=True):
@@ -312,8 +311,8 @@ class OnlineMode:
                     m.policy.set_state(e["policy_state"])
             world.restore(data["world"])
             for m in population:
-                if m.policy is not None and m.agent is not None:
-                    world.drive(m.agent, m.policy)
+                if m.policy is not None:
+                    world.drive(m.robot_id, m.policy)
         except (snapshot.SnapshotError, KeyError, TypeError, ValueError, NotImplementedError,
                 RecursionError) as e:
             _log.warning("run %d: cannot resume from the snapshot at %d births (%s); replaying "

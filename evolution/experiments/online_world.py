@@ -1,17 +1,18 @@
 """The online world of the loop over the PettingZoo population environment (issue 4).
 
 Adapts :class:`revolve_env.envs.population.PopulationEnv` to
-:class:`evolution.experiments.run.OnlineWorld`: robots are added with ``add_robot(robot, position,
-controlled_by="brain")`` (their own brains drive them), or ``controlled_by="agent"`` for a robot
-with a learned policy (an SB3 infancy: ``step`` gets ``policy.act(observe(agent))`` for each of
-them every control step), removed
-with ``remove_robot``, and the per-agent ``infos`` give the sliding-window fitness, the core
-position and the reason a robot was removed (blow-up). Imported lazily: ``evolution`` itself
-never imports the physics.
+:class:`evolution.experiments.run.OnlineWorld`: a robot enters under the engine's own robot id
+(``add_robot(robot, robot_id=...)``: one id from the world to the store), driven by its own
+brain, or ``controlled_by="agent"`` for a robot with a learned policy (an SB3 infancy: ``step``
+gets ``policy.act(observe(robot))`` for each of them every control step); it leaves with
+``remove_robot``. What the engine learns of its robots is their typed
+:class:`~revolve_env.status.RobotStatus` (the task's fitness with its terms, core position,
+maturity on the env's clock, the reason a robot was lost). Imported lazily: ``evolution``
+itself never imports the physics.
 
 It is a :class:`~evolution.experiments.run.RestorableWorld`: :meth:`PopulationWorld.snapshot`
-holds the env's whole state (:meth:`PopulationEnv.snapshot`) and the last infos the world
-reported; restoring it is exact on MuJoCo (``exact_restore``), not on pybullet.
+holds the env's whole state (:meth:`PopulationEnv.snapshot`); restoring it is exact on MuJoCo
+(``exact_restore``), not on pybullet.
 """
 
 from __future__ import annotations
@@ -19,16 +20,19 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from evolution.experiments.config import ExperimentConfig
-from evolution.experiments.run import AgentStatus, Birth
+from evolution.experiments.run import Birth
 from revolve_env.body.robot import Robot
+from revolve_env.status import RobotStatus, agent_name
 
 if TYPE_CHECKING:
     from revolve_env.envs.population import PopulationEnv
 
 __all__ = ["PopulationWorld"]
 
-# What advance_to reads from an info (a snapshot keeps only these).
-_LAST_KEYS = ("position", "fitness", "fitness_v", "fitness_s", "blow_up", "death")
+_IDS = "robot_ids"
+"""Marks a snapshot whose env robots carry the engine's robot ids (older ones counted their own
+births, which differ from the engine's after a robot born dead: those are refused, and the
+engine replays instead)."""
 
 
 class PopulationWorld:
@@ -52,68 +56,54 @@ class PopulationWorld:
             maturity_age=config.fertile_age, fitness_window=config.evaluation_time,
             birth_radius=config.birth_radius, birth_clearance=config.birth_clearance,
             limits=config.evolution.limits, engine=config.world.engine,
-            conditions=config.evaluation)
+            conditions=config.evaluation, task=config.fitness_task())
         self._seed = seed
         self._env.reset(seed=seed)
-        self._last: dict[str, dict[str, Any]] = {}
-        self._policies: dict[str, Any] = {}  # agent -> PolicyAgent of agent-controlled robots
+        self._policies: dict[int, Any] = {}  # robot id -> PolicyAgent of agent-controlled robots
 
     @property
     def time(self) -> float:
         """Simulated time. Seconds."""
         return float(self._env.time)
 
-    def add(self, robot: Robot, policy: Any = None) -> Birth:
-        """Drop a robot where the env's placement rule puts it.
+    def add(self, robot: Robot, robot_id: int, policy: Any = None) -> Birth:
+        """Drop robot ``robot_id`` where the env's placement rule puts it.
 
         Its own network drives it, or ``policy`` (agent-controlled: the policy's action for the
         robot's observation every control step).
         """
-        agent = self._env.add_robot(robot, None,
-                                    controlled_by="brain" if policy is None else "agent")
+        self._env.add_robot(robot, None, controlled_by="brain" if policy is None else "agent",
+                            robot_id=robot_id)
         if policy is not None:
-            self._policies[agent] = policy
-        info = self._env.agent_info(agent)
-        x, y = info["birth_position"]
-        self._last[agent] = {"position": (x, y), "fitness": 0.0}
-        return Birth(agent, (float(x), float(y)), bool(info["born_inside_disc"]))
+            self._policies[robot_id] = policy
+        status = self._env.status(robot_id)
+        x, y = status.birth_position
+        return Birth(robot_id, (float(x), float(y)), bool(status.born_inside))
 
-    def remove(self, agent: str) -> None:
+    def remove(self, robot_id: int) -> None:
         """Take a robot out of the world."""
-        self._env.remove_robot(agent)
-        self._last.pop(agent, None)
-        self._policies.pop(agent, None)
+        self._env.remove_robot(robot_id)
+        self._policies.pop(robot_id, None)
 
-    def advance_to(self, t: float) -> dict[str, AgentStatus]:
-        """Simulate until time ``t``; the status of every robot alive before the call."""
-        before = set(self._env.agents)
-        removed: dict[str, str] = {}
+    def advance_to(self, t: float) -> dict[int, RobotStatus]:
+        """Simulate until time ``t``; the status of every robot alive before the call.
+
+        A robot the world lost on the way (a blow-up) is reported with its death.
+        """
+        env = self._env
+        before = env.robot_ids
+        lost: dict[int, RobotStatus] = {}
         # Half a control period of tolerance: ticks land on whole control steps.
-        while self.time < t - 0.5 * float(self._env.config.control_period):
+        while self.time < t - 0.5 * float(env.config.control_period):
             # Deterministic policies on the current observations: a replay repeats the actions.
-            actions = {agent: policy.act(self._env.observe(agent))
-                       for agent, policy in self._policies.items()}
-            _, _, terminations, truncations, infos = self._env.step(actions)
-            for agent, info in infos.items():
-                # A robot the loop removed before this call gets one last report; keeping
-                # it would hold every dead robot's info for the rest of the run.
-                if agent in before:
-                    self._last[agent] = info
-            for agent in before:
-                if (terminations.get(agent) or truncations.get(agent)) and agent not in removed:
-                    info = self._last.get(agent, {})
-                    removed[agent] = str(info.get("blow_up") or info.get("death") or "removed")
-        out: dict[str, AgentStatus] = {}
-        for agent in before:
-            info = self._last.get(agent, {})
-            x, y = tuple(info.get("position", (0.0, 0.0)))[:2]
-            out[agent] = AgentStatus(float(info.get("fitness", 0.0)), info.get("fitness_v"),
-                                     info.get("fitness_s"), (float(x), float(y)),
-                                     removed.get(agent))
-            if agent in removed:
-                self._last.pop(agent, None)
-                self._policies.pop(agent, None)
-        return out
+            actions = {agent_name(rid): policy.act(env.observe(rid))
+                       for rid, policy in self._policies.items()}
+            env.step(actions)
+            for rid, status in env.statuses.items():
+                if status.death is not None and rid not in lost:
+                    lost[rid] = status
+                    self._policies.pop(rid, None)
+        return {rid: lost[rid] if rid in lost else env.status(rid) for rid in before}
 
     @property
     def exact_restore(self) -> bool:
@@ -121,36 +111,35 @@ class PopulationWorld:
         return self._env.exact_restore
 
     def snapshot(self) -> dict[str, Any]:
-        """The env's whole state and the last reported infos, as plain data.
+        """The env's whole state, as plain data.
 
         Raises:
             NotImplementedError: the engine cannot restore its state exactly (pybullet).
         """
-        last = {agent: {k: info[k] for k in _LAST_KEYS if k in info}
-                for agent, info in self._last.items()}
-        return {"env": self._env.snapshot(), "last": last}
+        return {"env": self._env.snapshot(), _IDS: True}
 
     def restore(self, snapshot: dict[str, Any]) -> None:
         """Continue from a :meth:`snapshot`; on failure the world is as new (reset, empty).
 
         Raises:
-            ValueError: the snapshot does not fit (``SnapshotMismatchError``).
+            ValueError: the snapshot does not fit (``SnapshotMismatchError``), or it is from
+                before the env's robots carried the engine's ids.
             NotImplementedError: the engine cannot restore its state exactly (pybullet).
         """
         try:
-            last = {str(agent): dict(info) for agent, info in snapshot["last"].items()}
+            if not snapshot.get(_IDS):
+                raise ValueError("a world snapshot from before the env's robots carried the "
+                                 "run's robot ids")
             self._env.restore(snapshot["env"])
         except BaseException:
             self._env.reset(seed=self._seed)
-            self._last = {}
             raise
-        self._last = last
         self._policies = {}
 
-    def drive(self, agent: str, policy: Any) -> None:
-        """After :meth:`restore`: ``policy`` drives the agent-controlled robot ``agent`` again."""
-        self._env.observe(agent)  # KeyError naming it if it is not alive
-        self._policies[agent] = policy
+    def drive(self, robot_id: int, policy: Any) -> None:
+        """After :meth:`restore`: ``policy`` drives the agent-controlled robot ``robot_id``."""
+        self._env.observe(robot_id)  # KeyError naming it if it is not alive
+        self._policies[robot_id] = policy
 
     def close(self) -> None:
         """Release the physics."""

@@ -27,9 +27,9 @@ from evolution.experiments.store import Batch, Checkpoint, LearningRecord, Store
 from evolution.lifecycle import InfancyHook, Lifecycle
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import from_json, to_json
+from revolve_env.status import RobotStatus
 
 __all__ = [
-    "AgentStatus",
     "Birth",
     "Member",
     "OnlineWorld",
@@ -37,6 +37,7 @@ __all__ = [
     "Replay",
     "ReplayError",
     "RestorableWorld",
+    "RobotStatus",
     "RunJob",
     "RunSummary",
     "Step",
@@ -124,35 +125,16 @@ class RunSummary:
 
 
 @dataclass(frozen=True, slots=True)
-class AgentStatus:
-    """One robot in the online world after the world advanced.
-
-    Attributes:
-        fitness: Sliding-window fitness ``v + 5 s``. Metres.
-        v: Path length over the window. Metres.
-        s: Straight displacement over the window. Metres.
-        position: Core position on the ground plane ``(x, y)``. Metres.
-        removed: ``None``, or why the world removed the robot (blow-up).
-    """
-
-    fitness: float
-    v: float | None
-    s: float | None
-    position: tuple[float, float]
-    removed: str | None = None
-
-
-@dataclass(frozen=True, slots=True)
 class Birth:
     """Where the online world placed a newborn.
 
     Attributes:
-        agent: Its agent id in the world.
+        robot_id: The robot (the id the engine gave it: its birth index).
         position: Core ``(x, y)`` where it was placed. Metres.
         inside: False when the birth disc was crowded and it went outside.
     """
 
-    agent: str
+    robot_id: int
     position: tuple[float, float]
     inside: bool
 
@@ -164,23 +146,23 @@ class OnlineWorld(Protocol):
     def time(self) -> float:
         """Simulated time. Seconds."""
 
-    def add(self, robot: Robot, policy: Any = None) -> Birth:
-        """Place a robot by the population env's rule and drop it in; where it went.
+    def add(self, robot: Robot, robot_id: int, policy: Any = None) -> Birth:
+        """Place robot ``robot_id`` by the population env's rule and drop it in; where it went.
 
         ``policy`` (a :class:`~evolution.learning.PolicyAgent`): the robot is agent-controlled
         and the world sets its hinge targets to ``policy.act(observation)`` every control step;
         ``None``: its own network drives it.
         """
 
-    def remove(self, agent: str) -> None:
+    def remove(self, robot_id: int) -> None:
         """Take a robot out of the world."""
 
-    def advance_to(self, t: float) -> dict[str, AgentStatus]:
+    def advance_to(self, t: float) -> dict[int, RobotStatus]:
         """Simulate until time ``t``.
 
         Returns:
-            The status of every robot alive before the call (``removed`` set for those the
-            world removed).
+            The status of every robot alive before the call, by robot id (with its ``death``
+            for those the world lost; insertion and maturity on the world's clock).
         """
 
     def close(self) -> None:
@@ -205,8 +187,8 @@ class RestorableWorld(Protocol):
             ValueError: the snapshot does not fit this world.
         """
 
-    def drive(self, agent: str, policy: Any) -> None:
-        """After :meth:`restore`: let ``policy`` drive the agent-controlled robot ``agent``."""
+    def drive(self, robot_id: int, policy: Any) -> None:
+        """After :meth:`restore`: let ``policy`` drive the agent-controlled robot ``robot_id``."""
 
 
 WorldFactory = Callable[[ExperimentConfig, int], OnlineWorld]
@@ -258,7 +240,6 @@ class Member:
     robot: Robot
     lifecycle: Lifecycle
     fitness: float | None = None
-    agent: str | None = None
     learned: bool = False
     policy: Any = None
     policy_ref: str | None = None

@@ -44,6 +44,7 @@ from evolution.learning.base import Learner, TrainingCenter
 from evolution.learning.params import CandidateEvaluation, CMAESLearner, RandomSearchLearner
 from evolution.learning.sb3 import SB3Learner
 from revolve_env.conditions import IDEAL, EvaluationConditions
+from revolve_env.tasks import Locomotion, Task
 
 __all__ = ["LEARNERS", "training_center_from_dict"]
 
@@ -60,7 +61,8 @@ _KEYS = {
 
 
 def training_center_from_dict(data: Mapping[str, Any], engine: str = "pybullet",
-                              conditions: EvaluationConditions = IDEAL) -> TrainingCenter:
+                              conditions: EvaluationConditions = IDEAL,
+                              task: Task | None = None) -> TrainingCenter:
     """The Training Center a ``[learning]`` table describes (keys: module docstring).
 
     ``engine`` is the physics engine the learner simulates in (an experiment's
@@ -68,7 +70,8 @@ def training_center_from_dict(data: Mapping[str, Any], engine: str = "pybullet",
     conditions of its evaluations and episodes (an experiment's ``[evaluation]`` table: infants
     learn under the conditions they are evaluated and live in), unless the table has its own
     ``conditions`` (runs stored before conditions existed learned under
-    :data:`~revolve_env.conditions.IDEAL`: the store's upgrade writes that there).
+    :data:`~revolve_env.conditions.IDEAL`: the store's upgrade writes that there); ``task``
+    what the learner scores (an experiment's task: infants learn what they are selected for).
 
     Raises:
         ValueError: unknown learner or key (named, with the known ones), a missing budget, or a
@@ -91,15 +94,16 @@ def training_center_from_dict(data: Mapping[str, Any], engine: str = "pybullet",
         conditions = EvaluationConditions.from_dict(table)
     # Any, not float: spread as keyword arguments beside arguments of other types.
     timing: dict[str, Any] = {k: float(data[k]) for k in ("insertion", "seconds") if k in data}
+    scored = task if task is not None else Locomotion()
     learner: Learner
     if name == "sb3":
         kwargs = {k: data[k] for k in ("algorithm", "policy", "action", "n_envs", "vec_env",
                                        "control_period") if k in data}
         learner = SB3Learner(**kwargs, **timing, engine=engine, conditions=conditions,
-                             algorithm_kwargs=dict(data.get("algorithm_kwargs", {})))
+                             algorithm_kwargs=dict(data.get("algorithm_kwargs", {})), task=scored)
     else:
         evaluation = CandidateEvaluation(**timing, workers=int(data.get("workers", 1)),
-                                         engine=engine, conditions=conditions)
+                                         engine=engine, conditions=conditions, task=scored)
         if name == "cma-es":
             learner = CMAESLearner(sigma0=float(data.get("sigma", 0.15)),
                                    popsize=data.get("popsize", 8), evaluation=evaluation)

@@ -36,6 +36,7 @@ from evolution.learning.base import LearningResult, check_budget
 from revolve_env.body.robot import Robot
 from revolve_env.brain import get_params, param_bounds, set_params
 from revolve_env.conditions import IDEAL, EvaluationConditions
+from revolve_env.tasks import Locomotion, Task
 
 __all__ = [
     "CMAESLearner",
@@ -59,7 +60,7 @@ def evaluate_in_env(task: EvalTask) -> EvalOutcome:
 
     env = LocomotionEnv(task.robot, controller="brain", insertion_time=task.insertion,
                         evaluation_time=task.seconds, fitness_window=task.seconds,
-                        engine=task.engine, conditions=task.conditions)
+                        engine=task.engine, conditions=task.conditions, task=task.task)
     try:
         return episode_outcome(run_episode(env, task.seed))
     finally:
@@ -81,6 +82,8 @@ class CandidateEvaluation:
         conditions: Start heading and jitter, sensor and actuator noise of every candidate
             evaluation (an experiment's ``[evaluation]`` table). All candidates of one learning
             run share one seed, so they start alike and meet the same noise draws.
+        task: What candidates are scored on (:mod:`revolve_env.tasks`; an experiment's task:
+            infants learn what they will be selected for).
     """
 
     insertion: float = 1.0
@@ -89,6 +92,7 @@ class CandidateEvaluation:
     function: EvaluateFunction = field(default=evaluate_task)
     engine: str = "pybullet"
     conditions: EvaluationConditions = IDEAL
+    task: Task = Locomotion()
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.insertion) and self.insertion >= 0):
@@ -123,7 +127,7 @@ def evaluate_params(
     tasks = [
         EvalTask(i, set_params(robot, p), evaluation.insertion,
                  evaluation.seconds, seed, engine=evaluation.engine,
-                 conditions=evaluation.conditions)
+                 conditions=evaluation.conditions, task=evaluation.task)
         for i, p in enumerate(candidates)
     ]
     own = evaluator is None

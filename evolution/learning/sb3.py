@@ -50,6 +50,7 @@ from numpy.typing import NDArray
 from evolution.learning.base import LearningResult, check_budget
 from revolve_env.body.robot import Layer, Robot
 from revolve_env.conditions import IDEAL, EvaluationConditions
+from revolve_env.tasks import Locomotion, Task
 
 if TYPE_CHECKING:
     from revolve_env.brain import BatchController
@@ -94,7 +95,7 @@ def _algorithm_class(algorithm: type | str) -> type:
 
 def _make_env(robot: Robot, action: ActionMode, insertion: float, seconds: float,
               control_period: float, engine: str = "pybullet",
-              conditions: EvaluationConditions = IDEAL) -> Any:
+              conditions: EvaluationConditions = IDEAL, task: Task | None = None) -> Any:
     """The infant's single-robot env (module level, so that worker processes can build it).
 
     Returns a :class:`~revolve_env.envs.LocomotionEnv`, typed ``Any`` because its declared
@@ -113,6 +114,7 @@ def _make_env(robot: Robot, action: ActionMode, insertion: float, seconds: float
         action=action,
         engine=engine,
         conditions=conditions,
+        task=task,
     )
 
 
@@ -217,18 +219,19 @@ class PolicyAgent:
 
 def rollout_fitness(agent: PolicyAgent | None, robot: Robot, insertion: float, seconds: float,
                     control_period: float, seed: int, engine: str = "pybullet",
-                    conditions: EvaluationConditions = IDEAL) -> float:
+                    conditions: EvaluationConditions = IDEAL, task: Task | None = None) -> float:
     """Fitness of one episode of ``robot`` driven by ``agent`` (``None``: by its own network).
 
     The agent drives the single-robot env with ``controller="agent"``: the same path as an
-    agent-controlled robot in the population env. Metres; 0 after a blow-up.
+    agent-controlled robot in the population env. The task's fitness (metres for the default);
+    0 after a blow-up.
     """
     if agent is None:
         env = _make_env(robot, "modulate", insertion, seconds, control_period, engine,
-                        conditions)
+                        conditions, task)
     else:
         env = _make_env(robot, "targets", insertion, seconds, control_period, engine,
-                        conditions)
+                        conditions, task)
         agent.reset()
     from revolve_env.envs.episode import run_episode  # loads the physics engine: when used
 
@@ -258,6 +261,8 @@ class SB3Learner:
         conditions: Start heading and jitter, sensor and actuator noise of every training
             episode and of the two evaluations (an experiment's ``[evaluation]`` table).
         algorithm_kwargs: Extra keyword arguments of the algorithm (``n_steps``, ...).
+        task: What the policy is rewarded for and the evaluations score
+            (:mod:`revolve_env.tasks`; an experiment's task).
     """
 
     algorithm: type | str = "PPO"
@@ -271,6 +276,7 @@ class SB3Learner:
     engine: str = "pybullet"
     algorithm_kwargs: Mapping[str, Any] = field(default_factory=dict)
     conditions: EvaluationConditions = IDEAL
+    task: Task = Locomotion()
 
     learns_policy = True  # class constant: the controller is the policy, not the genome's network
 
@@ -347,7 +353,7 @@ class SB3Learner:
                              f"{self._min_steps()} (min_budget: {self.min_budget:g} s)")
         seed = int(rng.integers(0, 2**31 - 1))
         factory = partial(_make_env, robot, self.action, self.insertion, self.seconds,
-                          self.control_period, self.engine, self.conditions)
+                          self.control_period, self.engine, self.conditions, self.task)
         cls = SubprocVecEnv if self.vec_env == "subproc" and self.n_envs > 1 else DummyVecEnv
         kwargs = {"start_method": "forkserver"} if cls is SubprocVecEnv else None
         venv = make_vec_env(factory, n_envs=self.n_envs, seed=seed, vec_env_cls=cls,
@@ -380,9 +386,9 @@ class SB3Learner:
         agent = PolicyAgent(model.policy, robot, self.action, self.control_period)
         eval_seed = int(rng.integers(0, 2**31 - 1))
         inborn = rollout_fitness(None, robot, self.insertion, self.seconds, self.control_period,
-                                 eval_seed, self.engine, self.conditions)
+                                 eval_seed, self.engine, self.conditions, self.task)
         trained = rollout_fitness(agent, robot, self.insertion, self.seconds, self.control_period,
-                                  eval_seed, self.engine, self.conditions)
+                                  eval_seed, self.engine, self.conditions, self.task)
         agent.reset()
         return LearningResult(
             robot=robot,

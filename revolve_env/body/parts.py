@@ -41,6 +41,7 @@ __all__ = [
     "PartSpec",
     "ServoSpec",
     "SlotGeometry",
+    "light_inputs",
     "rotation_about",
     "sensor_bounds",
 ]
@@ -448,3 +449,14 @@ def sensor_bounds(robot: Robot) -> tuple[NDArray[np.float64], NDArray[np.float64
         low += [0.0 if bounded else -np.inf] * n
         high += [1.0 if bounded else np.inf] * n
     return np.array(low), np.array(high)
+
+
+def light_inputs(robot: Robot) -> NDArray[np.intp]:
+    """Where a robot's light sensors are among its sensor values (controller input order)."""
+    out: list[int] = []
+    k = 0
+    for _, node in robot.walk():
+        if node.type == PartType.LIGHT_SENSOR:
+            out.append(k)
+        k += PART_SPECS[node.type].n_inputs
+    return np.array(out, dtype=np.intp)

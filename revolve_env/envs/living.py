@@ -4,87 +4,69 @@
 order (the env's ``agents`` and the world's rows): ages, sensor values as the robots read them
 (noisy, clipped), observations in each agent's space, core positions, trajectories
 (:class:`~revolve_env.envs.trajectories.TrajectoryStore`), fitness windows
-(:class:`~revolve_env.fitness.FitnessWindows`) and fitness terms. :meth:`Living.sense` updates
-them all after the physics with array operations; the index arrays it uses are rebuilt at every
-birth and death (:meth:`Living.relayout`). Per-robot Python is left to births, deaths, snapshots
-and the five dicts of PettingZoo's API.
+(:class:`~revolve_env.fitness.FitnessWindows`), the task's fitness (:mod:`revolve_env.tasks`:
+one call scores every window) with its terms, and the step's rewards. :meth:`Living.sense`
+updates them all after the physics with array operations; the index arrays it uses are rebuilt
+at every birth and death (:meth:`Living.relayout`). :meth:`Living.statuses` gives every robot's
+typed :class:`~revolve_env.status.RobotStatus`. Per-robot Python is left to births, deaths,
+snapshots and the five dicts of PettingZoo's API.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.envs.agent_spaces import AgentSpaces
-from revolve_env.envs.members import Lifetimes, Member
+from revolve_env.envs.members import Final, LifeClock, Member
 from revolve_env.envs.observations import hinge_values
 from revolve_env.envs.trajectories import TrajectoryStore
-from revolve_env.fitness import FitnessWindows
+from revolve_env.fitness import FitnessWindows, Window
+from revolve_env.status import Death, RobotStatus
+from revolve_env.tasks import Task, score
 from revolve_env.world import World
+from revolve_env.world.signals import SignalReader, signal_reader
 
-__all__ = ["Final", "Living", "final_info"]
+__all__ = ["Final", "Living", "final_status"]
 
 
 def _ints(values: list[int] | NDArray[np.intp]) -> NDArray[np.intp]:
     return np.asarray(values, dtype=np.intp).reshape(-1)
 
 
-@dataclass
-class Final:
-    """What a robot that left the world last was (reported once more, and snapshot until then)."""
-
-    obs: NDArray[np.float64]
-    view: NDArray[np.float64]
-    position: NDArray[np.float64]
-    terms: tuple[float, float, float]
-    age_steps: int
-    trajectory: NDArray[np.float64]
-    trajectory_room: int
-    fitness: dict[str, Any]
-
-
-def _info(m: Member, life: Lifetimes, age: int, terms: tuple[float, float, float],
-          position: NDArray[np.float64], trajectory: NDArray[np.float64], death: str | None,
-          masks: tuple[NDArray[np.bool_], NDArray[np.bool_]]) -> dict[str, Any]:
-    """A robot's info dict from its values (see the env's class doc, Info)."""
-    return {
-        "age": age * life.dt, "birth_time": m.birth_time, "birth_position": m.birth_position,
-        "born_inside_disc": m.born_inside, "inserting": age < life.insertion_steps,
-        "is_mature": age >= life.maturity_steps, "fitness": terms[0], "fitness_v": terms[1],
-        "fitness_s": terms[2], "position": position, "trajectory": trajectory,
-        "controlled_by": m.controlled_by, "blow_up": m.blow_up, "death": death,
-        "obs_mask": masks[0], "act_mask": masks[1],
-    }
-
-
-def final_info(m: Member, life: Lifetimes, death: str, masks: tuple[NDArray[np.bool_],
-                                                                     NDArray[np.bool_]]
-               ) -> dict[str, Any]:
-    """The last info dict of a robot that left the world (from its :class:`Final` record)."""
-    final: Final = m.final
+def final_status(m: Member, clock: LifeClock, death: Death) -> RobotStatus:
+    """The last status of a robot that left the world (from its :class:`Final` record)."""
+    final = m.final
+    assert final is not None
     trajectory = final.trajectory.view()
     trajectory.flags.writeable = False
-    return _info(m, life, final.age_steps, final.terms, final.position.copy(), trajectory,
-                 death, masks)
+    age = final.age_steps
+    return RobotStatus(m.robot_id, *final.terms, final.position.copy(), age, age * clock.dt,
+                       age < clock.insertion_steps, age >= clock.maturity_steps, death,
+                       m.blow_up, m.birth_time, m.birth_position, m.born_inside,
+                       m.controlled_by, trajectory)
 
 
 class Living:
     """The per-step state of every living robot (see the module doc). Rows: birth order."""
 
-    def __init__(self, fitness_window: float, trajectory_stride: int, life: Lifetimes,
-                 spaces: AgentSpaces) -> None:
+    def __init__(self, fitness_window: float, trajectory_stride: int, clock: LifeClock,
+                 spaces: AgentSpaces, task: Task) -> None:
         self.fitness_window = fitness_window
         self.stride = trajectory_stride
-        self.life = life
+        self.clock = clock
         self.spaces = spaces
+        self.task = task
         self.members: list[Member] = []
-        self.windows = FitnessWindows(fitness_window)
+        self.windows = self._windows()
+        self.signal: SignalReader | None = None  # the task's signal, for the rows now
         self.trajectories = TrajectoryStore()
         self.ages = np.zeros(0, dtype=np.int64)  # control periods since birth
-        self.f, self.v, self.s = np.zeros(0), np.zeros(0), np.zeros(0)  # fitness terms. Metres
+        # The task's fitness and the terms of every window (metres), the last step's rewards.
+        self.f, self.v, self.s = np.zeros(0), np.zeros(0), np.zeros(0)
+        self.rewards = np.zeros(0)
         self.position = np.zeros((0, 3))  # last finite core positions. Metres
         self.obs = np.zeros(0)  # sensor values as the robots read them, flat (world layout)
         self.view = np.zeros(0)  # what the agents observe, flat
@@ -92,6 +74,9 @@ class Living:
 
     def __len__(self) -> int:
         return len(self.members)
+
+    def _windows(self) -> FitnessWindows:
+        return FitnessWindows(self.fitness_window, signal=self.task.signal is not None)
 
     # -- births and deaths ---------------------------------------------------------------------
     def add(self, member: Member, obs: NDArray[np.float64], position: NDArray[np.float64],
@@ -102,6 +87,7 @@ class Living:
         self.f, self.v, self.s = (np.append(a, 0.0) for a in (self.f, self.v, self.s))
         self.position = np.concatenate((self.position, position.reshape(1, 3)))
         self.obs = np.concatenate((self.obs, obs))
+        self.rewards = np.append(self.rewards, 0.0)
         self.windows.add(1)
         self.trajectories.add()
         self.relayout(world)
@@ -125,6 +111,7 @@ class Living:
         del self.members[row]
         self.ages = self.ages[keep]
         self.f, self.v, self.s = self.f[keep], self.v[keep], self.s[keep]
+        self.rewards = self.rewards[keep]
         self.position = self.position[keep]
         self.obs = self.obs[entries]
         self.windows.remove(keep)
@@ -134,10 +121,12 @@ class Living:
     def clear(self) -> None:
         """No robots (a reset)."""
         self.members = []
-        self.windows = FitnessWindows(self.fitness_window)
+        self.windows = self._windows()
+        self.signal = None
         self.trajectories = TrajectoryStore()
         self.ages = np.zeros(0, dtype=np.int64)
         self.f, self.v, self.s = np.zeros(0), np.zeros(0), np.zeros(0)
+        self.rewards = np.zeros(0)
         self.position = np.zeros((0, 3))
         self.obs = np.zeros(0)
         self.view = np.zeros(0)
@@ -147,6 +136,7 @@ class Living:
         """Index arrays for the rows now, and every view from the sensor values (no physics)."""
         self._layout()
         self.view = self._views(self.obs, world, None)
+        self.signal = signal_reader(self.task.signal, [m.robot for m in self.members], world)
 
     def _layout(self) -> None:
         spaces = self.spaces
@@ -231,7 +221,7 @@ class Living:
             self.position = position
             due = slice(None) if self.stride == 1 else \
                 np.flatnonzero(self.ages % self.stride == 0)
-            sampling = self.ages >= self.life.insertion_steps
+            sampling = self.ages >= self.clock.insertion_steps
         else:
             ok = ~blown
             entries = ok[self._entry_row]
@@ -244,21 +234,40 @@ class Living:
                 obs[entries] = values[entries]
             self.position = np.where(ok[:, None], position, self.position)
             due = np.flatnonzero(ok & (self.ages % self.stride == 0))
-            sampling = ok & (self.ages >= self.life.insertion_steps)
+            sampling = ok & (self.ages >= self.clock.insertion_steps)
         self.obs = obs
         self.trajectories.append(due, self.position[due])
+        previous = self.f
+        window: Window | None = None
         if sampling.any():
-            self.windows.push(time, self.position, sampling)
-            self.f, self.v, self.s = self.windows.terms()
+            signal = None if self.signal is None else self.signal.read(world)
+            self.windows.push(time, self.position, sampling, signal)
+            window = self.windows.current()
+            self.f, self.v, self.s = score(self.task, window), window.v, window.s
         if blown is not None:
+            if self.f is previous:
+                self.f = previous.copy()
             self.f[blown] = self.v[blown] = self.s[blown] = 0.0
+        self.rewards = self._rewards(window, previous)
         self.view = self._views(obs, world, blown)
 
-    def first_sample(self, row: int, time: float) -> None:
+    def _rewards(self, window: Window | None, previous: NDArray[np.float64]
+                 ) -> NDArray[np.float64]:
+        """Every robot's reward for the step: the task's, from its fitness after and before."""
+        if window is None:
+            window = self.windows.current()
+        rewards = np.asarray(self.task.reward(window, self.f, previous), dtype=np.float64)
+        if rewards.shape != self.f.shape:
+            raise ValueError(f"task {self.task.name!r}: reward(...) must give shape "
+                             f"{self.f.shape}, got {rewards.shape}")
+        return rewards
+
+    def first_sample(self, row: int, time: float, world: World) -> None:
         """A newborn's first fitness sample at its birth (when there is no insertion phase)."""
         sampling = np.zeros(len(self), dtype=bool)
         sampling[row] = True
-        self.windows.push(time, self.position, sampling)
+        signal = None if self.signal is None else self.signal.read(world)
+        self.windows.push(time, self.position, sampling, signal)
 
     # -- reading -------------------------------------------------------------------------------
     def views(self) -> list[NDArray[np.float64]]:
@@ -274,37 +283,28 @@ class Living:
         """One robot's sensor values as its brain reads them (a copy)."""
         return self.obs[self._obs_offsets[row]:self._obs_offsets[row + 1]].copy()
 
-    def infos(self, masks: dict[str, tuple[NDArray[np.bool_], NDArray[np.bool_]]],
-              deaths: list[str | None]) -> list[dict[str, Any]]:
-        """Every living robot's info dict (see the env's class doc, Info), in row order."""
-        life = self.life
-        ages = self.ages
-        age = (ages * life.dt).tolist()
-        inserting = (ages < life.insertion_steps).tolist()
-        mature = (ages >= life.maturity_steps).tolist()
-        f, v, s = self.f.tolist(), self.v.tolist(), self.s.tolist()
-        position = list(self.position.copy())
-        trajectories = self.trajectories.views()
-        out = []
-        for i, m in enumerate(self.members):
-            obs_mask, act_mask = masks[m.agent]
-            out.append({
-                "age": age[i], "birth_time": m.birth_time, "birth_position": m.birth_position,
-                "born_inside_disc": m.born_inside, "inserting": inserting[i],
-                "is_mature": mature[i], "fitness": f[i], "fitness_v": v[i], "fitness_s": s[i],
-                "position": position[i], "trajectory": trajectories[i],
-                "controlled_by": m.controlled_by, "blow_up": m.blow_up, "death": deaths[i],
-                "obs_mask": obs_mask, "act_mask": act_mask,
-            })
-        return out
+    def statuses(self, deaths: list[Death | None] | None = None) -> list[RobotStatus]:
+        """Every living robot's status, in row order (``deaths``: one per row, None: none)."""
+        clock, ages = self.clock, self.ages
+        members = self.members
+        n = len(members)
+        return list(map(RobotStatus._make, zip(
+            [m.robot_id for m in members], self.f.tolist(), self.v.tolist(), self.s.tolist(),
+            list(self.position.copy()), ages.tolist(), (ages * clock.dt).tolist(),
+            (ages < clock.insertion_steps).tolist(), (ages >= clock.maturity_steps).tolist(),
+            deaths if deaths is not None else [None] * n, [m.blow_up for m in members],
+            [m.birth_time for m in members], [m.birth_position for m in members],
+            [m.born_inside for m in members], [m.controlled_by for m in members],
+            self.trajectories.views(), strict=True)))
 
-    def info(self, row: int, masks: dict[str, tuple[NDArray[np.bool_], NDArray[np.bool_]]],
-             death: str | None) -> dict[str, Any]:
-        """One living robot's info dict (as :meth:`infos` gives it)."""
-        m, life, age = self.members[row], self.life, int(self.ages[row])
-        return _info(m, life, age, (float(self.f[row]), float(self.v[row]), float(self.s[row])),
-                     self.position[row].copy(), self.trajectories.view(row), death,
-                     masks[m.agent])
+    def status(self, row: int) -> RobotStatus:
+        """One living robot's status (as :meth:`statuses` gives it)."""
+        m, clock, age = self.members[row], self.clock, int(self.ages[row])
+        return RobotStatus(m.robot_id, float(self.f[row]), float(self.v[row]),
+                           float(self.s[row]), self.position[row].copy(), age, age * clock.dt,
+                           age < clock.insertion_steps, age >= clock.maturity_steps, None,
+                           m.blow_up, m.birth_time, m.birth_position, m.born_inside,
+                           m.controlled_by, self.trajectories.view(row))
 
     def brain_inputs(self, rows: NDArray[np.intp]) -> NDArray[np.intp]:
         """Entries of :attr:`obs` of the robots in ``rows``, one robot after the other."""
@@ -312,7 +312,7 @@ class Living:
         return _ints(np.concatenate(parts)) if parts else _ints([])
 
     # -- snapshots -----------------------------------------------------------------------------
-    def restore(self, members: list[Member], rows: list[dict[str, Any]]) -> None:
+    def restore(self, members: list[Member], rows: list[dict[str, Any]], world: World) -> None:
         """Rows back from member snapshots (``population_snapshot.member_snapshot``)."""
         self.clear()
         self.members = list(members)
@@ -320,6 +320,7 @@ class Living:
         self.ages = np.array([int(e["age_steps"]) for e in rows], dtype=np.int64)
         terms = np.array([[float(x) for x in e["terms"]] for e in rows]).reshape(k, 3)
         self.f, self.v, self.s = (terms[:, i].copy() for i in range(3))
+        self.rewards = np.zeros(k)
         self.position = np.array([e["position"] for e in rows], dtype=np.float64).reshape(k, 3)
         self.obs = (np.concatenate([np.asarray(e["obs"], dtype=np.float64) for e in rows])
                     if rows else np.zeros(0))
@@ -333,3 +334,4 @@ class Living:
                      if rows else np.zeros(0))
         if self.view.shape[0] != int(self._view_offsets[-1]):
             raise ValueError("the snapshot's observations do not fit its robots' spaces")
+        self.signal = signal_reader(self.task.signal, [m.robot for m in self.members], world)

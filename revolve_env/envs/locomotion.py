@@ -1,9 +1,9 @@
 """Single-robot locomotion task: ``revolve_env/Locomotion-v0`` and ``-v1`` (with proprioception).
 
 One RoboGen robot on a flat plane; the episode is an insertion phase followed by an evaluation
-phase, and the return is the robot's locomotion fitness ``f = v + 5 s``
-(:mod:`revolve_env.fitness`). The start (heading, position jitter) and the noise follow
-``conditions`` (:class:`~revolve_env.conditions.EvaluationConditions`), drawn as
+phase, and the return is the robot's fitness at the task (``task=``, :mod:`revolve_env.tasks`),
+by default the locomotion fitness ``f = v + 5 s``. The start (heading, position jitter) and the
+noise follow ``conditions`` (:class:`~revolve_env.conditions.EvaluationConditions`), drawn as
 :func:`revolve_env.evaluate` draws them, so an episode reset with seed ``k`` starts where
 ``evaluate(robot, seed=k, conditions=...)`` starts.
 """
@@ -14,6 +14,7 @@ import dataclasses
 import math
 import os
 import warnings
+from collections.abc import Mapping
 from typing import Any, Literal
 
 import gymnasium as gym
@@ -29,7 +30,9 @@ from revolve_env.conditions import EvaluationConditions, with_noise_shortcuts
 from revolve_env.envs.observations import hinge_values, proprio_bounds, saturated_sensor_bounds
 from revolve_env.evaluation import start_generator
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
+from revolve_env.tasks import BaseTask, Task, make_task, score
 from revolve_env.world import World, WorldConfig
+from revolve_env.world.signals import SignalReader, signal_reader
 
 __all__ = ["LocomotionEnv"]
 
@@ -139,7 +142,9 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     when reset gets no seed. Nothing is drawn for a fixed heading without jitter.
 
     ## Rewards
-    ``reward = fitness(t) - fitness(t - control_period)``: 0 during insertion. If the simulation
+    ``task`` (:mod:`revolve_env.tasks`; default :class:`~revolve_env.tasks.Locomotion`, the
+    fitness above) scores the window and gives each step's reward: for the shipped tasks
+    ``reward = fitness(t) - fitness(t - control_period)``, 0 during insertion. If the simulation
     blows up (NaN, or a part faster than a sane speed) the fitness is set to 0, so that step's
     reward is minus the fitness so far, and the episode terminates.
 
@@ -148,7 +153,8 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     * Termination: only on a simulation blow-up.
 
     ## Info
-    ``fitness``, ``fitness_v``, ``fitness_s`` (metres; the fitness and its terms),
+    ``fitness`` (the task's), ``fitness_v``, ``fitness_s`` (metres; path length and
+    displacement over the window, whatever the task),
     ``reward_fitness`` (the reward), ``time`` (seconds since reset), ``evaluating`` (past
     insertion), ``x_position``, ``y_position`` (core, metres) and ``blow_up`` (the reason string,
     or None).
@@ -180,6 +186,8 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     | limits             | None      | validation limits                                          |
     |                    |           | (:class:`~revolve_env.body.validate.Limits`)               |
     | engine             | None      | "pybullet" or "mujoco"; None: ``world_config``'s (pybullet) |
+    | task               | None      | what the robot is rewarded for: a task, a name or a table  |
+    |                    |           | (:func:`~revolve_env.tasks.make_task`); None: Locomotion   |
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 60}  # noqa: RUF012 (gymnasium API)
@@ -201,8 +209,12 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         proprioception: bool = False,
         engine: str | None = None,
         conditions: EvaluationConditions | None = None,
+        task: Task | str | Mapping[str, Any] | None = None,
     ) -> None:
         robot = _checked_robot(robot, limits)
+        self.task = make_task(task)
+        # The gain (every shipped task's reward) in floats: no arrays for one robot per step.
+        self._gain = type(self.task).reward is BaseTask.reward
         _check_arguments(render_mode, self.metadata["render_modes"], insertion_time,
                          evaluation_time, fitness_window, sensor_noise, actuator_noise,
                          controller, action)
@@ -252,7 +264,9 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self._brain: BatchController | None = None
         self._brain_in = np.zeros(self._n_inputs)
         self._brain_out = np.zeros(self._n_outputs)
-        self._fitness = SlidingWindowFitness(self.fitness_window)
+        self._fitness = SlidingWindowFitness(self.fitness_window,
+                                             signal=self.task.signal is not None)
+        self._signal: SignalReader | None = None
         self._terms = FitnessTerms(0.0, 0.0, 0.0)
         self._step_count = 0
         self._obs = np.zeros(len(low))
@@ -277,9 +291,10 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         if self.controller == "brain":
             self._brain = BatchController(self.config.control_period)
             self._brain.add(self.robot)
+        self._signal = signal_reader(self.task.signal, [self.robot], self._world)
         self._fitness.reset()
         if self._insertion_steps == 0:  # the evaluation starts right away, from here
-            self._fitness.add(0.0, self._world.core_position(self._handle))
+            self._fitness.add(0.0, self._world.core_position(self._handle), self._signal_now())
         self._terms = FitnessTerms(0.0, 0.0, 0.0)
         self._step_count = 0
         self._blow_up = None
@@ -306,7 +321,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
 
         self._blow_up = world.blow_up(self._handle)
         if self._step_count >= self._insertion_steps and self._blow_up is None:
-            self._fitness.add(world.time, world.states.core_pos[0])
+            self._fitness.add(world.time, world.states.core_pos[0], self._signal_now())
         reward = self._get_reward()
         terminated = self._blow_up is not None
         truncated = not terminated and self._step_count >= self._total_steps
@@ -369,13 +384,28 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
             obs += self.np_random.normal(0.0, self.sensor_noise, obs.shape)
         return np.minimum(np.maximum(obs, self._obs_low, out=obs), self._obs_high, out=obs)
 
+    def _signal_now(self) -> float | None:
+        """The task's signal of the robot now (None: the task has none)."""
+        if self._signal is None:
+            return None
+        assert self._world is not None
+        return float(self._signal.read(self._world)[0])
+
     def _get_reward(self) -> float:
         previous = self._terms.fitness
+        window = None
         if self._blow_up is not None:
             self._terms = FitnessTerms(0.0, 0.0, 0.0)
         elif self._step_count >= self._insertion_steps:
-            self._terms = self._fitness.terms()
-        return self._terms.fitness - previous
+            window = self._fitness.current()
+            f = score(self.task, window)
+            self._terms = FitnessTerms(float(f[0]), float(window.v[0]), float(window.s[0]))
+        if self._gain:
+            return self._terms.fitness - previous
+        if window is None:
+            window = self._fitness.current()
+        return float(self.task.reward(window, np.array([self._terms.fitness]),
+                                      np.array([previous]))[0])
 
     def _get_info(self, reward: float) -> dict[str, Any]:
         assert self._world is not None

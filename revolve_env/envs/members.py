@@ -1,7 +1,10 @@
-"""A population env's living robots: their private bookkeeping, kept from birth to last report.
+"""A population env's robots: what is fixed at a birth, and the env's one clock of their lives.
 
-One :class:`Member` per robot of :class:`revolve_env.envs.population.PopulationEnv`. Positions
-are in metres, ages and times in control periods (steps) unless named in seconds.
+One :class:`Member` per living robot of :class:`revolve_env.envs.population.PopulationEnv`,
+keyed by its robot id (:mod:`revolve_env.status`); its world handle and controller handle are
+private to the env. :class:`LifeClock` counts every robot's age in control periods: the one
+clock of insertion and maturity (the experiments' lifecycle reads it from the robots'
+statuses). Positions are in metres, times in seconds unless named in steps.
 """
 
 from __future__ import annotations
@@ -15,16 +18,10 @@ from numpy.typing import NDArray
 from revolve_env.body.parts import sensor_bounds
 from revolve_env.body.robot import Robot
 from revolve_env.conditions import add_sensor_noise
-from revolve_env.fitness import FitnessTerms
 
-__all__ = ["NO_TERMS", "Controller", "Dicts", "Lifetimes", "Member", "Report", "noise_generator",
-           "sensor_bounds"]
+__all__ = ["Controller", "Final", "LifeClock", "Member", "noise_generator", "sensor_bounds"]
 
 Controller = Literal["brain", "agent"]
-NO_TERMS = FitnessTerms(0.0, 0.0, 0.0)
-Dicts = tuple[dict[str, NDArray[np.float64]], dict[str, float], dict[str, bool],
-              dict[str, bool], dict[str, dict[str, Any]]]
-"""The five dicts of a step: observations, rewards, terminations, truncations, infos."""
 
 _NOISE_STREAM = 0x4E015E
 """Tags the noise generator apart from the env's generator of the same reset seed."""
@@ -42,12 +39,37 @@ def noise_generator(seed: int | None) -> np.random.Generator:
 
 
 @dataclass(frozen=True)
-class Lifetimes:
-    """The env's clock and life phases, in control periods (``dt`` in seconds)."""
+class LifeClock:
+    """The env's clock of a robot's life, in control periods (seconds are derived).
 
-    dt: float  # control period. Seconds
-    insertion_steps: int  # not scored before this age
-    maturity_steps: int  # mature from this age on
+    Attributes:
+        dt: The control period. Seconds.
+        insertion_steps: Not scored before this age (the insertion phase).
+        maturity_steps: Mature from this age on.
+    """
+
+    dt: float
+    insertion_steps: int
+    maturity_steps: int
+
+    @classmethod
+    def of(cls, dt: float, insertion: float, maturity: float) -> LifeClock:
+        """The clock of ``insertion`` and ``maturity`` seconds (rounded to whole periods)."""
+        return cls(dt, round(insertion / dt), round(maturity / dt))
+
+
+@dataclass
+class Final:
+    """What a robot that left the world last was (reported once more, and snapshot until then)."""
+
+    obs: NDArray[np.float64]
+    view: NDArray[np.float64]
+    position: NDArray[np.float64]
+    terms: tuple[float, float, float]
+    age_steps: int
+    trajectory: NDArray[np.float64]
+    trajectory_room: int
+    fitness: dict[str, Any]
 
 
 @dataclass(eq=False)
@@ -58,7 +80,8 @@ class Member:
     :class:`~revolve_env.envs.living.Living`, one row per robot.
     """
 
-    agent: str
+    robot_id: int
+    agent: str  # its PettingZoo name, agent_name(robot_id), kept to key the five dicts
     robot: Robot
     controlled_by: Controller
     handle: int  # world handle
@@ -75,33 +98,9 @@ class Member:
     # Bounds that noisy sensor values are clipped to (sensor_bounds of the robot).
     sensor_low: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     sensor_high: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
-    final: Any = None  # Living's Final record once the robot left the world
+    final: Final | None = None  # its last state once it left the world
 
     def sense(self, values: NDArray[np.float64], noise: float,
               rng: np.random.Generator) -> NDArray[np.float64]:
         """Sensor values as this robot reads them: noisy as ``add_sensor_noise`` makes them."""
         return add_sensor_noise(values, noise, rng, self.sensor_low, self.sensor_high)
-
-
-class Report:
-    """The five dicts of a step, filled agent by agent."""
-
-    def __init__(self) -> None:
-        self.obs: dict[str, NDArray[np.float64]] = {}
-        self.rewards: dict[str, float] = {}
-        self.terminations: dict[str, bool] = {}
-        self.truncations: dict[str, bool] = {}
-        self.infos: dict[str, dict[str, Any]] = {}
-
-    def add(self, agent: str, obs: NDArray[np.float64], reward: float, terminated: bool,
-            truncated: bool, info: dict[str, Any]) -> None:
-        """Report one agent in all five dicts."""
-        self.obs[agent] = obs
-        self.rewards[agent] = reward
-        self.terminations[agent] = terminated
-        self.truncations[agent] = truncated
-        self.infos[agent] = info
-
-    def dicts(self) -> Dicts:
-        """The five dicts, as ``step`` returns them."""
-        return self.obs, self.rewards, self.terminations, self.truncations, self.infos

@@ -18,8 +18,8 @@ from revolve_env.body.serialize import from_json, to_json
 from revolve_env.brain import BatchController
 from revolve_env.brain.spec import NetworkSpec
 from revolve_env.envs.agent_spaces import Masks
-from revolve_env.envs.living import Final
-from revolve_env.envs.members import Controller, Lifetimes, Member, sensor_bounds
+from revolve_env.envs.members import Controller, Final, LifeClock, Member, sensor_bounds
+from revolve_env.status import Death, robot_id
 from revolve_env.world import World, WorldConfig
 from revolve_env.world.backend import SnapshotMismatchError
 
@@ -28,6 +28,7 @@ __all__ = ["Restored", "member_restore", "member_snapshot", "read_snapshot"]
 
 def member_snapshot(m: Member, state: Final, brain: BatchController | None,
                     with_robot: bool) -> dict[str, Any]:
+    # Keyed by the agent name, the robot id's one spelling in snapshots of every version.
     """One robot's bookkeeping and its state (and its controller's; its body too ``with_robot``)."""
     out: dict[str, Any] = {
         "agent": m.agent, "controlled_by": m.controlled_by, "handle": m.handle,
@@ -47,7 +48,7 @@ def member_snapshot(m: Member, state: Final, brain: BatchController | None,
 
 
 def member_restore(e: dict[str, Any], robot: Robot, brain: BatchController | None,
-                   life: Lifetimes) -> Member:
+                   clock: LifeClock) -> Member:
     """A robot's bookkeeping back from :func:`member_snapshot` (its network added to ``brain``).
 
     Its per-step state is read into the env's arrays from the same entry
@@ -63,10 +64,12 @@ def member_restore(e: dict[str, Any], robot: Robot, brain: BatchController | Non
     controlled_by: Controller = "brain" if e["controlled_by"] == "brain" else "agent"
     low, high = sensor_bounds(robot)
     birth_step = int(e["birth_step"])
+    agent = str(e["agent"])
     member = Member(
-        agent=str(e["agent"]), robot=robot, controlled_by=controlled_by,
+        robot_id=robot_id(agent), agent=agent, robot=robot, controlled_by=controlled_by,
         handle=int(e["handle"]), brain=handle, birth_step=birth_step,
-        birth_time=birth_step * life.dt, birth_position=(x, y), born_inside=bool(e["born_inside"]),
+        birth_time=birth_step * clock.dt, birth_position=(x, y),
+        born_inside=bool(e["born_inside"]),
         yaw=float(e["yaw"]), radius=float(e["radius"]), blow_up=e["blow_up"],
         n_outputs=int(e["n_outputs"]), padded=bool(e["padded"]), sensor_low=low,
         sensor_high=high,
@@ -82,6 +85,12 @@ def member_restore(e: dict[str, Any], robot: Robot, brain: BatchController | Non
     return member
 
 
+def _death(death: object) -> Death:
+    if death not in ("removed", "blow_up"):
+        raise ValueError(f"unknown death {death!r}")
+    return "removed" if death == "removed" else "blow_up"
+
+
 @dataclass
 class Restored:
     """A population snapshot read back, in a fresh world, ready for the env to take over."""
@@ -90,7 +99,7 @@ class Restored:
     brain: BatchController
     members: list[Member]
     rows: list[dict[str, Any]]  # the living members' entries (their per-step state)
-    dead: list[tuple[Member, str]]
+    dead: list[tuple[Member, Death]]
     rng: np.random.Generator
     noise: np.random.Generator | None  # None: a snapshot from before the noise generator
     masks: dict[str, Masks]
@@ -100,7 +109,7 @@ class Restored:
     uniform: list[str]
 
 
-def read_snapshot(snapshot: dict[str, Any], config: WorldConfig, life: Lifetimes) -> Restored:
+def read_snapshot(snapshot: dict[str, Any], config: WorldConfig, clock: LifeClock) -> Restored:
     """Rebuild a snapshot's world and robots (a damaged one: :class:`SnapshotMismatchError`).
 
     Raises:
@@ -112,8 +121,9 @@ def read_snapshot(snapshot: dict[str, Any], config: WorldConfig, life: Lifetimes
         world.restore(snapshot["world"])
         brain = BatchController(config.control_period)
         rows = list(snapshot["members"])
-        members = [member_restore(e, world.robot(int(e["handle"])), brain, life) for e in rows]
-        dead = [(member_restore(e, from_json(e["robot"]), None, life), str(death))
+        members = [member_restore(e, world.robot(int(e["handle"])), brain, clock)
+                   for e in rows]
+        dead = [(member_restore(e, from_json(e["robot"]), None, clock), _death(death))
                 for e, death in snapshot["dead"]]
         rng = np.random.Generator(np.random.PCG64())
         rng.bit_generator.state = snapshot["rng"]

@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from revolve_env.body.parts import IMU_ACCEL_RANGE, IMU_GYRO_RANGE
 
-__all__ = ["IMU_HIGH", "IMU_LOW", "imu_readings", "light_intensity"]
+__all__ = ["IMU_HIGH", "IMU_LOW", "imu_readings", "light_falloff", "light_intensity"]
 
 IMU_HIGH = np.array([IMU_ACCEL_RANGE] * 3 + [IMU_GYRO_RANGE] * 3)
 """Full scale of the IMU's six values (accelerometer m/s^2, gyroscope rad/s)."""
@@ -74,6 +74,24 @@ def light_intensity(
     d = np.sqrt(np.vecdot(to_light, to_light))
     cos_a = np.divide(np.vecdot(facing, to_light), d, out=np.ones_like(d), where=d > 0)
     # Python's max(0.0, c) keeps 0.0 unless c > 0 (also for NaN and -0.0): so does this
-    bright: NDArray[np.float64] = np.where(cos_a > 0, cos_a, 0.0) / (
-        1.0 + np.float_power(d / light_range, _TWO))
+    bright: NDArray[np.float64] = np.where(cos_a > 0, cos_a, 0.0) / _spread(d, light_range)
     return bright
+
+
+def _spread(d: NDArray[np.float64], light_range: float) -> NDArray[np.float64]:
+    """``1 + (d / light_range)^2``: the light's fall-off with distance ``d`` (metres)."""
+    out: NDArray[np.float64] = 1.0 + np.float_power(d / light_range, _TWO)
+    return out
+
+
+def light_falloff(positions: NDArray[np.float64], light: NDArray[np.float64],
+                  light_range: float) -> NDArray[np.float64]:
+    """What a light sensor at each point facing the light reads: ``1 / (1 + (d / light_range)^2)``.
+
+    :func:`light_intensity` with ``cos a = 1``. Args: ``positions`` (k, 3), ``light`` (3,) in
+    metres; ``light_range`` in metres.
+    """
+    to_light = light - positions
+    d = np.sqrt(np.vecdot(to_light, to_light))
+    out: NDArray[np.float64] = 1.0 / _spread(d, light_range)
+    return out

@@ -99,7 +99,7 @@ def test_random_births_never_overlap_a_living_robot() -> None:
     agents = [env.add_robot(r) for r in robots]
     boxes: list[PlacedBox] = []
     for k, agent in enumerate(agents):
-        m = env._members[agent]
+        m = env._roster.member(agent, "test")
         assert math.hypot(*m.birth_position) <= 0.9 + 1e-9
         boxes += _posed_boxes(m.robot, np.asarray(m.birth_position), m.yaw, part=k)
     # Boxes of different robots (= different "parts" here) must not intersect.
@@ -183,9 +183,9 @@ def test_brain_and_agent_robots_share_the_world() -> None:
         # the brain robot's action is checked and ignored
         _, _, _, _, infos = env.step({driven: target,
                                             walker: rng.uniform(-1, 1, 6).astype(np.float32)})
-    angles = env.world.joint_angles(env._members[driven].handle)
+    angles = env.world.joint_angles(env._roster.member(driven, "test").handle)
     np.testing.assert_allclose(angles, target * math.radians(45.0), atol=0.05)
-    walker_angles = env.world.joint_angles(env._members[walker].handle)
+    walker_angles = env.world.joint_angles(env._roster.member(walker, "test").handle)
     assert np.ptp(walker_angles) > 0.1  # its own gait moves it
 
     # Same births, other (ignored) actions for the brain robot: same motion.
@@ -341,7 +341,7 @@ def test_brains_keep_their_own_network_when_another_brain_robot_dies() -> None:
             env.remove_robot(first)  # shifts every later robot's slice in the batch arrays
         reference.step(inputs, out)
         obs, _, _, _, _ = env.step({})
-        world_targets = env.world.hinge_targets(env._members[second].handle)
+        world_targets = env.world.hinge_targets(env._roster.member(second, "test").handle)
         np.testing.assert_allclose(world_targets, np.clip(out, -1, 1) * math.radians(45.0),
                                    atol=1e-9)
         inputs = obs[second]
@@ -356,7 +356,8 @@ def test_observe_gives_a_newborn_its_first_observation_and_refuses_the_dead() ->
     newborn = env.add_robot(spider(), (1.5, 0.0), controlled_by="agent")  # mid-episode
     first = env.observe(newborn)
     # The sensors read in the world at its birth, inside its own space, never seen by step yet.
-    np.testing.assert_array_equal(first, env.world.read_sensors(env._members[newborn].handle))
+    handle = env._roster.member(newborn, "test").handle
+    np.testing.assert_array_equal(first, env.world.read_sensors(handle))
     assert env.observation_space(newborn).contains(first)
     first[:] = 123.0  # a copy: changing it changes nothing in the env
     assert not np.any(env.observe(newborn) == 123.0)

@@ -30,7 +30,7 @@ def _play(env: PopulationEnv, seed: int, steps: int = 12) -> list[Any]:
     env.add_robot(EXAMPLES["gecko"](), controlled_by="agent")
     env.add_robot(EXAMPLES["snake"]())
     out: list[Any] = [{a: env.agent_info(a)["birth_position"] for a in env.agents},
-                      {a: env._members[a].yaw for a in env.agents},
+                      {a: env._roster.member(a, "test").yaw for a in env.agents},
                       {a: env.observe(a) for a in env.agents}]
     for _ in range(steps):
         obs, rewards, *_ = env.step({"robot_1": np.full(6, 0.5, dtype=np.float32)})
@@ -65,7 +65,7 @@ def test_a_fixed_heading_turns_every_newborn_without_a_yaw() -> None:
     env.reset(seed=0)
     a = env.add_robot(EXAMPLES["spider"]())
     b = env.add_robot(EXAMPLES["gecko"](), yaw=0.5)  # an explicit yaw wins
-    assert (env._members[a].yaw, env._members[b].yaw) == (1.25, 0.5)
+    assert (env._roster.member(a, "test").yaw, env._roster.member(b, "test").yaw) == (1.25, 0.5)
     headings = set(_play(_env(), 0)[1].values())
     assert len(headings) == 3 and all(0 <= h < 2 * math.pi for h in headings)
 
@@ -105,11 +105,11 @@ def test_sensor_noise_reaches_what_brains_read_and_agents_observe() -> None:
     env = _env(EvaluationConditions(heading="random", sensor_noise=0.2))
     env.reset(seed=1)
     agent = env.add_robot(EXAMPLES["sensor_crawler"](), (0.0, 0.0), controlled_by="agent")
-    m = env._members[agent]
+    m = env._roster.member(agent, "test")
     truth = env.world.read_sensors(m.handle)
     seen = env.observe(agent)
     assert not np.array_equal(seen, truth)
-    brain_reads = env._living.obs_of(env.agents.index(agent))
+    brain_reads = env._roster.living.obs_of(env.agents.index(agent))
     np.testing.assert_array_equal(seen, brain_reads)  # the brain's inputs: the same noisy values
     # Touch and light values stay in [0, 1]; only the IMU is unbounded.
     low, high = m.sensor_low, m.sensor_high
@@ -125,14 +125,14 @@ def test_actuator_noise_reaches_the_targets_of_agents_and_brains() -> None:
     brain = env.add_robot(EXAMPLES["spider"](), (1.0, 0.0))
     env.step({driven: np.zeros(8, dtype=np.float32)})
     for agent in (driven, brain):
-        targets = env.world.hinge_targets(env._members[agent].handle)
+        targets = env.world.hinge_targets(env._roster.member(agent, "test").handle)
         assert np.count_nonzero(targets) == len(targets)
         assert np.all(np.abs(targets) <= 1.0)  # the world clips
     quiet = _env()
     quiet.reset(seed=1)
     q = quiet.add_robot(EXAMPLES["spider"](), (0.0, 0.0), controlled_by="agent")
     quiet.step({q: np.zeros(8, dtype=np.float32)})
-    assert not np.any(quiet.world.hinge_targets(quiet._members[q].handle))
+    assert not np.any(quiet.world.hinge_targets(quiet._roster.member(q, "test").handle))
 
 
 def test_snapshots_carry_the_noise_generator_exactly() -> None:

@@ -12,6 +12,7 @@ from evolution.lifecycle import (
     LifecycleError,
     LifecycleTiming,
     Stage,
+    stage_of,
 )
 
 
@@ -103,3 +104,19 @@ def test_only_legal_sequences_are_accepted(targets: list[Stage]) -> None:
             with pytest.raises(LifecycleError):
                 movers[target](0.0)
         assert life.stage is current
+
+
+@pytest.mark.parametrize(("inserting", "mature", "stage"), [
+    (True, False, Stage.DELIVERY), (False, False, Stage.INFANCY), (False, True, Stage.MATURITY),
+    (True, True, Stage.MATURITY)])
+def test_a_robot_in_a_world_follows_the_worlds_clock(inserting: bool, mature: bool,
+                                                     stage: Stage) -> None:
+    """The world says where a robot stands; the transitions keep their exact stamps."""
+    life = Lifecycle(3)
+    life.conceive(30.0)
+    life.deliver(30.0)
+    made = life.advance_to(stage_of(inserting, mature))
+    assert life.stage is stage
+    stamps = {Stage.INFANCY: 33.0, Stage.MATURITY: 45.0}
+    assert [(t.target, t.time) for t in made] == [(t.target, stamps[t.target]) for t in made]
+    assert life.advance_to(stage_of(inserting, mature)) == []  # nothing is due twice

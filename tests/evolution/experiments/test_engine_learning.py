@@ -203,9 +203,9 @@ class RecordingWorld(FakeWorld):
         super().__init__(config, seed)
         self.added = added
 
-    def add(self, robot: Robot) -> Birth:
+    def add(self, robot: Robot, robot_id: int, policy: Any = None) -> Birth:
         self.added.append(robot)
-        return super().add(robot)
+        return super().add(robot, robot_id, policy)
 
 
 def online_config(**kw: Any) -> ExperimentConfig:

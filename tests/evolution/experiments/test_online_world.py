@@ -24,17 +24,19 @@ def test_the_world_holds_only_the_runs_robots() -> None:
     world = PopulationWorld(_tiny_online(), seed=0)
     try:
         assert world._env.agents == []  # no default example robots join the population
-        a = world.add(gecko()).agent
-        birth = world.add(snake())
-        b = birth.agent
+        # The engine's robot ids are the env's (one id from the world to the store): a gap
+        # (a robot born dead in between) is kept.
+        a = world.add(gecko(), 3).robot_id
+        birth = world.add(snake(), 5)
+        b = birth.robot_id
+        assert (a, b) == (3, 5) and world._env.agents == ["robot_3", "robot_5"]
         # The position recorded is the one the env used (the shared placement rule).
-        assert birth.inside and world._env.agent_info(b)["birth_position"] == birth.position
+        assert birth.inside and world._env.status(b).birth_position == birth.position
         statuses = world.advance_to(0.5)
         assert set(statuses) == {a, b}
-        assert sorted(world._env.agents) == sorted([a, b])
+        assert all(s.robot_id == k and s.death is None for k, s in statuses.items())
         world.remove(a)
         assert set(world.advance_to(1.0)) == {b}
-        assert set(world._last) == {b}  # nothing kept of the removed robot
     finally:
         world.close()
 

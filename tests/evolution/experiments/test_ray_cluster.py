@@ -33,10 +33,10 @@ from experiment_fakes import (
 from evolution import experiments
 from evolution.evaluation import EvalOutcome, EvalTask, LocalEvaluator, RayEvaluator, evaluate_task
 from evolution.experiments import (
-    AgentStatus,
     ExperimentConfig,
     OnlineWorld,
     ProgressEvent,
+    RobotStatus,
     Store,
     load_config,
     preset,
@@ -218,7 +218,7 @@ def _mujoco() -> ExperimentConfig:
 class _SlowWorld(PopulationWorld):
     """The MuJoCo population world, 0.3 s of wall-clock time per conception tick."""
 
-    def advance_to(self, t: float) -> dict[str, AgentStatus]:
+    def advance_to(self, t: float) -> dict[int, RobotStatus]:
         time.sleep(0.3)
         return super().advance_to(t)
 

@@ -241,11 +241,11 @@ def test_the_online_world_asks_the_policy_every_control_step() -> None:
     try:
         robot = EXAMPLES["spider"]()
         policy = Recording(len(robot.neurons_of(Layer.OUTPUT)))
-        birth = world.add(robot, policy)
-        assert world._env.agent_info(birth.agent)["controlled_by"] == "agent"
+        birth = world.add(robot, 0, policy)
+        assert world._env.status(birth.robot_id).controlled_by == "agent"
         world.advance_to(0.5)
         assert policy.seen == round(0.5 / world._env.config.control_period)
-        world.remove(birth.agent)
+        world.remove(birth.robot_id)
         world.advance_to(0.6)
         assert policy.seen == round(0.5 / world._env.config.control_period)
     finally:

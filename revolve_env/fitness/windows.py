@@ -1,124 +1,28 @@
-"""Locomotion fitness ``f = v + 5 s`` over a sliding time window (pure NumPy).
+"""Sliding fitness windows: many robots in one ring buffer, or one robot in plain floats.
 
-The one implementation used by the single-robot env, :func:`revolve_env.evaluate`, the population
-env and evolution (Revolve paper, section 4): over the last ``window`` seconds (12 s by default),
-
-* ``v`` is the length of the path travelled by the core in the horizontal plane (metres),
-* ``s`` is the straight horizontal distance between the core's positions at the start and the end
-  of the window (metres),
-* ``f = v + s_weight * s`` with ``s_weight = 5``.
-
-:func:`fitness_terms` works on a whole trajectory, :func:`window_fitness` on the last ``window``
-seconds of a time-stamped one. Online, :class:`FitnessWindows` keeps the windows of many robots
-in one ring buffer (times, core positions and path lengths, one column per robot) and gives
-every robot's terms at once with array operations; :class:`SlidingWindowFitness` is one
-robot's window in plain floats (cheaper for one robot, and the reference that
-``FitnessWindows`` equals bit for bit: ``tests/test_fitness.py``). All share the same
-arithmetic.
+See :mod:`revolve_env.fitness` for the rule; both give the :class:`~revolve_env.fitness.Window`
+a task scores (:meth:`FitnessWindows.current`, :meth:`SlidingWindowFitness.current`).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = [
-    "DEFAULT_S_WEIGHT",
-    "DEFAULT_WINDOW",
-    "FitnessTerms",
-    "FitnessWindows",
-    "SlidingWindowFitness",
-    "fitness_terms",
-    "window_fitness",
-]
+from revolve_env.fitness.terms import (
+    DEFAULT_S_WEIGHT,
+    DEFAULT_WINDOW,
+    TIME_EPS,
+    FitnessTerms,
+    Window,
+    hypot,
+)
 
-DEFAULT_WINDOW = 12.0
-"""Length of the fitness window. Seconds."""
-
-DEFAULT_S_WEIGHT = 5.0
-"""Weight of the straight-line displacement ``s`` in ``f = v + 5 s``."""
-
-_TIME_EPS = 1e-9  # seconds: samples this close to the window's start still belong to it
-
-
-@dataclass(frozen=True, slots=True)
-class FitnessTerms:
-    """Fitness and its terms.
-
-    Attributes:
-        fitness: ``v + s_weight * s``. Metres.
-        v: Horizontal path length of the core over the window. Metres.
-        s: Horizontal distance between the core's first and last positions in the window. Metres.
-    """
-
-    fitness: float
-    v: float
-    s: float
-
-
-def _horizontal(positions: ArrayLike) -> NDArray[np.float64]:
-    p = np.asarray(positions, dtype=np.float64)
-    if p.ndim != 2 or p.shape[1] not in (2, 3):
-        raise ValueError(f"positions must have shape (T, 2) or (T, 3), got {p.shape}")
-    if not np.all(np.isfinite(p)):
-        raise ValueError("positions contain NaN or infinity")
-    return p[:, :2]
-
-
-def fitness_terms(positions: ArrayLike, s_weight: float = DEFAULT_S_WEIGHT) -> FitnessTerms:
-    """Fitness of a whole trajectory of core positions.
-
-    Args:
-        positions: Shape (T, 3) or (T, 2), metres; only x and y are used. T may be 0 or 1
-            (fitness 0).
-        s_weight: Weight of ``s``.
-    """
-    xy = _horizontal(positions)
-    if len(xy) < 2:
-        return FitnessTerms(0.0, 0.0, 0.0)
-    steps = np.diff(xy, axis=0)
-    v = float(np.sum(np.hypot(steps[:, 0], steps[:, 1])))
-    s = float(math.hypot(*(xy[-1] - xy[0])))
-    return FitnessTerms(v + s_weight * s, v, s)
-
-
-def window_fitness(
-    times: ArrayLike, positions: ArrayLike, window: float = DEFAULT_WINDOW,
-    s_weight: float = DEFAULT_S_WEIGHT,
-) -> FitnessTerms:
-    """Fitness over the samples of the last ``window`` seconds (``t >= t_last - window``).
-
-    Args:
-        times: Non-decreasing sample times, shape (T,). Seconds.
-        positions: Core positions, shape (T, 3) or (T, 2). Metres.
-        window: Window length. Seconds.
-        s_weight: Weight of ``s``.
-    """
-    t = np.asarray(times, dtype=np.float64).reshape(-1)
-    xy = _horizontal(positions)
-    if len(t) != len(xy):
-        raise ValueError(f"{len(t)} times but {len(xy)} positions")
-    if not window > 0:
-        raise ValueError(f"window must be positive, got {window} s")
-    if len(t) == 0:
-        return FitnessTerms(0.0, 0.0, 0.0)
-    if np.any(np.diff(t) < 0):
-        raise ValueError("times must be non-decreasing")
-    first = int(np.searchsorted(t, t[-1] - window - _TIME_EPS, side="left"))
-    return fitness_terms(xy[first:], s_weight)
-
-
-def _hypot(dx: NDArray[np.float64], dy: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``math.hypot`` element by element (CPython's own; the windows have always used it).
-
-    Not the C library's ``np.hypot``: the two differ in the last bit now and then.
-    """
-    return np.fromiter(map(math.hypot, dx.tolist(), dy.tolist()), np.float64, dx.shape[0])
+__all__ = ["FitnessWindows", "SlidingWindowFitness"]
 
 
 class FitnessWindows:
@@ -133,18 +37,19 @@ class FitnessWindows:
     memory stays bounded however long the robots live. Columns follow births and deaths
     (:meth:`add`, :meth:`remove`).
 
-    What a task needs per robot is here as arrays: :meth:`ends` (first and last horizontal
-    positions in the window, path length between them, samples in the window).
+    What a task scores is :meth:`current`: every robot's window as a :class:`Window` of arrays
+    (with ``signal=True``, a task's signal is kept with each sample and given at both ends).
     """
 
     def __init__(self, window: float = DEFAULT_WINDOW, s_weight: float = DEFAULT_S_WEIGHT,
-                 capacity: int = 1024) -> None:
+                 capacity: int = 1024, signal: bool = False) -> None:
         """Windows of ``window`` seconds; ``f = v + s_weight * s``; no robots yet.
 
         Args:
             window: Window length. Seconds.
             s_weight: Weight of ``s``.
             capacity: Initial ring size (samples); it doubles when a window holds more.
+            signal: Keep a signal value with every sample (:meth:`push`'s ``signal``).
         """
         if not (window > 0 and math.isfinite(window)):
             raise ValueError(f"window must be a positive number of seconds, got {window}")
@@ -155,6 +60,7 @@ class FitnessWindows:
         self._t = np.empty(capacity)
         self._xy = np.empty((capacity, 0, 2))
         self._path = np.empty((capacity, 0))  # path length from each robot's first sample
+        self._sig: NDArray[np.float64] | None = np.empty((capacity, 0)) if signal else None
         self._seq = 0  # sequence number of the next sample time (its ring row: seq % capacity)
         self._start = 0  # sequence number of the oldest sample time in the windows
         self._first = np.zeros(0, dtype=np.int64)  # each robot's first sample (_NONE: none)
@@ -178,6 +84,8 @@ class FitnessWindows:
         cap = self.capacity
         self._xy = np.concatenate((self._xy, np.zeros((cap, count, 2))), axis=1)
         self._path = np.concatenate((self._path, np.zeros((cap, count))), axis=1)
+        if self._sig is not None:
+            self._sig = np.concatenate((self._sig, np.zeros((cap, count))), axis=1)
         self._first = np.concatenate((self._first, np.full(count, self._NONE, dtype=np.int64)))
         self._last = np.concatenate((self._last, np.full(count, -1, dtype=np.int64)))
         self._cols = np.arange(len(self))
@@ -186,6 +94,8 @@ class FitnessWindows:
         """Keep only the robots where ``keep`` is True (the others' columns go)."""
         self._xy = self._xy[:, keep]
         self._path = self._path[:, keep]
+        if self._sig is not None:
+            self._sig = self._sig[:, keep]
         self._first = self._first[keep]
         self._last = self._last[keep]
         self._cols = np.arange(len(self))
@@ -197,8 +107,8 @@ class FitnessWindows:
         self._last[:] = -1
 
     # -- samples ------------------------------------------------------------------------------
-    def push(self, t: float, xy: NDArray[np.float64], sampling: NDArray[np.bool_] | None = None
-             ) -> None:
+    def push(self, t: float, xy: NDArray[np.float64], sampling: NDArray[np.bool_] | None = None,
+             signal: NDArray[np.float64] | None = None) -> None:
         """Sample the robots at time ``t`` (seconds; not before the previous sample time).
 
         Args:
@@ -209,6 +119,8 @@ class FitnessWindows:
                 sample at every push until it is removed; one left out stays as it was (its
                 window only loses its oldest samples). At the latest sample time again, robots
                 not sampled then join that time (a robot born between two steps).
+            signal: (n,) every robot's signal now (windows made with ``signal=True`` only; the
+                entries of robots that do not sample are ignored).
 
         Raises:
             ValueError: a time before the previous one, a non-finite time or position of a
@@ -233,7 +145,7 @@ class FitnessWindows:
         if started.any():
             on = cols[started]
             prev = self._last[on] % cap
-            path[started] = self._path[prev, on] + _hypot(x[started] - self._xy[prev, on, 0],
+            path[started] = self._path[prev, on] + hypot(x[started] - self._xy[prev, on, 0],
                                                           y[started] - self._xy[prev, on, 1])
         if seq > self._start and t == self._t[(seq - 1) % cap] and \
                 not (self._last[cols] == seq - 1).any():
@@ -243,7 +155,7 @@ class FitnessWindows:
             row = seq % cap
         else:
             # Drop sample times that left the window (the newest one always stays).
-            horizon = t - self.window - _TIME_EPS
+            horizon = t - self.window - TIME_EPS
             while self._start < seq and self._t[self._start % cap] < horizon:
                 self._start += 1
             if seq - self._start == cap:
@@ -254,6 +166,10 @@ class FitnessWindows:
         self._xy[row, cols, 0] = x
         self._xy[row, cols, 1] = y
         self._path[row, cols] = path
+        if self._sig is not None:
+            if signal is None:
+                raise ValueError("these windows keep a signal: push needs one")
+            self._sig[row, cols] = signal[cols]
         self._first[cols[~started]] = seq
         self._last[cols] = seq
         self._seq = seq + 1
@@ -277,20 +193,29 @@ class FitnessWindows:
         rows = (self._start + np.arange(k)) % (2 * cap)
         t[rows], xy[rows], path[rows] = self._t[order], self._xy[order], self._path[order]
         self._t, self._xy, self._path = t, xy, path
+        if self._sig is not None:
+            sig = np.empty((2 * cap, self._sig.shape[1]))
+            sig[rows] = self._sig[order]
+            self._sig = sig
 
     # -- windows ------------------------------------------------------------------------------
+    def _rows(self) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp],
+                             NDArray[np.int64], NDArray[np.bool_]]:
+        """Ring rows of every robot's first and last sample, its column, samples, any sample."""
+        cap = self.capacity
+        lo = np.maximum(self._first, self._start)
+        count = np.maximum(self._last - lo + 1, 0)
+        some = count > 0
+        return (np.where(some, lo, 0) % cap, np.where(some, self._last, 0) % cap,
+                np.arange(len(self)), count, some)
+
     def ends(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
                             NDArray[np.int64]]:
         """Every robot's window: first and last (x, y) (n, 2), path length ``v`` (n,), samples.
 
         A robot with no sample in its window has zeros and 0 samples.
         """
-        cap = self.capacity
-        lo = np.maximum(self._first, self._start)
-        count = np.maximum(self._last - lo + 1, 0)
-        cols = np.arange(len(self))
-        some = count > 0
-        fc, lc = np.where(some, lo, 0) % cap, np.where(some, self._last, 0) % cap
+        fc, lc, cols, count, some = self._rows()
         first, last = self._xy[fc, cols], self._xy[lc, cols]
         v = self._path[lc, cols] - self._path[fc, cols]
         if not some.all():
@@ -299,15 +224,26 @@ class FitnessWindows:
             v[~some] = 0.0
         return first, last, v, count
 
-    def terms(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """Every robot's ``(f, v, s)`` over its window (zeros below two samples). Metres."""
-        first, last, v, count = self.ends()
-        s = _hypot(last[:, 0] - first[:, 0], last[:, 1] - first[:, 1])
+    def current(self) -> Window:
+        """Every robot's window now, as arrays (zeros but ``samples`` below two samples)."""
+        fc, lc, cols, count, some = self._rows()
+        first, last = self._xy[fc, cols], self._xy[lc, cols]
+        v = self._path[lc, cols] - self._path[fc, cols]
+        s = hypot(last[:, 0] - first[:, 0], last[:, 1] - first[:, 1])
+        sig_first = sig_last = None
+        if self._sig is not None:
+            sig_first, sig_last = self._sig[fc, cols], self._sig[lc, cols]
         few = count < 2
         if few.any():
-            v[few] = 0.0
-            s[few] = 0.0
-        return v + self.s_weight * s, v, s
+            for a in (first, last, v, s, sig_first, sig_last):
+                if a is not None:
+                    a[few] = 0.0
+        return Window(first, last, v, s, count, sig_first, sig_last)
+
+    def terms(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Every robot's ``(f, v, s)`` over its window (zeros below two samples). Metres."""
+        w = self.current()
+        return w.v + self.s_weight * w.s, w.v, w.s
 
     # -- one robot's window as plain data ------------------------------------------------------
     def samples(self, col: int) -> tuple[NDArray[np.float64], NDArray[np.float64],
@@ -321,8 +257,13 @@ class FitnessWindows:
     def snapshot(self, col: int) -> dict[str, Any]:
         """One robot's window as :meth:`SlidingWindowFitness.snapshot` gives it."""
         t, xy, path = self.samples(col)
-        return {"window": self.window, "s_weight": self.s_weight, "capacity": self.capacity,
-                "t": t, "xy": xy, "path": path}
+        out = {"window": self.window, "s_weight": self.s_weight, "capacity": self.capacity,
+               "t": t, "xy": xy, "path": path}
+        if self._sig is not None:
+            lo = max(int(self._first[col]), self._start)
+            out["signal"] = self._sig[np.arange(lo, int(self._last[col]) + 1) % self.capacity,
+                                      col]
+        return out
 
     def restore(self, snapshots: Sequence[dict[str, Any]]) -> None:
         """Replace every robot's window by one :meth:`snapshot` each (columns in order).
@@ -340,25 +281,35 @@ class FitnessWindows:
             t = np.asarray(snapshot["t"], dtype=np.float64).reshape(-1)
             xy = np.asarray(snapshot["xy"], dtype=np.float64).reshape(-1, 2)
             path = np.asarray(snapshot["path"], dtype=np.float64).reshape(-1)
-            if xy.shape[0] != t.shape[0] or path.shape[0] != t.shape[0]:
-                raise ValueError("a fitness window snapshot needs as many positions and path "
-                                 "lengths as times")
-            windows.append((t, xy, path))
+            sig = np.zeros(t.shape[0])
+            if self._sig is not None:
+                if "signal" not in snapshot:
+                    raise ValueError("these fitness windows keep a signal; the snapshot has none")
+                sig = np.asarray(snapshot["signal"], dtype=np.float64).reshape(-1)
+            if xy.shape[0] != t.shape[0] or path.shape[0] != t.shape[0] or \
+                    sig.shape[0] != t.shape[0]:
+                raise ValueError("a fitness window snapshot needs as many positions, path "
+                                 "lengths and signal values as times")
+            windows.append((t, xy, path, sig))
         times = max((w[0] for w in windows), key=len, default=np.zeros(0))
         k_all = times.shape[0]
         cap = max([self.capacity, k_all, 2]
                   + [int(snapshot.get("capacity", 0)) for snapshot in snapshots])
         n = len(self)
         self._t, self._xy, self._path = np.empty(cap), np.zeros((cap, n, 2)), np.zeros((cap, n))
+        if self._sig is not None:
+            self._sig = np.zeros((cap, n))
         self._t[:k_all] = times
         self._start, self._seq = 0, k_all
-        for col, (t, xy, path) in enumerate(windows):
+        for col, (t, xy, path, sig) in enumerate(windows):
             k = t.shape[0]
             if not np.array_equal(times[k_all - k:], t):
                 raise ValueError("fitness windows of robots sampled together must end with the "
                                  "same sample times")
             self._xy[k_all - k:k_all, col] = xy
             self._path[k_all - k:k_all, col] = path
+            if self._sig is not None:
+                self._sig[k_all - k:k_all, col] = sig
             self._first[col], self._last[col] = (k_all - k, k_all - 1) if k else (self._NONE, -1)
 
 
@@ -368,12 +319,13 @@ class SlidingWindowFitness:
     ``add(t, position)`` appends a sample; ``terms()`` gives the fitness over the samples with
     ``t >= t_last - window``, as :func:`window_fitness` on the same samples (to rounding: the path
     length is kept as a running sum, so each query costs O(1)). Samples older than the window are
-    dropped, so memory stays bounded however long the robot lives.
+    dropped, so memory stays bounded however long the robot lives. :meth:`current` gives the
+    window as a task scores it (a :class:`Window` of one robot).
     """
 
     def __init__(
         self, window: float = DEFAULT_WINDOW, s_weight: float = DEFAULT_S_WEIGHT,
-        capacity: int = 1024,
+        capacity: int = 1024, signal: bool = False,
     ) -> None:
         """A window of ``window`` seconds; ``f = v + s_weight * s``.
 
@@ -381,6 +333,7 @@ class SlidingWindowFitness:
             window: Window length. Seconds.
             s_weight: Weight of ``s``.
             capacity: Initial ring size (samples); it doubles when a window holds more.
+            signal: Keep a signal value with every sample (:meth:`add`'s ``signal``).
         """
         if not (window > 0 and math.isfinite(window)):
             raise ValueError(f"window must be a positive number of seconds, got {window}")
@@ -391,6 +344,7 @@ class SlidingWindowFitness:
         self._t = np.empty(capacity)
         self._xy = np.empty((capacity, 2))
         self._path = np.empty(capacity)  # path length from an arbitrary origin up to each sample
+        self._sig: NDArray[np.float64] | None = np.empty(capacity) if signal else None
         self._start = 0  # ring index of the oldest kept sample
         self._n = 0
 
@@ -403,8 +357,11 @@ class SlidingWindowFitness:
         self._start = 0
         self._n = 0
 
-    def add(self, t: float, position: ArrayLike) -> None:
-        """Append the core's position at time ``t`` (seconds; not before the previous sample)."""
+    def add(self, t: float, position: ArrayLike, signal: float | None = None) -> None:
+        """Append the core's position at time ``t`` (seconds; not before the previous sample).
+
+        ``signal``: the task's signal now (required when the window keeps one).
+        """
         p = np.asarray(position, dtype=np.float64).reshape(-1)
         if p.shape[0] not in (2, 3) or not (math.isfinite(float(p[0]))
                                             and math.isfinite(float(p[1]))):
@@ -422,7 +379,7 @@ class SlidingWindowFitness:
             step = math.hypot(x - self._xy[last, 0], y - self._xy[last, 1])
             path = float(self._path[last]) + step
         # Drop samples that left the window (the newest one always stays).
-        while self._n and self._t[self._start] < t - self.window - _TIME_EPS:
+        while self._n and self._t[self._start] < t - self.window - TIME_EPS:
             self._start = (self._start + 1) % cap
             self._n -= 1
         if self._n == cap:
@@ -433,6 +390,10 @@ class SlidingWindowFitness:
         self._xy[i, 0] = x
         self._xy[i, 1] = y
         self._path[i] = path
+        if self._sig is not None:
+            if signal is None:
+                raise ValueError("this window keeps a signal: add needs one")
+            self._sig[i] = signal
         self._n += 1
         if path > 1e3:  # keep the running sum small so that differences stay exact to ~1e-13 m
             self._path -= self._path[self._start]
@@ -445,13 +406,20 @@ class SlidingWindowFitness:
         self._t[: len(t)] = t
         self._xy[: len(t)] = xy
         self._path[: len(t)] = path
+        if self._sig is not None:
+            sig = self._sig[idx]
+            self._sig = np.empty(cap)
+            self._sig[: len(t)] = sig
         self._start = 0
 
     def snapshot(self) -> dict[str, Any]:
         """The window's samples and settings as plain data (see :meth:`from_snapshot`)."""
         idx = (self._start + np.arange(self._n)) % len(self._t)
-        return {"window": self.window, "s_weight": self.s_weight, "capacity": len(self._t),
-                "t": self._t[idx], "xy": self._xy[idx], "path": self._path[idx]}
+        out = {"window": self.window, "s_weight": self.s_weight, "capacity": len(self._t),
+               "t": self._t[idx], "xy": self._xy[idx], "path": self._path[idx]}
+        if self._sig is not None:
+            out["signal"] = self._sig[idx]
+        return out
 
     @classmethod
     def from_snapshot(cls, snapshot: dict[str, Any]) -> SlidingWindowFitness:
@@ -468,8 +436,13 @@ class SlidingWindowFitness:
             raise ValueError("a fitness window snapshot needs as many positions and path lengths "
                              "as times")
         window = cls(float(snapshot["window"]), float(snapshot["s_weight"]),
-                     max(int(snapshot["capacity"]), n, 2))
+                     max(int(snapshot["capacity"]), n, 2), signal="signal" in snapshot)
         window._t[:n], window._xy[:n], window._path[:n] = t, xy, path
+        if window._sig is not None:
+            sig = np.asarray(snapshot["signal"], dtype=np.float64).reshape(-1)
+            if len(sig) != n:
+                raise ValueError("a fitness window snapshot needs as many signal values as times")
+            window._sig[:n] = sig
         window._n = n
         return window
 
@@ -477,6 +450,25 @@ class SlidingWindowFitness:
         """Times (T,) and horizontal positions (T, 2) in the window, oldest first (copies)."""
         idx = (self._start + np.arange(self._n)) % len(self._t)
         return self._t[idx], self._xy[idx]
+
+    def current(self) -> Window:
+        """The window now as arrays of one robot (zeros but ``samples`` below two samples)."""
+        n = self._n
+        if n < 2:
+            signal = self._sig is not None
+            return Window(np.zeros((1, 2)), np.zeros((1, 2)), np.zeros(1), np.zeros(1),
+                          np.array([n], dtype=np.int64), np.zeros(1) if signal else None,
+                          np.zeros(1) if signal else None)
+        first = self._start
+        last = (self._start + n - 1) % len(self._t)
+        xy = self._xy
+        v = self._path[last] - self._path[first]
+        s = math.hypot(xy[last, 0] - xy[first, 0], xy[last, 1] - xy[first, 1])
+        sig = self._sig
+        return Window(xy[first:first + 1].copy(), xy[last:last + 1].copy(), np.array([v]),
+                      np.array([s]), np.array([n], dtype=np.int64),
+                      None if sig is None else sig[first:first + 1].copy(),
+                      None if sig is None else sig[last:last + 1].copy())
 
     def terms(self) -> FitnessTerms:
         """Fitness and its terms over the current window."""

@@ -1,0 +1,300 @@
+"""The robots of one population episode by robot id: births, deaths and the physics step.
+
+:class:`Roster` is the population env without PettingZoo's API: it owns the world, the compiled
+controller of every brain, the robots' :class:`~revolve_env.envs.members.Member` records keyed
+by robot id (:mod:`revolve_env.status`) and their per-step arrays
+(:class:`~revolve_env.envs.living.Living`, rows in the world's order). A birth is
+:meth:`Roster.admit` of a :class:`~revolve_env.envs.births.BirthPlan` decided beforehand (so
+that a birth asked for between two steps could be queued and admitted at the next one); a death
+is :meth:`Roster.drop`, which keeps the robot's last state for its final report
+(:attr:`Roster.dead`). :meth:`Roster.act` sets every hinge target and steps the world;
+:meth:`Roster.sense` reads every robot after it. World handles and controller handles stay
+here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from revolve_env.body.robot import Layer
+from revolve_env.brain import BatchController
+from revolve_env.envs.agent_spaces import AgentSpaces
+from revolve_env.envs.births import BirthPlan
+from revolve_env.envs.living import Living
+from revolve_env.envs.members import Final, LifeClock, Member, noise_generator
+from revolve_env.envs.placement import Disc
+from revolve_env.envs.population_snapshot import member_snapshot, read_snapshot
+from revolve_env.status import Death, agent_name, robot_id
+from revolve_env.world import World, WorldConfig
+from revolve_env.world.backend import SnapshotMismatchError
+
+__all__ = ["Roster"]
+
+
+def _final(member: Member) -> Final:
+    assert member.final is not None  # set when it left the world
+    return member.final
+
+
+class Roster:
+    """Every robot of a population env's episode (see the module doc).
+
+    Args:
+        config: The world's settings.
+        clock: The env's clock of insertion and maturity.
+        living: The per-step arrays (owned from here on).
+        spaces: The agents' spaces (a newborn's are registered at its birth).
+        actuator_noise: Standard deviation of the noise on every hinge target.
+        sensor_noise: Standard deviation of the noise on every sensor value.
+    """
+
+    def __init__(self, config: WorldConfig, clock: LifeClock, living: Living,
+                 spaces: AgentSpaces, actuator_noise: float, sensor_noise: float) -> None:
+        self.config = config
+        self.clock = clock
+        self.living = living
+        self.spaces = spaces
+        self.actuator_noise = actuator_noise
+        self.sensor_noise = sensor_noise
+        self.world: World | None = None
+        self.brain: BatchController | None = None
+        self.members: dict[int, Member] = {}  # the living robots, by robot id, in row order
+        self.agents: list[str] = []  # their agent names, in row order (PettingZoo's agents)
+        self.dead: list[tuple[Member, Death]] = []  # left since the last step, to report
+        self.births = 0  # robots born in this episode
+        self.next_id = 0  # the id of the next robot born without one
+        self.steps = 0  # control periods since reset
+        self.noise: np.random.Generator | None = None  # sensor and actuator noise
+        self._brain_out = np.zeros(0)
+        self._brain_rows = np.zeros(0, dtype=np.intp)  # rows of the brain robots, brain order
+        self._brain_inputs = np.zeros(0, dtype=np.intp)  # entries of the sensor values they read
+        self._brain_targets = np.zeros(0, dtype=np.intp)  # and of the flat targets they drive
+
+    # -- episodes ---------------------------------------------------------------------------
+    def reset(self, seed: int | None, reseed: bool) -> None:
+        """A fresh world with no robot; the noise generator from the reset's seed if ``reseed``."""
+        if reseed or self.noise is None:
+            self.noise = noise_generator(seed)
+        if self.world is not None:
+            self.world.close()
+        self.world = World(self.config)
+        self.brain = BatchController(self.config.control_period)
+        self._forget()
+        self._relayout_brains()
+
+    def _forget(self) -> None:
+        self.members, self.agents, self.dead = {}, [], []
+        self.living.clear()
+        self.births = self.next_id = self.steps = 0
+
+    def close(self) -> None:
+        """Release the world (a reset makes a new one)."""
+        if self.world is not None:
+            self.world.close()
+            self.world = None
+        self.brain = None
+        self._forget()
+
+    @property
+    def time(self) -> float:
+        """Simulated time since reset. Seconds."""
+        return self.steps * self.config.control_period
+
+    def member(self, robot: int | str, what: str) -> Member:
+        """A living robot by id or agent name (KeyError naming ``what`` and why not)."""
+        rid = robot if isinstance(robot, int) and not isinstance(robot, bool) else None
+        if isinstance(robot, str):
+            try:
+                rid = robot_id(robot)
+            except KeyError:
+                raise KeyError(f"{what}: {self.spaces.unknown(robot)}") from None
+        if rid is None:
+            raise KeyError(f"{what}: expected a robot id or an agent name, got {robot!r}")
+        member = self.members.get(rid)
+        if member is not None:
+            return member
+        agent = agent_name(rid)
+        if agent in self.spaces.masks:  # born in this episode
+            raise KeyError(f"{what}: agent {agent!r} is dead (removed or blown up)")
+        raise KeyError(f"{what}: {self.spaces.unknown(agent)}")
+
+    def checked_actions(self, actions: Mapping[str, ArrayLike]
+                        ) -> list[tuple[Member, NDArray[np.float64]]]:
+        """Every action checked before anything changes; the agent-controlled robots' targets.
+
+        Raises:
+            KeyError: an action for an agent not alive; ValueError: a bad shape or value.
+        """
+        checked: list[tuple[Member, NDArray[np.float64]]] = []
+        for agent, action in actions.items():
+            member = self.member(agent, "action")
+            a = self.spaces.checked_action(member, action)
+            if member.controlled_by == "agent":
+                checked.append((member, a[:member.n_outputs] if member.padded else a))
+        return checked
+
+    # -- births and deaths ------------------------------------------------------------------
+    def occupied(self) -> tuple[list[Disc], list[str]]:
+        """The living robots' footprints and agent names (row order), for a placement."""
+        if not self.members:
+            return [], []
+        assert self.world is not None
+        members = list(self.members.values())
+        centres = self.world.core_positions([m.handle for m in members])
+        return ([Disc(float(c[0]), float(c[1]), m.radius) for c, m in zip(centres, members,
+                                                                          strict=True)],
+                list(self.agents))
+
+    def admit(self, plan: BirthPlan) -> Member:
+        """Build a planned newborn in the world (last row); nothing can fail on bad input here."""
+        world, brain, living = self.world, self.brain, self.living
+        assert world is not None and brain is not None and self.noise is not None
+        n_outputs = len(plan.robot.neurons_of(Layer.OUTPUT))
+        padded = self.spaces.is_padded(plan.agent)
+        handle = world.add_robot(plan.robot, plan.position, plan.yaw)
+        member = Member(
+            robot_id=plan.robot_id, agent=plan.agent, robot=plan.robot,
+            controlled_by=plan.controlled_by, handle=handle,
+            brain=brain.add(plan.network) if plan.network is not None else None,
+            birth_step=self.steps, birth_time=self.steps * self.clock.dt,
+            birth_position=plan.position, born_inside=plan.inside, yaw=plan.yaw,
+            radius=plan.radius, n_outputs=n_outputs, padded=padded, sensor_low=plan.sensor_low,
+            sensor_high=plan.sensor_high,
+        )
+        obs = member.sense(world.read_sensors(handle), self.sensor_noise, self.noise)
+        self.births += 1
+        self.next_id = plan.robot_id + 1
+        self.members[plan.robot_id] = member
+        self.agents.append(plan.agent)
+        self.spaces.register(plan.agent, plan.sensor_low, plan.sensor_high, n_outputs, padded)
+        living.add(member, obs, world.core_position(handle), world)
+        row = len(living) - 1
+        living.trajectories.append(np.array([row]), living.position[row:row + 1])
+        if self.clock.insertion_steps == 0:
+            living.first_sample(row, self.time, world)
+        self._relayout_brains()
+        return member
+
+    def drop(self, member: Member, death: Death | None = None) -> None:
+        """Take a robot out of the world and the arrays; keep its last state for its report.
+
+        ``death``: report it at the next step as dead of that (None: the caller reports it).
+        """
+        assert self.world is not None and self.brain is not None
+        living = self.living
+        row = self.agents.index(member.agent)
+        member.final = living.final(row)
+        self.world.remove_robot(member.handle)
+        del self.members[member.robot_id]
+        del self.agents[row]
+        living.remove(row, self.world)
+        if member.brain is not None:
+            self.brain.remove(member.brain)
+        self._relayout_brains()
+        if death is not None:
+            self.dead.append((member, death))
+
+    def _relayout_brains(self) -> None:
+        """Where every brain robot's inputs come from and its outputs go (after a change)."""
+        assert self.brain is not None
+        rows = [row for row, m in enumerate(self.living.members) if m.brain is not None]
+        self._brain_rows = np.array(rows, dtype=np.intp)
+        self._brain_inputs = self.living.brain_inputs(self._brain_rows)
+        if self.world is not None and rows:
+            offsets = self.world.output_offsets
+            self._brain_targets = np.concatenate([np.arange(offsets[r], offsets[r + 1])
+                                                  for r in rows])
+        else:
+            self._brain_targets = np.zeros(0, dtype=np.intp)
+        self._brain_out = np.zeros(self.brain.n_outputs)
+
+    # -- the step ---------------------------------------------------------------------------
+    def act(self, checked: list[tuple[Member, NDArray[np.float64]]]) -> None:
+        """Set every hinge target (actions, then one batch step of the brains); step the world.
+
+        Actuator noise draws robot after robot: the agents in the order of ``checked``, then
+        the brain robots in birth order.
+        """
+        world, brain, noise, sd = self.world, self.brain, self.noise, self.actuator_noise
+        assert world is not None and brain is not None and noise is not None
+        if checked:
+            offsets = world.output_offsets
+            rows = world.rows([m.handle for m, _ in checked])
+            index = np.concatenate([np.arange(offsets[r], offsets[r + 1]) for r in rows.tolist()])
+            values = np.concatenate([a for _, a in checked])
+            if sd > 0:
+                values = values + noise.normal(0.0, sd, values.shape)
+            world.set_target_entries(index, values)  # clips to [-1, 1]
+        if self._brain_rows.size:
+            brain.step(self.living.obs[self._brain_inputs], self._brain_out)
+            targets = self._brain_out
+            if sd > 0:
+                targets = targets + noise.normal(0.0, sd, targets.shape)
+            world.set_target_entries(self._brain_targets, targets)
+        world.step(1)
+        self.steps += 1
+
+    def sense(self) -> list[Death | None]:
+        """After :meth:`act`: every robot sensed and scored; the rows that blew up.
+
+        Returns:
+            One entry per row: ``"blow_up"`` for a robot whose simulation blew up in this step
+            (its reason is in its member's ``blow_up``; the caller drops it after its report),
+            else None.
+        """
+        world, living = self.world, self.living
+        assert world is not None and self.noise is not None
+        blown = world.blown_up if world.any_blown_up else None
+        living.sense(world, self.time, self.noise, self.sensor_noise, blown)
+        deaths: list[Death | None] = [None] * len(living)
+        if blown is not None:
+            for row in np.flatnonzero(blown).tolist():
+                member = living.members[row]
+                member.blow_up = world.blow_up(member.handle)
+                deaths[row] = "blow_up"
+        return deaths
+
+    # -- snapshots --------------------------------------------------------------------------
+    def snapshot(self) -> dict[str, Any]:
+        """The world, the noise generator, the counters and every robot's state (plain data)."""
+        world, brain = self.world, self.brain
+        assert world is not None and brain is not None
+        return {
+            "world": world.snapshot(),
+            "noise_rng": None if self.noise is None else dict(self.noise.bit_generator.state),
+            "births": self.births, "next_id": self.next_id, "steps": self.steps,
+            "members": [member_snapshot(m, self.living.final(row), brain, with_robot=False)
+                        for row, m in enumerate(self.living.members)],
+            "dead": [(member_snapshot(m, _final(m), None, with_robot=True), death)
+                     for m, death in self.dead],
+        }
+
+    def restore(self, snapshot: dict[str, Any], seed: int | None) -> np.random.Generator:
+        """Continue from :meth:`snapshot` in a fresh world; the env's generator as it was.
+
+        Raises:
+            SnapshotMismatchError: the snapshot does not fit (left closed then).
+            NotImplementedError: the engine cannot restore its state exactly (pybullet).
+        """
+        self.close()
+        restored = read_snapshot(snapshot, self.config, self.clock)
+        self.world, self.brain = restored.world, restored.brain
+        # A snapshot from before the noise generator existed: the reset's one.
+        self.noise = restored.noise if restored.noise is not None else noise_generator(seed)
+        self.births, self.steps = restored.births, restored.steps
+        self.next_id = int(snapshot.get("next_id", restored.births))
+        self.members = {m.robot_id: m for m in restored.members}
+        self.agents = [m.agent for m in restored.members]
+        self.dead = restored.dead
+        self.spaces.restore(restored.masks, restored.spaces, restored.uniform)
+        try:
+            self.living.restore(restored.members, restored.rows, restored.world)
+        except (KeyError, TypeError, ValueError) as e:
+            self.close()
+            raise SnapshotMismatchError(f"damaged population snapshot: {e!r}") from e
+        self._relayout_brains()
+        return restored.rng

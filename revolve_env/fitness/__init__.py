@@ -1,0 +1,47 @@
+"""Locomotion fitness ``f = v + 5 s`` over a sliding time window (pure NumPy).
+
+The one implementation used by the single-robot env, :func:`revolve_env.evaluate`, the population
+env and evolution (Revolve paper, section 4): over the last ``window`` seconds (12 s by default),
+
+* ``v`` is the length of the path travelled by the core in the horizontal plane (metres),
+* ``s`` is the straight horizontal distance between the core's positions at the start and the end
+  of the window (metres),
+* ``f = v + s_weight * s`` with ``s_weight = 5``.
+
+:func:`fitness_terms` works on a whole trajectory, :func:`window_fitness` on the last ``window``
+seconds of a time-stamped one. Online, :class:`FitnessWindows` keeps the windows of many robots
+in one ring buffer (times, core positions and path lengths, one column per robot) and gives
+every robot's terms at once with array operations; :class:`SlidingWindowFitness` is one
+robot's window in plain floats (cheaper for one robot, and the reference that
+``FitnessWindows`` equals bit for bit: ``tests/test_fitness.py``). All share the same
+arithmetic.
+
+What a task (:mod:`revolve_env.tasks`) scores is a :class:`Window`: every robot's window as
+arrays (its ends, ``v``, ``s``, its samples and, for a task that asks for one, a signal at both
+ends); :meth:`FitnessWindows.window`, :meth:`SlidingWindowFitness.window` and
+:func:`trajectory_window` (a whole evaluation) make one. ``v`` and ``s`` are the kinematic terms
+of every task; ``f = v + 5 s`` is the paper's task, :class:`revolve_env.tasks.Locomotion`.
+"""
+
+from revolve_env.fitness.terms import (
+    DEFAULT_S_WEIGHT,
+    DEFAULT_WINDOW,
+    FitnessTerms,
+    Window,
+    fitness_terms,
+    trajectory_window,
+    window_fitness,
+)
+from revolve_env.fitness.windows import FitnessWindows, SlidingWindowFitness
+
+__all__ = [
+    "DEFAULT_S_WEIGHT",
+    "DEFAULT_WINDOW",
+    "FitnessTerms",
+    "FitnessWindows",
+    "SlidingWindowFitness",
+    "Window",
+    "fitness_terms",
+    "trajectory_window",
+    "window_fitness",
+]

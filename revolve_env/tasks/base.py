@@ -1,0 +1,265 @@
+"""The Task protocol: what every robot is rewarded for, decided for all robots at once.
+
+A task (dm_control's ``Task``, over arrays of robots) scores every robot's fitness window
+(:class:`~revolve_env.fitness.Window`: its ends, path length ``v``, displacement ``s``, samples
+and, when the task asks for one, a signal at both ends) with one call of :meth:`Task.fitness`,
+and turns every robot's fitness before and after a control step into that step's reward with
+one call of :meth:`Task.reward` (the gain, unless the task says otherwise). No per-robot Python:
+both calls get arrays with one entry per robot. The envs and :func:`revolve_env.evaluate` own the
+rest, the same for every task: nothing is sampled during insertion, a window with fewer than two
+samples scores 0 (:func:`score`), a robot whose simulation blows up scores 0 from then on.
+
+A task is plain data: a frozen dataclass whose fields are its parameters, with a name, so that
+it is stored with results (:meth:`Task.to_dict`) and made again (:func:`task_from_dict`).
+:class:`BaseTask` gives a user's class everything but :meth:`~Task.fitness`. Names resolve
+through ONE function, :func:`task_class`: a shipped task's name
+(:data:`~revolve_env.tasks.registry.TASKS`) or the dotted path ``"package.module:ClassName"`` of
+a user's class. :func:`make_task` turns whatever a ``task=`` keyword was given into a checked
+task; a class that does not follow the protocol is refused in one line naming it.
+
+Signals: a task that needs more than the core's path names one of :data:`SIGNALS` in its
+``signal`` attribute; the world samples it for every robot with each fitness sample
+(:mod:`revolve_env.world.signals`):
+
+* ``"light"``: the brightest reading among the robot's light sensors (noise-free, the light
+  sensor's model: ``max(0, cos a) / (1 + (d / light_range)^2)``, in [0, 1]); a robot without a
+  light sensor reads the light at its core centre as a sensor facing it would
+  (``1 / (1 + (d / light_range)^2)``), so it is scored on coming closer.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar, Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from revolve_env.fitness import Window
+from revolve_env.tasks.registry import DEFAULT_TASK, TASKS
+
+__all__ = ["SIGNALS", "BaseTask", "Task", "TaskError", "make_task", "score", "task_class",
+           "task_from_dict", "task_name"]
+
+SIGNALS: tuple[str, ...] = ("light",)
+"""Signals a task may ask the world to sample with every fitness sample (see the module doc)."""
+
+_PATH = re.compile(r"^[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*(\.[A-Za-z_]\w*)*$")
+
+
+class TaskError(ValueError):
+    """An unknown task name, a class that fails the protocol, or bad task parameters."""
+
+
+@runtime_checkable
+class Task(Protocol):
+    """What a task must have (see the module doc); :class:`BaseTask` gives all but ``fitness``."""
+
+    @property
+    def name(self) -> str:
+        """Its registry name, or the dotted path of its class (``"package.module:Class"``)."""
+
+    @property
+    def signal(self) -> str | None:
+        """The signal it needs sampled (one of :data:`SIGNALS`), or None."""
+
+    def fitness(self, window: Window) -> NDArray[np.float64]:
+        """Every robot's fitness over its window, shape (n,), from arrays only."""
+
+    def reward(self, window: Window, fitness: NDArray[np.float64],
+               previous: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Every robot's reward for a control step, from its fitness after and before it."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"name": name, **parameters}``: plain data that :func:`task_from_dict` reads."""
+
+
+@dataclass(frozen=True)
+class BaseTask:
+    """A task's common part: its name, no signal, reward = fitness gain, plain-data form.
+
+    Subclass it as a frozen dataclass whose fields are the task's parameters and define
+    :meth:`fitness`; set ``signal`` (a class variable) to one of :data:`SIGNALS` to get that
+    signal at both ends of every window.
+    """
+
+    signal: ClassVar[str | None] = None
+
+    @property
+    def name(self) -> str:
+        """The registry name of this class, else its dotted path."""
+        return task_name(type(self))
+
+    def fitness(self, window: Window) -> NDArray[np.float64]:
+        """Every robot's fitness over its window (subclasses define it)."""
+        raise NotImplementedError(f"{type(self).__name__} defines no fitness(window)")
+
+    def reward(self, window: Window, fitness: NDArray[np.float64],
+               previous: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The fitness gain over the step: the return of a whole window is its fitness."""
+        gain: NDArray[np.float64] = fitness - previous
+        return gain
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"name": ..., **fields}`` (plain numbers and strings for the shipped tasks)."""
+        fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        return {"name": self.name, **fields}
+
+
+def task_name(cls: type) -> str:
+    """The name a task class is stored under: its registry name, else ``module:QualName``."""
+    path = f"{cls.__module__}:{cls.__qualname__}"
+    for name, target in TASKS.items():
+        if target == path:
+            return name
+    return path
+
+
+def check_task_name(name: object) -> str:
+    """The dotted path ``name`` stands for: a shipped task's, or ``name`` if it is one.
+
+    Imports nothing (the form is checked, not the class).
+
+    Raises:
+        TaskError: ``name`` is not a string, a shipped name or ``"package.module:ClassName"``.
+    """
+    if not isinstance(name, str):
+        raise TaskError(f"a task name must be a string, got {type(name).__name__}")
+    path = TASKS.get(name, name)
+    if not _PATH.match(path):
+        raise TaskError(f"unknown task {name!r}: use one of {', '.join(TASKS)} or the dotted "
+                        "path of your own class, 'package.module:ClassName'")
+    return path
+
+
+def task_class(name: str, *, allow_import: bool = True) -> type:
+    """The class a task name stands for: a shipped task's name or ``"package.module:Class"``.
+
+    Resolving a dotted path imports its module, which runs that module's code: a name read
+    from a results folder someone else made must be resolved with ``allow_import=False`` (then
+    only the shipped tasks resolve) unless the user asked for it (a resume of their own run).
+
+    Raises:
+        TaskError: one line naming the unknown name, the module that does not import (or may
+            not be imported), or the class that does not follow the :class:`Task` protocol.
+    """
+    path = check_task_name(name)
+    if name not in TASKS and not allow_import:
+        raise TaskError(f"task {name!r} is a class of your own: resolving it imports its "
+                        "module, which is not allowed here")
+    module_name, qualname = path.split(":")
+    try:
+        obj: Any = importlib.import_module(module_name)
+    except ImportError as e:
+        raise TaskError(f"task {name!r}: cannot import module {module_name!r} ({e})") from None
+    for part in qualname.split("."):
+        if not hasattr(obj, part):
+            raise TaskError(f"task {name!r}: module {module_name!r} has no {qualname!r}")
+        obj = getattr(obj, part)
+    if not isinstance(obj, type):
+        raise TaskError(f"task {name!r} is not a class")
+    _check_class(obj, name)
+    return obj
+
+
+def _check_class(cls: type, name: str) -> None:
+    """Refuse a class that lacks a member of the protocol (one line naming it)."""
+    missing = [m for m in ("fitness", "reward", "to_dict") if not callable(getattr(cls, m, None))]
+    missing += [m for m in ("name", "signal") if not hasattr(cls, m)]
+    if missing:
+        raise TaskError(f"task class {name!r} does not follow the Task protocol: it has no "
+                        f"{', '.join(missing)} (subclass revolve_env.tasks.BaseTask)")
+
+
+def _check(task: object) -> Task:
+    """``task`` if it follows the protocol, with a known signal and a plain-data form."""
+    cls = type(task)
+    label = f"{cls.__module__}:{cls.__qualname__}"
+    _check_class(cls, label)
+    assert isinstance(task, Task)
+    if task.signal is not None and task.signal not in SIGNALS:
+        raise TaskError(f"task {label!r} asks for signal {task.signal!r}; known signals: "
+                        f"{', '.join(SIGNALS)}")
+    data = task.to_dict()
+    if not isinstance(data, dict) or not isinstance(data.get("name"), str):
+        raise TaskError(f"task {label!r}: to_dict() must give a dict with a 'name' string")
+    try:
+        hash(task)
+    except TypeError:
+        raise TaskError(f"task {label!r} must be hashable (a frozen dataclass)") from None
+    return task
+
+
+def task_from_dict(data: Mapping[str, Any], *, allow_import: bool = True) -> Task:
+    """The task a :meth:`Task.to_dict` describes.
+
+    Its class (:func:`task_class`, ``allow_import`` as there) made with the other keys as
+    keyword arguments.
+
+    Raises:
+        TaskError: no ``name``, an unknown name or class, or parameters the class refuses.
+    """
+    if not isinstance(data, Mapping) or "name" not in data:
+        got = dict(data) if isinstance(data, Mapping) else data
+        raise TaskError(f"a task table needs a 'name' (one of {', '.join(TASKS)} or "
+                        f"'package.module:ClassName'), got {got!r}")
+    name = data["name"]
+    cls = task_class(name, allow_import=allow_import)
+    params = {k: v for k, v in data.items() if k != "name"}
+    try:
+        task = cls(**params)
+    except TypeError as e:
+        known = ([f.name for f in dataclasses.fields(cls)] if dataclasses.is_dataclass(cls)
+                 else [])
+        raise TaskError(f"task {name!r}: bad parameters {sorted(params)} ({e}); its parameters: "
+                        f"{', '.join(known) or 'none'}") from None
+    except ValueError as e:
+        raise TaskError(f"task {name!r}: {e}") from None
+    return _check(task)
+
+
+def make_task(task: Task | str | Mapping[str, Any] | None = None) -> Task:
+    """A checked task from what a ``task=`` keyword got.
+
+    Args:
+        task: None (the paper's :class:`~revolve_env.tasks.Locomotion`), a task object, a name
+            (a shipped task with its defaults, or ``"package.module:ClassName"``), or a mapping
+            ``{"name": ..., **parameters}`` (:func:`task_from_dict`).
+
+    Raises:
+        TaskError: see :func:`task_class` and :func:`task_from_dict`.
+    """
+    if task is None:
+        task = DEFAULT_TASK
+    if isinstance(task, str):
+        return task_from_dict({"name": task})
+    if isinstance(task, Mapping):
+        return task_from_dict(task)
+    if isinstance(task, type):
+        raise TaskError(f"task={task.__qualname__} is a class: pass an instance, "
+                        f"{task.__qualname__}()")
+    return _check(task)
+
+
+def score(task: Task, window: Window) -> NDArray[np.float64]:
+    """Every robot's fitness: the task's, 0 for a window of fewer than two samples (n,).
+
+    Raises:
+        TaskError: the task gave something else than one number per robot.
+    """
+    f = task.fitness(window)
+    samples = window.samples
+    n = samples.shape[0]
+    if not (type(f) is np.ndarray and f.dtype == np.float64 and f.shape == (n,)):
+        f = np.asarray(f, dtype=np.float64)
+        if f.shape != (n,):
+            raise TaskError(f"task {task.name!r}: fitness(window) must give shape ({n},), got "
+                            f"{f.shape}")
+    # One reduction first: the mask is made only when some window is that short.
+    if n and np.minimum.reduce(samples) < 2:
+        f = np.where(samples < 2, 0.0, f)
+    return f
