@@ -12,7 +12,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 OWNERS = {
     "pybullet": ["revolve_env/world/pybullet_backend.py"],
-    "mujoco": ["revolve_env/world/mujoco_backend.py", "revolve_env/world/mujoco_scenes.py"],
+    # the backend, the scene it compiles (model building and MJCF text) and the batched scenes
+    "mujoco": ["revolve_env/world/mujoco_backend.py", "revolve_env/world/mujoco_scene.py",
+               "revolve_env/world/mujoco_scenes.py"],
 }
 
 
