@@ -47,6 +47,7 @@ _LAZY = {
     "EvaluationResult": ("revolve_env.evaluation", "EvaluationResult"),
     "World": ("revolve_env.world", "World"),
     "ENGINES": ("revolve_env.world", "ENGINES"),
+    "PHYSICS_REVISIONS": ("revolve_env.world", "PHYSICS_REVISIONS"),
     "require_engine": ("revolve_env.world", "require_engine"),
     "WorldConfig": ("revolve_env.world", "WorldConfig"),
     "LocomotionEnv": ("revolve_env.envs.locomotion", "LocomotionEnv"),
@@ -69,6 +70,7 @@ def __dir__() -> list[str]:
 
 __all__ = [
     "ENGINES",
+    "PHYSICS_REVISIONS",
     "EXAMPLES",
     "IDEAL",
     "LOCOMOTION_ID",

@@ -30,6 +30,7 @@ from evolution.lifecycle import InfancyHook
 __all__ = [
     "ExperimentSummary",
     "ProgressCallback",
+    "check_physics",
     "check_resumable",
     "config_differences",
     "flat_keys",
@@ -187,11 +188,30 @@ def check_resumable(db_path: Path, trust_pickled_policies: bool = False) -> Expe
         config = verify(store, resumable=True)
         runs = store.runs()
         if work_left(config, runs):
+            check_physics(store, config)
             check_writable(store)
             if config.mode == "online":  # offline runs never reload a policy
                 refuse_pickled(store, {r.run_id for r in runs if r.status != "finished"},
                                trust_pickled_policies)
     return config
+
+
+def check_physics(store: Store, config: ExperimentConfig) -> None:
+    """Refuse to continue results made with another revision of their engine's stepping.
+
+    Raises:
+        StoreError: the run's engine steps differently in this version
+            (:data:`revolve_env.PHYSICS_REVISIONS`): its remaining births would live in other
+            physics than its first ones.
+    """
+    engine = config.world.engine
+    made, now = store.physics_revisions[engine], revolve_env.PHYSICS_REVISIONS[engine]
+    if made != now:
+        raise StoreError(
+            f"{store.path}: made with {engine} physics revision {made}, and this version of "
+            f"revolve-env steps {engine} as revision {now} (numbers differ), so its remaining "
+            "births would live in other physics than its first; finish it with the version "
+            "that made it, or run the experiment again")
 
 
 def work_left(config: ExperimentConfig, runs: Sequence[RunRecord]) -> bool:

@@ -46,6 +46,7 @@ From the command line: ``revolve reevaluate RESULTS [--k 10] [--best] [--window-
 from __future__ import annotations
 
 import json
+import logging
 import math
 import os
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -55,6 +56,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+import revolve_env
 from evolution.evaluation import EvalOutcome, EvalTask, Evaluator, make_evaluator
 from evolution.experiments import results_folder
 from evolution.experiments.config import MAX_SECONDS
@@ -80,6 +82,8 @@ __all__ = [
     "reevaluation_seed",
     "shared_world_seed",
 ]
+
+_log = logging.getLogger(__name__)
 
 KINDS = ("final", "best")
 """What ``which`` may be."""
@@ -363,6 +367,12 @@ def _plan(db: Path, k: int, which: str, offsets: tuple[float, ...], shared_world
     with Store.open(db) as store:
         config = verify(store)
         check_writable(store)
+        engine = config.world.engine
+        if store.physics_revisions[engine] != revolve_env.PHYSICS_REVISIONS[engine]:
+            _log.warning("%s: its fitness was measured with %s physics revision %d; it is "
+                         "re-evaluated with revision %d, so the differences include the "
+                         "engine's change", db, engine, store.physics_revisions[engine],
+                         revolve_env.PHYSICS_REVISIONS[engine])
         base = store.seed if seed is None else seed
         used = reevaluation_conditions(store.config, conditions)
         settings = [_Setting(which, used, config.insertion + o, config.evaluation_time,

@@ -60,6 +60,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Self
 
+import revolve_env
 from evolution.experiments.errors import StoreError
 from evolution.experiments.records import (
     MIGRATIONS,
@@ -163,6 +164,7 @@ class Store:
                         ("package_version", package_version()),
                         ("config", json.dumps(config, sort_keys=True)),
                         ("seed", str(int(seed))),
+                        ("physics", json.dumps(revolve_env.PHYSICS_REVISIONS, sort_keys=True)),
                     ],
                 )
         except BaseException:
@@ -247,6 +249,22 @@ class Store:
     def seed(self) -> int:
         """The experiment's seed."""
         return int(self.meta()["seed"])
+
+    @property
+    def physics_revisions(self) -> dict[str, int]:
+        """Engine -> the revision of its stepping the results were made with.
+
+        :data:`revolve_env.PHYSICS_REVISIONS` at creation; 1 for a database made before they
+        were recorded (or a damaged record).
+        """
+        try:
+            stored = json.loads(self.meta().get("physics", "{}"))
+        except (ValueError, RecursionError):
+            stored = {}
+        if not isinstance(stored, dict):
+            stored = {}
+        return {engine: stored[engine] if isinstance(stored.get(engine), int) else 1
+                for engine in revolve_env.PHYSICS_REVISIONS}
 
     # -- writing ---------------------------------------------------------------------------
 

@@ -11,9 +11,9 @@ Public interface (engine-neutral: NumPy arrays and plain numbers in and out):
 """
 
 from revolve_env.world.backend import ENGINES, EngineUnavailableError, require_engine
-from revolve_env.world.config import WorldConfig
+from revolve_env.world.config import PHYSICS_REVISIONS, WorldConfig
 from revolve_env.world.model import RobotModel, build_model
 from revolve_env.world.world import World
 
-__all__ = ["ENGINES", "EngineUnavailableError", "RobotModel", "World", "WorldConfig",
-           "build_model", "require_engine"]
+__all__ = ["ENGINES", "PHYSICS_REVISIONS", "EngineUnavailableError", "RobotModel", "World",
+           "WorldConfig", "build_model", "require_engine"]

@@ -9,7 +9,8 @@ from dataclasses import dataclass
 
 from revolve_env.body.parts import SERVO
 
-__all__ = ["ENGINES", "EngineUnavailableError", "WorldConfig", "require_engine"]
+__all__ = ["ENGINES", "PHYSICS_REVISIONS", "EngineUnavailableError", "WorldConfig",
+           "require_engine"]
 
 #: Engine name -> (backend module, class, the pip package it needs); the backends are imported
 #: lazily by :func:`revolve_env.world.backend.make_backend`.
@@ -19,6 +20,13 @@ _REGISTRY: dict[str, tuple[str, str, str]] = {
 }
 #: Names accepted by ``WorldConfig(engine=...)`` and every ``engine=`` keyword.
 ENGINES: tuple[str, ...] = tuple(_REGISTRY)
+
+#: Engine name -> the revision of how this package steps it. Raised by a change that moves that
+#: engine's numbers (the results store records the revisions a run was made with, and a run
+#: made with another revision is not continued: its remaining births would live in other
+#: physics). MuJoCo 2: the discrete integrator with islands off and one spec per robot
+#: (revision 1, with ``implicitfast``, made every result stored before revision numbers).
+PHYSICS_REVISIONS: dict[str, int] = {"pybullet": 1, "mujoco": 2}
 
 
 class EngineUnavailableError(ImportError):

@@ -12,9 +12,12 @@ from experiment_fakes import CtrlCEvaluator, Kill, fake_evaluate, fake_world, sm
 from experiment_fakes import dump_results as dump
 from experiment_fakes import kill_after as killer
 
+import revolve_env
 from evolution import experiments
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import ExperimentConfig, ProgressEvent, preset
+from evolution.experiments.api import check_resumable
+from evolution.experiments.config import WorldSettings
 from evolution.experiments.store import Store, StoreError
 
 
@@ -167,3 +170,27 @@ def test_a_kill_before_all_runs_were_registered_resumes_every_run(tmp_path: Path
     summary = experiments.resume(out, evaluator=SERIAL)
     assert sorted(r.run_id for r in summary.runs) == [0, 1]
     assert dump(out / "results.sqlite") == _uninterrupted(config, tmp_path / "reference")
+
+
+def test_results_of_another_physics_revision_are_not_continued(tmp_path: Path) -> None:
+    """A run made before MuJoCo's stepping changed (no recorded revision: revision 1) is refused
+    in one line instead of living its remaining births in other physics; finished results are
+    still read and reported."""
+    config = ExperimentConfig(population_size=2, offspring_size=2, births=4, runs=1)
+    config = config.replace(world=WorldSettings(engine="mujoco"))
+    db_path = tmp_path / "results.sqlite"
+    Store.create(db_path, config.to_dict(), 0).close()
+    with Store.open(db_path) as store:
+        assert store.physics_revisions == revolve_env.PHYSICS_REVISIONS
+    check_resumable(db_path)  # this version's own results continue
+    with sqlite3.connect(db_path) as db:
+        db.execute("DELETE FROM meta WHERE key = 'physics'")
+    with Store.open(db_path) as store:
+        assert store.physics_revisions == {"pybullet": 1, "mujoco": 1}
+    with pytest.raises(StoreError, match="made with mujoco physics revision 1, and this "
+                                         "version of revolve-env steps mujoco as revision 2"):
+        check_resumable(db_path)
+    with sqlite3.connect(db_path) as db:
+        db.execute("INSERT INTO meta VALUES ('physics', ?)", (json.dumps({"mujoco": "x"}),))
+    with Store.open(db_path) as store:  # damaged: read as the oldest revision
+        assert store.physics_revisions["mujoco"] == 1
