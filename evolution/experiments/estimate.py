@@ -31,12 +31,13 @@ import heapq
 import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from evolution.evaluation import EvalTask, evaluate_tasks
+from evolution.evaluation import evaluate_tasks
 from evolution.experiments.config import ExperimentConfig
+from evolution.experiments.offline import evaluation_tasks
 from evolution.random_robot import random_robot
 
 __all__ = [
@@ -198,15 +199,12 @@ def calibrate(config: ExperimentConfig, *, seed: int = 0, robots: int | None = N
 
 def _calibrate_offline(config: ExperimentConfig, rng: np.random.Generator,
                        count: int) -> BirthCost:
-    infancy = config.training_center()
-    tasks = [EvalTask(i, random_robot(rng, config.evolution), config.insertion,
-                      config.evaluation_time, int(rng.integers(2**31)), infancy,
-                      engine=config.world.engine, conditions=config.evaluation)
-             for i in range(count + 1)]
+    tasks = evaluation_tasks(config, [(i, random_robot(rng, config.evolution),
+                                       int(rng.integers(2**31))) for i in range(count + 1)],
+                             config.training_center())
     # The first evaluation loads the engine and its caches: a cost a run pays once, not per birth.
-    warm = tasks[0]
-    evaluate_tasks([EvalTask(warm.robot_id, warm.robot, 0.0, config.evaluation_time / 10,
-                             warm.seed, engine=warm.engine, conditions=warm.conditions)])
+    evaluate_tasks([replace(tasks[0], insertion=0.0, seconds=config.evaluation_time / 10,
+                            infancy=None)])
     start = time.process_time()
     evaluate_tasks(tasks[1:])
     cpu = time.process_time() - start
