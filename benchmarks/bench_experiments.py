@@ -12,12 +12,21 @@ constant-cost stand-in to measure the engine's own overhead (operators, selectio
 SQLite). The estimate of the full study (5 experiments x 30 runs x 3000 births) assumes the
 offline experiments keep all cores busy with evaluations and online runs go side by side, one
 per core.
+
+With ``--workers 1`` it also prints, per experiment, the calibration's estimate of the CPU per
+birth (:func:`evolution.experiments.estimate.calibrate`, what ``revolve study`` prints before it
+starts) beside the measured one, and projects the paper's study from the measured runs onto 2
+cores and a 64-core Ray cluster (:func:`evolution.experiments.estimate.estimate`: a run is the
+unit of parallelism, one run per core, online runs first; an experiment not measured takes the
+cost of a measured one of its mode). The measured run's own length matters: evolved robots grow,
+so a run of 300 births is cheaper per birth than one of 3000.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import os
 import tempfile
 import time
@@ -26,7 +35,14 @@ from typing import Any
 
 from evolution import experiments
 from evolution.evaluation import EvalOutcome, EvalTask, LocalEvaluator, evaluate_task
-from evolution.experiments import preset
+from evolution.experiments import ExperimentConfig, preset
+from evolution.experiments.estimate import (
+    BirthCost,
+    RunWork,
+    calibrate,
+    estimate,
+    run_cpu_seconds,
+)
 from revolve_env.body.serialize import to_json
 
 EXPERIMENTS = ("scenario1", "scenario2", "scenario3", "baseline_a", "baseline_b")
@@ -52,6 +68,8 @@ def main() -> None:
     print(f"{'experiment':<12} {'births':>6} {'wall s':>8} {'births/min':>11} {'sim s/wall s':>12}"
           f" {'study h (2 cores)':>18} {'CPU ms/birth':>13}")
     total_hours = 0.0
+    # name -> (config, CPU seconds, mean robots alive at the commit points)
+    measured: dict[str, tuple[ExperimentConfig, float, float]] = {}
     for name in args.only:
         # One run: births per minute and CPU per birth count that run's births (the shipped
         # configs' 30 runs would run side by side, 30 times the births of the rate printed).
@@ -78,10 +96,69 @@ def main() -> None:
         hours = STUDY_RUNS * STUDY_BIRTHS / rate_2_cores / 60
         total_hours += hours
         per_birth = f"{cpu / args.births * 1e3:.0f}" if cores == 1 else "n/a"
+        if cores == 1:
+            alive = [e.population_size for e in events if not e.replaying]
+            measured[name] = (config, cpu, sum(alive) / max(1, len(alive)))
         print(f"{name:<12} {args.births:>6} {wall:>8.1f} {rate:>11.1f} {speed:>12.1f} "
               f"{hours:>18.1f} {per_birth:>13}")
     print(f"\nfull study ({len(args.only)} experiments x {STUDY_RUNS} runs x "
           f"{STUDY_BIRTHS} births, 2 cores): {total_hours:.0f} h = {total_hours / 24:.1f} days")
+    if measured:
+        _project(measured)
+
+
+def _measured_cost(config: ExperimentConfig, cpu: float) -> BirthCost:
+    """The CPU per birth of a whole measured run, in the calibration's terms.
+
+    Online: per conception interval (the initial robots are born together at time 0).
+    """
+    births = config.births
+    if config.mode == "online":
+        births = max(1, config.births - config.population_size)
+    return BirthCost(config.mode, config.world.engine, cpu / births,
+                     f"a measured run of {config.births} births")
+
+
+def _project(measured: dict[str, tuple[ExperimentConfig, float, float]]) -> None:
+    """Calibration against measurement, and the paper's study projected from the measurement.
+
+    Online, the calibration runs twice: at the world size it assumes, and at the mean size the
+    measured run had (which tells the size's share of the error from the robots').
+    """
+    print(f"\n{'experiment':<12} {'measured ms/birth':>18} {'robots alive':>13} "
+          f"{'calibrated ms/birth':>20} {'at robots':>10} {'calibrated/measured':>20}")
+    costs: dict[str, BirthCost] = {}
+    for name, (config, cpu, alive) in measured.items():
+        costs[name] = _measured_cost(config, cpu)
+        sizes: list[int | None] = [None]
+        if config.mode == "online":
+            sizes.append(max(1, round(alive)))
+        for size in sizes:
+            guess = calibrate(config, robots=size)
+            print(f"{name:<12} {1e3 * costs[name].cpu_per_birth:>18.0f} {alive:>13.1f} "
+                  f"{1e3 * guess.cpu_per_birth:>20.0f} {guess.world_size or '-':>10} "
+                  f"{guess.cpu_per_birth / costs[name].cpu_per_birth:>20.2f}")
+    by_mode = {cost.mode: cost for cost in costs.values()}
+    work, study_costs = [], {}
+    for name in EXPERIMENTS:
+        config = preset(name, births=STUDY_BIRTHS, runs=STUDY_RUNS)
+        cost = costs.get(name, by_mode.get(config.mode))
+        if cost is None:
+            print(f"no measured {config.mode} run: {name} left out of the projection")
+            continue
+        study_costs[name] = cost
+        work += [RunWork(name, config)] * STUDY_RUNS
+    longest = max(run_cpu_seconds(w, study_costs[w.experiment]) for w in work)
+    print(f"\nthe paper's study ({len(study_costs)} experiments x {STUDY_RUNS} runs x "
+          f"{STUDY_BIRTHS} births) from the measured CPU per birth; longest run "
+          f"{longest / 3600:.2f} h:")
+    for cores in (2, 64):
+        result = estimate(work, study_costs, cores)
+        waves = math.ceil(len(work) / cores)
+        print(f"  {cores:>2} cores: {result.cpu_seconds / 3600:.1f} CPU-h, wall "
+              f"{result.wall_seconds / 3600:.2f} h scheduled as the study runs (online first, "
+              f"one run per core); at most {waves} wave(s) x the longest run = "
+              f"{waves * longest / 3600:.2f} h")
 
 
 if __name__ == "__main__":

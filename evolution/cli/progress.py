@@ -7,7 +7,10 @@
   and simulation speed once a robot has been evaluated; ``no robot evaluated yet`` before) under a
   total bar (births of all runs, runs finished). A run keeps its line while it runs; finished
   bars stay in place. When there are more runs than lines, a starting run takes over the line of
-  a finished (or not yet started) one. No ETA is shown before births have been counted.
+  a finished (or not yet started) one. No ETA is shown before births have been counted. The
+  total's ETA weighs each run's births by their cost (``add_runs(..., weight=)``: ``revolve
+  study`` gives each experiment's calibrated CPU per birth, so an online birth counts as the
+  offline births it costs), and is never shorter than the slowest running run's own ETA.
 * Off a terminal (CI, a redirected stream): no bars; a plain ``INFO`` log line for a run each time
   it passes another ``step`` percent of its births, and for every run at most every ``interval``
   seconds otherwise.
@@ -131,6 +134,7 @@ class _Run:
     run_id: int
     target: int
     births: int
+    weight: float = 1.0  # cost of one of its births (any unit shared by all runs)
     event: ProgressEvent | None = None
     live_births: int | None = None  # births at the first live (not replayed) event
     live_since: float = math.nan  # clock then
@@ -153,6 +157,10 @@ class _Run:
         gained = self.births - self.live_births
         return gained / (now - self.live_since) if gained > 0 else math.nan
 
+    def eta(self, now: float) -> float:
+        """Wall-clock seconds until it finishes at its own rate (``nan`` before it has one)."""
+        return (self.target - self.births) / self.rate(now)
+
     def status(self, now: float) -> str:
         """Its state in words: fitness, robots alive, speed and ETA once known."""
         e = self.event
@@ -169,9 +177,9 @@ class _Run:
             return f"finished, {text}"
         if math.isfinite(e.sim_speed):
             text += f", sim {e.sim_speed:.1f}x"
-        rate = self.rate(now)
-        if math.isfinite(rate):
-            text += f", ETA {duration((self.target - self.births) / rate)}"
+        eta = self.eta(now)
+        if math.isfinite(eta):
+            text += f", ETA {duration(eta)}"
         return text
 
 
@@ -231,10 +239,21 @@ class ProgressDisplay(EventObserver):
     # -- runs ----------------------------------------------------------------------------------
 
     def add_runs(self, targets: Mapping[int, int], done: Mapping[int, int] | None = None,
-                 label: str = "") -> None:
-        """Register runs (their bars appear in this order, while there are lines for them)."""
+                 label: str = "", weight: float = 1.0) -> None:
+        """Register runs (their bars appear in this order, while there are lines for them).
+
+        Args:
+            targets: Births at which each run stops, by run id.
+            done: Births already committed by each run, by run id.
+            label: Label of these runs.
+            weight: What one of their births costs, in any unit all runs share (e.g. CPU
+                seconds per birth from :func:`evolution.experiments.estimate.calibrate`): the
+                ETA weighs births by it.
+        """
+        if not (math.isfinite(weight) and weight > 0):
+            raise ValueError(f"a birth's weight must be a positive number, not {weight!r}")
         for run_id, target in targets.items():
-            run = _Run(label, run_id, target, (done or {}).get(run_id, 0))
+            run = _Run(label, run_id, target, (done or {}).get(run_id, 0), weight)
             self.runs[(label, run_id)] = run
             self._place(run, steal=False)
         self._draw_total()
@@ -324,15 +343,23 @@ class ProgressDisplay(EventObserver):
     def eta(self) -> float:
         """Wall-clock seconds left for all runs (``inf`` before births were counted).
 
-        The rate is that of all runs together since the first live event, counting each run's
-        births from its own first live event (a replay or a resumed start is not a birth rate).
+        Births are weighed by their cost (each run's ``weight``: an online birth simulates a
+        whole world for a conception interval and costs several offline ones). The rate is the
+        weighted births of all runs together since the first live event, counting each run's
+        births from its own first live event (a replay or a resumed start is not a birth
+        rate); the work left is the weighted births left. A run runs on one worker, so the
+        ETA is never shorter than that of the slowest running run at its own rate.
         """
-        gained = sum(r.births - r.live_births for r in self.runs.values()
+        runs = self.runs.values()
+        gained = sum((r.births - r.live_births) * r.weight for r in runs
                      if r.live_births is not None)
-        elapsed = self.clock() - self.live_since
+        now = self.clock()
+        elapsed = now - self.live_since
         if not math.isfinite(elapsed) or elapsed <= 0 or gained <= 0:
             return math.inf
-        return (self.total - self.done) * elapsed / gained
+        left = sum((r.target - r.births) * r.weight for r in runs)
+        slowest = max((eta for r in runs if math.isfinite(eta := r.eta(now))), default=0.0)
+        return max(left * elapsed / gained, slowest)
 
     def summary(self) -> str:
         """All runs in words: births, runs finished and, once known, the ETA."""

@@ -20,13 +20,24 @@ from __future__ import annotations
 import argparse
 import shlex
 import sys
+from collections.abc import Mapping
+from contextlib import closing
 from typing import Any
 
 from evolution.cli.options import parse_set
 from evolution.cli.progress import ProgressDisplay, duration, metres
 from evolution.cli.robots import EXIT_INTERRUPTED, CliError, non_negative_int, positive_int, workers
+from evolution.evaluation import Evaluator
 from evolution.experiments import ProgressEvent
-from evolution.experiments.study import PAPER_EXPERIMENTS, StudyPlan, prepare_study, run_study
+from evolution.experiments.estimate import RunWork, StudyEstimate, calibrate_all, estimate
+from evolution.experiments.study import (
+    PAPER_EXPERIMENTS,
+    StudyPlan,
+    prepare_study,
+    run_study,
+    study_configs,
+    study_evaluator,
+)
 from evolution.reporting import report
 
 __all__ = ["StudyDisplay", "add_study"]
@@ -37,15 +48,19 @@ class StudyDisplay:
     Args:
         plan: The prepared study (its unfinished runs are registered, experiment by experiment).
         stream: Where to draw (default stderr).
+        weights: Cost of one birth of each experiment, by name (the ETA weighs births by it;
+            :meth:`StudyEstimate.weights`); default: all alike.
     """
 
-    def __init__(self, plan: StudyPlan, stream: Any = None) -> None:
+    def __init__(self, plan: StudyPlan, stream: Any = None,
+                 weights: Mapping[str, float] | None = None) -> None:
         self.display = ProgressDisplay(stream=stream)
         for experiment in plan.experiments:
             if experiment.jobs:
                 self.display.add_runs({job.run_id: experiment.config.births
                                        for job in experiment.jobs},
-                                      experiment.done, label=experiment.name)
+                                      experiment.done, label=experiment.name,
+                                      weight=(weights or {}).get(experiment.name, 1.0))
 
     def __call__(self, experiment: str, event: ProgressEvent) -> None:
         """Take one event of run ``event.run_id`` of ``experiment``."""
@@ -74,6 +89,8 @@ def _again(args: argparse.Namespace) -> str:
         words += ["--evaluator", args.evaluator]
     if args.ray_address:
         words += ["--ray-address", args.ray_address]
+    if args.no_estimate:
+        words += ["--no-estimate"]
     return shlex.join(words)
 
 
@@ -87,21 +104,55 @@ def _describe(plan: StudyPlan) -> None:
              f"{c.world.engine}): {left} -> {e.out_dir}")
 
 
+def _estimate(work: list[RunWork], workers: int) -> StudyEstimate:
+    """Calibrate every experiment of ``work`` and print the study's estimated time."""
+    configs = list({w.experiment: w.config for w in work}.values())
+    _say(f"calibrating {len(configs)} experiment(s) on this machine (a few seconds of CPU; "
+         "--no-estimate skips it)...")
+    costs, cpu = calibrate_all(configs)
+    result = estimate(work, costs, workers, cpu)
+    _say("estimated time:")
+    for line in result.lines():
+        _say(line)
+    return result
+
+
 def _cmd_study(args: argparse.Namespace) -> int:
     if args.ray_address and args.evaluator != "ray":
         raise CliError("--ray-address needs --evaluator ray")
     overrides = parse_set(args.set or [])
     experiments = tuple(args.only) if args.only else PAPER_EXPERIMENTS
-    plan = prepare_study(args.out, runs=args.runs, births=args.births, experiments=experiments,
-                         overrides=overrides, seed=args.seed, evaluator=args.evaluator,
-                         workers=args.workers, ray_address=args.ray_address)
+    settings: dict[str, Any] = {
+        "runs": args.runs, "births": args.births, "experiments": experiments,
+        "overrides": overrides, "seed": args.seed, "evaluator": args.evaluator,
+        "workers": args.workers, "ray_address": args.ray_address}
+    if args.estimate_only:  # nothing is written: the whole study, as if none of it were done
+        configs = study_configs(**settings)
+        with closing(study_evaluator(args.evaluator, args.workers, args.ray_address)) as used:
+            _estimate([RunWork(c.name, c) for c in configs for _ in range(c.runs)], used.workers)
+        return 0
+    plan = prepare_study(args.out, **settings)
     where = "Ray" if args.evaluator == "ray" else f"{args.workers or 'all'} core(s)"
     _say(f"study in {plan.out_dir}: {len(plan.experiments)} experiment(s), {plan.pending} "
          f"unfinished run(s) on {where}")
     _describe(plan)
-    display = StudyDisplay(plan)
+    if not plan.pending:
+        return _run(args, plan, None, None)
+    # Made here: the estimate needs its workers (a Ray cluster's CPUs) before the runs start.
+    with closing(study_evaluator(args.evaluator, args.workers, args.ray_address)) as used:
+        weights = None
+        if not args.no_estimate:
+            weights = _estimate([RunWork(e.name, e.config, e.done[job.run_id])
+                                 for e in plan.experiments for job in e.jobs],
+                                used.workers).weights()
+        return _run(args, plan, used, weights)
+
+
+def _run(args: argparse.Namespace, plan: StudyPlan, evaluator: Evaluator | None,
+         weights: Mapping[str, float] | None) -> int:
+    display = StudyDisplay(plan, weights=weights)
     try:
-        summary = run_study(plan, display)
+        summary = run_study(plan, display, evaluator)
     except KeyboardInterrupt:
         display.close()
         print(f"revolve study: interrupted; finished work is saved in {plan.out_dir}; continue "
@@ -160,5 +211,12 @@ def add_study(sub: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--ray-address", metavar="ADDRESS",
                    help="an existing Ray cluster, e.g. auto or HOST:PORT (default: start a "
                         "local instance)")
+    when = p.add_mutually_exclusive_group()
+    when.add_argument("--estimate-only", action="store_true",
+                      help="calibrate, print the study's estimated time and exit, writing "
+                           "nothing")
+    when.add_argument("--no-estimate", action="store_true",
+                      help="start at once, without the calibration (a few seconds of CPU) "
+                           "that estimates the time and weighs the ETA")
     p.set_defaults(handler=_cmd_study)
 

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from evolution.evaluation import EvalOutcome, EvalTask, Evaluator, evaluation_seed
+from evolution.experiments.config import ExperimentConfig
 from evolution.experiments.remote_store import RunStore
 from evolution.experiments.run import Member, Step, decode
 from evolution.experiments.state import RunState
@@ -34,10 +35,24 @@ from evolution.experiments.store import (
     RobotRecord,
     StoreError,
 )
-from evolution.lifecycle import Lifecycle, Stage
+from evolution.lifecycle import InfancyHook, Lifecycle, Stage
 from evolution.selection import mu_plus_lambda, random_survivors
+from revolve_env.body.robot import Robot
 
-__all__ = ["OfflineMode"]
+__all__ = ["OfflineMode", "evaluation_tasks"]
+
+
+def evaluation_tasks(config: ExperimentConfig, robots: Sequence[tuple[int, Robot, int]],
+                     infancy: InfancyHook | None) -> list[EvalTask]:
+    """How an offline run of ``config`` evaluates robots: one task per ``(id, robot, seed)``.
+
+    Its timing, engine, conditions and task are the config's; ``infancy`` is the run's Training
+    Center (``None``: none). The study's time estimate calibrates with the same tasks.
+    """
+    task = config.fitness_task()
+    return [EvalTask(robot_id, robot, config.insertion, config.evaluation_time, seed, infancy,
+                     engine=config.world.engine, conditions=config.evaluation, task=task)
+            for robot_id, robot, seed in robots]
 
 
 class OfflineMode:
@@ -131,13 +146,9 @@ class OfflineMode:
             asked.append(state.new_member(robot, (pa, pb), origin, t0, t0))
         state.batch.robots.extend(record for _, record in asked)
         self._asked = asked
-        task = config.fitness_task()
-        return [
-            EvalTask(m.robot_id, m.robot, config.insertion, config.evaluation_time,
-                     evaluation_seed(state.seed, m.robot_id), state.infancy,
-                     engine=config.world.engine, conditions=config.evaluation, task=task)
-            for m, _ in asked
-        ]
+        return evaluation_tasks(config, [(m.robot_id, m.robot, evaluation_seed(state.seed,
+                                                                               m.robot_id))
+                                         for m, _ in asked], state.infancy)
 
     def tell(self, outcomes: Sequence[EvalOutcome]) -> Step | None:
         """Record the outcomes of the robots asked for (in task order); close the generation.

@@ -70,6 +70,8 @@ __all__ = [
     "prepare_study",
     "run_study",
     "study",
+    "study_configs",
+    "study_evaluator",
 ]
 
 PAPER_EXPERIMENTS = ("scenario1", "scenario2", "scenario3", "baseline_a", "baseline_b")
@@ -225,6 +227,28 @@ def study(
     return run_study(plan, progress, None if isinstance(evaluator, str) else evaluator)
 
 
+def study_configs(
+    *,
+    runs: int = 3,
+    births: int = 60,
+    experiments: Sequence[str] = PAPER_EXPERIMENTS,
+    overrides: Mapping[str, Any] | None = None,
+    seed: int = 0,
+    evaluator: str = "local",
+    workers: int = 0,
+    ray_address: str | None = None,
+) -> list[ExperimentConfig]:
+    """The configurations a study of these settings runs, checked; nothing is read or written.
+
+    Arguments as for :func:`study` (what ``revolve study --estimate-only`` estimates).
+
+    Raises:
+        ConfigError: an unknown experiment, a bad override or setting.
+    """
+    execution = {"evaluator": evaluator, "workers": workers, "ray_address": ray_address}
+    return _configs(experiments, _settings(runs, births, seed, overrides), execution)
+
+
 def prepare_study(
     out_dir: str | os.PathLike[str],
     *,
@@ -274,6 +298,16 @@ def prepare_study(
     return StudyPlan(out, tuple(planned), evaluator, workers, ray_address)
 
 
+def study_evaluator(evaluator: str = "local", workers: int = 0,
+                    ray_address: str | None = None) -> Evaluator:
+    """Where a study's runs execute (:func:`run_study`'s default; close it after use).
+
+    Its ``workers`` are the runs at once (a Ray cluster: its CPUs), which the study's time
+    estimate (:mod:`evolution.experiments.estimate`) needs before the runs start.
+    """
+    return make_evaluator(evaluator, workers, ray_address)
+
+
 def run_study(plan: StudyPlan, progress: StudyProgress | None = None,
               evaluator: Evaluator | None = None) -> StudySummary:
     """Execute every unfinished run of a prepared study on one evaluator.
@@ -292,7 +326,7 @@ def run_study(plan: StudyPlan, progress: StudyProgress | None = None,
     started = time.perf_counter()
     summaries: list[RunSummary] = []
     if jobs:
-        used = evaluator or make_evaluator(plan.evaluator, plan.workers, plan.ray_address)
+        used = evaluator or study_evaluator(plan.evaluator, plan.workers, plan.ray_address)
         on_event = None if progress is None else (
             lambda tagged: progress(tagged.experiment, tagged.event))
         try:

@@ -226,3 +226,40 @@ def test_a_missing_tensorboard_is_one_line_before_anything_runs(
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].endswith('pip install "revolve-env[tensorboard]"')
     assert not out.exists()
+
+
+def test_the_eta_weighs_births_by_their_cost(log: io.StringIO) -> None:
+    """Two workers: an online run (a birth costs 8 offline ones) beside an offline run, a second
+    online run waiting. In 10 s the online run makes 10 births, the offline one 80 and ends."""
+    clock = Clock()
+    display = ProgressDisplay(stream=io.StringIO(), tty=False, clock=clock)
+    display.add_runs({0: 100, 1: 100}, label="scenario3", weight=8.0)
+    display.add_runs({0: 80}, label="scenario1", weight=1.0)
+    display(_event(0, 0), label="scenario3")
+    display(_event(0, 0, target=80), label="scenario1")
+    clock.now = 10.0
+    display(_event(0, 10), label="scenario3")
+    display(_event(0, 80, target=80, finished=True), label="scenario1")
+    # Work done: 10 x 8 + 80 = 160 in 10 s; left: (90 + 100) x 8 = 1520, 95 s at 16 per second.
+    # (Births alike: 90 in 10 s, 190 left, 21 s: the runs left are online.)
+    assert display.eta() == pytest.approx(95.0)
+    assert "ETA 1m35s" in display.summary()
+    with pytest.raises(ValueError, match="weight must be a positive number"):
+        display.add_runs({2: 10}, label="scenario2", weight=0.0)
+    display.close()
+
+
+def test_the_eta_is_never_shorter_than_the_slowest_running_run(log: io.StringIO) -> None:
+    """One online run beside one offline run: the offline run's worker cannot help the online
+    run, which needs 90 s at its own rate (the pooled rate would say 2.5 s)."""
+    clock = Clock()
+    display = ProgressDisplay(stream=io.StringIO(), tty=False, clock=clock)
+    display.add_runs({0: 100}, label="scenario3", weight=8.0)
+    display.add_runs({0: 100}, label="scenario1")
+    display(_event(0, 0), label="scenario3")
+    display(_event(0, 0), label="scenario1")
+    clock.now = 10.0
+    display(_event(0, 10), label="scenario3")
+    display(_event(0, 80), label="scenario1")
+    assert display.eta() == pytest.approx(90.0)
+    display.close()

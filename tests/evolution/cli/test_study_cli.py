@@ -55,9 +55,15 @@ def test_study_then_report(fake_physics: None, tmp_path: Path,
                            capsys: pytest.CaptureFixture[str],
                            caplog: pytest.LogCaptureFixture) -> None:
     out = tmp_path / "study"
-    assert main(["study", "--out", str(out), "--runs", "2", "--births", "16", *TINY]) == 0
+    # The calibration runs the real physics (MuJoCo: a fraction of a second), the runs the fakes.
+    argv = ["study", "--out", str(out), "--runs", "2", "--births", "16", *TINY, "--set",
+            "world.engine=mujoco"]
+    assert main(argv) == 0
     captured = capsys.readouterr()
     assert f"study in {out}: 5 experiment(s), 10 unfinished run(s)" in captured.out
+    # The estimate comes before the runs, one line per experiment.
+    assert captured.out.index("estimated time:") < captured.out.index("scenario1 run 0: ")
+    assert captured.out.count("ms CPU per birth") == 5
     # The progress display labels each run with its experiment.
     assert "scenario3 run 0: finished, 16 births" in caplog.text
     assert "all runs: 160/160 births (100%), 10/10 runs finished" in caplog.text
@@ -72,8 +78,9 @@ def test_study_then_report(fake_physics: None, tmp_path: Path,
         assert (out / "report" / f"{stem}.png").read_bytes()[:4] == b"\x89PNG"
     assert (out / "report" / "summary.csv").is_file()
 
-    assert main(["study", "--out", str(out), "--runs", "2", "--births", "16", *TINY]) == 0
-    assert "every run had finished already" in capsys.readouterr().out
+    assert main(argv) == 0
+    again = capsys.readouterr().out
+    assert "every run had finished already" in again and "estimated time" not in again
 
 
 def test_ctrl_c_names_the_command_that_continues(monkeypatch: pytest.MonkeyPatch,
@@ -83,7 +90,7 @@ def test_ctrl_c_names_the_command_that_continues(monkeypatch: pytest.MonkeyPatch
     monkeypatch.setattr(study_module, "make_evaluator", lambda *a, **k: CtrlCEvaluator(4 + 4 + 2))
     out = tmp_path / "study"
     argv = ["study", "--out", str(out), "--runs", "2", "--births", "16", "--seed", "5", *TINY,
-            "--only", "scenario1", "scenario3"]
+            "--only", "scenario1", "scenario3", "--no-estimate"]
     assert main(argv) == 130
     err = capsys.readouterr().err
     assert "Traceback" not in err
@@ -100,6 +107,26 @@ def test_ctrl_c_names_the_command_that_continues(monkeypatch: pytest.MonkeyPatch
     out_text = capsys.readouterr().out
     assert "scenario1: 2 run(s) x 16 births (offline, pybullet): 2 run(s) to do" in out_text
     assert "scenario3: 2 run(s) x 16 births (online, pybullet): finished" in out_text
+    assert "estimated time" not in out_text  # --no-estimate: no calibration
+
+
+def test_estimate_only_prints_the_estimate_and_writes_nothing(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "study"
+    assert main(["study", "--out", str(out), "--runs", "30", "--births", "3000", "--workers",
+                 "2", *TINY, "--set", "world.engine=mujoco", "--estimate-only"]) == 0
+    assert not out.exists()
+    lines = capsys.readouterr().out.splitlines()
+    start = lines.index("estimated time:")
+    per_experiment = lines[start + 1:start + 6]
+    for name, line in zip(PAPER_EXPERIMENTS, per_experiment, strict=True):
+        assert line.startswith(f"  {name}: ") and "30 run(s), 90000 births" in line, line
+    assert "(online, mujoco, world of 16 robots;" in per_experiment[2]
+    hours = [float(line.split(": ")[-1].removesuffix(" CPU-h")) for line in per_experiment]
+    total = lines[start + 6]
+    assert total.startswith("  total ") and "on 2 worker(s)" in total
+    assert float(total.split()[1]) == pytest.approx(sum(hours), abs=0.03)
+    assert lines[start + 7].startswith("  (an estimate: it assumes evolved robots cost")
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -113,7 +140,7 @@ def test_bad_settings_are_one_line(fake_physics: None, tmp_path: Path,
                                    capsys: pytest.CaptureFixture[str], argv: list[str],
                                    message: str) -> None:
     out = tmp_path / "study"
-    base = ["study", "--out", str(out), "--runs", "1", "--births", "16", *TINY]
+    base = ["study", "--out", str(out), "--runs", "1", "--births", "16", *TINY, "--no-estimate"]
     assert main([*base, "--only", "baseline_b"]) == 0
     capsys.readouterr()
     assert main([*base, *argv]) == 2
