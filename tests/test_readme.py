@@ -45,3 +45,37 @@ def test_readme_toml_block_is_a_valid_experiment_config(index: int) -> None:
 
     config = ExperimentConfig.from_dict(tomllib.loads(TOML_BLOCKS[index]))
     config.fitness_task()  # a task table names a task that resolves
+
+
+BASH_BLOCKS = re.findall(r"```bash\n(.*?)```", README.read_text(encoding="utf-8"), flags=re.S)
+COMMANDS = [line.split("#")[0].strip() for block in BASH_BLOCKS for line in block.splitlines()
+            if line.strip().startswith("revolve ")]
+
+
+def test_the_readme_shows_the_command_line() -> None:
+    assert len(COMMANDS) >= 8
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_readme_command_line_parses_as_written(command: str) -> None:
+    """Every ``revolve ...`` line of the README is a valid command line of the CLI (parsed, not
+    run: the study and runs take minutes; the cheap ones run below)."""
+    import shlex
+
+    from evolution.cli.commands import build_parser
+
+    build_parser().parse_args(shlex.split(command)[1:])
+
+
+def test_readme_export_command_runs_as_written(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    import shlex
+
+    from evolution.cli.commands import main
+
+    exports = [c for c in COMMANDS if c.startswith("revolve export")]
+    assert exports
+    monkeypatch.chdir(tmp_path)
+    for command in exports:
+        assert main(shlex.split(command)[1:]) == 0
+    assert "<robot" in capsys.readouterr().out
