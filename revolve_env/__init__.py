@@ -60,6 +60,10 @@ _LAZY = {
     "PopulationEnv": ("revolve_env.envs.population", "PopulationEnv"),
     "population_env": ("revolve_env.envs.population", "population_env"),
     "BatchController": ("revolve_env.brain", "BatchController"),
+    # scipy (the rugged terrain's blur) is loaded only when terrains are used
+    "TERRAINS": ("revolve_env.terrain", "TERRAINS"),
+    "TerrainError": ("revolve_env.terrain", "TerrainError"),
+    "make_terrain": ("revolve_env.terrain", "make_terrain"),
 }
 
 
@@ -93,6 +97,8 @@ __all__ = [
     "PopulationEnv",
     "Robot",
     "RobotError",
+    "TERRAINS",
+    "TerrainError",
     "require_engine",
     "World",
     "WorldConfig",
@@ -101,6 +107,7 @@ __all__ = [
     "example",
     "from_json",
     "load",
+    "make_terrain",
     "population_env",
     "save",
     "to_json",

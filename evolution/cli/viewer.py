@@ -29,6 +29,7 @@ The windows need a display: without one the command stops with a one-line error 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import time
@@ -57,7 +58,6 @@ from evolution.cli.robots import (
 )
 from evolution.evaluation import evaluation_seed
 from evolution.experiments import DB_NAME, Evolution, ExperimentConfig, Store
-from evolution.experiments.config import WorldSettings
 from evolution.experiments.integrity import verify
 from evolution.experiments.online_world import PopulationWorld
 from evolution.experiments.records import FitnessSample, RobotRecord
@@ -469,7 +469,7 @@ def _watch_results(args: argparse.Namespace, folder: Path) -> int:
         if args.engine is not None and args.engine != config.world.engine:
             _say(f"note: replaying on {args.engine}; the run was stored from "
                  f"{config.world.engine}, so this world differs from the stored one")
-            config = config.replace(world=WorldSettings(args.engine))
+            config = config.replace(world=dataclasses.replace(config.world, engine=args.engine))
         if args.seconds is not None:
             limit = config.max_sim_time
             config = config.replace(max_sim_time=min(limit or math.inf, args.seconds))

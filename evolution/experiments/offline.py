@@ -134,7 +134,8 @@ class OfflineMode:
         return [
             EvalTask(m.robot_id, m.robot, config.insertion, config.evaluation_time,
                      evaluation_seed(state.seed, m.robot_id), state.infancy,
-                     engine=config.world.engine, conditions=config.evaluation)
+                     engine=config.world.engine, conditions=config.evaluation,
+                     terrain=config.world.terrain_spec)
             for m, _ in asked
         ]
 

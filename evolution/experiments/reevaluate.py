@@ -65,6 +65,7 @@ from evolution.experiments.store import Store, StoreError
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import from_json
 from revolve_env.conditions import RANDOM_HEADING, EvaluationConditions
+from revolve_env.terrain import Flat, Terrain
 
 __all__ = [
     "KINDS",
@@ -247,6 +248,7 @@ class _Setting:
     seconds: float
     shared_world: bool
     engine: str
+    terrain: Terrain = Flat()
 
     @property
     def conditions_json(self) -> str:
@@ -364,7 +366,8 @@ def _plan(db: Path, k: int, which: str, offsets: tuple[float, ...], shared_world
         base = store.seed if seed is None else seed
         used = reevaluation_conditions(store.config, conditions)
         settings = [_Setting(which, used, config.insertion + o, config.evaluation_time,
-                             shared_world, config.world.engine) for o in offsets]
+                             shared_world, config.world.engine, config.world.terrain_spec)
+                    for o in offsets]
         mature_age = config.fertile_age if config.mode == "online" else 0.0
         stored = {r.key for r in store.reevaluations(which)}
         todo: list[_Todo] = []
@@ -421,7 +424,7 @@ def _evaluate(todo: list[_Todo], evaluator: Evaluator, shared_world: bool,
         part = todo[start:start + chunk]
         tasks = [EvalTask(c.robot_id, c.robot, setting.insertion, setting.seconds, s,
                           engine=setting.engine, conditions=setting.conditions,
-                          policy=policies.get((c.run_id, c.robot_id)))
+                          policy=policies.get((c.run_id, c.robot_id)), terrain=setting.terrain)
                  for c, setting, _, s in part]
         outcomes = evaluator.evaluate(tasks)
         yield [_record(c, setting, repeat, s, outcome, c.controller)
@@ -439,6 +442,7 @@ class SharedWorldJob:
         insertion: Seconds before the fitness window. Seconds.
         seconds: The fitness window. Seconds.
         engine: The physics engine.
+        terrain: The ground (the run's ``world.terrain``).
     """
 
     robots: tuple[Robot, ...]
@@ -447,6 +451,7 @@ class SharedWorldJob:
     insertion: float
     seconds: float
     engine: str
+    terrain: Terrain = Flat()
 
 
 def _evaluate_shared(todo: list[_Todo], evaluator: Evaluator
@@ -462,7 +467,8 @@ def _evaluate_shared(todo: list[_Todo], evaluator: Evaluator
         part = [groups[key] for key in keys[start:start + chunk]]
         jobs = [SharedWorldJob(tuple(c.robot for c, *_ in items), items[0][3],
                                items[0][1].conditions, items[0][1].insertion,
-                               items[0][1].seconds, items[0][1].engine) for items in part]
+                               items[0][1].seconds, items[0][1].engine, items[0][1].terrain)
+                for items in part]
         results = evaluator.run_jobs(run_shared_world, jobs)
         records = []
         for items, outcomes in zip(part, results, strict=True):
@@ -486,7 +492,8 @@ def run_shared_world(job: SharedWorldJob, evaluator: Evaluator,
 
     env = PopulationEnv(max_births=len(job.robots), initial_robots=list(job.robots),
                         insertion_time=job.insertion, maturity_age=job.insertion + job.seconds,
-                        fitness_window=job.seconds, engine=job.engine, conditions=job.conditions)
+                        fitness_window=job.seconds, engine=job.engine, conditions=job.conditions,
+                        terrain=job.terrain)
     try:
         env.reset(seed=job.seed)
         last = dict(env.statuses)  # every robot's status as the last step left it

@@ -51,6 +51,7 @@ from evolution.learning.base import LearningResult, check_budget
 from revolve_env.body.robot import Layer, Robot
 from revolve_env.conditions import IDEAL, EvaluationConditions
 from revolve_env.tasks import Locomotion, Task
+from revolve_env.terrain import Flat, Terrain
 
 if TYPE_CHECKING:
     from revolve_env.brain import BatchController
@@ -95,7 +96,8 @@ def _algorithm_class(algorithm: type | str) -> type:
 
 def _make_env(robot: Robot, action: ActionMode, insertion: float, seconds: float,
               control_period: float, engine: str = "pybullet",
-              conditions: EvaluationConditions = IDEAL, task: Task | None = None) -> Any:
+              conditions: EvaluationConditions = IDEAL, task: Task | None = None,
+              terrain: Terrain | None = None) -> Any:
     """The infant's single-robot env (module level, so that worker processes can build it).
 
     Returns a :class:`~revolve_env.envs.LocomotionEnv`, typed ``Any`` because its declared
@@ -115,6 +117,7 @@ def _make_env(robot: Robot, action: ActionMode, insertion: float, seconds: float
         engine=engine,
         conditions=conditions,
         task=task,
+        terrain=terrain,
     )
 
 
@@ -219,7 +222,8 @@ class PolicyAgent:
 
 def rollout_fitness(agent: PolicyAgent | None, robot: Robot, insertion: float, seconds: float,
                     control_period: float, seed: int, engine: str = "pybullet",
-                    conditions: EvaluationConditions = IDEAL, task: Task | None = None) -> float:
+                    conditions: EvaluationConditions = IDEAL, task: Task | None = None,
+                    terrain: Terrain | None = None) -> float:
     """Fitness of one episode of ``robot`` driven by ``agent`` (``None``: by its own network).
 
     The agent drives the single-robot env with ``controller="agent"``: the same path as an
@@ -228,10 +232,10 @@ def rollout_fitness(agent: PolicyAgent | None, robot: Robot, insertion: float, s
     """
     if agent is None:
         env = _make_env(robot, "modulate", insertion, seconds, control_period, engine,
-                        conditions, task)
+                        conditions, task, terrain)
     else:
         env = _make_env(robot, "targets", insertion, seconds, control_period, engine,
-                        conditions, task)
+                        conditions, task, terrain)
         agent.reset()
     from revolve_env.envs.episode import run_episode  # loads the physics engine: when used
 
@@ -263,6 +267,8 @@ class SB3Learner:
         algorithm_kwargs: Extra keyword arguments of the algorithm (``n_steps``, ...).
         task: What the policy is rewarded for and the evaluations score
             (:mod:`revolve_env.tasks`; an experiment's task).
+        terrain: The ground of the training envs and evaluations (:mod:`revolve_env.terrain`;
+            an experiment's ``world.terrain``).
     """
 
     algorithm: type | str = "PPO"
@@ -277,6 +283,7 @@ class SB3Learner:
     algorithm_kwargs: Mapping[str, Any] = field(default_factory=dict)
     conditions: EvaluationConditions = IDEAL
     task: Task = Locomotion()
+    terrain: Terrain = Flat()
 
     learns_policy = True  # class constant: the controller is the policy, not the genome's network
 
@@ -353,7 +360,8 @@ class SB3Learner:
                              f"{self._min_steps()} (min_budget: {self.min_budget:g} s)")
         seed = int(rng.integers(0, 2**31 - 1))
         factory = partial(_make_env, robot, self.action, self.insertion, self.seconds,
-                          self.control_period, self.engine, self.conditions, self.task)
+                          self.control_period, self.engine, self.conditions, self.task,
+                          self.terrain)
         cls = SubprocVecEnv if self.vec_env == "subproc" and self.n_envs > 1 else DummyVecEnv
         kwargs = {"start_method": "forkserver"} if cls is SubprocVecEnv else None
         venv = make_vec_env(factory, n_envs=self.n_envs, seed=seed, vec_env_cls=cls,
@@ -386,9 +394,10 @@ class SB3Learner:
         agent = PolicyAgent(model.policy, robot, self.action, self.control_period)
         eval_seed = int(rng.integers(0, 2**31 - 1))
         inborn = rollout_fitness(None, robot, self.insertion, self.seconds, self.control_period,
-                                 eval_seed, self.engine, self.conditions, self.task)
+                                 eval_seed, self.engine, self.conditions, self.task, self.terrain)
         trained = rollout_fitness(agent, robot, self.insertion, self.seconds, self.control_period,
-                                  eval_seed, self.engine, self.conditions, self.task)
+                                  eval_seed, self.engine, self.conditions, self.task,
+                                  self.terrain)
         agent.reset()
         return LearningResult(
             robot=robot,
