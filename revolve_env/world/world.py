@@ -42,7 +42,11 @@ __all__ = ["World"]
 
 
 class World:
-    """A flat world with gravity, friction, one point light and any number of robots.
+    """A world with gravity, friction, one point light, a ground and any number of robots.
+
+    The ground is ``config.terrain`` (:mod:`revolve_env.terrain`): the plane by default, or a
+    heightfield that both engines build from the same height grid; a robot is dropped onto the
+    highest ground under its footprint.
 
     Units are SI throughout (metres, seconds, radians, kilograms). Time advances in control
     periods (``config.control_period``, 1/60 s by default), each made of ``config.substeps``

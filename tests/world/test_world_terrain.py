@@ -4,6 +4,7 @@ a robot, isolated = batched and exact MuJoCo snapshots on a terrain, bad input r
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import gymnasium
 import numpy as np
@@ -169,3 +170,16 @@ def test_every_front_door_takes_a_terrain_and_refuses_a_bad_one() -> None:
         gymnasium.make("revolve_env/Locomotion-v0", robot=example("gecko"), terrain="moon")
     with pytest.raises(TerrainError, match="reaches past the edge of the rugged terrain"):
         evaluate(example("spider"), terrain={"name": "rugged", "size": 0.2, "resolution": 0.01})
+
+
+def test_a_video_of_a_robot_on_a_terrain_moves_as_its_evaluation(tmp_path: Path) -> None:
+    """``record_robot`` (``revolve show``) simulates on the terrain it is given."""
+    from revolve_env.envs.recording import record_robot
+
+    terrain = {"name": "crater", "height": 0.1, "radius": 0.3}
+    video = record_robot(example("spider"), tmp_path / "s.gif", seconds=1.0, insertion=0.5,
+                         fps=5.0, terrain=terrain)
+    result = evaluate(example("spider"), seconds=1.0, insertion=0.5, terrain=terrain)
+    flat = evaluate(example("spider"), seconds=1.0, insertion=0.5)
+    assert video.fitness == pytest.approx(result.fitness, abs=1e-9)
+    assert video.fitness != pytest.approx(flat.fitness, abs=1e-6)
