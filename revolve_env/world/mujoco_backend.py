@@ -1,4 +1,4 @@
-"""The MuJoCo backend (with :mod:`~revolve_env.world.mujoco_scenes`, all that imports ``mujoco``).
+"""The MuJoCo backend (with mujoco_scenes and mujoco_terrain, the modules that import ``mujoco``).
 
 The scene is an :class:`mujoco.MjSpec` that one :class:`MujocoBackend` owns with the compiled
 ``MjModel``/``MjData`` pair. Each robot is built from the same engine-neutral
@@ -73,11 +73,11 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from revolve_env.terrain import Flat, Terrain
 from revolve_env.world._rotations import matrix_to_quat
 from revolve_env.world.backend import BodyStates, PlacedModel, SnapshotMismatchError
 from revolve_env.world.config import WorldConfig
 from revolve_env.world.model import RobotModel
+from revolve_env.world.mujoco_terrain import add_ground
 
 __all__ = ["SERVO_KV", "MujocoBackend"]
 
@@ -111,33 +111,6 @@ _SAVED = int(mujoco.mjtState.mjSTATE_TIME | mujoco.mjtState.mjSTATE_QPOS
 # einsum's kernel without np.einsum's dispatch, which costs twice the product for a few robots
 # (the same function: np.einsum(..., optimize=False) calls it).
 _c_einsum = getattr(importlib.import_module("numpy._core.multiarray"), "c_einsum", np.einsum)
-
-
-def _add_ground(spec: mujoco.MjSpec, terrain: Terrain) -> mujoco.MjsGeom:
-    """The ground geom of ``terrain``: the plane, or an ``hfield`` of the terrain's height grid.
-
-    MuJoCo's hfield holds heights normalised to [0, 1] (scaled by its elevation ``size[2]``
-    above the geom's origin), rows along +y from -y, columns along +x from -x, and splits each
-    cell along the diagonal :mod:`~revolve_env.terrain` assumes.
-    """
-    ground = spec.worldbody.add_geom()
-    ground.name = "ground"
-    if isinstance(terrain, Flat):
-        ground.type = mujoco.mjtGeom.mjGEOM_PLANE
-        ground.size = [0.0, 0.0, 0.1]
-        return ground
-    grid = terrain.heights()
-    low, high = float(grid.min()), float(grid.max())
-    rise = max(high - low, 1e-9)  # a level grid: MuJoCo needs a positive elevation
-    field = spec.add_hfield()
-    field.name = "terrain"
-    field.nrow, field.ncol = grid.shape
-    field.size = [terrain.size / 2, terrain.size / 2, rise, 0.1]  # base: a 0.1 m thick slab
-    field.userdata = ((grid - low) / rise).ravel().tolist()
-    ground.type = mujoco.mjtGeom.mjGEOM_HFIELD
-    ground.hfieldname = "terrain"
-    ground.pos = [0.0, 0.0, low]
-    return ground
 
 
 class _Views:
@@ -216,7 +189,7 @@ class MujocoBackend:
         opt.gravity = [0.0, 0.0, -c.gravity]
         opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
-        ground = _add_ground(spec, c.terrain)
+        ground = add_ground(spec, c.terrain)
         ground.friction = [c.friction, 0.0, 0.0]
         ground.priority = 1  # its friction rules robot-ground contacts
         ground.rgba = [0.85, 0.85, 0.8, 1.0]

@@ -44,13 +44,10 @@ __all__ = ["World"]
 class World:
     """A world with gravity, friction, one point light, a ground and any number of robots.
 
-    The ground is ``config.terrain`` (:mod:`revolve_env.terrain`): the plane by default, or a
-    heightfield that both engines build from the same height grid; a robot is dropped onto the
-    highest ground under its footprint.
-
-    Units are SI throughout (metres, seconds, radians, kilograms). Time advances in control
-    periods (``config.control_period``, 1/60 s by default), each made of ``config.substeps``
-    physics steps (1/240 s by default). Each control period, every active hinge behaves like
+    The ground is ``config.terrain`` (:mod:`revolve_env.terrain`), the plane by default. Units
+    are SI throughout (metres, seconds, radians, kilograms). Time advances in control periods
+    (``config.control_period``, 1/60 s by default), each made of ``config.substeps`` physics
+    steps (1/240 s by default). Each control period, every active hinge behaves like
     RoboGen's servo: it is commanded the velocity ``gain * (target - angle) / control_period``
     clipped to the servo's speed, with the servo's torque limit; passive hinges turn freely.
 

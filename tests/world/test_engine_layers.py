@@ -12,7 +12,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 OWNERS = {
     "pybullet": ["revolve_env/world/pybullet_backend.py"],
-    "mujoco": ["revolve_env/world/mujoco_backend.py", "revolve_env/world/mujoco_scenes.py"],
+    "mujoco": ["revolve_env/world/mujoco_backend.py", "revolve_env/world/mujoco_scenes.py",
+               "revolve_env/world/mujoco_terrain.py"],
 }
 
 
