@@ -32,3 +32,16 @@ def test_readme_opens_with_the_two_setup_commands() -> None:
     assert len(commands) == 2
     ci = (Path(__file__).resolve().parents[1] / ".ci" / "run").read_text(encoding="utf-8")
     assert commands[1] in ci  # CI runs exactly the README's test command
+
+
+TOML_BLOCKS = re.findall(r"```toml\n(.*?)```", README.read_text(encoding="utf-8"), flags=re.S)
+
+
+@pytest.mark.parametrize("index", range(len(TOML_BLOCKS)))
+def test_readme_toml_block_is_a_valid_experiment_config(index: int) -> None:
+    import tomllib
+
+    from evolution.experiments import ExperimentConfig
+
+    config = ExperimentConfig.from_dict(tomllib.loads(TOML_BLOCKS[index]))
+    config.fitness_task()  # a task table names a task that resolves

@@ -42,6 +42,18 @@ The default is a random heading and no noise: online newborns face random headin
 robots do too, and the two modes' fitness are comparable (the fitness ``v + 5 s`` itself does
 not depend on the heading, but a robot's gait meets the world in another direction). Override
 on the command line with ``--set evaluation.heading=0``.
+
+The ``[task]`` table (:mod:`revolve_env.tasks`) says what robots are scored on, offline and
+online, and what infants learn (the paper's ``f = v + 5 s``, ``locomotion``, without one)::
+
+    [task]
+    name = "directed-locomotion"   # a shipped task, or "package.module:ClassName" of your own
+    heading = 1.57                 # its parameters, radians here
+
+It is stored with the results, so ``resume`` and ``reevaluate`` score with the same task. A
+class of your own is imported (from your Python path: a results folder carries no code) only
+when a run starts or resumes, or a re-evaluation runs; opening a stored configuration to read or
+report it never imports a module.
 """
 
 from __future__ import annotations
@@ -62,6 +74,7 @@ from evolution.experiments.errors import ConfigError
 from evolution.experiments.registry import read_toml, shipped_config, shipped_configs
 from evolution.learning import TrainingCenter, training_center_from_dict
 from revolve_env.conditions import MAX_RADIUS, EvaluationConditions
+from revolve_env.tasks import TASKS, Locomotion, Task, TaskError, check_task_name, task_from_dict
 from revolve_env.terrain import (
     Flat,
     Heightfield,
@@ -110,7 +123,7 @@ def check_name(name: object, what: str = "name") -> str:
                           "characters without / or \\ (not . or ..)")
     return name
 
-_NESTED = ("evaluation", "evolution", "learning", "world")
+_NESTED = ("evaluation", "evolution", "learning", "task", "world")
 """Config keys that are tables, merged key by key by presets and overrides."""
 
 
@@ -206,6 +219,9 @@ class ExperimentConfig:
         learning: The ``[learning]`` table (:mod:`evolution.learning.config`): infancy learning
             in a Training Center that :func:`run` and :func:`resume` build from it; ``None``: no
             learning. Stored with the results, so a resumed run learns the same way.
+        task: The ``[task]`` table (``{"name": ..., **parameters}``, :mod:`revolve_env.tasks`):
+            what every robot is scored on and infants learn (:meth:`fitness_task`); ``None``:
+            the paper's :class:`~revolve_env.tasks.Locomotion`. Stored with the results.
     """
 
     name: str = "custom"
@@ -239,6 +255,7 @@ class ExperimentConfig:
     learning: Mapping[str, Any] | None = field(default=None, hash=False)
     world: WorldSettings = field(default_factory=WorldSettings)
     evaluation: EvaluationConditions = DEFAULT_EVALUATION
+    task: Mapping[str, Any] | None = field(default=None, hash=False)
 
     def __post_init__(self) -> None:
         for key, choices in _CHOICES.items():
@@ -335,7 +352,20 @@ class ExperimentConfig:
                 raise ConfigError(f"learning must be a table of parameters, got {self.learning!r}")
             # A JSON-plain copy: detached from the caller's mapping, equal to its stored form.
             object.__setattr__(self, "learning", _json_roundtrip(dict(self.learning)))
-            self.training_center()  # validates the table
+            self._training_center(None)  # validates the table
+        if self.task is not None:
+            if not isinstance(self.task, Mapping):
+                raise ConfigError(f"task must be a table with a name, got {self.task!r}")
+            object.__setattr__(self, "task", _json_roundtrip(dict(self.task)))
+            # A shipped task is built (its parameters checked) now; a class of the user's own
+            # only when a run uses it (fitness_task): reading a stored config imports nothing.
+            if self.task.get("name") in TASKS or not isinstance(self.task.get("name"), str):
+                self.fitness_task(allow_import=False)
+            else:
+                try:
+                    check_task_name(self.task["name"])
+                except TaskError as error:
+                    raise ConfigError(f"task: {error}") from None
 
     # -- conversions -----------------------------------------------------------------------
 
@@ -348,7 +378,7 @@ class ExperimentConfig:
                 value = {g.name: getattr(value, g.name) for g in fields(value)}
                 if f.name == "world" and value["terrain"] == "flat":
                     del value["terrain"]  # the plane: the stored config as before terrains
-            elif f.name == "learning" and value is not None:
+            elif f.name in ("learning", "task") and value is not None:
                 value = _json_roundtrip(dict(value))
             if value is not None:
                 data[f.name] = value
@@ -419,14 +449,34 @@ class ExperimentConfig:
         Raises:
             ConfigError: the learning table is invalid (unknown learner or key, bad value).
         """
+        return self._training_center(self.fitness_task())
+
+    def _training_center(self, task: Task | None) -> TrainingCenter | None:
         if self.learning is None:
             return None
         try:
             return training_center_from_dict(self.learning, engine=self.world.engine,
-                                             conditions=self.evaluation,
+                                             conditions=self.evaluation, task=task,
                                              terrain=self.world.terrain_spec)
         except (TypeError, ValueError, ArithmeticError) as error:  # int(inf): OverflowError
             raise ConfigError(f"learning: {error}") from error
+
+    def fitness_task(self, allow_import: bool = True) -> Task:
+        """The task of :attr:`task` (:class:`~revolve_env.tasks.Locomotion` without one).
+
+        ``allow_import=False`` resolves the shipped tasks only (a class of the user's own would
+        import its module, i.e. run code).
+
+        Raises:
+            ConfigError: an unknown task, a module that does not import, a class that does not
+                follow the protocol, or parameters it refuses (one line naming it).
+        """
+        if self.task is None:
+            return Locomotion()
+        try:
+            return task_from_dict(self.task, allow_import=allow_import)
+        except TaskError as error:
+            raise ConfigError(f"task: {error}") from None
 
     @property
     def seconds_per_evaluation(self) -> float:

@@ -131,10 +131,11 @@ class OfflineMode:
             asked.append(state.new_member(robot, (pa, pb), origin, t0, t0))
         state.batch.robots.extend(record for _, record in asked)
         self._asked = asked
+        task = config.fitness_task()
         return [
             EvalTask(m.robot_id, m.robot, config.insertion, config.evaluation_time,
                      evaluation_seed(state.seed, m.robot_id), state.infancy,
-                     engine=config.world.engine, conditions=config.evaluation,
+                     engine=config.world.engine, conditions=config.evaluation, task=task,
                      terrain=config.world.terrain_spec)
             for m, _ in asked
         ]

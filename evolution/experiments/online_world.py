@@ -56,7 +56,8 @@ class PopulationWorld:
             maturity_age=config.fertile_age, fitness_window=config.evaluation_time,
             birth_radius=config.birth_radius, birth_clearance=config.birth_clearance,
             limits=config.evolution.limits, engine=config.world.engine,
-            conditions=config.evaluation, terrain=config.world.terrain_spec)
+            conditions=config.evaluation, task=config.fitness_task(),
+            terrain=config.world.terrain_spec)
         self._seed = seed
         self._env.reset(seed=seed)
         self._policies: dict[int, Any] = {}  # robot id -> PolicyAgent of agent-controlled robots

@@ -119,6 +119,23 @@ def task_name(cls: type) -> str:
     return path
 
 
+def check_task_name(name: object) -> str:
+    """The dotted path ``name`` stands for: a shipped task's, or ``name`` if it is one.
+
+    Imports nothing (the form is checked, not the class).
+
+    Raises:
+        TaskError: ``name`` is not a string, a shipped name or ``"package.module:ClassName"``.
+    """
+    if not isinstance(name, str):
+        raise TaskError(f"a task name must be a string, got {type(name).__name__}")
+    path = TASKS.get(name, name)
+    if not _PATH.match(path):
+        raise TaskError(f"unknown task {name!r}: use one of {', '.join(TASKS)} or the dotted "
+                        "path of your own class, 'package.module:ClassName'")
+    return path
+
+
 def task_class(name: str, *, allow_import: bool = True) -> type:
     """The class a task name stands for: a shipped task's name or ``"package.module:Class"``.
 
@@ -130,12 +147,7 @@ def task_class(name: str, *, allow_import: bool = True) -> type:
         TaskError: one line naming the unknown name, the module that does not import (or may
             not be imported), or the class that does not follow the :class:`Task` protocol.
     """
-    if not isinstance(name, str):
-        raise TaskError(f"a task name must be a string, got {type(name).__name__}")
-    path = TASKS.get(name, name)
-    if not _PATH.match(path):
-        raise TaskError(f"unknown task {name!r}: use one of {', '.join(TASKS)} or the dotted "
-                        "path of your own class, 'package.module:ClassName'")
+    path = check_task_name(name)
     if name not in TASKS and not allow_import:
         raise TaskError(f"task {name!r} is a class of your own: resolving it imports its "
                         "module, which is not allowed here")
