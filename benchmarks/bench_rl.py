@@ -1,75 +1,111 @@
-"""PPO from scratch vs the robot's own CPG on ``revolve_env/Locomotion-v1`` (issue 12, item 3).
+"""PPO vs the robot's own CPG on ``revolve_env/Locomotion-v1``, over seeds (issue 22, item 5).
 
-Trains stable-baselines3 PPO on each robot (``--robots``, default spider and gecko) in each
-action mode (``--modes``):
+Trains stable-baselines3 PPO through :mod:`revolve_env.rl` (the normalised, short-episode vector
+env and the PPO settings a user gets in three calls) on each robot (``--robots``, default spider
+and gecko), in each action mode (``--modes``) and for each seed (``--seeds``, default 0 1 2):
 
-* ``targets``: ``controller="agent"``; the policy sets every hinge's position target (PPO from
-  scratch: no gait to start from).
-* ``modulate``: ``controller="brain"``; the policy scales and offsets the robot's own network's
-  outputs (the zero action is the CPG's gait), i.e. learning on top of the CPG.
+* ``targets``: the policy sets every hinge's position target (PPO from scratch);
+* ``modulate``: the policy scales and offsets the robot's own network's outputs (the zero action
+  is the CPG's gait), i.e. learning on top of the CPG.
 
-Every ``--eval-every`` environment steps the current policy is run deterministically for one
-episode in a separate env (same observation statistics, no noise, so one episode is exact) and
-its return is printed: the return is the fitness ``f = v + 5 s`` in metres over the evaluation
-phase. The CPG's fitness is the robot's own network alone (``revolve_env.evaluate(robot)`` with
-the same insertion and evaluation times; the env with zero modulation gives the same number).
-A table at the end gives, per configuration: steps, wall time, final and best fitness, and the
-CPG's; ``--figure`` writes fitness vs steps with the CPG as a dashed horizontal line.
+Every ``--eval-every`` env steps the policy is run deterministically for one episode as long as
+a training episode (``--insertion`` + ``--evaluation``; the return is the fitness ``f = v + 5 s``
+in metres; no noise, so one episode is exact), with the normalisation statistics frozen
+(:func:`revolve_env.rl.policy_fitness`). At 100 k steps and at the end it is also run on the
+paper's window (3 s insertion + 12 s evaluation). The CPG's fitness is the robot's own network
+alone (``revolve_env.evaluate``) over the same two windows. The table gives per configuration and
+seed: the fitness at 100 k steps and at the end in both windows, the CPG's, the first evaluation
+from which every later one is above the CPG, and the wall time; then the mean and standard
+deviation over the seeds. ``--figure`` plots each seed's curve and the mean, the CPG dashed.
 
-Episode: ``--insertion 0.5`` s + ``--evaluation 2.5`` s at the default 60 Hz control period,
-i.e. 180 steps, so that 200 k steps are ~1,100 episodes (~2.5-4 min per configuration here).
+Episode: 0.5 s insertion + 2.5 s evaluation at 60 Hz, 180 steps
+(:class:`revolve_env.rl.VecEnvConfig`).
 
-What was tried, and what mattered (this script, pybullet, seed 0, two shared CPU cores; one seed
-each, so read the differences as indications, not as significance):
+What was tried, and what mattered (pybullet, two shared CPU cores, training under ``nice``; PPO
+is deterministic for a seed, so a re-run gives the same curve; read one-seed differences as
+indications only):
 
-* Measured (200 k steps per configuration, defaults; ``docs/figures/rl_curves.png``):
+* Issue 12 (seed 0 only, 200 k steps, 2 envs x 1024 steps per rollout): spider targets 5.74 m
+  (CPG 2.21), modulate 4.30; gecko targets 7.91 (CPG 2.02), modulate 3.57. With seed 1 the
+  spider (targets) was above its CPG only from 100 k steps.
+* Observation normalisation and reward scaling (``VecNormalize``) mattered most: without them
+  (``--no-norm``) the spider in targets mode reached 0.32 m at 80 k steps against 3.06 m with
+  them. The plain ``PPO("MlpPolicy", env)`` on the paper's 15 s episodes (``--plain``): see the
+  results below.
+* Rollout length mattered next (spider, targets; fitness at 30 k / 50 k / 70 k / 100 k steps,
+  CPG 2.21). A PPO update's gradient steps per sample do not depend on the rollout length
+  (``n_epochs / batch_size``), but shorter rollouts update on fresher data four times as often:
 
-  | robot  | mode     | fitness at 200 k | CPG   | above the CPG from | wall  |
-  |--------|----------|------------------|-------|--------------------|-------|
-  | spider | targets  | 5.74             | 2.21  | 60 k steps         | 224 s |
-  | spider | modulate | 4.30             | 2.21  | 20 k steps         | 168 s |
-  | gecko  | targets  | 7.91             | 2.02  | 60 k steps         | 162 s |
-  | gecko  | modulate | 3.57             | 2.02  | 50 k steps         | 131 s |
+  | setting (changes from the row above it, or from 4 x 512)  | seed | 30 k | 50 k | 70 k | 100 k |
+  |-----------------------------------------------------------|------|------|------|------|-------|
+  | 4 envs x 512 steps per rollout                            | 0    | 0.83 | 2.18 | 2.73 | 2.32  |
+  |                                                           | 1    | 0.72 | 1.76 | 2.69 | 3.64  |
+  |                                                           | 2    | 0.40 | 2.04 | 2.77 | 3.47  |
+  | + initial log std -1 (std 0.37 instead of 1)              | 0    | 0.16 | 0.70 | 1.49 | 1.73  |
+  | + learning rate 1e-3 (instead of 3e-4)                    | 0    | 0.39 | 0.98 | 2.02 |       |
+  | + 20 epochs (instead of 10)                               | 0    | 0.72 | 1.14 | 2.55 |       |
+  | 8 envs x 256 steps                                        | 0    | 0.18 | 0.66 | 0.85 |       |
+  | 4 envs x 128 steps (chosen: ``rl.ppo_settings``)          | 0    | 2.34 | 4.01 | 4.34 | 5.33  |
+  |                                                           | 1    | 2.07 | 3.10 | 4.25 | 4.80  |
+  |                                                           | 2    | 2.14 | 4.95 | 6.12 | 6.02  |
+  | 4 envs x 64 steps                                         | 0    | 3.29 | 3.24 | 5.62 |       |
 
-  (fitness: one deterministic episode's return, the fitness over the 2.5 s evaluation, every
-  10 k steps; "above the CPG from": the first evaluation from which every later one is above.
-  Before that the gecko was above it once in targets mode, 4.04 at 30 k, and in modulate mode
-  from 0 to 30 k by at most 0.13, dipping to 1.95 at 40 k.)
-* Observation normalisation and reward scaling (``VecNormalize(norm_obs=True,
-  norm_reward=True)``) mattered most: ``--no-norm`` on the spider in targets mode reached 0.32 at
-  80 k steps against 3.06 with them (and the training return stayed flat at 0.44, as in the
-  issue's 5 k-step run). The observation mixes the accelerometer (up to 157 m/s^2), the gyroscope
-  and hinge velocities (rad/s) and hinge angles (rad); a step's reward is ~0.01 m.
-* Proprioception (``Locomotion-v1``): the issue's runs on ``-v0`` (6 IMU values for 8 hinges)
-  stayed flat; not re-run here without it.
-* Initial exploration noise in ``modulate`` mode: with ``log_std_init=-1.5`` (std 0.22, the
-  default here) the policy starts at the CPG's gait and the training return (what the robot lives
-  through while learning) stays near the CPG's (1.73 at 20 k); with SB3's default std 1
-  (``--log-std-modulate 0``) the training return halves at first (0.91 at 20 k, the gait is
-  destroyed by the noise, as the issue's fall 10.7 -> 9.3) but the deterministic policy improved
-  faster: 3.37 at 80 k against 2.53. So the small std is the choice for infancy inside evolution
-  (the robot's experienced fitness counts), the default std for the best policy per step.
-* Short episodes: 3 s (0.5 s insertion + 2.5 s evaluation, 180 steps) instead of the paper's
-  15 s: ~5x more episodes per step; the fitness window equals the evaluation time, so the return
-  is the fitness. gamma 0.99 (a horizon of ~1.7 s) covers a gait cycle. Not compared with longer
-  episodes here; a policy trained on 2.5 s is not checked here on the paper's 12 s evaluation.
-* ``n_envs=2`` (DummyVecEnv), ``n_steps=1024`` per env, batch 64, 10 epochs, lr 3e-4,
-  ``net_arch=[64, 64]``, ``torch.set_num_threads(1)``: SB3's defaults otherwise; not tuned. PPO's
-  update, not the physics, is the cost (the env alone runs at ~5 k steps/s on pybullet; training
-  at ~900-1,500 steps/s).
+  The gecko (CPG 2.02) at 100 k, seeds 0, 1, 2: 7.79, 6.15, 4.13 with 4 x 512; 7.92, 8.42, 7.83
+  with 4 x 128. 64 steps per rollout was not clearly better than 128 (one seed).
+* Longer training episodes (4 x 128, 0.5 s + 5.5 s; fitness over 5.5 s, CPG 4.76): seeds 0, 1,
+  2 at 100 k: 3.54, 12.82, 10.67; on the paper's 12 s window 5.9, 24.4, 21.1 (CPG 10.20). Two
+  seeds walk far better over 12 s than with 2.5 s episodes, but seed 0 stays below its CPG:
+  kept at 2.5 s. The deterministic policy's fitness jumps between evaluations (seed 0: 6.91 at
+  60 k, 1.84 at 80 k) while the training return rises steadily.
+* Proprioception (``Locomotion-v1``), in modulate mode (``--v0`` observes the IMU only;
+  fitness at 30 k steps, seeds 0, 1, 2, CPG 2.21): v1 2.91, 2.47, 2.64; v0 2.40, 2.52, 2.37
+  (training return 2.0-2.2 against 1.87-1.94). The hinge angles tell the policy the gait's
+  phase; the IMU barely does. This is why the SB3 learner takes ``proprioception=True``
+  (``examples/infancy_ppo.py``).
+* Kept from issue 12: ``gamma`` 0.99 (a horizon of ~1.7 s, a gait cycle), batch 64, 10 epochs,
+  learning rate 3e-4, ``net_arch=[64, 64]``, initial std 1 in targets mode and 0.22 in modulate
+  mode (the policy starts on the CPG's gait), ``torch.set_num_threads(1)``.
+* The paper's 12 s window: a policy trained on 2.5 s episodes keeps walking over 12 s in most
+  runs but not all (the s term rewards a straight path; a policy that drifts or stalls after
+  3 s was never trained there): see the "12 s" columns of the results.
 
-The issue's aims: PPO from scratch reached the CPG within 1 M steps (here from ~60 k on, both
-robots) and PPO on ``modulate`` beat the CPG within 200 k steps (1.95x and 1.77x at 200 k; above
-it from 20 k and 50 k), on one seed, pybullet, this script's 2.5 s evaluation, and the example
-robots' hand-set CPGs. Not measured: other seeds, MuJoCo (``--engine mujoco`` runs), the paper's
-12 s evaluation, whether the learned gaits exploit the simulator.
+Results (``--robots spider --steps 100000 --engine mujoco``, seeds 0 1 2; MuJoCo because it
+steps the spider 3.7 times as fast as pybullet in targets mode here, 1.9 times in modulate mode:
+5,000 against 1,350 and 7,000 against 3,600 env steps per CPU second; wall times on two shared
+cores, two runs at once). Fitness of the deterministic policy in the 2.5 s training window at the
+100 k evaluation and at the end (100,352 steps), and over the paper's 3 s + 12 s at the end::
+
+    robot   mode     seed  f@100k  f end   CPG above from 12s@100k 12s end CPG 12s   steps wall s
+    spider  targets     0   4.541  5.213  2.28       30 k   11.560  10.707   10.21  100352    115
+    spider  targets     1   4.856  4.954  2.28       40 k    5.657   4.909   10.21  100352    179
+    spider  targets     2   3.681  3.372  2.28       40 k    3.929   7.830   10.21  100352    311
+    spider  modulate    0   3.363  3.054  2.28       10 k   14.534  14.092   10.21  100352    117
+    spider  modulate    1   3.266  3.103  2.28        0 k   13.168  12.285   10.21  100352    194
+    spider  modulate    2   1.915  2.807  2.28      100 k   13.763  13.010   10.21  100352    311
+
+    targets:  f@100k 4.36 +- 0.61 (3.68..4.86); above the CPG at 100 k in 3/3 seeds;
+              12 s window at the end 7.82 +- 2.90 (4.91..10.71), CPG 10.21
+    modulate: f@100k 2.85 +- 0.81 (1.92..3.36); above the CPG at 100 k in 2/3 seeds (seed 2
+              dips to 1.92 at the 100 k evaluation, 3.28 at 80 k, 2.81 at the end);
+              12 s window at the end 13.13 +- 0.91 (12.28..14.09), CPG 10.21
+
+The same targets runs on pybullet (the rows "4 envs x 128" above; seeds 1 and 0 re-run after
+merging main: seed 1 identical to the last digit, seed 0 up to 80 k, where the earlier run
+stopped): 5.33, 4.80, 6.02 at 100 k, 5.38 +- 0.61, above the CPG (2.21) in 3/3
+seeds; 12 s window at the end 8.52, 8.20, 17.70 (CPG 10.20); 155-727 s per run on a loaded
+machine.
+
+In the training window PPO from scratch (targets) is above the CPG in every seed from 40 k
+steps; on top of the CPG (modulate) it is above it at the end in every seed but its
+deterministic policy swings between evaluations. Over the paper's 12 s, modulate beats the CPG
+in every seed (+29 % on average) while targets does so in one seed of three: a gait learned on
+2.5 s episodes from scratch drifts or stalls later.
 
 Usage::
 
-    python benchmarks/bench_rl.py --figure docs/figures/rl_curves.png --json rl_curves.json
-    # (spider+gecko, targets+modulate, 200 k steps each: the README's figure, ~11 min here)
+    python benchmarks/bench_rl.py --figure docs/figures/rl_curves.png --json rl.json
     python benchmarks/bench_rl.py --from-json docs/figures/rl_curves.json   # table, no training
-    python benchmarks/bench_rl.py --steps 200000 --robots spider --modes modulate --engine mujoco
+    python benchmarks/bench_rl.py --robots spider --modes targets --seeds 1 --steps 100000
 """
 
 from __future__ import annotations
@@ -81,139 +117,175 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 import torch
 from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
-from stable_baselines3.common.monitor import Monitor
-from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+from stable_baselines3.common.logger import Logger
+from stable_baselines3.common.vec_env import VecEnv
 
 import revolve_env
+from revolve_env import rl
+from revolve_env.registration import LOCOMOTION_ID, LOCOMOTION_V1_ID
 
-ENV_ID = "revolve_env/Locomotion-v1"
+MILESTONE = 100_000
+"""Steps at which the fitness is reported (the issue's aim: above the CPG in every seed)."""
 
 
 @dataclass
 class Curve:
-    """One configuration's learning curve (deterministic-policy fitness vs env steps)."""
+    """One run's learning curve (deterministic-policy fitness vs env steps) and its figures."""
 
     robot: str
     mode: str
+    seed: int
     cpg: float
+    cpg_full: float
     steps: list[int] = field(default_factory=list)
     wall: list[float] = field(default_factory=list)
     fitness: list[float] = field(default_factory=list)
     train_return: list[float] = field(default_factory=list)
+    full: dict[str, float] = field(default_factory=dict)  # steps -> 12 s window fitness
+
+    def at(self, steps: int) -> float:
+        """The fitness of the last evaluation at or before ``steps``."""
+        k = int(np.searchsorted(self.steps, steps, side="right")) - 1
+        return self.fitness[k] if k >= 0 else float("nan")
+
+    def above_from(self) -> int | None:
+        """The first evaluation's steps from which every later one is above the CPG."""
+        above = None
+        for s, f in zip(self.steps, self.fitness, strict=True):
+            above = (s if above is None else above) if f > self.cpg else None
+        return above
 
 
-def env_kwargs(mode: str, args: argparse.Namespace) -> dict[str, Any]:
-    kwargs: dict[str, Any] = {"insertion_time": args.insertion, "evaluation_time": args.evaluation,
-                              "fitness_window": args.evaluation, "engine": args.engine}
-    if mode == "modulate":
-        kwargs.update(controller="brain", action="modulate")
-    else:
-        kwargs.update(controller="agent", action="targets")
-    return kwargs
-
-
-def make_env(robot: revolve_env.Robot, mode: str, args: argparse.Namespace) -> gym.Env[Any, Any]:
-    return gym.make(ENV_ID, robot=robot, **env_kwargs(mode, args))
-
-
-def cpg_fitness(robot: revolve_env.Robot, args: argparse.Namespace) -> tuple[float, float]:
-    """(``evaluate(robot)``, the modulate env's return with zero modulation): the same gait."""
-    result = revolve_env.evaluate(robot, seconds=args.evaluation, insertion=args.insertion,
-                                  engine=args.engine)
-    env = make_env(robot, "modulate", args)
-    env.reset(seed=args.seed)
-    total, done = 0.0, False
-    zero = np.zeros(env.action_space.shape, dtype=np.float32)
-    while not done:
-        _, reward, terminated, truncated, _ = env.step(zero)
-        total += float(reward)
-        done = terminated or truncated
-    env.close()
-    return float(result.fitness), total
+def cpg_fitness(robot: revolve_env.Robot, insertion: float, evaluation: float,
+                engine: str) -> float:
+    """The robot's own network alone (``evaluate``) over one window. Metres."""
+    return float(revolve_env.evaluate(robot, seconds=evaluation, insertion=insertion,
+                                      engine=engine).fitness)
 
 
 class FitnessCallback(BaseCallback):
-    """Every ``every`` steps: one deterministic episode in a separate env -> its fitness."""
+    """Every ``every`` steps the short-window fitness; at 100 k and at the end the full one."""
 
-    def __init__(self, curve: Curve, eval_env: gym.Env[Any, Any], venv: VecNormalize | None,
-                 every: int, start: float, verbose: bool) -> None:
+    def __init__(self, curve: Curve, venv: VecEnv, args: argparse.Namespace,
+                 start: float) -> None:
         super().__init__()
-        self.curve, self.eval_env, self.venv = curve, eval_env, venv
-        self.every, self.start, self.verbose_print = every, start, verbose
+        self.curve, self.venv, self.args, self.start = curve, venv, args, start
         self.next_at = 0
-
-    def evaluate(self) -> float:
-        obs, _ = self.eval_env.reset(seed=0)
-        total, done = 0.0, False
-        while not done:
-            o = self.venv.normalize_obs(obs[None]) if self.venv is not None else obs[None]
-            action, _ = self.model.predict(o, deterministic=True)
-            obs, reward, terminated, truncated, _ = self.eval_env.step(action[0])
-            total += float(reward)
-            done = terminated or truncated
-        return total
+        self.full_done = False
 
     def record(self) -> None:
+        a, c = self.args, self.curve
         wall = time.perf_counter() - self.start
-        fitness = self.evaluate()
+        (fitness,) = rl.policy_fitness(self.model, self.venv, insertion_time=a.insertion,
+                                       evaluation_time=a.evaluation)
         buffer = self.model.ep_info_buffer
         train = float(np.mean([e["r"] for e in buffer])) if buffer else float("nan")
-        c = self.curve
         c.steps.append(self.num_timesteps)
         c.wall.append(wall)
         c.fitness.append(fitness)
         c.train_return.append(train)
-        if self.verbose_print:
-            print(f"  {c.robot:7s} {c.mode:8s} steps {self.num_timesteps:7d}  wall {wall:6.1f} s  "
-                  f"fitness {fitness:6.3f}  train return {train:6.3f}  (CPG {c.cpg:.3f})",
-                  flush=True)
+        line = (f"  {c.robot:7s} {c.mode:8s} seed {c.seed}  steps {self.num_timesteps:7d}  "
+                f"wall {wall:6.1f} s  fitness {fitness:6.3f}  train {train:6.3f}  "
+                f"(CPG {c.cpg:.3f})")
+        if self.num_timesteps >= MILESTONE and not self.full_done:
+            self.full_done = True
+            self.record_full(line)
+        else:
+            print(line, flush=True)
+
+    def record_full(self, line: str) -> None:
+        (full,) = rl.policy_fitness(self.model, self.venv)
+        self.curve.full[str(self.num_timesteps)] = full
+        print(f"{line}  12 s window {full:6.3f} (CPG {self.curve.cpg_full:.3f})", flush=True)
 
     def _on_step(self) -> bool:
         if self.num_timesteps >= self.next_at:
             self.record()
-            self.next_at += self.every
+            self.next_at += self.args.eval_every
         return True
 
     def _on_training_end(self) -> None:
         if not self.curve.steps or self.curve.steps[-1] != self.num_timesteps:
             self.record()
+        if str(self.num_timesteps) not in self.curve.full:
+            self.record_full(f"  end at {self.num_timesteps}:")
 
 
-def train(robot_name: str, mode: str, args: argparse.Namespace) -> Curve:
+def train(robot_name: str, mode: str, seed: int, args: argparse.Namespace) -> Curve:
     robot = revolve_env.example(robot_name)
-    cpg, zero_mod = cpg_fitness(robot, args)
-    if abs(cpg - zero_mod) > 1e-6:
-        print(f"  note: evaluate() {cpg:.4f} != zero modulation {zero_mod:.4f}")
-    curve = Curve(robot_name, mode, cpg)
-
-    def factory(rank: int) -> Any:
-        def make() -> gym.Env[Any, Any]:
-            env = Monitor(make_env(robot, mode, args))
-            env.reset(seed=args.seed + rank)
-            return env
-        return make
-
-    venv: Any = DummyVecEnv([factory(i) for i in range(args.n_envs)])
-    norm: VecNormalize | None = None
-    if not args.no_norm:
-        norm = venv = VecNormalize(venv, norm_obs=True, norm_reward=True, clip_obs=10.0,
-                                   gamma=args.gamma)
-    log_std = args.log_std_modulate if mode == "modulate" else args.log_std_targets
-    model = PPO("MlpPolicy", venv, n_steps=args.n_steps, batch_size=64, n_epochs=10,
-                learning_rate=3e-4, gamma=args.gamma, gae_lambda=0.95, clip_range=0.2,
-                ent_coef=0.0, seed=args.seed, device="cpu", verbose=0,
-                policy_kwargs={"log_std_init": log_std, "net_arch": [64, 64]})
+    curve = Curve(robot_name, mode, seed,
+                  cpg_fitness(robot, args.insertion, args.evaluation, args.engine),
+                  cpg_fitness(robot, 3.0, 12.0, args.engine))
+    if args.plain:  # what a user tries first: the paper's 15 s episodes, one env, SB3's PPO
+        curve.mode = f"{mode}-plain"
+        config = rl.VecEnvConfig(n_envs=1, insertion_time=3.0, evaluation_time=12.0,
+                                 normalize=False)
+        venv = rl.make_vec_env(robot, config, seed=seed, action=mode, engine=args.engine)
+        model: Any = PPO("MlpPolicy", venv, seed=seed, device="cpu", verbose=0)
+        model.set_logger(Logger(folder=None, output_formats=[]))
+        start = time.perf_counter()
+        model.learn(total_timesteps=args.steps,
+                    callback=FitnessCallback(curve, venv, args, start))
+        venv.close()
+        return curve
+    config = rl.VecEnvConfig(n_envs=args.n_envs, insertion_time=args.insertion,
+                             evaluation_time=args.evaluation, normalize=not args.no_norm,
+                             gamma=args.gamma)
+    venv = rl.make_vec_env(robot, config, seed=seed, action=mode, engine=args.engine,
+                           env_id=LOCOMOTION_ID if args.v0 else LOCOMOTION_V1_ID)
+    if args.v0:
+        curve.mode = f"{mode}-v0"
+    overrides: dict[str, Any] = {}
+    for key in ("n_steps", "batch_size", "n_epochs", "learning_rate", "ent_coef", "gae_lambda",
+                "clip_range", "target_kl"):
+        value = getattr(args, key)
+        if value is not None:
+            overrides[key] = value
+    policy_kwargs = dict(rl.ppo_settings(mode)["policy_kwargs"])
+    if args.net is not None:
+        policy_kwargs["net_arch"] = args.net
+    if args.log_std is not None:
+        policy_kwargs["log_std_init"] = args.log_std
+    model = rl.make_ppo(venv, seed=seed, policy_kwargs=policy_kwargs, **overrides)
     start = time.perf_counter()
-    callback = FitnessCallback(curve, make_env(robot, mode, args), norm, args.eval_every, start,
-                               verbose=True)
-    model.learn(total_timesteps=args.steps, callback=callback)
+    model.learn(total_timesteps=args.steps, callback=FitnessCallback(curve, venv, args, start))
     venv.close()
     return curve
+
+
+def table(curves: list[Curve]) -> None:
+    print()
+    print(f"{'robot':7s} {'mode':8s} {'seed':>4s} {'f@100k':>7s} {'f end':>6s} {'CPG':>5s} "
+          f"{'above from':>10s} {'12s@100k':>8s} {'12s end':>7s} {'CPG 12s':>7s} "
+          f"{'steps':>7s} {'wall s':>6s}")
+    groups: dict[tuple[str, str], list[Curve]] = {}
+    for c in curves:
+        groups.setdefault((c.robot, c.mode), []).append(c)
+        full_100k = next((v for k, v in c.full.items() if int(k) < c.steps[-1]), float("nan"))
+        full_end = c.full.get(str(c.steps[-1]), float("nan"))
+        above = c.above_from()
+        print(f"{c.robot:7s} {c.mode:8s} {c.seed:4d} {c.at(MILESTONE):7.3f} {c.fitness[-1]:6.3f} "
+              f"{c.cpg:5.2f} {'never' if above is None else f'{above // 1000} k':>10s} "
+              f"{full_100k:8.3f} {full_end:7.3f} {c.cpg_full:7.2f} {c.steps[-1]:7d} "
+              f"{c.wall[-1]:6.0f}")
+    print()
+    print("over seeds: mean +- standard deviation (min..max)")
+    for (robot, mode), group in groups.items():
+        def stats(values: list[float]) -> str:
+            v = np.asarray(values)
+            return f"{v.mean():.2f} +- {v.std(ddof=1) if len(v) > 1 else 0.0:.2f} " \
+                   f"({v.min():.2f}..{v.max():.2f})"
+        at = [c.at(MILESTONE) for c in group]
+        beats = sum(f > c.cpg for f, c in zip(at, group, strict=True))
+        print(f"{robot:7s} {mode:8s} {len(group)} seeds: f@100k {stats(at)}, end "
+              f"{stats([c.fitness[-1] for c in group])}; CPG {group[0].cpg:.2f}; above the "
+              f"CPG at 100 k in {beats}/{len(group)} seeds; 12 s window at the end "
+              f"{stats([c.full.get(str(c.steps[-1]), np.nan) for c in group])} "
+              f"(CPG {group[0].cpg_full:.2f}); wall {stats([c.wall[-1] for c in group])} s")
 
 
 def plot(curves: list[Curve], path: Path, args: argparse.Namespace) -> None:
@@ -224,19 +296,24 @@ def plot(curves: list[Curve], path: Path, args: argparse.Namespace) -> None:
 
     robots = list(dict.fromkeys(c.robot for c in curves))
     fig, axes = plt.subplots(1, len(robots), figsize=(5.5 * len(robots), 4), squeeze=False)
-    colors = {"targets": "tab:blue", "modulate": "tab:orange"}
+    colors = {"targets": "tab:blue", "modulate": "tab:orange", "targets-plain": "tab:grey",
+              "modulate-plain": "tab:brown"}
+    labels = {"targets": "PPO targets (from scratch)", "modulate": "PPO modulate (on the CPG)",
+              "targets-plain": "plain PPO, 15 s episodes, targets",
+              "modulate-plain": "plain PPO, 15 s episodes, modulate"}
     for ax, robot in zip(axes[0], robots, strict=True):
-        cpg = None
-        for c in curves:
-            if c.robot != robot:
-                continue
-            cpg = c.cpg
-            label = ("PPO targets (from scratch)" if c.mode == "targets"
-                     else "PPO modulate (on the CPG)")
-            ax.plot(c.steps, c.fitness, marker=".", color=colors.get(c.mode), label=label)
-        if cpg is not None:
-            ax.axhline(cpg, color="k", linestyle="--", label=f"own CPG ({cpg:.2f} m)")
-        ax.set_title(f"{robot}: Locomotion-v1, {args.engine}, seed {args.seed}")
+        mine = [c for c in curves if c.robot == robot]
+        for mode in dict.fromkeys(c.mode for c in mine):
+            runs = [c for c in mine if c.mode == mode]
+            for c in runs:
+                ax.plot(c.steps, c.fitness, color=colors.get(mode), alpha=0.3, linewidth=0.8)
+            n = min(len(c.steps) for c in runs)
+            mean = np.mean([c.fitness[:n] for c in runs], axis=0)
+            ax.plot(runs[0].steps[:n], mean, color=colors.get(mode), linewidth=2,
+                    label=f"{labels.get(mode, mode)}, mean of {len(runs)} seeds")
+        ax.axhline(mine[0].cpg, color="k", linestyle="--", label=f"own CPG ({mine[0].cpg:.2f} m)")
+        ax.axvline(MILESTONE, color="grey", linewidth=0.5)
+        ax.set_title(f"{robot}: Locomotion-v1, {args.engine}")
         ax.set_xlabel("environment steps (60 Hz), thousands")
         ax.xaxis.set_major_formatter(lambda x, _: f"{x / 1000:g}k")
         ax.set_ylabel(f"fitness f = v + 5 s over {args.evaluation:g} s (m)")
@@ -250,22 +327,38 @@ def plot(curves: list[Curve], path: Path, args: argparse.Namespace) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--steps", type=int, default=200_000, help="env steps per configuration")
+    parser.add_argument("--steps", type=int, default=200_000, help="env steps per run")
     parser.add_argument("--robots", nargs="+", default=["spider", "gecko"])
     parser.add_argument("--modes", nargs="+", default=["targets", "modulate"],
                         choices=["targets", "modulate"])
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
     parser.add_argument("--engine", default="pybullet", choices=["pybullet", "mujoco"])
-    parser.add_argument("--n-envs", type=int, default=2)
-    parser.add_argument("--n-steps", type=int, default=1024, help="PPO rollout length per env")
-    parser.add_argument("--gamma", type=float, default=0.99)
-    parser.add_argument("--insertion", type=float, default=0.5, help="seconds, not scored")
-    parser.add_argument("--evaluation", type=float, default=2.5, help="seconds, the fitness window")
-    parser.add_argument("--eval-every", type=int, default=10_000, help="env steps between evals")
-    parser.add_argument("--log-std-targets", type=float, default=0.0)
-    parser.add_argument("--log-std-modulate", type=float, default=-1.5)
+    defaults = rl.VecEnvConfig()
+    parser.add_argument("--n-envs", type=int, default=defaults.n_envs)
+    parser.add_argument("--gamma", type=float, default=defaults.gamma)
+    parser.add_argument("--insertion", type=float, default=defaults.insertion_time,
+                        help="seconds, not scored")
+    parser.add_argument("--evaluation", type=float, default=defaults.evaluation_time,
+                        help="seconds, the fitness window")
     parser.add_argument("--no-norm", action="store_true",
                         help="no VecNormalize (neither observation nor reward scaling)")
+    parser.add_argument("--v0", action="store_true",
+                        help="Locomotion-v0: RoboGen's sensors only, no hinge angles or speeds")
+    parser.add_argument("--plain", action="store_true",
+                        help="PPO('MlpPolicy', env) with SB3's defaults on one env of the paper's "
+                             "3 s + 12 s episodes, no normalisation (what a user tries first)")
+    # PPO settings: None keeps revolve_env.rl.ppo_settings'.
+    parser.add_argument("--n-steps", type=int, default=None, help="PPO rollout length per env")
+    parser.add_argument("--batch-size", type=int, default=None)
+    parser.add_argument("--n-epochs", type=int, default=None)
+    parser.add_argument("--learning-rate", type=float, default=None)
+    parser.add_argument("--ent-coef", type=float, default=None)
+    parser.add_argument("--gae-lambda", type=float, default=None)
+    parser.add_argument("--clip-range", type=float, default=None)
+    parser.add_argument("--target-kl", type=float, default=None)
+    parser.add_argument("--net", type=int, nargs="+", default=None, help="hidden layer sizes")
+    parser.add_argument("--log-std", type=float, default=None, help="initial log std")
+    parser.add_argument("--eval-every", type=int, default=10_000, help="env steps between evals")
     parser.add_argument("--figure", type=Path, default=None, help="write the curves (PNG)")
     parser.add_argument("--json", type=Path, default=None, help="write the curves (JSON)")
     parser.add_argument("--from-json", type=Path, default=None,
@@ -279,21 +372,14 @@ def main() -> None:
         args.json = None
     for robot in args.robots if args.from_json is None else []:
         for mode in args.modes:
-            print(f"== {robot} / {mode}: {args.steps} steps, {args.engine}, seed {args.seed}",
-                  flush=True)
-            curves.append(train(robot, mode, args))
-
-    print()
-    print(f"{'robot':8s} {'mode':9s} {'steps':>7s} {'wall s':>7s} {'final f':>8s} {'best f':>7s} "
-          f"{'best at':>8s} {'CPG f':>6s} {'final/CPG':>9s}")
-    for c in curves:
-        best = int(np.argmax(c.fitness))
-        print(f"{c.robot:8s} {c.mode:9s} {c.steps[-1]:7d} {c.wall[-1]:7.1f} {c.fitness[-1]:8.3f} "
-              f"{c.fitness[best]:7.3f} {c.steps[best]:8d} {c.cpg:6.3f} "
-              f"{c.fitness[-1] / c.cpg:9.2f}")
-    if args.json is not None:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps([asdict(c) for c in curves], indent=1))
+            for seed in args.seeds:
+                print(f"== {robot} / {mode} / seed {seed}: {args.steps} steps, {args.engine}",
+                      flush=True)
+                curves.append(train(robot, mode, seed, args))
+                if args.json is not None:  # after every run: a long job keeps what it did
+                    args.json.parent.mkdir(parents=True, exist_ok=True)
+                    args.json.write_text(json.dumps([asdict(c) for c in curves], indent=1))
+    table(curves)
     if args.figure is not None:
         plot(curves, args.figure, args)
 

@@ -27,7 +27,7 @@ for engine in revolve_env.ENGINES:  # ("pybullet", "mujoco"); MuJoCo needs `pip 
 # and the agent's action is ignored; with the default controller="agent" your actions are the
 # hinge targets in [-1, 1]. The reward of a step is the fitness gained, so the return is the
 # fitness at the end of the episode.
-env = gym.make("revolve_env/Locomotion-v0", robot=spider, insertion_time=INSERTION,
+env = gym.make("revolve_env/Locomotion-v1", robot=spider, insertion_time=INSERTION,
                evaluation_time=SECONDS, engine="mujoco")
 obs, info = env.reset(seed=0)
 rng = np.random.default_rng(0)

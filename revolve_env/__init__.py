@@ -1,7 +1,9 @@
 """revolve-env: online and offline evolution of physically constructible modular robots.
 
-Importing the package registers the single-robot Gymnasium envs ``revolve_env/Locomotion-v0``
-(``gymnasium.make("revolve_env/Locomotion-v0", robot=...)``) and ``-v1`` (with proprioception).
+Importing the package registers the single-robot Gymnasium envs ``revolve_env/Locomotion-v1``
+(``gymnasium.make("revolve_env/Locomotion-v1")``: the spider; ``robot=`` a Robot, an example name
+or a JSON file) and ``-v0`` (without proprioception, kept for older code); see
+:mod:`revolve_env.registration`.
 The physics engine (pybullet or MuJoCo, chosen by ``engine=`` / ``WorldConfig.engine``) is
 imported only when a world is made (``evaluate``, ``population_env``, the envs), so the pure
 layers (``revolve_env.body``, ``evolution``) never load it.
@@ -11,8 +13,6 @@ from __future__ import annotations
 
 import importlib
 from typing import Any
-
-import gymnasium
 
 from revolve_env.body import (
     EXAMPLES,
@@ -28,24 +28,17 @@ from revolve_env.body import (
     example,
     from_json,
     load,
+    resolve_robot,
     save,
     to_json,
     validate,
 )
 from revolve_env.conditions import IDEAL, EvaluationConditions
+from revolve_env.registration import LOCOMOTION_ID, LOCOMOTION_V1_ID, register_envs
 
 __version__ = "0.1.0"
 
-LOCOMOTION_ID = "revolve_env/Locomotion-v0"
-
-if LOCOMOTION_ID not in gymnasium.registry:
-    # A string entry point: registering does not import pybullet. The env truncates itself at
-    # insertion_time + evaluation_time (keyword arguments), so no fixed max_episode_steps.
-    gymnasium.register(id=LOCOMOTION_ID, entry_point="revolve_env.envs.locomotion:LocomotionEnv")
-if "revolve_env/Locomotion-v1" not in gymnasium.registry:  # v0 with proprioception
-    gymnasium.register(id="revolve_env/Locomotion-v1",
-                       entry_point="revolve_env.envs.locomotion:LocomotionEnv",
-                       kwargs={"proprioception": True})
+register_envs()
 
 # Names served lazily (PEP 562) because they import the physics engine.
 _LAZY = {
@@ -83,6 +76,7 @@ __all__ = [
     "EXAMPLES",
     "IDEAL",
     "LOCOMOTION_ID",
+    "LOCOMOTION_V1_ID",
     "Activation",
     "BatchController",
     "Connection",
@@ -109,6 +103,7 @@ __all__ = [
     "load",
     "make_terrain",
     "population_env",
+    "resolve_robot",
     "save",
     "to_json",
     "validate",

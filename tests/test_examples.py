@@ -115,10 +115,13 @@ def test_infancy_cmaes() -> None:
 def test_infancy_ppo() -> None:
     out = run_example("infancy_ppo")
     (seconds,) = numbers(rf"^{NUMBER} simulated s of training", out)
-    assert seconds >= 256 / 60 - 1e-9
+    assert seconds == pytest.approx(64 * 512 / 60 + 6.0, abs=0.1)
     inborn, trained = numbers(rf"^inborn fitness {NUMBER} m, with the policy {NUMBER} m", out)
-    assert inborn > 0 and trained >= 0
-    numbers(rf"^policy in the population env: fitness {NUMBER} m", out)
+    # The policy walks better than the robot's own gait (issue 22: it ended below it, 1.659
+    # against 1.710 m, with 256 steps, raw observations and the IMU alone).
+    assert inborn > 0 and trained > inborn + 0.1
+    # In the population env, where the learner evaluated it, it walks exactly as measured.
+    assert numbers(rf"^policy in the population env: fitness {NUMBER} m", out) == [trained]
 
 
 def test_export_robot(tmp_path: Path) -> None:

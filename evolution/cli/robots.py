@@ -20,9 +20,9 @@ from evolution.experiments import DB_NAME, ExperimentConfig, Store, StoreError
 from evolution.experiments.config import MAX_SECONDS, MAX_WORKERS
 from evolution.experiments.integrity import verify
 from evolution.experiments.records import LearningRecord, RobotRecord
-from revolve_env.body.examples import EXAMPLES, example
+from revolve_env.body.errors import RobotError
+from revolve_env.body.examples import EXAMPLES, resolve_robot
 from revolve_env.body.robot import Robot
-from revolve_env.body.serialize import load
 
 __all__ = [
     "EXIT_INTERRUPTED",
@@ -225,13 +225,10 @@ def no_db(args: argparse.Namespace) -> None:
 
 
 def robot_file(name: str) -> tuple[Robot, str]:
-    """A robot JSON file or an example name, and a short name for it."""
-    if name in EXAMPLES and not Path(name).exists():
-        return example(name), name
-    path = Path(name)
-    if not path.is_file():
-        raise CliError(f"no such robot file: {path} (examples: {', '.join(EXAMPLES)})")
+    """A robot JSON file or an example name (:func:`resolve_robot`'s rule), and a short name."""
     try:
-        return load(path), path.stem
+        return resolve_robot(name)
+    except RobotError as error:
+        raise CliError(f"{name}: {error}") from None
     except ValueError as error:
-        raise CliError(f"{path}: {error}") from None
+        raise CliError(str(error)) from None

@@ -57,6 +57,7 @@ class DrivingPolicy(Protocol):
     """A learned controller that drives a robot (:class:`evolution.learning.PolicyAgent`)."""
 
     control_period: float
+    proprioception: bool  # it also observes hinge angles and velocities (Locomotion-v1's)
 
     def reset(self) -> None:
         """Start a new episode."""
@@ -207,7 +208,8 @@ def _evaluate_with_policy(task: EvalTask, policy: DrivingPolicy) -> EvalOutcome:
     env = LocomotionEnv(task.robot, insertion_time=task.insertion, evaluation_time=task.seconds,
                         fitness_window=task.seconds, control_period=policy.control_period,
                         controller="agent", action="targets", engine=task.engine,
-                        conditions=task.conditions, task=task.task, terrain=task.terrain)
+                        conditions=task.conditions, proprioception=policy.proprioception,
+                        task=task.task, terrain=task.terrain)
     try:
         policy.reset()
         info = run_episode(env, task.seed, policy.act)

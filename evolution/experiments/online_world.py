@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 from evolution.experiments.config import ExperimentConfig
 from evolution.experiments.run import Birth
+from evolution.learning.config import policies_observe_hinges
 from revolve_env.body.robot import Robot
 from revolve_env.status import RobotStatus, agent_name
 
@@ -57,7 +58,8 @@ class PopulationWorld:
             birth_radius=config.birth_radius, birth_clearance=config.birth_clearance,
             limits=config.evolution.limits, engine=config.world.engine,
             conditions=config.evaluation, task=config.fitness_task(),
-            terrain=config.world.terrain_spec)
+            terrain=config.world.terrain_spec,
+            proprioception=policies_observe_hinges(config.learning))
         self._seed = seed
         self._env.reset(seed=seed)
         self._policies: dict[int, Any] = {}  # robot id -> PolicyAgent of agent-controlled robots

@@ -16,7 +16,10 @@ An experiment config with learning is an ordinary experiment TOML (see
     conditions  = { heading = 0.0 }   # optional: the conditions infants learn under; default: the
                                  # experiment's [evaluation] table (they learn as they will live)
     # sb3 only: algorithm = "PPO", action = "modulate", n_envs = 2, vec_env = "subproc",
-    #           control_period = 0.0166667, algorithm_kwargs = { n_steps = 256 }
+    #           control_period = 0.0166667, algorithm_kwargs = { n_steps = 256 },
+    #           normalize = true (VecNormalize of observations and rewards),
+    #           proprioception = false (true: the policy also observes hinge angles and speeds;
+    #           the online world then observes them for every agent-controlled robot)
 
 A ``budget`` too small for one learning step is refused here (a ``ValueError``; in an experiment
 config a one-line ``ConfigError``): CMA-ES needs the inborn evaluation and one generation
@@ -47,7 +50,7 @@ from revolve_env.conditions import IDEAL, EvaluationConditions
 from revolve_env.tasks import Locomotion, Task
 from revolve_env.terrain import Flat, Terrain
 
-__all__ = ["LEARNERS", "training_center_from_dict"]
+__all__ = ["LEARNERS", "policies_observe_hinges", "training_center_from_dict"]
 
 LEARNERS = ("cma-es", "random-search", "sb3")
 """Names accepted by ``learner``."""
@@ -57,8 +60,17 @@ _KEYS = {
     "cma-es": _COMMON | {"sigma", "popsize", "workers"},
     "random-search": _COMMON | {"sigma", "popsize", "workers"},
     "sb3": _COMMON | {"algorithm", "policy", "action", "n_envs", "vec_env", "control_period",
-                      "algorithm_kwargs"},
+                      "algorithm_kwargs", "normalize", "proprioception"},
 }
+
+
+def policies_observe_hinges(data: Mapping[str, Any] | None) -> bool:
+    """Whether the policies a ``[learning]`` table trains observe hinge angles and velocities.
+
+    The world that hosts them must observe them too (the online engine's population env).
+    """
+    return bool(data is not None and data.get("learner") == "sb3"
+                and data.get("proprioception", False) is True)
 
 
 def training_center_from_dict(data: Mapping[str, Any], engine: str = "pybullet",
@@ -102,7 +114,8 @@ def training_center_from_dict(data: Mapping[str, Any], engine: str = "pybullet",
     learner: Learner
     if name == "sb3":
         kwargs = {k: data[k] for k in ("algorithm", "policy", "action", "n_envs", "vec_env",
-                                       "control_period") if k in data}
+                                       "control_period", "normalize", "proprioception")
+                  if k in data}
         learner = SB3Learner(**kwargs, **timing, engine=engine, conditions=conditions,
                              algorithm_kwargs=dict(data.get("algorithm_kwargs", {})), task=scored,
                              terrain=ground)

@@ -10,7 +10,11 @@ and loading it never unpickles:
   (``space/<name>/low`` and ``/high``), and whose metadata ``revolve`` is JSON: the format
   version, the SB3 policy class by name, its constructor arguments as plain data (classes by
   name, spaces by dtype and shape), the robot it was trained on (robot JSON), the action mode
-  and the control period;
+  and the control period; format 3 adds whether the policy observes the hinge angles and
+  velocities (metadata ``proprioception``) and, for a policy trained on normalised
+  observations, its frozen statistics (tensors ``norm/mean`` and ``norm/var``, metadata
+  ``normalization``: clip and epsilon, else null), without which it would see other numbers
+  than it learned on;
 * :func:`load_policy` checks the file's SHA-256 against the store's record *before* parsing
   anything, parses it with safetensors (bounded, no code), resolves every class name among
   classes of torch and stable-baselines3 that are already imported (an SB3 policy, a torch
@@ -42,9 +46,11 @@ from evolution.learning.base import same_body
 from evolution.learning.sb3 import PolicyAgent
 from revolve_env.body.robot import Layer, Robot
 from revolve_env.body.serialize import from_json, to_json
+from revolve_env.rl import ObservationNormalization
 
 __all__ = [
     "FORMAT",
+    "FORMATS",
     "PICKLED_SUFFIX",
     "SUFFIX",
     "TRUST_HINT",
@@ -55,8 +61,12 @@ __all__ = [
     "save_policy",
 ]
 
-FORMAT = 2
-"""Version of the policy file layout (1 was a pickle of the :class:`PolicyAgent`)."""
+FORMAT = 3
+"""Version of the policy file layout written for a policy with observation statistics or
+proprioception (1 was a pickle of the :class:`PolicyAgent`; 2, still written for a policy with
+neither, byte for byte as before, is 3 without them)."""
+FORMATS = (2, 3)
+"""Versions read."""
 SUFFIX = ".safetensors"
 """File suffix of a policy file of this format."""
 PICKLED_SUFFIX = ".pkl"
@@ -90,6 +100,14 @@ def policy_digest(agent: PolicyAgent) -> str:
     whatever else SB3 or torch would write into a file.
     """
     h = hashlib.sha256(f"{agent.action}:{agent.control_period!r}".encode())
+    norm = agent.normalization
+    # (a policy with neither keeps the digest it always had)
+    if agent.proprioception:
+        h.update(b"proprioception")
+    if norm is not None:
+        h.update(f"norm:{norm.clip!r}:{norm.epsilon!r}".encode())
+        h.update(np.ascontiguousarray(norm.mean).tobytes())
+        h.update(np.ascontiguousarray(norm.var).tobytes())
     state = getattr(agent.policy, "state_dict", None)
     if state is None:
         raise TypeError(f"{type(agent.policy).__name__} has no state_dict(): not an SB3 policy")
@@ -157,8 +175,10 @@ def save_policy(agent: PolicyAgent, path: str | os.PathLike[str]) -> tuple[str, 
         raise TypeError(f"{type(policy).__name__} is not a stable-baselines3 policy")
     cls = type(policy)
     tensors: dict[str, np.ndarray] = {}
-    meta = {
-        "format": FORMAT,
+    norm = agent.normalization
+    later = norm is not None or agent.proprioception
+    meta: dict[str, Any] = {
+        "format": FORMAT if later else 2,
         "policy_class": _encode(cls, "policy_class", tensors)["__class__"],
         "arguments": {k: _encode(v, k, tensors) for k, v in dict(arguments()).items()},
         "parameters": [],
@@ -169,6 +189,13 @@ def save_policy(agent: PolicyAgent, path: str | os.PathLike[str]) -> tuple[str, 
     for name, tensor in policy.state_dict().items():
         meta["parameters"].append(name)
         tensors[f"param/{name}"] = np.ascontiguousarray(tensor.detach().cpu().numpy())
+    if later:
+        meta["proprioception"] = agent.proprioception
+        meta["normalization"] = None
+    if norm is not None:
+        meta["normalization"] = {"clip": norm.clip, "epsilon": norm.epsilon}
+        tensors["norm/mean"] = np.ascontiguousarray(norm.mean)
+        tensors["norm/var"] = np.ascontiguousarray(norm.var)
     blob = save(tensors, metadata={"revolve": json.dumps(meta, sort_keys=True)})
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
@@ -257,8 +284,8 @@ def _read(name: str, blob: bytes, robot: Robot) -> PolicyAgent:
         tensors = load(blob)
         size = int.from_bytes(blob[:8], "little")
         meta = json.loads(json.loads(blob[8:8 + size])["__metadata__"]["revolve"])
-        if not isinstance(meta, dict) or meta.get("format") != FORMAT:
-            raise ValueError(f"not a format-{FORMAT} policy")
+        if not isinstance(meta, dict) or meta.get("format") not in FORMATS:
+            raise ValueError(f"not a format-{'/'.join(map(str, FORMATS))} policy")
         action, period = meta["action"], float(meta["control_period"])
         trained_on = from_json(str(meta["robot"]))
         if not same_body(trained_on, robot):  # before anything is built for it
@@ -268,22 +295,46 @@ def _read(name: str, blob: bytes, robot: Robot) -> PolicyAgent:
         if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
             raise ValueError("no list of parameter names")
         state = {n: tensors[f"param/{n}"] for n in names}
-        if set(tensors) - {f"param/{n}" for n in names} - {
+        proprioception = meta["proprioception"] if meta["format"] == FORMAT else False
+        if not isinstance(proprioception, bool):
+            raise ValueError("its proprioception is not true or false")
+        normalization = _normalization(meta, tensors, robot, proprioception)
+        norm_keys = {"norm/mean", "norm/var"} if normalization is not None else set()
+        if set(tensors) - {f"param/{n}" for n in names} - norm_keys - {
                 k for k in tensors if k.startswith("space/")}:
-            raise ValueError("tensors that are neither parameters nor space bounds")
+            raise ValueError("tensors that are neither parameters, statistics nor space bounds")
         _check_sizes(meta["arguments"], state)
         arguments = _decode(meta["arguments"], "arguments", tensors)
         if not isinstance(arguments, dict):
             raise ValueError("its arguments are not a table")
-        _check_spaces(arguments, robot, action)
+        _check_spaces(arguments, robot, action, proprioception)
         policy = _build(str(meta["policy_class"]), arguments, state)
-        return PolicyAgent(policy, trained_on, action, period)
+        return PolicyAgent(policy, trained_on, action, period, normalization, proprioception)
     except PolicyFileError:
         raise
     except (SafetensorError, ValueError, KeyError, TypeError, IndexError, AttributeError,
             RuntimeError, OverflowError, RecursionError, UnicodeDecodeError) as error:
         raise PolicyFileError(f"policy file {name} is damaged ({type(error).__name__}: "
                               f"{str(error).splitlines()[0] if str(error) else ''})") from None
+
+
+def _normalization(meta: Mapping[str, Any], tensors: Mapping[str, np.ndarray], robot: Robot,
+                   proprioception: bool) -> ObservationNormalization | None:
+    """The frozen observation statistics of a format-3 file (``None``: there are none).
+
+    Raises:
+        ValueError, KeyError, TypeError: missing or malformed statistics, or not one per value
+            of the policy's observation.
+    """
+    if meta["format"] != FORMAT or meta["normalization"] is None:
+        return None
+    table = meta["normalization"]
+    if not isinstance(table, dict) or set(table) != {"clip", "epsilon"}:
+        raise ValueError("its normalization is not a table of clip and epsilon")
+    mean, var = tensors["norm/mean"], tensors["norm/var"]
+    if mean.shape != (_observations(robot, proprioception),):
+        raise ValueError("its observation statistics do not fit this robot's observation")
+    return ObservationNormalization(mean, var, float(table["clip"]), float(table["epsilon"]))
 
 
 def _check_sizes(arguments: object, state: Mapping[str, np.ndarray]) -> None:
@@ -365,8 +416,15 @@ def _known_class(text: str) -> type:
     return cls
 
 
-def _check_spaces(arguments: Mapping[str, Any], robot: Robot, action: object) -> None:
-    """The spaces must be the robot's: its sensors in, one or two values per hinge out.
+def _observations(robot: Robot, proprioception: bool) -> int:
+    """Values a policy observes: the robot's sensors, then with proprioception 2 per hinge."""
+    hinges = len(robot.neurons_of(Layer.OUTPUT))
+    return len(robot.neurons_of(Layer.INPUT)) + (2 * hinges if proprioception else 0)
+
+
+def _check_spaces(arguments: Mapping[str, Any], robot: Robot, action: object,
+                  proprioception: bool) -> None:
+    """The spaces must be the robot's: its observation in, one or two values per hinge out.
 
     Raises:
         ValueError: they are not.
@@ -375,7 +433,7 @@ def _check_spaces(arguments: Mapping[str, Any], robot: Robot, action: object) ->
 
     if action not in ("targets", "modulate"):
         raise ValueError(f"unknown action mode {action!r}")
-    inputs = len(robot.neurons_of(Layer.INPUT))
+    inputs = _observations(robot, proprioception)
     outputs = len(robot.neurons_of(Layer.OUTPUT)) * (2 if action == "modulate" else 1)
     obs, act = arguments.get("observation_space"), arguments.get("action_space")
     if not (isinstance(obs, Box) and obs.shape == (inputs,) and isinstance(act, Box)

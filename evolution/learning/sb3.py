@@ -1,15 +1,25 @@
 """stable-baselines3 in the Training Center: train any SB3 algorithm on the infant's Gym env.
 
 :class:`SB3Learner` trains an SB3 algorithm class (``PPO``, ``SAC``, ``TD3``, ... or its name)
-on ``revolve_env/Locomotion-v0`` with the infant's body, in vectorised envs
-(``SubprocVecEnv``, or ``DummyVecEnv`` in this process). Two action modes:
+on ``revolve_env/Locomotion-v0`` with the infant's body (``-v1`` with ``proprioception=True``:
+the hinge angles and velocities observed too), in vectorised envs (``SubprocVecEnv``, or
+``DummyVecEnv`` in this process). Two action modes:
 
 * ``action="targets"``: the policy sets every hinge target directly (the network is unused);
 * ``action="modulate"``: the robot's own network (its CPG) keeps running and the policy scales
   and offsets its outputs; the zero action is the inborn gait, so training starts from it.
 
+The training env is :func:`revolve_env.rl.make_vec_env`'s, the one ``benchmarks/bench_rl.py``
+found PPO to need: observations and rewards normalised (``VecNormalize``; ``normalize=False``
+turns it off) and short episodes (``insertion`` + ``seconds``); PPO starts from
+:func:`revolve_env.rl.ppo_settings` (a small exploration noise in ``"modulate"`` mode, so
+that the infant trains on its own gait), under ``algorithm_kwargs``. The observation
+statistics are frozen when training ends and go with the policy
+(:class:`~revolve_env.rl.ObservationNormalization` in :class:`PolicyAgent` and its file).
+
 The trained policy becomes a :class:`PolicyAgent`: a small adapter that maps the robot's
-observation (its sensor values, in input-neuron order) to hinge targets each control period, and
+observation (its sensor values, in input-neuron order, then with proprioception its hinge angles
+and velocities) to hinge targets each control period, and
 therefore drives the robot as an *agent-controlled* robot in the population env
 (``add_robot(robot, controlled_by="agent")``) or in the single-robot env with
 ``controller="agent"``.
@@ -41,7 +51,6 @@ import inspect
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from functools import partial
 from typing import TYPE_CHECKING, Any, Literal, Protocol
 
 import numpy as np
@@ -50,6 +59,8 @@ from numpy.typing import NDArray
 from evolution.learning.base import LearningResult, check_budget
 from revolve_env.body.robot import Layer, Robot
 from revolve_env.conditions import IDEAL, EvaluationConditions
+from revolve_env.registration import LOCOMOTION_ID, LOCOMOTION_V1_ID
+from revolve_env.rl import INSTALL_HINT, ObservationNormalization, VecEnvConfig, ppo_settings
 from revolve_env.tasks import Locomotion, Task
 from revolve_env.terrain import Flat, Terrain
 
@@ -70,7 +81,7 @@ class Policy(Protocol):
     """What :class:`PolicyAgent` needs of a trained policy: SB3's ``predict``."""
 
     def predict(
-        self, observation: NDArray[np.float64], /, *, deterministic: bool = ...
+        self, observation: NDArray[Any], /, *, deterministic: bool = ...
     ) -> tuple[NDArray[Any], object]:
         """The action for one observation, and the policy's recurrent state (unused here)."""
 
@@ -81,9 +92,7 @@ def _algorithm_class(algorithm: type | str) -> type:
     try:
         import stable_baselines3
     except ImportError as error:  # pragma: no cover - depends on the installation
-        raise ImportError(
-            "SB3Learner needs stable-baselines3: pip install 'revolve-env[learn]'"
-        ) from error
+        raise ImportError(f"SB3Learner: {INSTALL_HINT}") from error
     cls = getattr(stable_baselines3, algorithm, None)
     if not isinstance(cls, type):
         known = [n for n in ("A2C", "DDPG", "DQN", "PPO", "SAC", "TD3")
@@ -96,9 +105,9 @@ def _algorithm_class(algorithm: type | str) -> type:
 
 def _make_env(robot: Robot, action: ActionMode, insertion: float, seconds: float,
               control_period: float, engine: str = "pybullet",
-              conditions: EvaluationConditions = IDEAL, task: Task | None = None,
-              terrain: Terrain | None = None) -> Any:
-    """The infant's single-robot env (module level, so that worker processes can build it).
+              conditions: EvaluationConditions = IDEAL, proprioception: bool = False,
+              task: Task | None = None, terrain: Terrain | None = None) -> Any:
+    """The infant's single-robot env, for the learner's two evaluations.
 
     Returns a :class:`~revolve_env.envs.LocomotionEnv`, typed ``Any`` because its declared
     action type (float32) does not admit the float64 targets :func:`rollout_fitness` sends on
@@ -116,6 +125,7 @@ def _make_env(robot: Robot, action: ActionMode, insertion: float, seconds: float
         action=action,
         engine=engine,
         conditions=conditions,
+        proprioception=proprioception,
         task=task,
         terrain=terrain,
     )
@@ -132,10 +142,23 @@ class PolicyAgent:
         robot: The robot it was trained on.
         action: ``"targets"`` or ``"modulate"`` (as in training).
         control_period: The period between two calls of :meth:`act`. Seconds.
+        normalization: The frozen observation statistics the policy was trained with (the
+            policy sees ``normalization(observation)``; the robot's network, the raw one), or
+            ``None``: the policy sees raw observations.
+        proprioception: The policy observes the robot's sensors followed by its hinge angles
+            and velocities (``Locomotion-v1``, ``population_env(proprioception=True)``);
+            ``False``: the sensors only (``Locomotion-v0``). The robot's network reads the
+            sensors either way.
+
+    Attributes:
+        n_inputs: Sensor values (the robot's input neurons).
+        n_outputs: Active hinges (the robot's output neurons).
+        n_observations: Values of the observation :meth:`act` takes.
     """
 
     def __init__(
-        self, policy: Policy, robot: Robot, action: ActionMode, control_period: float
+        self, policy: Policy, robot: Robot, action: ActionMode, control_period: float,
+        normalization: ObservationNormalization | None = None, proprioception: bool = False,
     ) -> None:
         if action not in ("targets", "modulate"):
             raise ValueError(f"action must be 'targets' or 'modulate', got {action!r}")
@@ -149,6 +172,12 @@ class PolicyAgent:
         self.control_period = float(control_period)
         self.n_inputs = len(robot.neurons_of(Layer.INPUT))
         self.n_outputs = len(robot.neurons_of(Layer.OUTPUT))
+        self.proprioception = bool(proprioception)
+        self.n_observations = self.n_inputs + (2 * self.n_outputs if proprioception else 0)
+        if normalization is not None and normalization.mean.shape != (self.n_observations,):
+            raise ValueError(f"normalization has {normalization.mean.shape[0]} values; the "
+                             f"policy observes {self.n_observations}")
+        self.normalization = normalization
         self._brain: BatchController | None = None
         self._handle = 0
         self._out = np.zeros(self.n_outputs)
@@ -159,6 +188,9 @@ class PolicyAgent:
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
+        state.setdefault("normalization", None)  # pickled before these existed
+        state.setdefault("proprioception", False)
+        state.setdefault("n_observations", state["n_inputs"])
         self.__dict__.update(state)
 
     def reset(self) -> None:
@@ -188,9 +220,11 @@ class PolicyAgent:
     def policy_action(self, observation: np.ndarray) -> np.ndarray:
         """The policy's deterministic action (the env's action space) for one observation."""
         obs = np.asarray(observation, dtype=np.float64).reshape(-1)
-        if obs.shape != (self.n_inputs,):
-            raise ValueError(f"observation must have shape ({self.n_inputs},), got {obs.shape}")
-        action, _ = self.policy.predict(obs, deterministic=True)
+        if obs.shape != (self.n_observations,):
+            raise ValueError(f"observation must have shape ({self.n_observations},), got "
+                             f"{obs.shape}")
+        seen = obs if self.normalization is None else self.normalization(obs)
+        action, _ = self.policy.predict(seen, deterministic=True)
         action = np.asarray(action, dtype=np.float64).reshape(-1)
         expected = self.n_outputs * (2 if self.action == "modulate" else 1)
         if action.shape != (expected,):
@@ -212,7 +246,7 @@ class PolicyAgent:
 
             self._brain = BatchController(self.control_period)
             self._handle = self._brain.add(self.robot)
-        self._brain.step(obs, self._out)
+        self._brain.step(obs[: self.n_inputs], self._out)  # the network reads the sensors
         n = self.n_outputs
         targets: NDArray[np.float64] = np.clip((1.0 + a[:n]) * self._out + a[n:], -1.0, 1.0)
         return targets
@@ -232,10 +266,10 @@ def rollout_fitness(agent: PolicyAgent | None, robot: Robot, insertion: float, s
     """
     if agent is None:
         env = _make_env(robot, "modulate", insertion, seconds, control_period, engine,
-                        conditions, task, terrain)
+                        conditions, task=task, terrain=terrain)
     else:
         env = _make_env(robot, "targets", insertion, seconds, control_period, engine,
-                        conditions, task, terrain)
+                        conditions, agent.proprioception, task, terrain)
         agent.reset()
     from revolve_env.envs.episode import run_episode  # loads the physics engine: when used
 
@@ -264,7 +298,15 @@ class SB3Learner:
         engine: The physics engine of the training envs (``"pybullet"`` or ``"mujoco"``).
         conditions: Start heading and jitter, sensor and actuator noise of every training
             episode and of the two evaluations (an experiment's ``[evaluation]`` table).
-        algorithm_kwargs: Extra keyword arguments of the algorithm (``n_steps``, ...).
+        algorithm_kwargs: Keyword arguments of the algorithm (``n_steps``, ...); for PPO over
+            :func:`revolve_env.rl.ppo_settings`.
+        normalize: Train on normalised observations and rewards (``VecNormalize``); the policy
+            keeps the observation statistics of the end of training.
+        proprioception: The policy also observes the hinge angles and velocities
+            (``Locomotion-v1``); the world it drives the robot in must observe them too
+            (``population_env(proprioception=True)``; an experiment's engine does it for a
+            ``learning.proprioception = true`` table). Without them, in ``"modulate"`` mode the
+            policy cannot see the gait's phase and learns far more slowly (bench_rl.py).
         task: What the policy is rewarded for and the evaluations score
             (:mod:`revolve_env.tasks`; an experiment's task).
         terrain: The ground of the training envs and evaluations (:mod:`revolve_env.terrain`;
@@ -282,6 +324,8 @@ class SB3Learner:
     engine: str = "pybullet"
     algorithm_kwargs: Mapping[str, Any] = field(default_factory=dict)
     conditions: EvaluationConditions = IDEAL
+    normalize: bool = True
+    proprioception: bool = False
     task: Task = Locomotion()
     terrain: Terrain = Flat()
 
@@ -292,6 +336,9 @@ class SB3Learner:
             raise ValueError(f"action must be 'targets' or 'modulate', got {self.action!r}")
         if self.vec_env not in ("subproc", "dummy"):
             raise ValueError(f"vec_env must be 'subproc' or 'dummy', got {self.vec_env!r}")
+        for flag in ("normalize", "proprioception"):
+            if not isinstance(getattr(self, flag), bool):
+                raise ValueError(f"{flag} must be true or false, got {getattr(self, flag)!r}")
         if not isinstance(self.n_envs, int) or self.n_envs < 1:
             raise ValueError(f"n_envs must be an integer >= 1, got {self.n_envs!r}")
         for name in ("seconds", "control_period"):
@@ -309,12 +356,20 @@ class SB3Learner:
         """The learner's own two evaluations (inborn, trained). Seconds."""
         return 2 * (self.insertion + self.seconds)
 
+    def _algorithm_kwargs(self) -> dict[str, Any]:
+        """The algorithm's keyword arguments: PPO's start from the benchmark's settings."""
+        from stable_baselines3 import PPO
+
+        cls = _algorithm_class(self.algorithm)
+        base = ppo_settings(self.action) if issubclass(cls, PPO) else {}
+        return {**base, **dict(self.algorithm_kwargs)}
+
     def _rollout(self) -> tuple[int, int]:
         """``(steps per env of one rollout, steps before the first update)`` of the algorithm."""
         cls = _algorithm_class(self.algorithm)
         defaults = {name: p.default for name, p in inspect.signature(cls).parameters.items()
                     if p.default is not inspect.Parameter.empty}
-        kwargs = {**defaults, **dict(self.algorithm_kwargs)}
+        kwargs = {**defaults, **self._algorithm_kwargs()}
         from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
         if issubclass(cls, OnPolicyAlgorithm):  # PPO, A2C: one rollout, then an update
@@ -347,11 +402,11 @@ class SB3Learner:
             ValueError: a budget below :attr:`min_budget`, or a robot the env refuses.
         """
         from stable_baselines3.common.callbacks import BaseCallback
-        from stable_baselines3.common.env_util import make_vec_env
         from stable_baselines3.common.logger import Logger
-        from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+        from stable_baselines3.common.vec_env import VecNormalize
 
         from revolve_env.brain import get_params
+        from revolve_env.rl import make_vec_env
 
         steps = self.training_steps(check_budget(budget))
         if steps < self._min_steps():
@@ -359,13 +414,17 @@ class SB3Learner:
                              f"learner's two evaluations; one learning step needs "
                              f"{self._min_steps()} (min_budget: {self.min_budget:g} s)")
         seed = int(rng.integers(0, 2**31 - 1))
-        factory = partial(_make_env, robot, self.action, self.insertion, self.seconds,
-                          self.control_period, self.engine, self.conditions, self.task,
-                          self.terrain)
-        cls = SubprocVecEnv if self.vec_env == "subproc" and self.n_envs > 1 else DummyVecEnv
-        kwargs = {"start_method": "forkserver"} if cls is SubprocVecEnv else None
-        venv = make_vec_env(factory, n_envs=self.n_envs, seed=seed, vec_env_cls=cls,
-                            vec_env_kwargs=kwargs)
+        algorithm_kwargs = self._algorithm_kwargs()
+        config = VecEnvConfig(n_envs=self.n_envs, insertion_time=self.insertion,
+                              evaluation_time=self.seconds, normalize=self.normalize,
+                              gamma=float(algorithm_kwargs.get("gamma", 0.99)),
+                              subprocess=self.vec_env == "subproc")
+        # Locomotion-v0 observes what a robot's network does (its sensors), v1 the hinges too.
+        venv = make_vec_env(robot, config, seed=seed,
+                            env_id=LOCOMOTION_V1_ID if self.proprioception else LOCOMOTION_ID,
+                            action=self.action, control_period=self.control_period,
+                            engine=self.engine, conditions=self.conditions,
+                            task=self.task, terrain=self.terrain)
         episodes: list[float] = []
         failures = [0]
 
@@ -382,16 +441,19 @@ class SB3Learner:
 
         try:
             model = _algorithm_class(self.algorithm)(
-                self.policy, venv, seed=seed, device="cpu", verbose=0, **dict(self.algorithm_kwargs)
+                self.policy, venv, seed=seed, device="cpu", verbose=0, **algorithm_kwargs
             )
             # A logger with no output: SB3's default one makes an empty SB3-<time> folder in the
             # system's temporary folder at every learn(), even when it writes nothing.
             model.set_logger(Logger(folder=None, output_formats=[]))
             model.learn(total_timesteps=steps, callback=_Record())
             used = int(model.num_timesteps)
+            normalization = (ObservationNormalization.of(venv)
+                             if isinstance(venv, VecNormalize) else None)
         finally:
             venv.close()
-        agent = PolicyAgent(model.policy, robot, self.action, self.control_period)
+        agent = PolicyAgent(model.policy, robot, self.action, self.control_period, normalization,
+                            self.proprioception)
         eval_seed = int(rng.integers(0, 2**31 - 1))
         inborn = rollout_fitness(None, robot, self.insertion, self.seconds, self.control_period,
                                  eval_seed, self.engine, self.conditions, self.task, self.terrain)

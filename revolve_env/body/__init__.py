@@ -3,7 +3,7 @@
 Nothing in this package imports a physics engine.
 """
 
-from revolve_env.body.examples import EXAMPLES, example
+from revolve_env.body.examples import EXAMPLES, example, resolve_robot
 from revolve_env.body.export import BillOfMaterials, bill_of_materials, to_sdf, to_urdf
 from revolve_env.body.geometry import Assembly, assemble, overlapping_boxes
 from revolve_env.body.parts import PART_SPECS, SERVO, PartSpec, ServoSpec
@@ -62,6 +62,7 @@ __all__ = [
     "from_json",
     "load",
     "overlapping_boxes",
+    "resolve_robot",
     "save",
     "to_dict",
     "to_json",

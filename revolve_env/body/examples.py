@@ -21,16 +21,21 @@ horizontal axis (pitch), 90 about the vertical (yaw) when attached to a side of 
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
+from pathlib import Path
 
 from revolve_env.body.parts import PART_SPECS
 from revolve_env.body.robot import Activation, Connection, Layer, Neuron, Node, PartType, Robot
+from revolve_env.body.serialize import load
+from revolve_env.body.validate import Limits, validate
 
 __all__ = [
     "EXAMPLES",
     "bar_walker",
     "example",
     "gecko",
+    "resolve_robot",
     "sensor_crawler",
     "snake",
     "spider",
@@ -196,3 +201,42 @@ def example(name: str) -> Robot:
         raise ValueError(
             f"unknown example robot {name!r}; known: {', '.join(EXAMPLES)}"
         ) from None
+
+
+def resolve_robot(robot: Robot | str | os.PathLike[str],
+                  limits: Limits | None = None) -> tuple[Robot, str]:
+    """A robot given by value, example name or JSON file path, validated; and a short name.
+
+    The one rule for ``robot=`` arguments and the command line's robot argument: a name of
+    :data:`EXAMPLES` is that example unless a file of that name exists (a file wins); any other
+    text or path is a robot JSON file (:func:`~revolve_env.body.serialize.load`).
+
+    Args:
+        robot: A :class:`~revolve_env.body.robot.Robot`, an example name (``"spider"``) or the
+            path of a robot JSON file.
+        limits: Validation limits (``None``: the defaults).
+
+    Returns:
+        ``(robot, name)``: the name is the example's name, the file's stem, or the robot's own.
+
+    Raises:
+        ValueError: one line: no such file and no such example (the examples named), or a robot
+            that breaks a rule (:class:`~revolve_env.body.validate.RobotError`).
+        TypeError: ``robot`` is none of the three.
+        OSError: the file exists but cannot be read.
+    """
+    if isinstance(robot, Robot):
+        validate(robot, limits)
+        return robot, robot.name
+    if not isinstance(robot, (str, os.PathLike)):
+        raise TypeError("robot must be a Robot, an example name or a path to its JSON, got "
+                        f"{type(robot).__name__}")
+    path = Path(robot)
+    if isinstance(robot, str) and robot in EXAMPLES and not path.exists():
+        made = EXAMPLES[robot]()
+        validate(made, limits)
+        return made, robot
+    if not path.is_file():
+        raise ValueError(f"no such robot file: {path} (nor an example robot: "
+                         f"{', '.join(EXAMPLES)})")
+    return load(path, limits), path.stem

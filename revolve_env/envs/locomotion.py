@@ -22,14 +22,20 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
+from revolve_env.body.examples import resolve_robot
 from revolve_env.body.robot import Layer, Robot
-from revolve_env.body.serialize import load
-from revolve_env.body.validate import Limits, validate
+from revolve_env.body.validate import Limits
 from revolve_env.brain import BatchController
 from revolve_env.conditions import EvaluationConditions, with_noise_shortcuts
 from revolve_env.envs.observations import hinge_values, proprio_bounds, saturated_sensor_bounds
 from revolve_env.evaluation import start_generator
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
+from revolve_env.registration import (
+    DEFAULT_EVALUATION_TIME,
+    DEFAULT_INSERTION_TIME,
+    DEFAULT_ROBOT,
+    episode_steps,
+)
 from revolve_env.tasks import BaseTask, Task, make_task, score
 from revolve_env.terrain import Terrain
 from revolve_env.world import World, WorldConfig
@@ -41,18 +47,6 @@ __all__ = ["LocomotionEnv"]
 def _all_finite(a: NDArray[np.float64]) -> bool:
     """Whether every entry is finite (fast path: one reduction; exact on overflow)."""
     return math.isfinite(float(np.add.reduce(a, axis=None))) or bool(np.isfinite(a).all())
-
-
-def _checked_robot(robot: object, limits: Limits | None) -> Robot:
-    """The robot, loaded from its JSON path or validated (ValueError, TypeError)."""
-    if isinstance(robot, (str, os.PathLike)):
-        return load(robot, limits)
-    if isinstance(robot, Robot):
-        validate(robot, limits)
-        return robot
-    raise TypeError(
-        f"robot must be a Robot or a path to its JSON, got {type(robot).__name__}"
-    )
 
 
 def _check_arguments(render_mode: str | None, render_modes: list[str], insertion_time: float,
@@ -150,7 +144,10 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     reward is minus the fitness so far, and the episode terminates.
 
     ## Episode End
-    * Truncation: when ``insertion_time + evaluation_time`` seconds have been simulated.
+    * Truncation: when ``insertion_time + evaluation_time`` seconds have been simulated
+      (:func:`~revolve_env.registration.episode_steps`; 900 steps with the defaults, the
+      registered ``max_episode_steps``). ``gym.make`` refuses a ``max_episode_steps`` that would
+      end an episode earlier (:mod:`revolve_env.registration` says why).
     * Termination: only on a simulation blow-up.
 
     ## Info
@@ -161,13 +158,16 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     or None).
 
     ## Versions
-    * ``v0``: observations are RoboGen's sensors only.
     * ``v1``: ``proprioception=True``: hinge angles and velocities follow the sensors.
+    * ``v0``: observations are RoboGen's sensors only (kept for older code; Gymnasium warns
+      that it is out of date when it is made).
 
     ## Arguments
     | Keyword            | Default   | Meaning                                                    |
     |--------------------|-----------|------------------------------------------------------------|
-    | robot              | required  | Robot, or path to its JSON; validated before any physics  |
+    | robot              | "spider"  | Robot, example name or path to its JSON                   |
+    |                    |           | (:func:`~revolve_env.body.examples.resolve_robot`);        |
+    |                    |           | validated before any physics                               |
     | render_mode        | None      | "rgb_array" or "human"                                    |
     | insertion_time     | 3.0       | settling phase, not scored. Seconds                        |
     | evaluation_time    | 12.0      | scored phase. Seconds                                      |
@@ -180,7 +180,8 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     | sensor_noise       | 0.0       | std of Gaussian sensor noise (units of each sensor); a     |
     |                    |           | shortcut for ``conditions``, not with it                   |
     | actuator_noise     | 0.0       | std of Gaussian noise on normalized targets (likewise)     |
-    | controller         | "agent"   | "agent": the action drives; "brain": the robot's network   |
+    | controller         | None      | "agent": the action drives; "brain": the robot's network;  |
+    |                    |           | None: "brain" with ``action="modulate"``, else "agent"     |
     | action             | "targets" | "targets" or "modulate" (scale/offset the brain's outputs) |
     | proprioception     | False     | observe hinge angles and velocities (True in ``-v1``)      |
     | world_config       | None      | a :class:`~revolve_env.world.WorldConfig` (physics)        |
@@ -198,15 +199,15 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
 
     def __init__(
         self,
-        robot: Robot | str | os.PathLike[str],
+        robot: Robot | str | os.PathLike[str] = DEFAULT_ROBOT,
         render_mode: Literal["rgb_array", "human"] | None = None,
-        insertion_time: float = 3.0,
-        evaluation_time: float = 12.0,
+        insertion_time: float = DEFAULT_INSERTION_TIME,
+        evaluation_time: float = DEFAULT_EVALUATION_TIME,
         control_period: float | None = None,
         fitness_window: float = DEFAULT_WINDOW,
         sensor_noise: float = 0.0,
         actuator_noise: float = 0.0,
-        controller: Literal["agent", "brain"] = "agent",
+        controller: Literal["agent", "brain"] | None = None,
         action: Literal["targets", "modulate"] = "targets",
         world_config: WorldConfig | None = None,
         limits: Limits | None = None,
@@ -216,7 +217,9 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         task: Task | str | Mapping[str, Any] | None = None,
         terrain: Terrain | str | Mapping[str, Any] | None = None,
     ) -> None:
-        robot = _checked_robot(robot, limits)
+        robot = resolve_robot(robot, limits)[0]
+        if controller is None:  # the robot's network runs under the policy's modulation
+            controller = "brain" if action == "modulate" else "agent"
         self.task = make_task(task)
         # The gain (every shipped task's reward) in floats: no arrays for one robot per step.
         self._gain = type(self.task).reward is BaseTask.reward
@@ -242,8 +245,8 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self.proprioception = bool(proprioception)
         dt = self.config.control_period
         self.metadata = {**self.metadata, "render_fps": round(1.0 / dt)}  # one frame per step
-        self._insertion_steps = round(self.insertion_time / dt)
-        self._total_steps = self._insertion_steps + round(self.evaluation_time / dt)
+        self._insertion_steps, self._total_steps = episode_steps(
+            self.insertion_time, self.evaluation_time, dt)
         if self._total_steps <= self._insertion_steps:
             raise ValueError(f"evaluation_time {evaluation_time} s is shorter than one control "
                              f"period ({dt} s)")

@@ -152,10 +152,10 @@ def test_invalid_robot_is_rejected_before_any_physics() -> None:
     bad = Robot(Node(PartType.CORE, children=((7, brick),)))
     with pytest.raises(RobotError):
         LocomotionEnv(bad)
-    with pytest.raises(TypeError, match="Robot or a path"):
+    with pytest.raises(TypeError, match="a Robot, an example name or a path"):
         LocomotionEnv(42)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="modulate"):
-        LocomotionEnv(spider(), action="modulate")
+        LocomotionEnv(spider(), controller="agent", action="modulate")
     with pytest.raises(ValueError, match="evaluation_time"):
         LocomotionEnv(spider(), evaluation_time=0.0)
     with pytest.raises(ValueError, match="whole multiple"):

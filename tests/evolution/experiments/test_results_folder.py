@@ -40,8 +40,9 @@ class _Evil:
         return (open, (str(self.marker), "w"))
 
 
-def _agent(action: str = "targets") -> Any:
-    """A PolicyAgent of an untrained PPO policy for the spider."""
+def _agent(action: str = "targets", normalized: bool = False, proprioception: bool = False) -> Any:
+    """A PolicyAgent of an untrained PPO policy for the spider (with observation statistics,
+    observing the hinges)."""
     import gymnasium as gym
     from gymnasium.spaces import Box
     from stable_baselines3 import PPO
@@ -49,15 +50,24 @@ def _agent(action: str = "targets") -> Any:
     from evolution.learning import PolicyAgent
 
     robot = EXAMPLES["spider"]()
-    n_in = len(robot.neurons_of(Layer.INPUT))
-    n_out = len(robot.neurons_of(Layer.OUTPUT)) * (2 if action == "modulate" else 1)
+    hinges = len(robot.neurons_of(Layer.OUTPUT))
+    n_in = len(robot.neurons_of(Layer.INPUT)) + (2 * hinges if proprioception else 0)
+    n_out = hinges * (2 if action == "modulate" else 1)
 
     class Spaces(gym.Env[np.ndarray, np.ndarray]):
         observation_space = Box(-np.inf, np.inf, (n_in,), np.float64)
         action_space = Box(-1.0, 1.0, (n_out,), np.float32)
 
     model = PPO("MlpPolicy", Spaces(), device="cpu", seed=3, n_steps=16, batch_size=16)
-    return PolicyAgent(model.policy, robot, action, 1 / 60)  # type: ignore[arg-type]
+    norm = None
+    if normalized:
+        from revolve_env.rl import ObservationNormalization
+
+        rng = np.random.default_rng(5)
+        norm = ObservationNormalization(rng.normal(size=n_in), rng.uniform(0.5, 2, n_in), 10.0,
+                                        1e-8)
+    return PolicyAgent(model.policy, robot, action, 1 / 60, norm,  # type: ignore[arg-type]
+                       proprioception)
 
 
 # -- paths ----------------------------------------------------------------------------------------
@@ -92,15 +102,19 @@ def test_a_malformed_policy_reference_is_refused(text: str) -> None:
 # -- policy files ---------------------------------------------------------------------------------
 
 
+@pytest.mark.parametrize(("normalized", "proprioception"), [(False, False), (True, False),
+                                                             (False, True), (True, True)],
+                         ids=["raw", "normalized", "hinges", "normalized-hinges"])
 @pytest.mark.parametrize("action", ["targets", "modulate"])
 def test_a_saved_policy_loads_back_the_same_without_unpickling(
-        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, action: str) -> None:
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, action: str, normalized: bool,
+        proprioception: bool) -> None:
     import torch
 
     from evolution.learning import load_policy, save_policy
     from evolution.learning.policy_file import policy_digest
 
-    agent = _agent(action)
+    agent = _agent(action, normalized, proprioception)
     digest, sha256 = save_policy(agent, tmp_path / "p.safetensors")
     assert digest == policy_digest(agent)
     # The bytes are the policy's alone: saved again, the same file.
@@ -118,9 +132,21 @@ def test_a_saved_policy_loads_back_the_same_without_unpickling(
     assert torch.equal(torch.random.get_rng_state(), state)  # torch's generator untouched
     assert policy_digest(loaded) == digest
     assert (loaded.action, loaded.control_period) == (agent.action, agent.control_period)
-    observation = np.random.default_rng(0).normal(size=agent.n_inputs)
+    observation = np.random.default_rng(0).normal(size=agent.n_observations)
     np.testing.assert_array_equal(loaded.policy_action(observation),
                                   agent.policy_action(observation))
+    assert loaded.proprioception == proprioception
+    if normalized:  # the statistics come back exactly
+        for name in ("mean", "var", "clip", "epsilon"):
+            np.testing.assert_array_equal(getattr(loaded.normalization, name),
+                                          getattr(agent.normalization, name))
+    else:
+        assert loaded.normalization is None
+    if normalized or proprioception:  # part of the digest (a plain policy keeps its own)
+        assert policy_digest(_agent(action)) != digest
+    if normalized and not proprioception:  # the statistics change what the same network sees
+        raw = _agent(action)
+        assert not np.array_equal(raw.policy_action(observation), loaded.policy_action(observation))
 
 
 def test_a_pickled_policy_is_refused_unless_trusted(tmp_path: Path) -> None:
@@ -162,14 +188,16 @@ def _rewritten(path: Path, change: Any) -> str:
     (lambda m: m.update(policy_class="torch.nn:Module"), "not a stable-baselines3 policy"),
     (lambda m: m["arguments"].update(activation_fn={"__class__": "os:system"}), "unknown class"),
     (lambda m: m["arguments"].update(net_arch={"pi": [10**9], "vf": [64]}), "exceeds"),
-    (lambda m: m.update(format=1), "not a format-2 policy"),
+    (lambda m: m.update(format=1), "not a format-2/3 policy"),
     (lambda m: m.update(robot="{}"), "damaged"),
+    (lambda m: m.update(normalization={"clip": 10.0}), "clip and epsilon"),
+    (lambda m: m.update(format=2), "neither parameters, statistics nor space bounds"),
 ])
 def test_a_policy_file_naming_dangerous_things_is_refused(
         tmp_path: Path, change: Any, message: str) -> None:
     from evolution.learning import PolicyFileError, load_policy, save_policy
 
-    agent = _agent()
+    agent = _agent(normalized=True)
     path = tmp_path / "p.safetensors"
     save_policy(agent, path)
     sha256 = _rewritten(path, change)

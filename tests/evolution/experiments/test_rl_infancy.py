@@ -164,6 +164,44 @@ def test_a_bad_policy_file_is_one_line_naming_it_and_changes_nothing(
     assert dump(out / "results.sqlite") == before
 
 
+@pytest.mark.parametrize("scenario", ["scenario1", "scenario3"])
+def test_policies_that_observe_the_hinges_drive_their_robots_offline_and_online(
+        tmp_path: Path, scenario: str) -> None:
+    """With ``learning.proprioception = true`` the policies observe hinge angles and speeds:
+    the offline evaluation and the online world give them those observations, and a resume
+    reloads them as they were."""
+    from evolution.experiments.online_world import PopulationWorld
+    from evolution.learning import load_policy
+
+    config = online_config() if scenario == "scenario3" else offline_config()
+    assert config.learning is not None
+    config = preset(scenario, runs=1, births=6, population_size=4, min_alive=2, max_alive=8,
+                    insertion=0.5, evaluation_time=1.0, fertile_age=1.0,
+                    conception_interval=0.5, checkpoint_interval=1,
+                    learning={**config.learning, "proprioception": True})
+    out = tmp_path / "run"
+    experiments.run(config, out, evaluator=SERIAL)
+    with Store.open(out / "results.sqlite") as store:
+        records = store.learning(0)
+        robots = {r.robot_id: r.robot() for r in store.robots(0, [r.robot_id for r in records])}
+        failures = store.failures(0)
+    assert records
+    # Every policy-driven evaluation ran (a wrong observation would be a failure): only robots
+    # without a hinge fail, in their infancy (and online, conceptions without mature parents).
+    assert all("no active hinge" in f.detail if f.kind == "learner" else f.kind == "no-parents"
+               for f in failures)
+    for record in records:
+        assert record.policy is not None
+        ref = json.loads(record.policy)
+        agent = load_policy(out / ref["file"], robots[record.robot_id], ref["digest"])
+        assert agent.proprioception and agent.normalization is not None
+    world = PopulationWorld(config, 0)
+    try:  # the online world observes the hinges exactly when the run's policies do
+        assert world._env.proprioception
+    finally:
+        world.close()
+
+
 def test_report_shows_inborn_vs_learned(offline_ref: Path) -> None:
     from evolution.reporting import find_experiments, summary_rows
 
@@ -182,7 +220,8 @@ def test_report_shows_inborn_vs_learned(offline_ref: Path) -> None:
     ({"learner": "cma-es", "budget": 21}, "at least 63 s"),
     ({"learner": "random-search", "budget": 13}, "at least 14 s"),
     ({**LEARNING, "budget": 3.2}, "at least 3.26667 s"),
-    ({"learner": "sb3", "budget": 60}, "at least 77.2667 s"),  # PPO's 2048-step rollout
+    # PPO's rollout: 128 steps in each of 2 envs (revolve_env.rl.ppo_settings), + 2 x 4.5 s
+    ({"learner": "sb3", "budget": 13}, "at least 13.2667 s"),
 ])
 def test_a_budget_too_small_for_one_learning_step_is_a_config_error(
         learning: dict[str, Any], needs: str) -> None:

@@ -37,7 +37,8 @@ def drive_in_population(agent: PolicyAgent | None, robot: Robot, insertion: floa
 
     steps = round((insertion + seconds) / control_period)
     env = PopulationEnv(insertion_time=insertion, fitness_window=seconds, max_steps=steps,
-                        control_period=control_period)
+                        control_period=control_period,
+                        proprioception=agent is not None and agent.proprioception)
     entry = {"robot": robot, "position": (0.0, 0.0), "yaw": 0.0,
              "controlled_by": "brain" if agent is None else "agent"}
     try:
@@ -54,12 +55,14 @@ def drive_in_population(agent: PolicyAgent | None, robot: Robot, insertion: floa
         env.close()
 
 
+@pytest.mark.parametrize("proprioception", [False, True])
 @pytest.mark.parametrize("name", ["gecko", "sensor_crawler"])
 def test_zero_modulation_agent_drives_exactly_like_the_brain_in_the_population_env(
-        name: str) -> None:
+        name: str, proprioception: bool) -> None:
     robot = EXAMPLES[name]()
     n = len(robot.neurons_of(Layer.OUTPUT))
-    agent = PolicyAgent(ZeroPolicy(2 * n), robot, "modulate", DT)
+    agent = PolicyAgent(ZeroPolicy(2 * n), robot, "modulate", DT, proprioception=proprioception)
+    assert agent.n_observations == len(robot.neurons_of(Layer.INPUT)) + 2 * n * proprioception
     by_brain = drive_in_population(None, robot, 0.5, 2.0, DT)
     by_agent = drive_in_population(agent, robot, 0.5, 2.0, DT)
     assert by_agent["controlled_by"] == "agent"
@@ -102,6 +105,11 @@ def test_ppo_trains_and_its_policy_drives_the_robot_in_the_population_env(
     assert result.robot == robot  # the network is untouched; the policy is the learned part
     agent = result.policy
     assert isinstance(agent, PolicyAgent) and agent.action == "modulate"
+    # It trained on normalised observations (revolve_env.rl's env) and keeps their statistics,
+    # frozen, so that it sees in the population env what it saw in training.
+    assert agent.normalization is not None
+    assert agent.normalization.mean.shape == (len(robot.neurons_of(Layer.INPUT)),)
+    assert agent.normalization.mean[2] == pytest.approx(9.81, abs=1.0)  # gravity, on average
     # The trained policy changes the gait (it is not the zero action any more).
     obs = np.zeros(len(robot.neurons_of(Layer.INPUT)))
     obs[2] = 9.81
@@ -113,6 +121,26 @@ def test_ppo_trains_and_its_policy_drives_the_robot_in_the_population_env(
     # It survives pickling (to reach the worker process that runs the world).
     clone = pickle.loads(pickle.dumps(agent))
     assert drive_in_population(clone, robot, 0.25, 1.0, DT)["fitness"] == info["fitness"]
+
+
+def test_a_proprioceptive_policy_drives_the_robot_where_it_learned(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """With proprioception the policy observes the sensors, then the hinge angles and speeds,
+    in training (Locomotion-v1), in the learner's evaluation and in the population env."""
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    robot = EXAMPLES["spider"]()
+    learner = SB3Learner("PPO", action="targets", n_envs=2, vec_env="dummy", insertion=0.25,
+                         seconds=1.0, control_period=DT, proprioception=True,
+                         algorithm_kwargs={"n_steps": 40, "batch_size": 40, "n_epochs": 2})
+    result = learner.learn(robot, learner.min_budget, np.random.default_rng(1))
+    agent = result.policy
+    assert isinstance(agent, PolicyAgent) and agent.proprioception
+    assert agent.n_observations == 6 + 2 * 8
+    assert agent.normalization is not None and agent.normalization.mean.shape == (22,)
+    with pytest.raises(ValueError, match=r"shape \(22,\)"):
+        agent.act(np.zeros(6))  # the sensors alone are not what it observes
+    info = drive_in_population(agent, robot, 0.25, 1.0, DT)
+    assert info["fitness"] == result.best_fitness
 
 
 def test_sb3_learners_cannot_be_lamarckian() -> None:
@@ -142,6 +170,10 @@ def test_sb3_budgets_count_every_simulated_second() -> None:
     assert sac.min_budget == pytest.approx(31 / 60 + 9.0)
     with pytest.raises(ValueError, match="no algorithm"):
         SB3Learner("NotAnAlgorithm")
+    with pytest.raises(ValueError, match="normalize must be true or false"):
+        SB3Learner("PPO", normalize="yes")  # type: ignore[arg-type]
+    # PPO starts from the benchmark's settings (revolve_env.rl.ppo_settings): 128 steps per env.
+    assert SB3Learner("PPO", n_envs=2).min_budget == pytest.approx(2 * 128 / 60 + 9.0)
 
 
 @pytest.mark.slow

@@ -1,0 +1,120 @@
+"""The single-robot env's Gymnasium ids, their registration, and the episode-length rule.
+
+``import revolve_env`` registers (with string entry points, so no physics engine is imported):
+
+* ``revolve_env/Locomotion-v1``: :class:`~revolve_env.envs.LocomotionEnv` with
+  ``proprioception=True`` (RoboGen's sensors, then hinge angles and velocities): the one to use;
+* ``revolve_env/Locomotion-v0``: RoboGen's sensors only, kept for code written against it
+  (Gymnasium warns that it is out of date when it is made).
+
+Both default to the spider (``gym.make("revolve_env/Locomotion-v1")``); ``robot=`` takes a
+:class:`~revolve_env.body.robot.Robot`, an example name or a robot JSON file
+(:func:`revolve_env.body.examples.resolve_robot`).
+
+Episode length: the env truncates itself after ``insertion_time + evaluation_time`` seconds,
+:func:`episode_steps` control periods. The registered ``max_episode_steps`` is that of the
+default times, :data:`DEFAULT_MAX_EPISODE_STEPS` (3 s + 12 s at 60 Hz = 900 steps), so that
+``env.spec.max_episode_steps`` is the episode's length, and Gymnasium's ``TimeLimit`` (which
+``gym.make`` wraps around every env with a ``max_episode_steps``) never ends an episode the env
+would go on with:
+
+* shorter times (e.g. ``evaluation_time=2.5``): the env truncates itself first; the limit is not
+  reached (``spec.max_episode_steps`` is then an upper bound; pass
+  ``max_episode_steps=episode_steps(...)[1]`` to ``gym.make`` to make it exact);
+* longer times, or a smaller ``max_episode_steps`` given to ``gym.make``: the ``TimeLimit`` would
+  cut the episode (a fitness over a shorter span, or 0 when it ends within the insertion phase,
+  which is never scored). ``gym.make`` refuses that with a one-line ``ValueError`` naming the
+  ``max_episode_steps`` to pass instead (the check is :class:`TimeLimitFits`, a wrapper the
+  registration adds after the ``TimeLimit``); ``max_episode_steps=-1`` removes the limit.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium
+from gymnasium.envs.registration import WrapperSpec
+
+__all__ = [
+    "DEFAULT_CONTROL_PERIOD",
+    "DEFAULT_EVALUATION_TIME",
+    "DEFAULT_INSERTION_TIME",
+    "DEFAULT_MAX_EPISODE_STEPS",
+    "DEFAULT_ROBOT",
+    "LOCOMOTION_ID",
+    "LOCOMOTION_V1_ID",
+    "TimeLimitFits",
+    "episode_steps",
+    "register_envs",
+]
+
+LOCOMOTION_ID = "revolve_env/Locomotion-v0"
+"""Gymnasium id of :class:`~revolve_env.envs.LocomotionEnv` observing RoboGen's sensors only."""
+LOCOMOTION_V1_ID = "revolve_env/Locomotion-v1"
+"""Gymnasium id of :class:`~revolve_env.envs.LocomotionEnv` with ``proprioception=True``."""
+
+DEFAULT_ROBOT = "spider"
+"""The robot of ``gym.make`` without ``robot=``: an example name."""
+DEFAULT_INSERTION_TIME = 3.0
+"""The paper's settling phase before the evaluation, not scored. Seconds."""
+DEFAULT_EVALUATION_TIME = 12.0
+"""The paper's evaluation time (and fitness window). Seconds."""
+DEFAULT_CONTROL_PERIOD = 1.0 / 60.0
+"""Time per env step of the default :class:`~revolve_env.world.WorldConfig`. Seconds. A copy,
+because importing ``revolve_env`` (which registers the envs) must not import the world package;
+``tests/test_registration.py`` holds the two equal."""
+
+
+def episode_steps(insertion_time: float, evaluation_time: float,
+                  control_period: float) -> tuple[int, int]:
+    """``(insertion steps, steps of the whole episode)`` of the single-robot env.
+
+    Args:
+        insertion_time: Settling phase. Seconds.
+        evaluation_time: Scored phase. Seconds.
+        control_period: Time per env step. Seconds.
+    """
+    insertion = round(insertion_time / control_period)
+    return insertion, insertion + round(evaluation_time / control_period)
+
+
+DEFAULT_MAX_EPISODE_STEPS = episode_steps(DEFAULT_INSERTION_TIME, DEFAULT_EVALUATION_TIME,
+                                          DEFAULT_CONTROL_PERIOD)[1]
+"""Steps of an episode with the default times (900): the registered ``max_episode_steps``."""
+
+
+class TimeLimitFits(gymnasium.Wrapper[Any, Any, Any, Any],
+                    gymnasium.utils.RecordConstructorArgs):
+    """Refuses a ``TimeLimit`` that would end the single-robot env's episodes early.
+
+    Added by the registration after ``gym.make``'s ``TimeLimit``; at construction it compares the
+    limit (``env.spec.max_episode_steps``) with the env's own episode (:func:`episode_steps`) and
+    raises ``ValueError`` when the limit is shorter; otherwise it passes everything through.
+    """
+
+    def __init__(self, env: gymnasium.Env[Any, Any]) -> None:
+        gymnasium.utils.RecordConstructorArgs.__init__(self)
+        gymnasium.Wrapper.__init__(self, env)
+        limit = env.spec.max_episode_steps if env.spec is not None else None
+        inner: Any = env.unwrapped
+        dt = float(inner.config.control_period)
+        insertion, total = episode_steps(inner.insertion_time, inner.evaluation_time, dt)
+        if limit is None or limit >= total:
+            return
+        what = (f"ends every episode within the {insertion}-step insertion phase, which is not "
+                "scored (every return would be 0)" if limit <= insertion else
+                f"cuts the {total}-step episode short")
+        raise ValueError(
+            f"max_episode_steps={limit} {what}: an episode is {inner.insertion_time:g} s + "
+            f"{inner.evaluation_time:g} s at {dt:.4g} s per step; pass max_episode_steps={total} "
+            "(or -1), or choose shorter insertion_time/evaluation_time")
+
+
+def register_envs() -> None:
+    """Register ``Locomotion-v0`` and ``-v1`` with Gymnasium (once; no physics is imported)."""
+    check = WrapperSpec("TimeLimitFits", "revolve_env.registration:TimeLimitFits", {})
+    for env_id, kwargs in ((LOCOMOTION_ID, {}), (LOCOMOTION_V1_ID, {"proprioception": True})):
+        if env_id not in gymnasium.registry:
+            gymnasium.register(id=env_id, entry_point="revolve_env.envs.locomotion:LocomotionEnv",
+                               kwargs=kwargs, max_episode_steps=DEFAULT_MAX_EPISODE_STEPS,
+                               additional_wrappers=(check,))
