@@ -191,7 +191,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     | task               | None      | what the robot is rewarded for: a task, a name or a table  |
     |                    |           | (:func:`~revolve_env.tasks.make_task`); None: Locomotion   |
     | terrain            | None      | the ground: "flat", "rugged", "crater", "bowl", a table or |
-    |                    |           | a spec (:mod:`~revolve_env.terrain`); None:          |
+    |                    |           | a spec (:mod:`~revolve_env.terrain`); None:                |
     |                    |           | ``world_config``'s (flat)                                  |
     """
 

@@ -79,3 +79,19 @@ def test_a_run_on_a_terrain_stores_it_and_resumes_to_the_same_numbers(tmp_path: 
     ref = dump(tmp_path / "ref" / "results.sqlite")
     assert dump(tmp_path / "killed" / "results.sqlite") == ref
     assert dump(tmp_path / "flat" / "results.sqlite") != ref
+
+
+def test_infants_learn_on_the_run_s_terrain() -> None:
+    """The Training Center of a run on a terrain evaluates candidates (CMA-ES) and trains and
+    evaluates policies (SB3) on it."""
+    for learning in ({"learner": "cma-es", "budget": 35.0, "popsize": 4},
+                     {"learner": "sb3", "budget": 60.0}):
+        center = load_config("quick", {"world": {"terrain": RUGGED},
+                                       "learning": learning}).training_center()
+        assert center is not None
+        learner: Any = center.learner
+        ground = learner.terrain if learning["learner"] == "sb3" else learner.evaluation.terrain
+        assert ground == Rugged(height=0.03, seed=4)
+    center = load_config("quick", {"learning": {"learner": "cma-es", "budget": 35.0,
+                                                "popsize": 4}}).training_center()
+    assert center is not None and center.learner.evaluation.terrain == Flat()  # type: ignore[attr-defined]
