@@ -24,14 +24,18 @@ same model, state and controls).
    divided by the measured speed-ups, offline (``evaluate``, from ``rank``) and online (the
    crowd); printed with ``rank``.
 6. ``memory``: resident memory of one world after 300 and after ``--births`` births (10 alive,
-   each living 0.1 s), each engine in a fresh subprocess.
+   each living 0.1 s, each newborn a new robot: the child of two living ones, as online), each
+   engine in a fresh subprocess.
 7. ``robust``: ``--robust-robots`` random robots evaluated in MuJoCo alone: crashes, NaN fitness
-   and blow-ups counted; and ``crowded``: ``--crowd-minutes`` simulated minutes of ``--robots``
-   random robots dropped within 2 m of the origin with no clearance, in MuJoCo: blow-ups counted.
+   and blow-ups counted. ``crowd-hour``: ``--crowd-minutes`` simulated minutes of ``--robots``
+   robots (half walking examples, half random) packed in a 1 m disc with no clearance, each
+   replaced after 60 s or when lost, on each of ``--crowd-engines``: blow-ups per 1,000
+   robot-lives (``--mujoco-integrator before``: MuJoCo with the integrator it used before,
+   ``implicitfast`` with islands, as ``integrator_move.py`` sets it).
 
 Usage: ``python benchmarks/bench_engines.py [--only single evaluate crowd ...] [--seconds 3]
 [--robots 30] [--rank-robots 40] [--births 3000] [--repeats 2] [--robust-robots 2000]
-[--crowd-minutes 5]``.
+[--crowd-minutes 5] [--crowd-engines mujoco pybullet]``.
 """
 
 from __future__ import annotations
@@ -54,7 +58,10 @@ from scipy.stats import spearmanr
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout
 
+from integrator_move import integrator_before
+
 from evolution.config import EvolutionConfig
+from evolution.operators import reproduce
 from evolution.random_robot import random_robot
 from revolve_env import (
     LOCOMOTION_ID,
@@ -69,7 +76,7 @@ from revolve_env.envs.population import PopulationEnv
 from revolve_env.world import World, WorldConfig
 
 ENGINES = ("mujoco", "pybullet")
-SECTIONS = ("single", "evaluate", "offline", "crowd", "rank", "memory", "robust", "crowded")
+SECTIONS = ("single", "evaluate", "offline", "crowd", "rank", "memory", "robust", "crowd-hour")
 _STATE = int(mujoco.mjtState.mjSTATE_INTEGRATION)
 
 
@@ -390,23 +397,46 @@ def robust(n: int) -> None:
           f"{crashes} crashes, {nans} NaN fitness, {blown} blow-ups flagged {reasons}")
 
 
-def crowded_hour(n: int, minutes: float) -> None:
-    robots = random_robots(n, seed=5)
-    env = population_env(engine="mujoco", initial_robots=robots, max_births=n, birth_radius=2.0,
-                         birth_clearance=0.0, max_placement_tries=10_000)
+def crowded_hour(engine: str, n: int, minutes: float, life: float = 60.0) -> None:
+    """``n`` robots packed in a 1 m disc for ``minutes`` simulated minutes: lives and blow-ups.
+
+    Half the robots walk (the spider, gecko and snake examples on their own brains), half are
+    random; all are dropped with no clearance (they land on each other's footprints), and each
+    is replaced by a new draw after ``life`` simulated seconds or when it is lost, so robots
+    are born into the crowd all along.
+    """
+    rng = np.random.default_rng(5)
+    config = EvolutionConfig()
+    walkers = [example(name) for name in ("spider", "gecko", "snake")]
+
+    def draw() -> Robot:
+        if rng.random() < 0.5:
+            return walkers[int(rng.integers(len(walkers)))]
+        return random_robot(rng, config)
+
+    env = population_env(engine=engine, initial_robots=[draw() for _ in range(n)],
+                         max_births=1_000_000, birth_radius=1.0, birth_clearance=0.0,
+                         max_placement_tries=50)
     env.reset(seed=0)
+    born = dict.fromkeys(env.agents, 0.0)
     ticks = round(minutes * 60 / env.config.control_period)
+    lives, blown = n, []
     cpu = time.process_time()
-    blown: list[str] = []
     for _ in range(ticks):
         _, _, terminations, _, infos = env.step({})
-        blown += [f"{a}: {infos[a]['blow_up']}" for a, t in terminations.items() if t]
+        blown += [f"{a}: {infos[a]['blow_up']}" for a, t in terminations.items()
+                  if t and infos[a].get("blow_up")]
+        for agent in [a for a in env.agents if env.time - born[a] > life]:
+            env.remove_robot(agent)
+        while len(env.agents) < n:
+            born[env.add_robot(draw())] = env.time
+            lives += 1
     cpu = time.process_time() - cpu
     env.close()
-    print(f"{n} random robots in a 2 m disc (footprints touching), {minutes:g} simulated min in "
-          f"MuJoCo "
-          f"({cpu:.0f} CPU s, {minutes * 60 / cpu:.1f}x real time): {len(blown)} blow-ups "
-          + "; ".join(blown[:3]))
+    print(f"{n} robots packed in a 1 m disc (half walking), {minutes:g} simulated min in "
+          f"{engine} ({cpu:.0f} CPU s, {minutes * 60 / cpu:.1f}x real time): {lives} robot-lives "
+          f"of up to {life:g} s, {len(blown)} blow-ups ({1000 * len(blown) / lives:.1f} per 1,000 "
+          "robot-lives) " + "; ".join(blown[:3]))
 
 
 # -- 6. memory ---------------------------------------------------------------------------------
@@ -416,15 +446,22 @@ def rss_mb() -> float:
 
 
 def memory_child(engine: str, births: int) -> None:
-    robots = random_robots(40, seed=3)
+    """Births of new robots, as in an online run: each the child of two living robots."""
+    rng = np.random.default_rng(3)
+    config = EvolutionConfig()
     marks = {}
     with World(WorldConfig(engine=engine)) as world:
-        alive: list[int] = []
+        alive: list[tuple[int, Robot]] = []
         for b in range(births):
-            alive.append(world.add_robot(robots[b % len(robots)],
-                                         position=(2.0 * (b % 10), 0.0)))
+            if len(alive) < 2:
+                robot = random_robot(rng, config)
+            else:
+                i, j = rng.choice(len(alive), 2, replace=False)
+                child = reproduce(alive[i][1], alive[j][1], rng, config).child
+                robot = child if child is not None else random_robot(rng, config)
+            alive.append((world.add_robot(robot, position=(2.0 * (b % 10), 0.0)), robot))
             if len(alive) > 10:
-                world.remove_robot(alive.pop(0))
+                world.remove_robot(alive.pop(0)[0])
             world.step(6)
             if b + 1 in (300, births):
                 marks[b + 1] = rss_mb()
@@ -441,7 +478,8 @@ def memory(births: int) -> None:
         out[engine] = (float(marks["300"]), float(marks[str(births)]), time.perf_counter() - t)
     for engine, (a, b, wall) in out.items():
         print(f"memory {engine}: RSS {a:.0f} MB after 300 births, {b:.0f} MB after {births} "
-              f"(+{b - a:.0f} MB; 10 alive, 0.1 s each; {wall:.0f} s wall)")
+              f"(+{b - a:.0f} MB, {(b - a) * 1024 / (births - 300):.0f} KB per birth; 10 alive, "
+              f"0.1 s each, every newborn the child of two living robots; {wall:.0f} s wall)")
 
 
 def main() -> None:
@@ -459,6 +497,9 @@ def main() -> None:
                         help="the study's time with pybullet, from bench_experiments.py")
     parser.add_argument("--robust-robots", type=int, default=2000)
     parser.add_argument("--crowd-minutes", type=float, default=5.0)
+    parser.add_argument("--crowd-engines", nargs="+", choices=ENGINES, default=["mujoco"])
+    parser.add_argument("--mujoco-integrator", choices=("now", "before"), default="now",
+                        help="crowd-hour: MuJoCo's integrator as now (discrete) or as before")
     parser.add_argument("--memory-child", nargs=2, metavar=("ENGINE", "BIRTHS"),
                         help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -490,8 +531,14 @@ def main() -> None:
         memory(args.births)
     if "robust" in only:
         robust(args.robust_robots)
-    if "crowded" in only:
-        crowded_hour(args.robots, args.crowd_minutes)
+    if "crowd-hour" in only:
+        for engine in args.crowd_engines:
+            if engine == "mujoco" and args.mujoco_integrator == "before":
+                with integrator_before():  # implicitfast, islands on (integrator_move.py)
+                    print("MuJoCo as before: implicitfast, constraint islands on")
+                    crowded_hour(engine, args.robots, args.crowd_minutes)
+            else:
+                crowded_hour(engine, args.robots, args.crowd_minutes)
 
 
 if __name__ == "__main__":

@@ -19,6 +19,7 @@ from revolve_env.body.robot import Robot
 from revolve_env.body.validate import Limits, validate
 from revolve_env.brain import BatchController
 from revolve_env.conditions import (
+    IDEAL,
     EvaluationConditions,
     Start,
     add_sensor_noise,
@@ -30,7 +31,7 @@ from revolve_env.terrain import Terrain
 from revolve_env.world import World, WorldConfig
 from revolve_env.world.signals import SignalReader, signal_reader
 
-__all__ = ["EvaluationResult", "evaluate", "evaluate_many", "start_generator"]
+__all__ = ["EvaluationResult", "evaluate", "evaluate_many", "evaluation_mjcf", "start_generator"]
 
 _START_STREAM = 0x57A27
 """Tags the generator of a start, apart from the noise generator of the same seed."""
@@ -340,3 +341,22 @@ def _drop_blown(world: World, brain: BatchController, handles: list[int], nets: 
             world.remove_robot(handles[i])
             brain.remove(nets[i])
     return np.array(keep, dtype=np.intp)
+
+
+def evaluation_mjcf(robot: Robot, seed: int = 0, *, config: WorldConfig | None = None,
+                    limits: Limits | None = None,
+                    conditions: EvaluationConditions = IDEAL) -> str:
+    """MuJoCo's MJCF of the world :func:`evaluate` steps for ``robot`` with these arguments.
+
+    The robot at its start (the conditions' heading and jitter drawn for ``seed``), dropped as an
+    evaluation drops it, in MuJoCo's scene (:meth:`revolve_env.world.World.to_mjcf`).
+
+    Raises:
+        RobotError: the robot is invalid.
+        EngineUnavailableError: the ``mujoco`` package is not installed.
+    """
+    validate(robot, limits)
+    start = conditions.start(start_generator(seed))
+    with World((config if config is not None else WorldConfig()).with_engine("mujoco")) as world:
+        world.add_robot(robot, start.position, start.yaw)
+        return world.to_mjcf()

@@ -232,6 +232,10 @@ def _cmd_export(args: argparse.Namespace) -> int:
         text = to_urdf(robot)
     elif args.format == "sdf":
         text = to_sdf(robot)
+    elif args.format == "mjcf":
+        from revolve_env.evaluation import evaluation_mjcf  # loads MuJoCo
+
+        text = evaluation_mjcf(robot)
     elif args.format == "bom":
         text = bill_of_materials(robot).to_text()
     else:
@@ -421,12 +425,15 @@ def _add_report(sub: _Subparsers) -> None:
 
 def _add_export(sub: _Subparsers) -> None:
     p = sub.add_parser(
-        "export", help="export a robot as URDF, SDF or bill of materials",
-        description="Write a robot as URDF or SDF, or its bill of materials (bom: a table; "
-                    "bom-json: JSON). The robot is given as for `revolve show`.",
+        "export", help="export a robot as URDF, SDF, MuJoCo MJCF or bill of materials",
+        description="Write a robot as URDF or SDF, as MuJoCo MJCF (mjcf: the very model "
+                    "revolve-env steps on MuJoCo, ground and settings included, placed where "
+                    "an evaluation starts it; needs the mujoco package), or its bill of "
+                    "materials (bom: a table; bom-json: JSON). The robot is given as for "
+                    "`revolve show`.",
     )
     robot_arguments(p)
-    p.add_argument("--format", required=True, choices=("urdf", "sdf", "bom", "bom-json"))
+    p.add_argument("--format", required=True, choices=("urdf", "sdf", "mjcf", "bom", "bom-json"))
     p.add_argument("--out", metavar="FILE", help="file to write")
     p.set_defaults(handler=_cmd_export)
 

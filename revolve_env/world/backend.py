@@ -15,7 +15,8 @@ through a handful of batched primitives (one call per control period for all rob
 * :meth:`PhysicsBackend.render`,
 * :meth:`PhysicsBackend.snapshot` / :meth:`PhysicsBackend.restore`: the engine's whole state, for
   an exact continuation in a scene rebuilt from the same robots (where
-  :attr:`PhysicsBackend.exact_restore` says the engine allows it).
+  :attr:`PhysicsBackend.exact_restore` says the engine allows it),
+* :meth:`PhysicsBackend.mjcf`: the scene as MuJoCo's MJCF (:func:`scene_mjcf`, for any engine).
 
 Engines are chosen by name (``WorldConfig.engine``): :data:`ENGINES` lists them and
 :func:`make_backend` imports the chosen one lazily, so a missing optional engine only matters
@@ -42,7 +43,7 @@ from revolve_env.world.config import (
 from revolve_env.world.model import RobotModel
 
 __all__ = ["ENGINES", "BodyStates", "EngineUnavailableError", "PhysicsBackend", "PlacedModel",
-           "SnapshotMismatchError", "make_backend", "require_engine"]
+           "SnapshotMismatchError", "make_backend", "require_engine", "scene_mjcf"]
 
 
 
@@ -179,6 +180,14 @@ class PhysicsBackend(Protocol):
         """
         ...
 
+    def mjcf(self) -> str:
+        """The scene as placed (the robots where they were added) as MuJoCo's MJCF text.
+
+        Raises:
+            EngineUnavailableError: the ``mujoco`` package is not installed.
+        """
+        ...
+
     def restore(self, robots: Sequence[PlacedModel], state: dict[str, Any]) -> None:
         """Replace everything by a scene of ``robots`` in the state of a :meth:`snapshot`.
 
@@ -215,3 +224,19 @@ def make_backend(config: WorldConfig, *, gui: bool = False,
     module, cls = _ISOLATED[config.engine] if isolated else _REGISTRY[config.engine][:2]
     backend: PhysicsBackend = getattr(importlib.import_module(module), cls)(config, gui=gui)
     return backend
+
+
+def scene_mjcf(config: WorldConfig, robots: Sequence[PlacedModel]) -> str:
+    """MJCF of the MuJoCo scene of ``config`` holding ``robots`` as placed, in order.
+
+    What a MuJoCo world compiles when these robots are added to it in this order; the MuJoCo
+    model builder (:func:`revolve_env.world.mujoco_scene.scene_mjcf`) is imported here, so that a
+    world of another engine can be exported too.
+
+    Raises:
+        EngineUnavailableError: the ``mujoco`` package is not installed.
+    """
+    require_engine("mujoco")
+    module = importlib.import_module("revolve_env.world.mujoco_scene")
+    text: str = module.scene_mjcf(config, robots)
+    return text

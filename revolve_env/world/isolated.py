@@ -167,6 +167,15 @@ class IsolatedBackend:
         """
         raise NotImplementedError("an isolated world (a scene per robot) has no snapshots")
 
+    def mjcf(self) -> str:
+        """Not available: no one model holds the robots (each scene's is that of a world of one).
+
+        Raises:
+            NotImplementedError: always.
+        """
+        raise NotImplementedError("an isolated world (a scene per robot) is no one MJCF scene; "
+                                  "export a world holding the robot alone")
+
     def restore(self, robots: Sequence[PlacedModel], state: dict[str, Any]) -> None:
         """Not available (see :meth:`snapshot`).
 

@@ -1,46 +1,78 @@
-"""The MuJoCo backend (with mujoco_scenes and mujoco_terrain, the modules that import ``mujoco``).
+"""The MuJoCo backend (it, ``mujoco_scene``, ``_scenes`` and ``_terrain`` import ``mujoco``).
 
 The scene is an :class:`mujoco.MjSpec` that one :class:`MujocoBackend` owns with the compiled
 ``MjModel``/``MjData`` pair. Each robot is built from the same engine-neutral
 :class:`~revolve_env.world.model.RobotModel` as the pybullet backend: one body per link (same
 frames), explicit masses, centres of mass and principal inertias, the same collision boxes, a
 free joint at the root, unlimited hinges at the hinge anchors, welded touch-sensor halves (bodies
-without a joint) and one velocity servo per active hinge.
+without a joint) and one velocity servo per active hinge (:mod:`~revolve_env.world.mujoco_scene`
+builds them, one spec per robot, and says how a robot is kept from colliding with itself).
 
-Births and deaths edit the spec (``MjSpec.worldbody.add_body`` / ``MjSpec.delete``) and compile
-it again; every surviving robot's integration state (``qpos``, ``qvel``, ``qacc_warmstart``) is
-copied, slice by slice, from the old ``MjData`` to the new one (a newborn is appended after every
-existing body). The survivors' state is kept bit for bit, and their trajectories do not depend on
-where the newborn is (tested: a birth 0.8 m away and one 40 m away give identical survivors);
-against a world with no birth at all they differ by about 1e-13 m, the summation order of a
-collision pass and a constraint solve that now hold more bodies.
+Births append the newborn's spec to the scene's and compile it again; deaths rebuild the scene's
+spec from the survivors' specs, compiled when the scene is next stepped or its contacts read, so
+that a cull of many robots compiles once (the survivors are read where they are in the previous
+model meanwhile: the same state). Either way every surviving robot's integration state (``qpos``,
+``qvel``, ``qacc_warmstart``) is copied, slice by slice, from the old ``MjData`` to the new one (a
+newborn is appended after every existing body), and a robot's addresses in the new model come from
+its layout (:class:`~revolve_env.world.mujoco_scene.RobotLayout`), not from name look-ups. The
+survivors' state is kept bit for bit, and the compiled model is the one a scene of the robots
+present compiles to, bit for bit (snapshots check it). Where the newborn is moves them by 1e-13 m
+(a birth 0.8 m away against one 40 m away, the order of the collision pass), and its presence by
+2e-7 m within 1.5 s (the solver converges over more bodies; with the integrator and islands used
+before, see below: not at all, and 1e-13 m). Measured by ``benchmarks/bench_births.py`` in a world
+of 30 random robots: a birth costs 9-12 ms of CPU (before: 10-14 ms), a death with its compile
+11-14 ms (before 17-96 ms: hundreds of ``MjSpec.delete`` calls), a cull of 10 robots 18 ms (before
+2 s). The floor is MuJoCo's compile of the whole scene, 5.5-6 ms at 30 robots and growing with the
+square of the scene's size (half of it is ``mj_setConst``'s inverse weight of every body, a solve
+over every degree of freedom each).
 
 Settings, chosen by measurement (the five example robots over 3 + 12 s on their own brains,
 fitness ``v + 5 s`` in metres; pybullet gives spider 10.2, gecko 8.9, snake 10.0, sensor crawler
 0.7, bar walker 0.6):
 
-* Integrator ``implicitfast`` at ``config.timestep`` (1/240 s = 4.2 ms by default, within the
-  2-5 ms where MuJoCo is both fast and stable here). Explicit ``Euler`` at the same step: the
-  snake blew up and the spider fell from 11 to 3.8. 1/120 s: the snake blew up. 1/480 s: no
-  better gaits at twice the cost.
+* Integrator ``discrete`` at ``config.timestep`` (1/240 s = 4.2 ms by default), the one that
+  solves the constraints in the same metric as the implicit velocity update (``M + h D``: the
+  mass matrix plus the servos' velocity gain times the step). ``implicitfast``, used before,
+  solves the contacts with ``M`` and then integrates with ``M + h D``; on a servo's hinge
+  ``h D`` (0.2 N m s/rad x 4.2 ms = 8e-4 kg m^2) is eight times the gearbox armature, so a
+  contact impulse between two robots' light parts is applied to their hinges with a fraction of
+  its planned effect, the parts go on interpenetrating (3 mm, then 7 mm a step later, 200 N) and
+  the robots are flung: the online world lost robots in pairs and triples at one instant (core
+  speeds 12-430 m/s, spins 200-300 rad/s). A stress crowd (30 walking example robots packed in
+  a 1 m disc, each replaced after 60 s or when lost; three 3-minute runs) lost 18 robots in 288
+  lives with ``implicitfast``, none in 270 with ``discrete``. What did not help there: softer
+  robot-robot contacts (a 0.02 s time constant: 7 of 7 lost again in the same run), an elliptic
+  cone (7), frictionless robot-robot contacts (32), a 2 mm contact margin (22), a 1e-3 kg m^2
+  armature (9), half the timestep (9, at twice the cost); explicit ``Euler`` with a 1e-3
+  armature lost none but ranked robots further from pybullet (Spearman rho 0.65 on 200 random
+  robots). With ``discrete`` the examples score spider 10.3, gecko 7.8, snake 10.3, sensor
+  crawler 2.2, bar walker 1.5 (``implicitfast``: 10.2, 7.5, 9.8, 2.3, 1.4) and rho is 0.73
+  (0.745). It costs 30 % more per physics step for one robot (17 against 13 microseconds),
+  2 % more for 30 robots in a crowd and 12 % for 30 robots spread out. Constraint islands are
+  disabled (``mjDSBL_ISLAND``): with them ``discrete`` cost 28 % more in the crowd, and they no
+  longer kept robots' solves apart (a robot frozen after a blow-up moved a distant one by
+  1e-17 m); without them a birth moves the others by 2e-7 m within 1.5 s (1e-13 m before), the
+  solver converging over more bodies. 1/120 s: the snake fell from 10.3 to 5.6 and rho to 0.61.
 * The servo: a velocity actuator, ``force = kv * (v_target - qvel)`` clipped to the torque
-  limit (see :data:`SERVO_KV`), on hinges with a gearbox armature (see :data:`HINGE_ARMATURE`).
+  limit (see :data:`~revolve_env.world.mujoco_scene.SERVO_KV`), on hinges with a gearbox armature
+  (see :data:`~revolve_env.world.mujoco_scene.HINGE_ARMATURE`).
   With kv = 0.2, armature 1e-4 and the contacts below the examples score spider 10.2, gecko 7.2,
   snake 9.8, sensor crawler 2.3, bar walker 1.4 (straight displacement 1.62, 1.04, 1.60, 0.33,
-  0.17 m); a commanded hinge reaches 0.86x its top speed within one control period and settles
-  on its target with no error. kv 0.5 or 1.0 gave the same rank correlation with pybullet
-  (0.73) and weaker gaits.
+  0.17 m; ``implicitfast``); a commanded hinge reaches 0.86x its top speed within one control
+  period and settles on its target with no error. kv 0.5 or 1.0 gave the same rank correlation
+  with pybullet (0.73) and weaker gaits.
 * Solver: Newton (MuJoCo's default) converges in 2-3 iterations per step. For 30 random robots
   in one world (about 170 contacts) a physics step took 0.30 ms; CG 0.48 ms, an elliptic cone
   0.36-0.40 ms, tolerance 1e-5 or 5 iterations no faster. Making and solving the constraints
   is about 70 % of a step, collision detection 11 %.
-* Contacts: stiff (time constant :data:`CONTACT_STEPS` physics steps, see there; MuJoCo's
-  default 0.02 s let the light parts sink and slip), pyramidal cone (an elliptic cone with
-  impratio 10, or 3 noslip iterations, ranked robots no closer to pybullet), condim 3 (sliding
-  friction only, as in pybullet), the ground's friction on robot-ground contacts
-  (``config.friction``) and 1.0 between robots, as in the pybullet backend. A robot never
-  collides with itself (every pair of its bodies is excluded). Hinges have no limits (as in
-  pybullet: the servo's target range is the limit).
+* Contacts: stiff (time constant :data:`~revolve_env.world.mujoco_scene.CONTACT_STEPS` physics
+  steps, see there; MuJoCo's default 0.02 s let the light parts sink and slip), pyramidal cone
+  (an elliptic cone with impratio 10, or 3 noslip iterations, ranked robots no closer to
+  pybullet), condim 3 (sliding friction only, as in pybullet), the ground's friction on
+  robot-ground contacts (``config.friction``) and 1.0 between robots, as in the pybullet
+  backend. A robot never collides with itself (collision bits, see
+  :mod:`~revolve_env.world.mujoco_scene`). Hinges have no limits (as in pybullet: the servo's
+  target range is the limit).
 * Blow-ups: ``mjDSBL_AUTORESET`` is set, since MuJoCo would otherwise reset the *whole* scene
   when one robot's accelerations became NaN. MuJoCo's constraint solver spreads a NaN to every
   robot within the step, so a control period that ends non-finite is replayed one physics step
@@ -73,34 +105,13 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from revolve_env.world._rotations import matrix_to_quat
+from revolve_env.world import mujoco_scene as scene
 from revolve_env.world.backend import BodyStates, PlacedModel, SnapshotMismatchError
 from revolve_env.world.config import WorldConfig
 from revolve_env.world.model import RobotModel
-from revolve_env.world.mujoco_terrain import add_ground
+from revolve_env.world.mujoco_scene import SERVO_KV, RobotLayout, robot_layout
 
 __all__ = ["SERVO_KV", "MujocoBackend"]
-
-#: Velocity gain of the servo actuators. N m s/rad. The servo pushes with
-#: ``SERVO_KV * (v_target - qvel)`` clipped to the torque limit, so it saturates at a speed error of
-#: max_torque / SERVO_KV = 0.9 rad/s: close to pybullet's velocity motor (a constraint that
-#: reaches the speed within the torque limit). Measured on the examples (12 s, see the module
-#: doc): 0.05 lets the servo lag, 1.0 leaves a 3 degree steady-state error and slows every gait.
-SERVO_KV = 0.2
-#: Rotor inertia reflected through each hinge's gearbox (MuJoCo's joint ``armature``). kg m^2.
-#: The order of a hobby servo's (rotor ~5e-9 kg m^2 through a ~150:1 gear train). Without it an
-#: unloaded outer link (1e-6 kg m^2) is flung 370 rad/s per physics step by a saturated servo and
-#: chatters: the snake example blew up (> 200 rad/s) within half a second, the spider's hinges
-#: moved 2.3x their top speed in one control period.
-HINGE_ARMATURE = 1e-4
-#: Contact time constant in physics steps (MuJoCo's ``solref[0]`` = CONTACT_STEPS * timestep,
-#: damping ratio 1): the stiffest MuJoCo integrates safely (it clamps shorter ones to 2 steps).
-#: Measured against pybullet on 200 random robots: Spearman rho of fitness 0.74 with it, 0.69
-#: with MuJoCo's default 0.02 s (which lets the 10-60 g parts sink and slip: the snake example
-#: walked 0.5 m straight instead of pybullet's 1.6 m; with it, 1.6 m).
-CONTACT_STEPS = 2.0
-_ROBOT_FRICTION = 1.0  # between two robots; the ground's friction rules robot-ground contacts
-
 
 _XYZ = np.arange(3)
 _STATE = int(mujoco.mjtState.mjSTATE_INTEGRATION)
@@ -126,23 +137,18 @@ class _Views:
         self.start = np.empty(mujoco.mj_stateSize(model, _SAVED))
 
 
-def _wxyz(m: NDArray[np.float64]) -> list[float]:
-    x, y, z, w = matrix_to_quat(m)
-    return [w, x, y, z]
-
-
 def _all_finite(a: NDArray[np.float64]) -> bool:
     return math.isfinite(float(np.add.reduce(a, axis=None))) or bool(np.isfinite(a).all())
 
 
 @dataclass(eq=False)  # identity: the arrays below have no truth value
 class _Robot:
-    """One robot's spec elements and its place in the compiled model (private)."""
+    """One robot's spec and its place in the compiled model (private)."""
 
     model: RobotModel
-    root: mujoco.MjsBody
-    excludes: list[mujoco.MjsExclude]
-    actuators: list[mujoco.MjsActuator]
+    spec: mujoco.MjSpec  # the robot alone (local names), attached under r<key>/
+    color: int  # its collision bit (mujoco_scene.COLORS: the shared one)
+    layout: RobotLayout
     # refreshed after every compile
     bodies: NDArray[np.intp]  # body id of each model link
     # the robot's qpos (free joint, then hinges in body order) and dofs
@@ -179,27 +185,9 @@ class MujocoBackend:
 
     # -- scene ----------------------------------------------------------------------------------
     def _new_scene(self) -> None:
-        c = self.config
-        # The stiffest contacts MuJoCo keeps stable: a time constant of two physics steps.
-        self._solref = [CONTACT_STEPS * c.timestep, 1.0]
-        spec = mujoco.MjSpec()
-        spec.modelname = "revolve_world"
-        opt = spec.option
-        opt.timestep = c.timestep
-        opt.gravity = [0.0, 0.0, -c.gravity]
-        opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-        opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
-        ground = add_ground(spec, c.terrain)
-        ground.friction = [c.friction, 0.0, 0.0]
-        ground.priority = 1  # its friction rules robot-ground contacts
-        ground.rgba = [0.85, 0.85, 0.8, 1.0]
-        ground.solref = self._solref
-        light = spec.worldbody.add_light()
-        light.pos = [0.0, 0.0, 5.0]
-        light.dir = [0.0, 0.0, -1.0]
-        light.type = mujoco.mjtLightType.mjLIGHT_DIRECTIONAL
-        self._spec = spec
-        self._model = spec.compile()
+        self._spec = scene.scene_spec(self.config)
+        self._deaths_pending = False  # see remove()
+        self._model = self._spec.compile()
         self._data = mujoco.MjData(self._model)
         self._kinematics_fresh = False
         self._touching: NDArray[np.bool_] | None = None
@@ -212,81 +200,41 @@ class MujocoBackend:
         self._read_qpos = np.zeros(0, dtype=np.intp)
         self._read_qvel = np.zeros(0, dtype=np.intp)
         self._cached_views: _Views | None = None
+        self._future: dict[int, int] | None = None  # see link_index()
         self._hinge_qpos = np.zeros(0, dtype=np.intp)
         self._hinge_dofs = np.zeros(0, dtype=np.intp)
-        self._torque = c.max_torque
+        self._torque = self.config.max_torque
 
-    def _build(self, key: int, model: RobotModel, position: tuple[float, float, float],
-               yaw: float) -> _Robot:
-        spec = self._spec
-        p = f"r{key}/"
-        bodies: list[mujoco.MjsBody] = []
-        for i, lk in enumerate(model.links):
-            if i == 0:
-                b = spec.worldbody.add_body()
-                b.pos = list(position)
-                b.quat = [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
-                b.add_freejoint().name = f"{p}root"
-            else:
-                b = bodies[lk.parent].add_body()
-                b.pos = (lk.origin - model.links[lk.parent].origin).tolist()
-                if not lk.fixed:
-                    j = b.add_joint()
-                    j.name = f"{p}j{i}"
-                    j.type = mujoco.mjtJoint.mjJNT_HINGE
-                    j.axis = lk.joint_axis.tolist()
-                    j.limited = mujoco.mjtLimited.mjLIMITED_FALSE
-                    j.armature = HINGE_ARMATURE
-            b.name = f"{p}b{i}"
-            b.explicitinertial = True
-            b.mass = lk.mass
-            b.ipos = lk.com.tolist()
-            b.iquat = _wxyz(lk.inertia_axes)
-            b.inertia = lk.inertia_diagonal.tolist()
-            for k in range(len(lk.box_centers)):
-                g = b.add_geom()
-                g.type = mujoco.mjtGeom.mjGEOM_BOX
-                g.size = lk.box_half_extents[k].tolist()
-                g.pos = lk.box_centers[k].tolist()
-                g.quat = _wxyz(lk.box_rotations[k])
-                g.rgba = [*lk.box_colors[k].tolist(), 1.0]
-                g.friction = [_ROBOT_FRICTION, 0.0, 0.0]
-                g.condim = 3
-                g.solref = self._solref
-            bodies.append(b)
-        excludes = []
-        n = len(model.links)
-        for a in range(n):
-            for b_ in range(a + 1, n):
-                e = spec.add_exclude()
-                e.bodyname1 = f"{p}b{a}"
-                e.bodyname2 = f"{p}b{b_}"
-                excludes.append(e)
-        actuators = []
-        for link in model.active_links:
-            act = spec.add_actuator()
-            act.name = f"{p}a{link}"
-            act.trntype = mujoco.mjtTrn.mjTRN_JOINT
-            act.target = f"{p}j{link}"
-            act.set_to_velocity(kv=SERVO_KV)
-            act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
-            act.forcerange = [-self._torque, self._torque]
-            actuators.append(act)
-        return _Robot(model=model, root=bodies[0], excludes=excludes, actuators=actuators,
-                      bodies=np.zeros(n, dtype=np.intp))
+    def _build(self, model: RobotModel, position: tuple[float, float, float], yaw: float,
+               color: int | None = None) -> _Robot:
+        """A robot's spec, with the lowest free collision bit unless ``color`` is given."""
+        if color is None:
+            taken = {r.color for r in self._robots.values()}
+            color = next((c for c in range(scene.COLORS) if c not in taken), scene.COLORS)
+        spec = scene.robot_spec(model, position, yaw, self.config, color)
+        layout = robot_layout(model)
+        return _Robot(model=model, spec=spec, color=color, layout=layout,
+                      bodies=np.zeros(layout.nbody, dtype=np.intp))
 
-    def _unbuild(self, robot: _Robot) -> None:
-        for act in robot.actuators:
-            self._spec.delete(act)
-        for e in robot.excludes:
-            self._spec.delete(e)
-        self._spec.delete(robot.root)
+    def _rebuild(self) -> None:
+        """A fresh scene spec holding every robot, in order (instead of deleting elements)."""
+        self._spec = scene.scene_spec(self.config)
+        for key, robot in self._robots.items():
+            scene.attach(self._spec, robot.spec, key)
+
+    def _sync(self) -> None:
+        """Compile the scene without the robots removed since the last compile, if any."""
+        if self._deaths_pending:
+            self._rebuild()
+            self._compile()
 
     def _compile(self) -> None:
         """Compile the edited spec; carry every existing robot's state over exactly."""
         old_m, old_d = self._model, self._data
         old = {k: (r.qpos, r.dofs) for k, r in self._robots.items() if r.qpos.stop > 0}
         m = self._spec.compile()  # raises ValueError on a model MuJoCo refuses
+        self._deaths_pending = False
+        self._torque = self.config.max_torque  # the servos' limit as compiled
         d = mujoco.MjData(m)
         self._model, self._data = m, d
         self._index()
@@ -304,80 +252,96 @@ class MujocoBackend:
         del old_m
 
     def _index(self) -> None:
-        """Addresses of every robot in the freshly compiled model."""
+        """Addresses of every robot in the freshly compiled model (see ``RobotLayout``)."""
+        body = 1  # the world body comes first
+        q0 = d0 = 0
+        for r in self._robots.values():
+            lay = r.layout
+            r.bodies = body + lay.bodies
+            r.qpos = slice(q0, q0 + lay.nq)
+            r.dofs = slice(d0, d0 + lay.nv)
+            r.hinge_qpos = q0 + lay.hinge_qpos
+            r.hinge_dofs = d0 + lay.hinge_dofs
+            body += lay.nbody
+            q0 += lay.nq
+            d0 += lay.nv
         m = self._model
-        roots_q, roots_d, hq, hd = [], [], [], []
-        for key, r in self._robots.items():
-            p = f"r{key}/"
-            root = m.joint(f"{p}root").id
-            q0, d0 = int(m.jnt_qposadr[root]), int(m.jnt_dofadr[root])
-            hinges = [m.joint(f"{p}j{i}").id for i in range(1, len(r.model.links))
-                      if not r.model.links[i].fixed]
-            r.hinge_qpos = m.jnt_qposadr[hinges].astype(np.intp)
-            r.hinge_dofs = m.jnt_dofadr[hinges].astype(np.intp)
-            r.qpos = slice(q0, q0 + 7 + len(hinges))
-            r.dofs = slice(d0, d0 + 6 + len(hinges))
-            # a robot's joints are one contiguous block (its bodies are one subtree)
-            assert all(r.qpos.start <= a < r.qpos.stop for a in r.hinge_qpos)
-            r.bodies = np.array([m.body(f"{p}b{i}").id for i in range(len(r.model.links))],
-                                dtype=np.intp)
-            roots_q.append(q0)
-            roots_d.append(d0)
-            hq.append(r.hinge_qpos)
-            hd.append(r.hinge_dofs)
-        self._root_bodies = np.array([r.bodies[0] for r in self._robots.values()], dtype=np.intp)
-        self._diverged = np.array([r.diverged for r in self._robots.values()], dtype=bool)
-        self._root_qpos = np.array(roots_q, dtype=np.intp)
-        self._root_dofs = np.array(roots_d, dtype=np.intp)
+        assert (body, q0, d0) == (m.nbody, m.nq, m.nv), "robot layouts do not fit the model"
+        self._arrays()
+
+    def _arrays(self) -> None:
+        """The index arrays over every robot, from each robot's addresses."""
+        robots = self._robots.values()
+        self._root_bodies = np.array([r.bodies[0] for r in robots], dtype=np.intp)
+        self._diverged = np.array([r.diverged for r in robots], dtype=bool)
+        self._diverged.flags.writeable = False
+        self._root_qpos = np.array([r.qpos.start for r in robots], dtype=np.intp)
+        self._root_dofs = np.array([r.dofs.start for r in robots], dtype=np.intp)
         self._root_lin = self._root_dofs[:, None] + _XYZ  # the free joints' linear velocities
         self._root_ang = self._root_lin + 3  # and angular velocities (body frame)
-        self._diverged.flags.writeable = False
-        self._hinge_qpos = np.concatenate(hq) if hq else np.zeros(0, dtype=np.intp)
-        self._hinge_dofs = np.concatenate(hd) if hd else np.zeros(0, dtype=np.intp)
+        none = np.zeros(0, dtype=np.intp)
+        self._hinge_qpos = np.concatenate([r.hinge_qpos for r in robots]) if robots else none
+        self._hinge_dofs = np.concatenate([r.hinge_dofs for r in robots]) if robots else none
         # read()'s two gathers (qpos, qvel), each one fresh array for its fields
         self._read_qpos = np.concatenate(((self._root_qpos[:, None] + _XYZ).ravel(),
                                           self._hinge_qpos))
         self._read_qvel = np.concatenate((self._root_lin.ravel(), self._root_ang.ravel(),
                                           self._hinge_dofs))
+        self._future = None  # a death changes where the survivors' bodies will be
 
     # -- robots -------------------------------------------------------------------------------
     def add(self, model: RobotModel, position: tuple[float, float, float], yaw: float) -> int:
         key = self._next_key
-        robot = self._build(key, model, position, yaw)
+        robot = self._build(model, position, yaw)
+        if self._deaths_pending:
+            self._rebuild()
         self._robots[key] = robot
+        scene.attach(self._spec, robot.spec, key)
         try:
             self._compile()
         except ValueError as e:
             del self._robots[key]
-            self._unbuild(robot)
+            self._rebuild()  # the model is unchanged (with any robots removed before)
             raise ValueError(
                 "MuJoCo cannot build this robot: " + " ".join(str(e).split())) from None
         self._next_key += 1
         return key
 
     def remove(self, key: int) -> None:
-        """Delete a robot's bodies, joints, servos and exclusions from the spec and recompile.
+        """Take a robot out; the scene is rebuilt without it and compiled when next needed.
 
-        Nothing of it stays allocated.
+        Deaths are batched: until the next birth, step, contact read, snapshot or picture, the
+        survivors are read where they are in the current model (their state is the same), so a
+        cull of many robots compiles once. Nothing of a removed robot stays allocated after that
+        compile.
         """
-        robot = self._robots.pop(key)
-        self._unbuild(robot)
-        robot.qpos = slice(0, 0)
-        self._compile()
+        del self._robots[key]
+        self._arrays()
+        self._deaths_pending = True
 
     # -- stepping -------------------------------------------------------------------------------
     def set_joint_velocities(self, velocities: NDArray[np.float64], max_torque: float) -> None:
+        self._sync()
         if max_torque != self._torque:
             self._torque = max_torque
             self._model.actuator_forcerange[:] = (-max_torque, max_torque)
         self._views().ctrl[:] = velocities  # actuators: robots in order, each in output order
 
     def step(self, substeps: int) -> None:
+        self._sync()
         m, d = self._model, self._data
         v = self._views()
         mujoco.mj_getState(m, d, v.start, _SAVED)  # the period's start, should it diverge
-        mujoco.mj_step(m, d, substeps)
-        if not (_all_finite(v.qvel) and _all_finite(v.qpos)):
+        try:
+            mujoco.mj_step(m, d, substeps)
+            finite = _all_finite(v.qvel) and _all_finite(v.qpos)
+        except mujoco.FatalError:
+            # A non-finite state reached a later physics step's collision pass: its bounding boxes
+            # overlap everything and exhaust MuJoCo's arena. The data may be half-updated.
+            self._data = mujoco.MjData(m)
+            self._data.ctrl[:] = d.ctrl
+            finite = False
+        if not finite:
             self._replay(v.start.copy(), substeps)
         self._kinematics_fresh = False
         self._touching = None
@@ -466,17 +430,32 @@ class MujocoBackend:
 
     # -- sensors --------------------------------------------------------------------------------
     def link_index(self, key: int, links: NDArray[np.intp]) -> NDArray[np.intp]:
-        """Body ids (valid until the next compile)."""
-        ids: NDArray[np.intp] = self._robots[key].bodies[links]
-        return ids
+        """Body ids in the scene of the robots present (valid until the next add or remove).
+
+        With deaths pending (see :meth:`remove`), the ids of the model they will compile to:
+        :meth:`link_poses` and :meth:`touching` compile it before they read.
+        """
+        robot = self._robots[key]
+        if not self._deaths_pending:
+            ids: NDArray[np.intp] = robot.bodies[links]
+            return ids
+        if self._future is None:  # each robot's first body, the robots laid out in order
+            self._future, body = {}, 1
+            for k, r in self._robots.items():
+                self._future[k] = body
+                body += r.layout.nbody
+        future: NDArray[np.intp] = self._future[key] + robot.layout.bodies[links]
+        return future
 
     def link_poses(self, ids: NDArray[np.intp]) -> tuple[NDArray[np.float64],
                                                          NDArray[np.float64]]:
+        self._sync()  # the ids are those of the scene without the robots removed
         self._kinematics()
         d = self._data
         return d.xpos[ids], d.xmat[ids].reshape(-1, 3, 3)
 
     def touching(self, ids: NDArray[np.intp]) -> NDArray[np.bool_]:
+        self._sync()  # the contacts of the scene without the robots removed
         touching: NDArray[np.bool_] = self._touching_now()[ids]
         return touching
 
@@ -507,6 +486,11 @@ class MujocoBackend:
         """True: :meth:`restore` continues a snapshot bit for bit (see the module doc)."""
         return True
 
+    def mjcf(self) -> str:
+        """MJCF that compiles to the model this backend steps (see :func:`.mujoco_scene.mjcf`)."""
+        return scene.mjcf(scene.scene_spec(self.config),
+                          [(key, r.spec) for key, r in self._robots.items()])
+
     def _model_digest(self) -> str:
         """SHA-256 of the compiled model's MJB bytes (every array, name and option)."""
         buffer = np.zeros(mujoco.mj_sizeModel(self._model), dtype=np.uint8)
@@ -526,9 +510,10 @@ class MujocoBackend:
         """The scene's state now (see the module doc): plain data and NumPy arrays.
 
         Keys: ``engine``, ``mujoco`` (version), ``next_key``, ``keys`` (robots in order),
-        ``model_sha256``, ``state`` (``mjSTATE_INTEGRATION``), ``diverged`` (per robot),
-        ``touching`` (per body).
+        ``model_sha256``, ``state`` (``mjSTATE_INTEGRATION``), ``diverged`` and ``colors``
+        (per robot: blown up, collision bit), ``touching`` (per body).
         """
+        self._sync()
         m, d = self._model, self._data
         state = np.empty(mujoco.mj_stateSize(m, _STATE))
         mujoco.mj_getState(m, d, state, _STATE)
@@ -536,6 +521,7 @@ class MujocoBackend:
             "engine": "mujoco", "mujoco": mujoco.__version__, "next_key": self._next_key,
             "keys": list(self._robots), "model_sha256": self._model_digest(), "state": state,
             "diverged": np.array([r.diverged for r in self._robots.values()], dtype=bool),
+            "colors": [r.color for r in self._robots.values()],
             "touching": self._touching_now().copy(),
         }
 
@@ -557,11 +543,16 @@ class MujocoBackend:
                 raise SnapshotMismatchError(f"robots {keys} do not match the snapshot's "
                                             f"{list(state['keys'])}")
             diverged = np.asarray(state["diverged"], dtype=bool)
-            for (key, model, position, yaw), was_diverged in zip(robots, diverged, strict=True):
-                robot = self._build(key, model, position, yaw)
+            colors = [int(c) for c in state["colors"]]
+            if not all(0 <= c <= scene.COLORS for c in colors):
+                raise SnapshotMismatchError(f"the snapshot's collision bits {colors} are invalid")
+            for (key, model, position, yaw), was_diverged, color in zip(robots, diverged, colors,
+                                                                         strict=True):
+                robot = self._build(model, position, yaw, color)
                 robot.diverged = bool(was_diverged)
                 self._robots[key] = robot
             self._next_key = int(state["next_key"])
+            self._rebuild()
             self._compile()
             m, d = self._model, self._data
             if self._model_digest() != state["model_sha256"]:
@@ -587,6 +578,7 @@ class MujocoBackend:
     # -- rendering ------------------------------------------------------------------------------
     def render(self, width: int, height: int, target: tuple[float, float, float],
                distance: float, yaw_deg: float, pitch_deg: float) -> NDArray[np.uint8]:
+        self._sync()
         r = self._renderer
         if r is None or r.width != width or r.height != height:
             if r is not None:

@@ -112,13 +112,38 @@ class MujocoScenes(IsolatedBackend):
         for i, (m, d, ctrl, a, b, views, xmat) in enumerate(self._plan):
             if b > a:
                 ctrl[:] = vel[a:b]
-            step(m, d, substeps)
+            try:
+                step(m, d, substeps)
+            except mujoco.FatalError:
+                self._fatal(i, substeps)
+                continue
             kinematics(m, d)
             get(m, d, views[parity], _SAVED)
             rot[i] = xmat
         self._parity = parity
         if not _all_finite(self._states[parity]):
             self._contain(substeps)
+
+    def _fatal(self, i: int, substeps: int) -> None:
+        """Scene ``i``'s ``mj_step`` failed (see :meth:`MujocoBackend.step`): replay it anew.
+
+        Its data may be half-updated, so it gets fresh data with the same controls, and its
+        period is replayed from the state it started from, as its world alone would.
+        """
+        m, d, _, a, b, views, _ = self._plan[i]
+        scene = self._scene_list()[i]
+        fresh = scene._data = mujoco.MjData(m)
+        fresh.ctrl[:] = d.ctrl
+        scene._replay(views[self._parity].copy(), substeps)  # the period's start
+        mujoco.mj_kinematics(m, fresh)
+        mujoco.mj_getState(m, fresh, views[1 - self._parity], _SAVED)
+        root = int(scene._root_bodies[0])
+        self._plan[i] = (m, fresh, fresh.ctrl, a, b, views, fresh.xmat[root])
+        self._rot[i] = fresh.xmat[root]
+        diverged = self._diverged.copy()
+        diverged[i] = bool(scene._diverged[0])
+        diverged.flags.writeable = False
+        self._diverged = diverged
 
     def _contain(self, substeps: int) -> None:
         """Replay the scenes whose period ended non-finite as each alone would (rare)."""

@@ -38,9 +38,9 @@ from numpy.typing import NDArray
 
 from revolve_env.terrain import Flat, Terrain
 from revolve_env.world._rotations import matrix_to_quat, quat_to_matrix
-from revolve_env.world.backend import BodyStates, PlacedModel
+from revolve_env.world.backend import BodyStates, PlacedModel, scene_mjcf
 from revolve_env.world.config import WorldConfig
-from revolve_env.world.model import RobotModel
+from revolve_env.world.model import LinkModel, RobotModel
 
 __all__ = ["PybulletBackend"]
 
@@ -113,7 +113,8 @@ class _Body:
 
     body: int
     model: RobotModel
-    shapes: list[int]
+    position: tuple[float, float, float]  # as placed: root link frame, metres
+    yaw: float  # radians
     active_joints: list[int]  # pybullet joint indices of the active hinges, output order
     all_joints: list[int]  # every hinge (joint j = link j + 1 of the model)
 
@@ -147,6 +148,7 @@ class PybulletBackend:
             )
         self._closed = False
         self._bodies: dict[int, _Body] = {}
+        self._shape_cache: dict[tuple[bytes, bytes, bytes], tuple[int, int]] = {}
         self._links: list[tuple[int, int]] = []  # link_index's table: (multibody, link)
         self._next_key = 0
         self._setup()
@@ -180,6 +182,7 @@ class PybulletBackend:
     def reset(self) -> None:
         pb.resetSimulation(physicsClientId=self._cid)
         self._bodies.clear()
+        self._shape_cache.clear()
         self._links = []
         self._setup()
 
@@ -196,47 +199,47 @@ class PybulletBackend:
             self.close()
 
     # -- robots -------------------------------------------------------------------------------
+    def _shapes(self, link: LinkModel) -> tuple[int, int]:
+        """The collision and visual shapes of a link's boxes, made once per geometry.
+
+        pybullet never frees a shape (see :meth:`remove`), so links of the same geometry, in
+        any robot, share theirs; the colours are set per body (``changeVisualShape``).
+        """
+        key = (link.box_half_extents.tobytes(), link.box_centers.tobytes(),
+               link.box_rotations.tobytes())
+        shapes = self._shape_cache.get(key)
+        if shapes is None:
+            cid = self._cid
+            boxes = {"shapeTypes": [pb.GEOM_BOX] * len(link.box_centers),
+                     "halfExtents": link.box_half_extents.tolist(), "physicsClientId": cid}
+            frames = [link.box_centers.tolist(), [matrix_to_quat(r) for r in link.box_rotations]]
+            shapes = (
+                int(pb.createCollisionShapeArray(**boxes, collisionFramePositions=frames[0],
+                                                 collisionFrameOrientations=frames[1])),
+                int(pb.createVisualShapeArray(**boxes, visualFramePositions=frames[0],
+                                              visualFrameOrientations=frames[1])),
+            )
+            self._shape_cache[key] = shapes
+        return shapes
+
     def add(self, model: RobotModel, position: tuple[float, float, float], yaw: float) -> int:
         cid = self._cid
-        shapes: list[int] = []
-
-        def collision(link: int) -> int:
-            lk = model.links[link]
-            s = pb.createCollisionShapeArray(
-                shapeTypes=[pb.GEOM_BOX] * len(lk.box_centers),
-                halfExtents=lk.box_half_extents.tolist(),
-                collisionFramePositions=lk.box_centers.tolist(),
-                collisionFrameOrientations=[matrix_to_quat(r) for r in lk.box_rotations],
-                physicsClientId=cid,
-            )
-            shapes.append(s)
-            return int(s)
-
-        def visual(link: int) -> int:
-            lk = model.links[link]
-            return int(pb.createVisualShapeArray(
-                shapeTypes=[pb.GEOM_BOX] * len(lk.box_centers),
-                halfExtents=lk.box_half_extents.tolist(),
-                visualFramePositions=lk.box_centers.tolist(),
-                visualFrameOrientations=[matrix_to_quat(r) for r in lk.box_rotations],
-                physicsClientId=cid,
-            ))
-
+        shapes = [self._shapes(link) for link in model.links]
         root = model.links[0]
         others = model.links[1:]
         base_rot = np.array([[math.cos(yaw), -math.sin(yaw), 0], [math.sin(yaw), math.cos(yaw), 0],
                              [0, 0, 1.0]])
         body = pb.createMultiBody(
             baseMass=root.mass,
-            baseCollisionShapeIndex=collision(0),
-            baseVisualShapeIndex=visual(0),
+            baseCollisionShapeIndex=shapes[0][0],
+            baseVisualShapeIndex=shapes[0][1],
             basePosition=position,
             baseOrientation=matrix_to_quat(base_rot),
             baseInertialFramePosition=root.com.tolist(),
             baseInertialFrameOrientation=matrix_to_quat(root.inertia_axes),
             linkMasses=[lk.mass for lk in others],
-            linkCollisionShapeIndices=[collision(i + 1) for i in range(len(others))],
-            linkVisualShapeIndices=[visual(i + 1) for i in range(len(others))],
+            linkCollisionShapeIndices=[collision for collision, _ in shapes[1:]],
+            linkVisualShapeIndices=[visual for _, visual in shapes[1:]],
             linkPositions=[(lk.origin - model.links[lk.parent].origin).tolist() for lk in others],
             linkOrientations=[(0.0, 0.0, 0.0, 1.0)] * len(others),
             linkInertialFramePositions=[lk.com.tolist() for lk in others],
@@ -268,7 +271,7 @@ class PybulletBackend:
         key = self._next_key
         self._next_key += 1
         self._links = []
-        self._bodies[key] = _Body(body=body, model=model, shapes=shapes,
+        self._bodies[key] = _Body(body=body, model=model, position=position, yaw=yaw,
                                   active_joints=[i - 1 for i in model.active_links],
                                   all_joints=all_joints)
         return key
@@ -276,11 +279,15 @@ class PybulletBackend:
     def remove(self, key: int) -> None:
         """Delete a robot's multibody.
 
-        Its collision and visual shapes stay allocated in the engine: pybullet 3.2 refuses to
-        remove a shape once a body has used it ("Don't remove collision shape: it is used"), even
-        after that body is gone, and has no call to remove visual shapes. The cost, measured with
-        the 17-part spider, is about 150 KB of memory per robot ever added (some 0.45 GB over the
-        paper's 3000 births in one online world).
+        pybullet keeps some of it: every shape (it refuses to remove a shape once a body has used
+        it, "Don't remove collision shape: it is used", even after that body is gone, and has no
+        call to remove visual shapes) and about 1.2 KB per link of the body's own bookkeeping
+        (measured: create and remove a 9-link body with shared shapes, 11 KB per body). Links of
+        the same geometry share their shapes (:meth:`_shapes`), so over 3,000 online births
+        (each the child of two living robots, ``bench_engines.py --only memory``) a world grows
+        16 KB per birth (+43 MB), where it grew 60 KB per birth (+158 MB) with shapes of its own
+        for every link. Only ``resetSimulation`` releases the rest, and a world rebuilt after one
+        does not continue exactly (see the module doc).
         """
         pb.removeBody(self._bodies.pop(key).body, physicsClientId=self._cid)
         self._links = []
@@ -382,6 +389,11 @@ class PybulletBackend:
 
     def body_count(self) -> int:
         return int(pb.getNumBodies(physicsClientId=self._cid))
+
+    def mjcf(self) -> str:
+        """The robots as placed, in MuJoCo's model (:func:`~.backend.scene_mjcf`)."""
+        return scene_mjcf(self.config, [(key, b.model, b.position, b.yaw)
+                                        for key, b in self._bodies.items()])
 
     # -- snapshots ------------------------------------------------------------------------------
     @property

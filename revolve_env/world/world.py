@@ -232,6 +232,23 @@ class World:
         self._flag(state, self._check_blow_up(state))
         return handle
 
+    # -- export -------------------------------------------------------------------------------
+    def to_mjcf(self) -> str:
+        """The whole scene as placed, as MuJoCo's MJCF text (any engine's world).
+
+        The ground, the light, the physics options and every robot where it was added (its root
+        link at its insertion pose, hinges at zero), with the servos and contact settings of the
+        MuJoCo backend. ``mujoco.MjModel.from_xml_string(world.to_mjcf())`` compiles, for a MuJoCo
+        world, to the very model the world steps (the same MJB bytes), so it can be stepped and
+        timed bare; a pybullet world's robots come out as a MuJoCo world holding them would.
+
+        Raises:
+            EngineUnavailableError: the ``mujoco`` package is not installed.
+            NotImplementedError: an ``isolated`` world (each robot in a scene of its own).
+        """
+        self._check_open()
+        return self._backend.mjcf()
+
     # -- snapshots ----------------------------------------------------------------------------
     @property
     def exact_restore(self) -> bool:

@@ -144,25 +144,31 @@ def _run_survivors(birth: tuple[float, float] | None) -> np.ndarray:
 
 
 def test_a_birth_and_death_elsewhere_leave_the_survivors_trajectories_unchanged() -> None:
+    # The birth keeps the survivors' state bit for bit (checked in _run_survivors). After it,
+    # MuJoCo's discrete integrator solves all robots as one system, so where the newborn is
+    # moves them by 1e-13 m (the order of the collision pass), and its presence by 2e-7 m (the
+    # solver's convergence over more bodies; see the backend doc): far below a micrometre.
     near = _run_survivors((0.0, 0.8))  # a few centimetres from the others' footprints
     far = _run_survivors((30.0, 30.0))
-    np.testing.assert_array_equal(near, far)
-    # Against a world with no birth at all only the summation order of the collision pass
-    # differs (contacts are ordered over the whole scene): far below a micrometre.
-    np.testing.assert_allclose(near, _run_survivors(None), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(near, far, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(near, _run_survivors(None), rtol=0, atol=1e-6)
 
 
 def test_births_and_deaths_leave_nothing_in_the_scene() -> None:
+    def sizes(world: World) -> tuple[int, ...]:
+        spec, m = world.backend._spec, world.backend._model  # type: ignore[attr-defined]
+        return (len(spec.bodies), len(spec.excludes), len(spec.actuators), len(spec.geoms),
+                m.nbody, m.ngeom, m.njnt, m.nu, m.nexclude)
+
     with World(MJ) as world:
         keep = world.add_robot(spider())
-        spec = world.backend._spec  # type: ignore[attr-defined]
-        counts = (len(spec.bodies), len(spec.excludes), len(spec.actuators), len(spec.geoms))
+        counts = sizes(world)
         for i in range(5):
             h = world.add_robot(every_part(), position=(1.0 + i, 0.0))
             world.step(2)
             world.remove_robot(h)
-        assert (len(spec.bodies), len(spec.excludes), len(spec.actuators),
-                len(spec.geoms)) == counts
+        world.step(1)  # deaths are compiled away when the world next steps
+        assert sizes(world) == counts
         assert world.body_count() == 2 and world.handles == (keep,)
 
 
@@ -206,7 +212,8 @@ def test_a_diverging_robot_is_flagged_and_contained(
     contained, reason = run(True)
     assert none is None
     assert reason is not None and "non-finite" in reason
-    np.testing.assert_array_equal(contained, clean)  # the neighbour never noticed
+    # the neighbour carries on as if nothing had happened (to the last bits: one solve)
+    np.testing.assert_allclose(contained, clean, rtol=0, atol=1e-12)
 
 
 def test_a_robot_mujoco_refuses_is_a_clear_error_and_changes_nothing(

@@ -183,3 +183,26 @@ def test_a_video_of_a_robot_on_a_terrain_moves_as_its_evaluation(tmp_path: Path)
     flat = evaluate(example("spider"), seconds=1.0, insertion=0.5)
     assert video.fitness == pytest.approx(result.fitness, abs=1e-9)
     assert video.fitness != pytest.approx(flat.fitness, abs=1e-6)
+
+
+def test_the_mjcf_of_a_world_on_a_terrain_compiles_to_the_very_model() -> None:
+    """``World.to_mjcf`` writes the terrain's heightfield (rows in MJCF's order): the text
+    compiles to the world's own model, bit for bit, and holds the terrain's heights."""
+    import hashlib
+
+    def digest(m: mujoco.MjModel) -> str:
+        buffer = np.zeros(mujoco.mj_sizeModel(m), dtype=np.uint8)
+        mujoco.mj_saveModel(m, None, buffer)
+        return hashlib.sha256(buffer.tobytes()).hexdigest()
+
+    with World(WorldConfig(engine="mujoco", terrain=BUMPY)) as world:
+        world.add_robot(example("spider"), (0.3, 0.2))
+        compiled = mujoco.MjModel.from_xml_string(world.to_mjcf())
+        assert digest(compiled) == digest(world.backend._model)  # type: ignore[attr-defined]
+    data = mujoco.MjData(compiled)
+    mujoco.mj_forward(compiled, data)
+    geom = np.zeros(1, np.int32)
+    for x, y in [(0.31, -0.52), (-0.7, 0.44)]:
+        found = 5.0 - mujoco.mj_ray(compiled, data, np.array([x, y, 5.0]),
+                                    np.array([0.0, 0.0, -1.0]), None, 1, -1, geom)
+        assert found == pytest.approx(float(BUMPY.height_at(x, y)), abs=1e-6)

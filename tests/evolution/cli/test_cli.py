@@ -296,6 +296,27 @@ def test_export_formats(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     assert bom["servos"] == 8 and bom["parts"]["core"] == 1
 
 
+def test_export_mjcf_is_the_model_evaluate_steps(tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    mujoco = pytest.importorskip("mujoco", reason="the mujoco package is not installed")
+    from revolve_env.body.examples import spider
+    from revolve_env.body.serialize import save
+    from revolve_env.world import World, WorldConfig
+
+    path = tmp_path / "spider.json"
+    save(spider(), path)
+    assert main(["export", str(path), "--format", "mjcf", "--out", str(tmp_path / "s.xml")]) == 0
+    assert "wrote" in capsys.readouterr().out
+    assert main(["export", "spider", "--format", "mjcf"]) == 0
+    text = capsys.readouterr().out
+    assert (tmp_path / "s.xml").read_text() == text
+    model = mujoco.MjModel.from_xml_string(text)
+    assert model.nu == 8 and model.nbody == 10  # the world, the core and 8 hinged bodies
+    with World(WorldConfig(engine="mujoco")) as world:  # where evaluate() starts it
+        world.add_robot(spider(), position=(0.0, 0.0), yaw=0.0)
+        assert text == world.to_mjcf()
+
+
 def test_export_a_robot_of_a_results_database(fake_physics: None, tmp_path: Path,
                                               capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["run", "scenario1", "--runs", "1", "--births", "30", "--out", str(tmp_path),
