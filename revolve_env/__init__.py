@@ -54,6 +54,10 @@ _LAZY = {
     "PopulationEnv": ("revolve_env.envs.population", "PopulationEnv"),
     "population_env": ("revolve_env.envs.population", "population_env"),
     "BatchController": ("revolve_env.brain", "BatchController"),
+    # scipy (the rugged terrain's blur) is loaded only when terrains are used
+    "TERRAINS": ("revolve_env.terrain", "TERRAINS"),
+    "TerrainError": ("revolve_env.terrain", "TerrainError"),
+    "make_terrain": ("revolve_env.terrain", "make_terrain"),
 }
 
 
@@ -89,6 +93,8 @@ __all__ = [
     "PopulationEnv",
     "Robot",
     "RobotError",
+    "TERRAINS",
+    "TerrainError",
     "require_engine",
     "World",
     "WorldConfig",
@@ -97,6 +103,7 @@ __all__ = [
     "example",
     "from_json",
     "load",
+    "make_terrain",
     "population_env",
     "resolve_robot",
     "save",

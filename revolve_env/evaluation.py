@@ -27,6 +27,7 @@ from revolve_env.conditions import (
 )
 from revolve_env.fitness import trajectory_window
 from revolve_env.tasks import Task, make_task, score
+from revolve_env.terrain import Terrain
 from revolve_env.world import World, WorldConfig
 from revolve_env.world.signals import SignalReader, signal_reader
 
@@ -79,6 +80,7 @@ def evaluate(
     engine: str | None = None,
     conditions: EvaluationConditions | None = None,
     task: Task | str | Mapping[str, Any] | None = None,
+    terrain: Terrain | str | Mapping[str, Any] | None = None,
 ) -> EvaluationResult:
     """Run ``robot`` on its own controller in a fresh world and measure its fitness.
 
@@ -110,11 +112,16 @@ def evaluate(
             :data:`~revolve_env.conditions.IDEAL` (heading 0 at the origin, no noise).
         task: What the robot is scored on (:func:`revolve_env.tasks.make_task`: a task, a
             name, a table); default :class:`~revolve_env.tasks.Locomotion`.
+        terrain: The ground (:func:`revolve_env.terrain.make_terrain`: ``"flat"``,
+            ``"rugged"``, ``"crater"``, ``"bowl"``, a table or a spec); None keeps
+            ``config.terrain`` (flat by default). The robot is dropped onto the highest ground
+            under its footprint.
 
     Raises:
         RobotError: the robot is invalid (before any physics runs).
         ValueError: a bad timing or noise argument, noise given both ways, an unknown engine, a
-            network whose inputs do not match the body's sensors, or a bad task (``TaskError``).
+            network whose inputs do not match the body's sensors, a bad task (``TaskError``), or
+            a bad terrain or a start off it (``TerrainError``).
         EngineUnavailableError: the engine's package is not installed.
         TypeError: ``conditions`` is not an ``EvaluationConditions``.
     """
@@ -124,7 +131,7 @@ def evaluate(
     conditions = with_noise_shortcuts(conditions, sensor_noise, actuator_noise)
     [result] = evaluate_many([robot], seconds=seconds, insertion=insertion, seeds=[seed],
                              config=config, limits=limits, engine=engine, conditions=conditions,
-                             task=task)
+                             task=task, terrain=terrain)
     return result
 
 
@@ -139,6 +146,7 @@ def evaluate_many(
     engine: str | None = None,
     conditions: EvaluationConditions | None = None,
     task: Task | str | Mapping[str, Any] | None = None,
+    terrain: Terrain | str | Mapping[str, Any] | None = None,
 ) -> list[EvaluationResult]:
     """:func:`evaluate` many robots side by side: the same results, for less work per robot.
 
@@ -160,6 +168,7 @@ def evaluate_many(
         conditions: The conditions of every robot (each drawn from its own seed); default
             :data:`~revolve_env.conditions.IDEAL`.
         task: What every robot is scored on; default :class:`~revolve_env.tasks.Locomotion`.
+        terrain: The ground (as :func:`evaluate`'s); None keeps ``config.terrain`` (flat).
 
     Returns:
         One :class:`EvaluationResult` per robot, in order.
@@ -167,8 +176,8 @@ def evaluate_many(
     Raises:
         RobotError: a robot is invalid (before any physics runs).
         ValueError: a bad timing, a seed count that does not match, an unknown engine, a network
-            whose inputs do not match its body's sensors, a robot the engine cannot build, or a
-            bad task (``TaskError``).
+            whose inputs do not match its body's sensors, a robot the engine cannot build, a
+            bad task (``TaskError``), or a bad terrain or a start off it (``TerrainError``).
         EngineUnavailableError: the engine's package is not installed.
         TypeError: ``conditions`` is not an ``EvaluationConditions``.
     """
@@ -182,7 +191,8 @@ def evaluate_many(
         raise ValueError(f"{len(seeds)} seeds for {len(robots)} robots")
     conditions = with_noise_shortcuts(conditions, 0.0, 0.0)
     scored = make_task(task)
-    cfg = (config if config is not None else WorldConfig()).with_engine(engine)
+    cfg = (config if config is not None else WorldConfig()).with_engine(engine).with_terrain(
+        terrain)
     dt = cfg.control_period
     insertion_ticks = round(insertion / dt)
     evaluation_ticks = round(seconds / dt)

@@ -7,7 +7,8 @@ layer                     packages
 ======================== =================================================================
 description               ``revolve_env.body``
 brain                     ``revolve_env.brain`` (and the compiled ``revolve_env._controller``)
-fitness, tasks            ``revolve_env.fitness``, ``revolve_env.tasks`` (what a robot is scored on)
+fitness, tasks, terrain   ``revolve_env.fitness``, ``revolve_env.tasks`` (what a robot is scored
+                          on), ``revolve_env.terrain`` (the ground it walks on, pure data)
 physics world             ``revolve_env.world`` (the only code that imports a physics engine)
 env adapters              ``revolve_env.evaluation``, ``revolve_env.envs``, ``revolve_env``
 evolutionary library      ``evolution`` itself: config, random robots, operators, selection,
@@ -39,6 +40,7 @@ LAYERS: tuple[tuple[str, int], ...] = (
     ("revolve_env._controller", 1),
     ("revolve_env.fitness", 2),
     ("revolve_env.tasks", 2),
+    ("revolve_env.terrain", 2),
     ("revolve_env.world", 3),
     ("revolve_env.evaluation", 4),
     ("revolve_env.envs", 4),

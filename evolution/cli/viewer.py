@@ -29,6 +29,7 @@ The windows need a display: without one the command stops with a one-line error 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import time
@@ -57,7 +58,6 @@ from evolution.cli.robots import (
 )
 from evolution.evaluation import evaluation_seed
 from evolution.experiments import DB_NAME, Evolution, ExperimentConfig, Store
-from evolution.experiments.config import WorldSettings
 from evolution.experiments.integrity import verify
 from evolution.experiments.online_world import PopulationWorld
 from evolution.experiments.records import FitnessSample, RobotRecord
@@ -65,6 +65,7 @@ from evolution.experiments.run import ReplayError, run_seed, world_seed
 from revolve_env.body.robot import PartType, Robot
 from revolve_env.body.serialize import from_json
 from revolve_env.conditions import IDEAL, EvaluationConditions
+from revolve_env.terrain import Flat, Terrain
 
 if TYPE_CHECKING:
     from revolve_env.envs.recording import Video
@@ -101,6 +102,7 @@ class _Plan:
     stored: StoredRobot | None = None
     learned: bool = False
     conditions: EvaluationConditions = IDEAL
+    terrain: Terrain = Flat()
 
 
 def _plan(args: argparse.Namespace) -> _Plan:
@@ -122,7 +124,7 @@ def _plan(args: argparse.Namespace) -> _Plan:
                  config.insertion if args.insertion is None else args.insertion,
                  args.engine or config.world.engine,
                  evaluation_seed(stored.run_seed, stored.record.robot_id), stored, learned,
-                 config.evaluation)
+                 config.evaluation, config.world.terrain_spec)
 
 
 def _check_drivable(plan: _Plan) -> None:
@@ -254,7 +256,7 @@ def _cmd_show(args: argparse.Namespace) -> int:
             warnings.simplefilter("always", UserWarning)
             video = record_robot(plan.robot, out, seconds=plan.seconds, insertion=plan.insertion,
                                  fps=args.fps, engine=plan.engine, seed=plan.seed,
-                                 conditions=plan.conditions)
+                                 conditions=plan.conditions, terrain=plan.terrain)
     except (BlowUpError, VideoError) as error:  # the robot's or the video's fault, not ours
         raise CliError(f"cannot show {plan.name}: {error}") from None
     for note in notes:
@@ -469,7 +471,7 @@ def _watch_results(args: argparse.Namespace, folder: Path) -> int:
         if args.engine is not None and args.engine != config.world.engine:
             _say(f"note: replaying on {args.engine}; the run was stored from "
                  f"{config.world.engine}, so this world differs from the stored one")
-            config = config.replace(world=WorldSettings(args.engine))
+            config = config.replace(world=dataclasses.replace(config.world, engine=args.engine))
         if args.seconds is not None:
             limit = config.max_sim_time
             config = config.replace(max_sim_time=min(limit or math.inf, args.seconds))
@@ -517,7 +519,7 @@ def _watch_robot(args: argparse.Namespace) -> int:
                        "pybullet (--engine pybullet), or write a video with --record")
     try:
         fitness = watch_robot(plan.robot, plan.seconds, plan.insertion, engine=plan.engine,
-                              seed=plan.seed, conditions=plan.conditions)
+                              seed=plan.seed, conditions=plan.conditions, terrain=plan.terrain)
     except NoDisplayError:
         raise _no_display(plan.name) from None
     _say(f"{plan.name}: fitness {fitness:.3f} m")

@@ -28,6 +28,7 @@ from evolution.lifecycle import InfancyHook, LearningSummary, SummarizingInfancy
 from revolve_env.body.robot import Robot
 from revolve_env.conditions import IDEAL, EvaluationConditions
 from revolve_env.tasks import Locomotion, Task
+from revolve_env.terrain import Flat, Terrain
 
 if TYPE_CHECKING:
     from revolve_env.evaluation import EvaluationResult
@@ -83,6 +84,7 @@ class EvalTask:
             (:class:`~revolve_env.conditions.EvaluationConditions`).
         task: What the robot is scored on (:mod:`revolve_env.tasks`; default the paper's
             :class:`~revolve_env.tasks.Locomotion`).
+        terrain: The ground (:mod:`revolve_env.terrain`; default the plane).
     """
 
     robot_id: int
@@ -95,6 +97,7 @@ class EvalTask:
     policy: DrivingPolicy | None = None
     conditions: EvaluationConditions = IDEAL
     task: Task = Locomotion()
+    terrain: Terrain = Flat()
 
 
 @dataclass(frozen=True, slots=True)
@@ -159,7 +162,8 @@ def evaluate_robot(task: EvalTask) -> EvalOutcome:
     from revolve_env.evaluation import evaluate
 
     result = evaluate(task.robot, seconds=task.seconds, insertion=task.insertion, seed=task.seed,
-                      engine=task.engine, conditions=task.conditions, task=task.task)
+                      engine=task.engine, conditions=task.conditions, task=task.task,
+                      terrain=task.terrain)
     return _outcome(result)
 
 
@@ -172,24 +176,26 @@ def _outcome(result: EvaluationResult) -> EvalOutcome:
 def evaluate_robots(tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
     """:func:`evaluate_robot` of every task, the ones without a policy side by side.
 
-    Tasks of the same engine, timing, conditions and task go through one
+    Tasks of the same engine, timing, conditions, task and terrain go through one
     :func:`revolve_env.evaluate_many`; every outcome is bit for bit the one
     :func:`evaluate_robot` gives the task alone. Outcomes in task order.
     """
     from revolve_env.evaluation import evaluate_many  # the physics: see evaluate_robot
 
     outcomes: list[EvalOutcome | None] = [None] * len(tasks)
-    groups: dict[tuple[str, float, float, EvaluationConditions, Task], list[int]] = {}
+    groups: dict[tuple[str, float, float, EvaluationConditions, Task, Terrain], list[int]] = {}
     for i, task in enumerate(tasks):
         if task.policy is not None:
             outcomes[i] = evaluate_robot(task)
         else:
-            key = (task.engine, task.insertion, task.seconds, task.conditions, task.task)
+            key = (task.engine, task.insertion, task.seconds, task.conditions, task.task,
+                   task.terrain)
             groups.setdefault(key, []).append(i)
-    for (engine, insertion, seconds, conditions, scored), members in groups.items():
+    for (engine, insertion, seconds, conditions, scored, terrain), members in groups.items():
         results = evaluate_many([tasks[i].robot for i in members], seconds=seconds,
                                 insertion=insertion, seeds=[tasks[i].seed for i in members],
-                                engine=engine, conditions=conditions, task=scored)
+                                engine=engine, conditions=conditions, task=scored,
+                                terrain=terrain)
         for i, result in zip(members, results, strict=True):
             outcomes[i] = _outcome(result)
     return [o for o in outcomes if o is not None]
@@ -203,7 +209,7 @@ def _evaluate_with_policy(task: EvalTask, policy: DrivingPolicy) -> EvalOutcome:
                         fitness_window=task.seconds, control_period=policy.control_period,
                         controller="agent", action="targets", engine=task.engine,
                         conditions=task.conditions, proprioception=policy.proprioception,
-                        task=task.task)
+                        task=task.task, terrain=task.terrain)
     try:
         policy.reset()
         info = run_episode(env, task.seed, policy.act)

@@ -75,6 +75,14 @@ from evolution.experiments.registry import read_toml, shipped_config, shipped_co
 from evolution.learning import TrainingCenter, training_center_from_dict
 from revolve_env.conditions import MAX_RADIUS, EvaluationConditions
 from revolve_env.tasks import TASKS, Locomotion, Task, TaskError, check_task_name, task_from_dict
+from revolve_env.terrain import (
+    Flat,
+    Heightfield,
+    Terrain,
+    TerrainError,
+    make_terrain,
+    terrain_table,
+)
 
 __all__ = ["DEFAULT_EVALUATION", "MAX_BIRTHS", "MAX_RADIUS", "MAX_SECONDS", "MAX_WORKERS",
            "ConfigError", "ExperimentConfig", "WorldSettings", "as_config", "check_name",
@@ -127,15 +135,33 @@ class WorldSettings:
         engine: The physics engine: ``"pybullet"`` or ``"mujoco"``
             (:data:`revolve_env.ENGINES`). Stored with the results, so ``resume``
             and ``report`` know it; the engine's package must import when the run starts.
+        terrain: The ground (:mod:`revolve_env.terrain`): ``"flat"`` (the default), or a
+            terrain's name or table, ``terrain = "rugged"`` or ``[world.terrain]`` with
+            ``name = "rugged"`` and its parameters (``height = 0.03``, ``seed = 2``, ...). A
+            non-flat terrain is kept as its full table (every parameter, defaults included), so
+            the stored run names its ground exactly; a flat one is not stored at all (configs of
+            runs on the plane are as before).
     """
 
     engine: str = "pybullet"
+    terrain: str | Mapping[str, Any] = "flat"
 
     def __post_init__(self) -> None:
         engines: tuple[str, ...] = revolve_env.ENGINES
         if self.engine not in engines:
             raise ConfigError(f"world.engine must be one of {', '.join(map(repr, engines))}, "
                               f"got {self.engine!r}")
+        try:
+            spec = make_terrain(self.terrain)
+        except TerrainError as error:
+            raise ConfigError(f"world.terrain: {error}") from None
+        object.__setattr__(self, "terrain", "flat" if isinstance(spec, Flat)
+                           else terrain_table(spec))
+
+    @property
+    def terrain_spec(self) -> Terrain:
+        """The terrain as a spec (:func:`revolve_env.terrain.make_terrain`)."""
+        return make_terrain(self.terrain)
 
 
 DEFAULT_EVALUATION = EvaluationConditions(heading="random")
@@ -308,6 +334,15 @@ class ExperimentConfig:
             raise ConfigError(f"ray_address must be a string, got {self.ray_address!r}")
         _check_tables(self)
         check_name(self.name)
+        terrain = self.world.terrain_spec
+        if isinstance(terrain, Heightfield):  # every robot must start on it
+            try:
+                terrain.check_disc(self.birth_radius if self.mode == "online"
+                                   else self.evaluation.position_jitter,
+                                   "the birth disc: birth_radius" if self.mode == "online"
+                                   else "the start disc: evaluation.position_jitter")
+            except TerrainError as error:
+                raise ConfigError(f"world.terrain: {error}") from None
         period = revolve_env.WorldConfig().with_engine(self.world.engine).control_period
         if self.evaluation_time < period:
             raise ConfigError(f"evaluation_time must cover one control period ({period:.6g} s "
@@ -341,6 +376,8 @@ class ExperimentConfig:
             value = getattr(self, f.name)
             if f.name in ("evaluation", "evolution", "world"):
                 value = {g.name: getattr(value, g.name) for g in fields(value)}
+                if f.name == "world" and value["terrain"] == "flat":
+                    del value["terrain"]  # the plane: the stored config as before terrains
             elif f.name in ("learning", "task") and value is not None:
                 value = _json_roundtrip(dict(value))
             if value is not None:
@@ -419,7 +456,8 @@ class ExperimentConfig:
             return None
         try:
             return training_center_from_dict(self.learning, engine=self.world.engine,
-                                             conditions=self.evaluation, task=task)
+                                             conditions=self.evaluation, task=task,
+                                             terrain=self.world.terrain_spec)
         except (TypeError, ValueError, ArithmeticError) as error:  # int(inf): OverflowError
             raise ConfigError(f"learning: {error}") from error
 

@@ -46,12 +46,13 @@ def evaluation_tasks(config: ExperimentConfig, robots: Sequence[tuple[int, Robot
                      infancy: InfancyHook | None) -> list[EvalTask]:
     """How an offline run of ``config`` evaluates robots: one task per ``(id, robot, seed)``.
 
-    Its timing, engine, conditions and task are the config's; ``infancy`` is the run's Training
-    Center (``None``: none). The study's time estimate calibrates with the same tasks.
+    Its timing, engine, terrain, conditions and task are the config's; ``infancy`` is the run's
+    Training Center (``None``: none). The study's time estimate calibrates with the same tasks.
     """
     task = config.fitness_task()
     return [EvalTask(robot_id, robot, config.insertion, config.evaluation_time, seed, infancy,
-                     engine=config.world.engine, conditions=config.evaluation, task=task)
+                     engine=config.world.engine, conditions=config.evaluation, task=task,
+                     terrain=config.world.terrain_spec)
             for robot_id, robot, seed in robots]
 
 

@@ -58,6 +58,7 @@ class PopulationWorld:
             birth_radius=config.birth_radius, birth_clearance=config.birth_clearance,
             limits=config.evolution.limits, engine=config.world.engine,
             conditions=config.evaluation, task=config.fitness_task(),
+            terrain=config.world.terrain_spec,
             proprioception=policies_observe_hinges(config.learning))
         self._seed = seed
         self._env.reset(seed=seed)

@@ -68,6 +68,7 @@ from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import from_json
 from revolve_env.conditions import RANDOM_HEADING, EvaluationConditions
 from revolve_env.tasks import Locomotion, Task
+from revolve_env.terrain import Flat, Terrain
 
 __all__ = [
     "KINDS",
@@ -253,6 +254,7 @@ class _Setting:
     shared_world: bool
     engine: str
     task: Task
+    terrain: Terrain = Flat()
 
     @property
     def conditions_json(self) -> str:
@@ -376,7 +378,8 @@ def _plan(db: Path, k: int, which: str, offsets: tuple[float, ...], shared_world
         base = store.seed if seed is None else seed
         used = reevaluation_conditions(store.config, conditions)
         settings = [_Setting(which, used, config.insertion + o, config.evaluation_time,
-                             shared_world, config.world.engine, config.fitness_task())
+                             shared_world, config.world.engine, config.fitness_task(),
+                             config.world.terrain_spec)
                     for o in offsets]
         mature_age = config.fertile_age if config.mode == "online" else 0.0
         stored = {r.key for r in store.reevaluations(which)}
@@ -434,7 +437,8 @@ def _evaluate(todo: list[_Todo], evaluator: Evaluator, shared_world: bool,
         part = todo[start:start + chunk]
         tasks = [EvalTask(c.robot_id, c.robot, setting.insertion, setting.seconds, s,
                           engine=setting.engine, conditions=setting.conditions,
-                          policy=policies.get((c.run_id, c.robot_id)), task=setting.task)
+                          policy=policies.get((c.run_id, c.robot_id)), task=setting.task,
+                          terrain=setting.terrain)
                  for c, setting, _, s in part]
         outcomes = evaluator.evaluate(tasks)
         yield [_record(c, setting, repeat, s, outcome, c.controller)
@@ -453,6 +457,7 @@ class SharedWorldJob:
         seconds: The fitness window. Seconds.
         engine: The physics engine.
         task: What the robots are scored on (the run's).
+        terrain: The ground (the run's ``world.terrain``).
     """
 
     robots: tuple[Robot, ...]
@@ -462,6 +467,7 @@ class SharedWorldJob:
     seconds: float
     engine: str
     task: Task = Locomotion()
+    terrain: Terrain = Flat()
 
 
 def _evaluate_shared(todo: list[_Todo], evaluator: Evaluator
@@ -477,7 +483,8 @@ def _evaluate_shared(todo: list[_Todo], evaluator: Evaluator
         part = [groups[key] for key in keys[start:start + chunk]]
         jobs = [SharedWorldJob(tuple(c.robot for c, *_ in items), items[0][3],
                                items[0][1].conditions, items[0][1].insertion,
-                               items[0][1].seconds, items[0][1].engine, items[0][1].task)
+                               items[0][1].seconds, items[0][1].engine, items[0][1].task,
+                               items[0][1].terrain)
                 for items in part]
         results = evaluator.run_jobs(run_shared_world, jobs)
         records = []
@@ -503,7 +510,7 @@ def run_shared_world(job: SharedWorldJob, evaluator: Evaluator,
     env = PopulationEnv(max_births=len(job.robots), initial_robots=list(job.robots),
                         insertion_time=job.insertion, maturity_age=job.insertion + job.seconds,
                         fitness_window=job.seconds, engine=job.engine, conditions=job.conditions,
-                        task=job.task)
+                        task=job.task, terrain=job.terrain)
     try:
         env.reset(seed=job.seed)
         last = dict(env.statuses)  # every robot's status as the last step left it

@@ -48,6 +48,7 @@ from evolution.learning.params import CandidateEvaluation, CMAESLearner, RandomS
 from evolution.learning.sb3 import SB3Learner
 from revolve_env.conditions import IDEAL, EvaluationConditions
 from revolve_env.tasks import Locomotion, Task
+from revolve_env.terrain import Flat, Terrain
 
 __all__ = ["LEARNERS", "policies_observe_hinges", "training_center_from_dict"]
 
@@ -74,7 +75,8 @@ def policies_observe_hinges(data: Mapping[str, Any] | None) -> bool:
 
 def training_center_from_dict(data: Mapping[str, Any], engine: str = "pybullet",
                               conditions: EvaluationConditions = IDEAL,
-                              task: Task | None = None) -> TrainingCenter:
+                              task: Task | None = None,
+                              terrain: Terrain | None = None) -> TrainingCenter:
     """The Training Center a ``[learning]`` table describes (keys: module docstring).
 
     ``engine`` is the physics engine the learner simulates in (an experiment's
@@ -83,7 +85,8 @@ def training_center_from_dict(data: Mapping[str, Any], engine: str = "pybullet",
     learn under the conditions they are evaluated and live in), unless the table has its own
     ``conditions`` (runs stored before conditions existed learned under
     :data:`~revolve_env.conditions.IDEAL`: the store's upgrade writes that there); ``task``
-    what the learner scores (an experiment's task: infants learn what they are selected for).
+    what the learner scores (an experiment's task: infants learn what they are selected for);
+    ``terrain`` the ground it learns on (an experiment's ``world.terrain``; None: the plane).
 
     Raises:
         ValueError: unknown learner or key (named, with the known ones), a missing budget, or a
@@ -107,16 +110,19 @@ def training_center_from_dict(data: Mapping[str, Any], engine: str = "pybullet",
     # Any, not float: spread as keyword arguments beside arguments of other types.
     timing: dict[str, Any] = {k: float(data[k]) for k in ("insertion", "seconds") if k in data}
     scored = task if task is not None else Locomotion()
+    ground = terrain if terrain is not None else Flat()
     learner: Learner
     if name == "sb3":
         kwargs = {k: data[k] for k in ("algorithm", "policy", "action", "n_envs", "vec_env",
                                        "control_period", "normalize", "proprioception")
                   if k in data}
         learner = SB3Learner(**kwargs, **timing, engine=engine, conditions=conditions,
-                             algorithm_kwargs=dict(data.get("algorithm_kwargs", {})), task=scored)
+                             algorithm_kwargs=dict(data.get("algorithm_kwargs", {})), task=scored,
+                             terrain=ground)
     else:
         evaluation = CandidateEvaluation(**timing, workers=int(data.get("workers", 1)),
-                                         engine=engine, conditions=conditions, task=scored)
+                                         engine=engine, conditions=conditions, task=scored,
+                                         terrain=ground)
         if name == "cma-es":
             learner = CMAESLearner(sigma0=float(data.get("sigma", 0.15)),
                                    popsize=data.get("popsize", 8), evaluation=evaluation)

@@ -37,6 +37,7 @@ from revolve_env.body.robot import Robot
 from revolve_env.brain import get_params, param_bounds, set_params
 from revolve_env.conditions import IDEAL, EvaluationConditions
 from revolve_env.tasks import Locomotion, Task
+from revolve_env.terrain import Flat, Terrain
 
 __all__ = [
     "CMAESLearner",
@@ -60,7 +61,8 @@ def evaluate_in_env(task: EvalTask) -> EvalOutcome:
 
     env = LocomotionEnv(task.robot, controller="brain", insertion_time=task.insertion,
                         evaluation_time=task.seconds, fitness_window=task.seconds,
-                        engine=task.engine, conditions=task.conditions, task=task.task)
+                        engine=task.engine, conditions=task.conditions, task=task.task,
+                        terrain=task.terrain)
     try:
         return episode_outcome(run_episode(env, task.seed))
     finally:
@@ -84,6 +86,8 @@ class CandidateEvaluation:
             run share one seed, so they start alike and meet the same noise draws.
         task: What candidates are scored on (:mod:`revolve_env.tasks`; an experiment's task:
             infants learn what they will be selected for).
+        terrain: The ground of the candidates' evaluations (:mod:`revolve_env.terrain`; an
+            experiment's ``world.terrain``).
     """
 
     insertion: float = 1.0
@@ -93,6 +97,7 @@ class CandidateEvaluation:
     engine: str = "pybullet"
     conditions: EvaluationConditions = IDEAL
     task: Task = Locomotion()
+    terrain: Terrain = Flat()
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.insertion) and self.insertion >= 0):
@@ -127,7 +132,8 @@ def evaluate_params(
     tasks = [
         EvalTask(i, set_params(robot, p), evaluation.insertion,
                  evaluation.seconds, seed, engine=evaluation.engine,
-                 conditions=evaluation.conditions, task=evaluation.task)
+                 conditions=evaluation.conditions, task=evaluation.task,
+                 terrain=evaluation.terrain)
         for i, p in enumerate(candidates)
     ]
     own = evaluator is None

@@ -62,6 +62,7 @@ from revolve_env.conditions import IDEAL, EvaluationConditions
 from revolve_env.registration import LOCOMOTION_ID, LOCOMOTION_V1_ID
 from revolve_env.rl import INSTALL_HINT, ObservationNormalization, VecEnvConfig, ppo_settings
 from revolve_env.tasks import Locomotion, Task
+from revolve_env.terrain import Flat, Terrain
 
 if TYPE_CHECKING:
     from revolve_env.brain import BatchController
@@ -105,7 +106,7 @@ def _algorithm_class(algorithm: type | str) -> type:
 def _make_env(robot: Robot, action: ActionMode, insertion: float, seconds: float,
               control_period: float, engine: str = "pybullet",
               conditions: EvaluationConditions = IDEAL, proprioception: bool = False,
-              task: Task | None = None) -> Any:
+              task: Task | None = None, terrain: Terrain | None = None) -> Any:
     """The infant's single-robot env, for the learner's two evaluations.
 
     Returns a :class:`~revolve_env.envs.LocomotionEnv`, typed ``Any`` because its declared
@@ -126,6 +127,7 @@ def _make_env(robot: Robot, action: ActionMode, insertion: float, seconds: float
         conditions=conditions,
         proprioception=proprioception,
         task=task,
+        terrain=terrain,
     )
 
 
@@ -254,7 +256,8 @@ class PolicyAgent:
 
 def rollout_fitness(agent: PolicyAgent | None, robot: Robot, insertion: float, seconds: float,
                     control_period: float, seed: int, engine: str = "pybullet",
-                    conditions: EvaluationConditions = IDEAL, task: Task | None = None) -> float:
+                    conditions: EvaluationConditions = IDEAL, task: Task | None = None,
+                    terrain: Terrain | None = None) -> float:
     """Fitness of one episode of ``robot`` driven by ``agent`` (``None``: by its own network).
 
     The agent drives the single-robot env with ``controller="agent"``: the same path as an
@@ -263,10 +266,10 @@ def rollout_fitness(agent: PolicyAgent | None, robot: Robot, insertion: float, s
     """
     if agent is None:
         env = _make_env(robot, "modulate", insertion, seconds, control_period, engine,
-                        conditions, task=task)
+                        conditions, task=task, terrain=terrain)
     else:
         env = _make_env(robot, "targets", insertion, seconds, control_period, engine,
-                        conditions, agent.proprioception, task)
+                        conditions, agent.proprioception, task, terrain)
         agent.reset()
     from revolve_env.envs.episode import run_episode  # loads the physics engine: when used
 
@@ -306,6 +309,8 @@ class SB3Learner:
             policy cannot see the gait's phase and learns far more slowly (bench_rl.py).
         task: What the policy is rewarded for and the evaluations score
             (:mod:`revolve_env.tasks`; an experiment's task).
+        terrain: The ground of the training envs and evaluations (:mod:`revolve_env.terrain`;
+            an experiment's ``world.terrain``).
     """
 
     algorithm: type | str = "PPO"
@@ -322,6 +327,7 @@ class SB3Learner:
     normalize: bool = True
     proprioception: bool = False
     task: Task = Locomotion()
+    terrain: Terrain = Flat()
 
     learns_policy = True  # class constant: the controller is the policy, not the genome's network
 
@@ -418,7 +424,7 @@ class SB3Learner:
                             env_id=LOCOMOTION_V1_ID if self.proprioception else LOCOMOTION_ID,
                             action=self.action, control_period=self.control_period,
                             engine=self.engine, conditions=self.conditions,
-                            task=self.task)
+                            task=self.task, terrain=self.terrain)
         episodes: list[float] = []
         failures = [0]
 
@@ -450,9 +456,10 @@ class SB3Learner:
                             self.proprioception)
         eval_seed = int(rng.integers(0, 2**31 - 1))
         inborn = rollout_fitness(None, robot, self.insertion, self.seconds, self.control_period,
-                                 eval_seed, self.engine, self.conditions, self.task)
+                                 eval_seed, self.engine, self.conditions, self.task, self.terrain)
         trained = rollout_fitness(agent, robot, self.insertion, self.seconds, self.control_period,
-                                  eval_seed, self.engine, self.conditions, self.task)
+                                  eval_seed, self.engine, self.conditions, self.task,
+                                  self.terrain)
         agent.reset()
         return LearningResult(
             robot=robot,

@@ -131,6 +131,15 @@ class Assembly:
             highs.append(b.center + ext)
         return np.min(lows, axis=0), np.max(highs, axis=0)
 
+    def footprint_radius(self) -> float:
+        """Radius of the smallest vertical cylinder about the core holding every box. Metres.
+
+        Whatever the robot's heading, its horizontal footprint lies within this distance of its
+        core centre (the one rule of birth placement and of the ground under a robot).
+        """
+        lower, upper = self.bounds()
+        return float(math.hypot(max(-lower[0], upper[0]), max(-lower[1], upper[1])))
+
 
 def child_frame(
     parent_pos: Vec3, parent_rot: Mat3, slot_pos: Vec3, slot_normal: Vec3, slot_tangent: Vec3,

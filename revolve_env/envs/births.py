@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Iterator, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -24,6 +24,7 @@ from revolve_env.brain.spec import NetworkSpec
 from revolve_env.conditions import EvaluationConditions
 from revolve_env.envs.members import Controller, sensor_bounds
 from revolve_env.envs.placement import Disc, clash, footprint_radius, place
+from revolve_env.terrain import Flat, Terrain, TerrainError
 
 __all__ = ["BirthPlan", "BirthRules", "check_birth", "initial_births", "jittered",
            "next_robot_id", "plan_birth"]
@@ -140,6 +141,7 @@ class BirthRules:
         tries: Random draws in the birth disc before placing outside it.
         conditions: Heading and position jitter of newborns.
         limits: Validation limits.
+        terrain: The ground: a newborn's footprint must lie on it.
     """
 
     birth_radius: float
@@ -147,6 +149,7 @@ class BirthRules:
     tries: int
     conditions: EvaluationConditions
     limits: Limits | None
+    terrain: Terrain = field(default_factory=Flat)
 
 
 @dataclass(frozen=True)
@@ -201,11 +204,13 @@ def plan_birth(rules: BirthRules, robot_id: int, agent: str, robot: Robot,
 
     Raises:
         ValueError, TypeError: see :func:`check_birth`; a given position (after the jitter)
-            overlapping a living robot (the generator is left as it was).
+            overlapping a living robot, or a footprint reaching past the terrain's edge
+            (``TerrainError``) (the generator is left as it was).
     """
     spec, low, high = check_birth(agent, robot, position, controlled_by, yaw, rules.limits)
     radius = footprint_radius(robot)
     inside = True
+    before = rng.bit_generator.state
     if position is None:
         placement = place(occupied, radius, rules.birth_radius, rules.clearance, rng,
                           rules.tries)
@@ -214,7 +219,6 @@ def plan_birth(rules: BirthRules, robot_id: int, agent: str, robot: Robot,
         xy = (float(position[0]), float(position[1]))
         if not (math.isfinite(xy[0]) and math.isfinite(xy[1])):
             raise ValueError(f"add_robot ({agent}): position must be finite, got {position!r}")
-        before = rng.bit_generator.state
         xy = jittered(xy, rules.conditions.position_jitter, rng)
         k = clash(occupied, xy, radius, rules.clearance)
         if k is not None:
@@ -222,6 +226,11 @@ def plan_birth(rules: BirthRules, robot_id: int, agent: str, robot: Robot,
             raise ValueError(f"add_robot ({agent}): position {xy} overlaps {names[k]}: a robot "
                              f"of footprint radius {radius:.3f} m needs "
                              f"{rules.clearance} m clearance")
+    try:
+        rules.terrain.ground_under(xy[0], xy[1], radius)
+    except TerrainError as e:
+        rng.bit_generator.state = before  # a refused birth changes nothing
+        raise TerrainError(f"add_robot ({agent}): {e}") from None
     if yaw is not None:
         heading = float(yaw)
     elif rules.conditions.random_heading:

@@ -37,6 +37,7 @@ from revolve_env.registration import (
     episode_steps,
 )
 from revolve_env.tasks import BaseTask, Task, make_task, score
+from revolve_env.terrain import Terrain
 from revolve_env.world import World, WorldConfig
 from revolve_env.world.signals import SignalReader, signal_reader
 
@@ -189,6 +190,9 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     | engine             | None      | "pybullet" or "mujoco"; None: ``world_config``'s (pybullet) |
     | task               | None      | what the robot is rewarded for: a task, a name or a table  |
     |                    |           | (:func:`~revolve_env.tasks.make_task`); None: Locomotion   |
+    | terrain            | None      | the ground: "flat", "rugged", "crater", "bowl", a table or |
+    |                    |           | a spec (:mod:`~revolve_env.terrain`); None:                |
+    |                    |           | ``world_config``'s (flat)                                  |
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 60}  # noqa: RUF012 (gymnasium API)
@@ -211,6 +215,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         engine: str | None = None,
         conditions: EvaluationConditions | None = None,
         task: Task | str | Mapping[str, Any] | None = None,
+        terrain: Terrain | str | Mapping[str, Any] | None = None,
     ) -> None:
         robot = resolve_robot(robot, limits)[0]
         if controller is None:  # the robot's network runs under the policy's modulation
@@ -226,7 +231,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         config = world_config if world_config is not None else WorldConfig()
         if control_period is not None:  # replace() validates it against the timestep
             config = dataclasses.replace(config, control_period=control_period)
-        config = config.with_engine(engine)
+        config = config.with_engine(engine).with_terrain(terrain)
         self.config = config
         self.robot = robot
         self.render_mode = render_mode

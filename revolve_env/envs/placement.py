@@ -34,8 +34,7 @@ def footprint_radius(robot: Robot) -> float:
     Whatever the robot's heading, its horizontal footprint at assembly lies within this distance
     of its core centre. Metres.
     """
-    lower, upper = assemble(robot).bounds()
-    return float(math.hypot(max(-lower[0], upper[0]), max(-lower[1], upper[1])))
+    return assemble(robot).footprint_radius()
 
 
 @dataclass(frozen=True, slots=True)

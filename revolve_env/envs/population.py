@@ -127,6 +127,7 @@ from revolve_env.envs.roster import Roster
 from revolve_env.fitness import DEFAULT_WINDOW
 from revolve_env.status import RobotStatus, agent_name
 from revolve_env.tasks import Task, make_task
+from revolve_env.terrain import Heightfield, Terrain
 from revolve_env.world import World, WorldConfig
 
 __all__ = ["ONLINE_CONDITIONS", "Controller", "Lifecycle", "PopulationEnv", "SpaceMode",
@@ -177,12 +178,16 @@ def _check_arguments(max_births: int, render_mode: str | None, render_view: str,
 
 
 def _world_config(world_config: WorldConfig | None, control_period: float | None,
-                  engine: str | None) -> WorldConfig:
-    """The env's world settings: ``world_config`` with its period and engine replaced if given."""
+                  engine: str | None, terrain: Terrain | str | Mapping[str, Any] | None,
+                  birth_radius: float) -> WorldConfig:
+    """``world_config`` with the period, engine, terrain given (TerrainError: birth disc off it)."""
     config = world_config if world_config is not None else WorldConfig()
     if control_period is not None:  # replace() validates it against the timestep
         config = dataclasses.replace(config, control_period=control_period)
-    return config.with_engine(engine)
+    config = config.with_engine(engine).with_terrain(terrain)
+    if isinstance(config.terrain, Heightfield):
+        config.terrain.check_disc(birth_radius, "the birth disc: birth_radius")
+    return config
 
 
 # pettingzoo ships no type information (no py.typed), so mypy sees ParallelEnv as Any.
@@ -287,6 +292,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     |                     | heading  | :data:`ONLINE_CONDITIONS` by default                        |
     | task                | None     | what robots are rewarded for (:func:`~revolve_env.tasks.    |
     |                     |          | make_task`: a task, a name, a table); None: Locomotion      |
+    | terrain             | None     | "flat", "rugged", "crater", "bowl", a table; None: flat     |
 
     Bad input raises before anything changes, naming the agent: an action for an agent not alive
     (never born, removed, blown up) is a ``KeyError``; an action of the wrong shape (the uniform
@@ -322,29 +328,28 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         engine: str | None = None,
         conditions: EvaluationConditions = ONLINE_CONDITIONS,
         task: Task | str | Mapping[str, Any] | None = None,
+        terrain: Terrain | str | Mapping[str, Any] | None = None,
     ) -> None:
         times = {"insertion_time": insertion_time, "maturity_age": maturity_age,
                  "birth_radius": birth_radius, "birth_clearance": birth_clearance}
         _check_arguments(max_births, render_mode, render_view, render_size, times, fitness_window,
                          max_placement_tries, trajectory_stride, max_steps, space_mode, lifecycle,
                          conditions)
-        self.config = config = _world_config(world_config, control_period, engine)
-        self.task = make_task(task)
-        self.max_births = max_births
+        self.config = config = _world_config(world_config, control_period, engine, terrain,
+                                             birth_radius)
+        self.task, self.max_births = make_task(task), max_births
         self.initial_robots = None if initial_robots is None else list(initial_robots)
         self.render_mode, self.render_view = render_mode, render_view
         self.render_size = (int(render_size[0]), int(render_size[1]))
         self.insertion_time, self.maturity_age = float(insertion_time), float(maturity_age)
-        self.fitness_window = float(fitness_window)
         self.birth_radius, self.birth_clearance = float(birth_radius), float(birth_clearance)
         self.max_placement_tries, self.trajectory_stride = max_placement_tries, trajectory_stride
-        self.max_steps, self.limits = max_steps, limits
-        self.space_mode: SpaceMode = space_mode
-        self.proprioception = bool(proprioception)
+        self.fitness_window, self.max_steps, self.limits = float(fitness_window), max_steps, limits
+        self.space_mode, self.proprioception = space_mode, bool(proprioception)
         self.lifecycle, self.conditions = lifecycle, conditions
         self.metadata = {**self.metadata, "render_fps": round(1.0 / config.control_period)}
         self._rules = BirthRules(self.birth_radius, self.birth_clearance, max_placement_tries,
-                                 conditions, limits)
+                                 conditions, limits, config.terrain)
         self._spaces = AgentSpaces(max_births, space_mode, self.proprioception, limits, config)
         self.possible_agents: list[str] = self._spaces.possible_agents
         clock = LifeClock.of(config.control_period, self.insertion_time, self.maturity_age)

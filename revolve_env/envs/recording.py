@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -29,6 +30,7 @@ from revolve_env.conditions import EvaluationConditions
 from revolve_env.envs.episode import run_episode
 from revolve_env.envs.locomotion import LocomotionEnv
 from revolve_env.envs.video import VideoError, check_video, write_video
+from revolve_env.terrain import Terrain
 
 __all__ = ["BlowUpError", "Video", "record_robot"]
 
@@ -93,6 +95,7 @@ def record_robot(
     engine: str | None = None,
     seed: int = 0,
     conditions: EvaluationConditions | None = None,
+    terrain: Terrain | str | Mapping[str, Any] | None = None,
 ) -> Video:
     """Simulate ``robot`` driven by its own brain and write a video of it.
 
@@ -108,6 +111,7 @@ def record_robot(
         conditions: Start heading, jitter and noise (default
             :data:`~revolve_env.conditions.IDEAL`); with the same ``seed`` the robot starts and
             moves exactly as in ``evaluate(..., seed=seed, conditions=conditions)``.
+        terrain: The ground (:func:`revolve_env.terrain.make_terrain`); None: flat.
 
     Raises:
         ValueError: bad timing, or a robot the environment cannot drive (no hinge).
@@ -118,7 +122,7 @@ def record_robot(
         raise VideoError(f"fps must be a positive number, got {fps}")
     env = LocomotionEnv(robot, render_mode="rgb_array", insertion_time=insertion,
                         evaluation_time=seconds, fitness_window=seconds, controller="brain",
-                        engine=engine, conditions=conditions)
+                        engine=engine, conditions=conditions, terrain=terrain)
     try:
         dt = env.config.control_period
         every = max(1, round(1.0 / (fps * dt)))

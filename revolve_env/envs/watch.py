@@ -15,14 +15,16 @@ from __future__ import annotations
 import os
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.body.robot import Robot
 from revolve_env.conditions import EvaluationConditions
+from revolve_env.terrain import Terrain
 
 __all__ = ["Label", "NoDisplayError", "control_period", "has_display", "label_frame", "watch_robot"]
 
@@ -94,7 +96,8 @@ def label_frame(frame: NDArray[np.uint8], header: str,
 
 def watch_robot(robot: Robot, seconds: float = 12.0, insertion: float = 3.0, *,
                 engine: str | None = None, seed: int = 0,
-                conditions: EvaluationConditions | None = None) -> float:
+                conditions: EvaluationConditions | None = None,
+                terrain: Terrain | str | Mapping[str, Any] | None = None) -> float:
     """Show ``robot``, driven by its own brain, in the engine's window in real time.
 
     Args:
@@ -105,6 +108,7 @@ def watch_robot(robot: Robot, seconds: float = 12.0, insertion: float = 3.0, *,
         seed: Seed of the episode.
         conditions: Start heading, jitter and noise (default: ideal); with the same ``seed``
             the robot starts as in ``evaluate(..., seed=seed, conditions=conditions)``.
+        terrain: The ground (:func:`revolve_env.terrain.make_terrain`); None: flat.
 
     Returns:
         The fitness at the end. Metres.
@@ -122,7 +126,7 @@ def watch_robot(robot: Robot, seconds: float = 12.0, insertion: float = 3.0, *,
 
     env = LocomotionEnv(robot, render_mode="human", insertion_time=insertion,
                         evaluation_time=seconds, fitness_window=seconds, controller="brain",
-                        conditions=conditions)
+                        conditions=conditions, terrain=terrain)
     dt = env.config.control_period
     started = time.perf_counter()
 

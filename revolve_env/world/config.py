@@ -5,12 +5,15 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import math
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
 
 from revolve_env.body.parts import SERVO
+from revolve_env.terrain import Flat, Terrain, TerrainError, make_terrain
 
-__all__ = ["ENGINES", "PHYSICS_REVISIONS", "EngineUnavailableError", "WorldConfig",
-           "require_engine"]
+__all__ = ["ENGINES", "PHYSICS_REVISIONS", "EngineUnavailableError", "TerrainError",
+           "WorldConfig", "require_engine"]
 
 #: Engine name -> (backend module, class, the pip package it needs); the backends are imported
 #: lazily by :func:`revolve_env.world.backend.make_backend`.
@@ -90,6 +93,10 @@ class WorldConfig:
             pybullet's 50: the example gaits keep their fitness (spider 10.2 vs 9.9, gecko 8.9
             vs 8.9, snake 10.0 vs 10.7 over 12 s) while a 30-robot world steps about 1.4x
             faster, which is what lets the online world run faster than real time on one core.
+        terrain: The ground (:mod:`revolve_env.terrain`): :class:`Flat` (the plane, the
+            default) or a heightfield spec (``Rugged``, ``Crater``, ``Bowl``); a name or a
+            table ``{"name": ..., <parameters>}`` is read by
+            :func:`~revolve_env.terrain.make_terrain`.
     """
 
     engine: str = "pybullet"
@@ -107,8 +114,11 @@ class WorldConfig:
     max_linear_speed: float = 10.0
     max_angular_speed: float = 200.0
     solver_iterations: int = 20
+    terrain: Terrain = field(default_factory=Flat)
 
     def __post_init__(self) -> None:
+        if not isinstance(self.terrain, Terrain):  # a name or a table: read it (or refuse it)
+            object.__setattr__(self, "terrain", make_terrain(self.terrain))
         if self.engine not in ENGINES:
             raise ValueError(f"unknown physics engine {self.engine!r}: choose one of "
                              f"{', '.join(ENGINES)}")
@@ -148,6 +158,18 @@ class WorldConfig:
         config = self if engine is None else dataclasses.replace(self, engine=engine)
         require_engine(config.engine)
         return config
+
+    def with_terrain(self, terrain: Terrain | str | Mapping[str, Any] | None) -> WorldConfig:
+        """This config on ``terrain`` (None: its own): a spec, a name or a table.
+
+        The one place where a ``terrain=`` keyword (of ``evaluate`` and the envs) meets a config.
+
+        Raises:
+            TerrainError: unknown terrain name or bad parameter.
+        """
+        if terrain is None:
+            return self
+        return dataclasses.replace(self, terrain=make_terrain(terrain))
 
     @property
     def substeps(self) -> int:

@@ -135,6 +135,8 @@ class RobotModel:
         n_inputs: Number of sensor values (6 per core IMU, 2 per touch sensor, 1 per light).
         lowest_z: Lowest point of the assembled robot below the core centre. Metres (<= 0).
         mass: Total mass. Kilograms.
+        footprint_radius: Horizontal reach of the robot about its core, whatever its heading
+            (:meth:`~revolve_env.body.geometry.Assembly.footprint_radius`). Metres.
     """
 
     links: tuple[LinkModel, ...]
@@ -144,6 +146,7 @@ class RobotModel:
     n_inputs: int
     lowest_z: float
     mass: float
+    footprint_radius: float
 
     @property
     def n_outputs(self) -> int:
@@ -263,4 +266,5 @@ def build_model(robot: Robot, assembly: Assembly | None = None) -> RobotModel:
         n_inputs=n_inputs,
         lowest_z=float(lower[2]),
         mass=asm.mass,
+        footprint_radius=asm.footprint_radius(),
     )

@@ -1,4 +1,4 @@
-"""The MuJoCo backend (it, ``mujoco_scene`` and ``mujoco_scenes`` alone import ``mujoco``).
+"""The MuJoCo backend (it, ``mujoco_scene``, ``_scenes`` and ``_terrain`` import ``mujoco``).
 
 The scene is an :class:`mujoco.MjSpec` that one :class:`MujocoBackend` owns with the compiled
 ``MjModel``/``MjData`` pair. Each robot is built from the same engine-neutral

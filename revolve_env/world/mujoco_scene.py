@@ -41,6 +41,7 @@ from revolve_env.world._rotations import matrix_to_quat
 from revolve_env.world.backend import PlacedModel
 from revolve_env.world.config import WorldConfig
 from revolve_env.world.model import RobotModel
+from revolve_env.world.mujoco_terrain import add_ground
 
 __all__ = ["COLORS", "CONTACT_STEPS", "HINGE_ARMATURE", "SERVO_KV", "RobotLayout", "attach",
            "mjcf", "robot_layout", "robot_spec", "scene_mjcf", "scene_spec"]
@@ -77,7 +78,7 @@ def _wxyz(m: NDArray[np.float64]) -> list[float]:
 
 
 def scene_spec(config: WorldConfig) -> mujoco.MjSpec:
-    """A scene without robots: options, the ground plane and the light."""
+    """A scene without robots: options, the ground (``config.terrain``) and the light."""
     spec = mujoco.MjSpec()
     spec.modelname = "revolve_world"
     spec.copy_during_attach = True  # robots' specs are attached again at every rebuild
@@ -86,10 +87,7 @@ def scene_spec(config: WorldConfig) -> mujoco.MjSpec:
     opt.gravity = [0.0, 0.0, -config.gravity]
     opt.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE  # these two: see the backend doc
     opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET | mujoco.mjtDisableBit.mjDSBL_ISLAND
-    ground = spec.worldbody.add_geom()
-    ground.name = "ground"
-    ground.type = mujoco.mjtGeom.mjGEOM_PLANE
-    ground.size = [0.0, 0.0, 0.1]
+    ground = add_ground(spec, config.terrain)  # the plane or the terrain's heightfield
     ground.friction = [config.friction, 0.0, 0.0]
     ground.priority = 1  # its friction rules robot-ground contacts
     ground.rgba = [0.85, 0.85, 0.8, 1.0]
@@ -237,6 +235,8 @@ def _tag(indent: int, element: str, close: bool = True, **values: str) -> str:
 
 def _geom(g: mujoco.MjsGeom, prefix: str, indent: int) -> str:
     names = {"name": prefix + g.name} if g.name else {}
+    if g.type == mujoco.mjtGeom.mjGEOM_HFIELD:  # a terrain (its asset: see mjcf)
+        names["hfield"] = g.hfieldname
     return _tag(indent, "geom", **names, type=_GEOMS[g.type], size=_nums(g.size),
                 pos=_nums(g.pos), quat=_nums(g.quat), rgba=_nums(g.rgba),
                 friction=_nums(g.friction), condim=str(g.condim), solref=_nums(g.solref),
@@ -261,7 +261,8 @@ def _body(b: mujoco.MjsBody, prefix: str, indent: int) -> list[str]:
     return lines
 
 
-_GEOMS = {mujoco.mjtGeom.mjGEOM_BOX: "box", mujoco.mjtGeom.mjGEOM_PLANE: "plane"}
+_GEOMS = {mujoco.mjtGeom.mjGEOM_BOX: "box", mujoco.mjtGeom.mjGEOM_PLANE: "plane",
+          mujoco.mjtGeom.mjGEOM_HFIELD: "hfield"}
 _INTEGRATORS = {mujoco.mjtIntegrator.mjINT_EULER: "Euler", mujoco.mjtIntegrator.mjINT_RK4: "RK4",
                 mujoco.mjtIntegrator.mjINT_IMPLICIT: "implicit",
                 mujoco.mjtIntegrator.mjINT_IMPLICITFAST: "implicitfast",
@@ -281,7 +282,15 @@ def mjcf(scene: mujoco.MjSpec, robots: Sequence[tuple[int, mujoco.MjSpec]]) -> s
     out = [_tag(0, "mujoco", close=False, model=scene.modelname),
            _tag(1, "option", close=False, timestep=_num(opt.timestep), gravity=_nums(opt.gravity),
                 integrator=_INTEGRATORS[opt.integrator]),
-           f"    <flag{disabled}/>", "  </option>", "  <worldbody>"]
+           f"    <flag{disabled}/>", "  </option>"]
+    # MJCF's elevation rows run from +y down (an image's order), the spec's from -y up
+    fields = [_tag(2, "hfield", name=f.name, nrow=str(f.nrow), ncol=str(f.ncol),
+                   size=_nums(f.size),
+                   elevation=_nums(np.reshape(f.userdata, (f.nrow, f.ncol))[::-1].ravel()))
+              for f in scene.hfields]
+    if fields:  # a terrain's height grid (mujoco_terrain.add_ground)
+        out += ["  <asset>", *fields, "  </asset>"]
+    out.append("  <worldbody>")
     out += [_geom(g, "", 2) for g in scene.worldbody.geoms]
     for light in scene.worldbody.lights:
         directional = light.type == mujoco.mjtLightType.mjLIGHT_DIRECTIONAL

@@ -1,7 +1,7 @@
 """MuJoCo scenes of one robot each, stepped and read together (an isolated world's backend).
 
-With :mod:`~revolve_env.world.mujoco_backend`, which builds each scene, the only modules that
-import ``mujoco``.
+With :mod:`~revolve_env.world.mujoco_backend`, which builds each scene, and
+:mod:`~revolve_env.world.mujoco_terrain`, the only modules that import ``mujoco``.
 
 :class:`MujocoScenes` is the MuJoCo form of :class:`~revolve_env.world.isolated.IsolatedBackend`:
 each robot is built by a :class:`~revolve_env.world.mujoco_backend.MujocoBackend` of its own

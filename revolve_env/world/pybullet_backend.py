@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from revolve_env.terrain import Flat, Terrain
 from revolve_env.world._rotations import matrix_to_quat, quat_to_matrix
 from revolve_env.world.backend import BodyStates, PlacedModel, scene_mjcf
 from revolve_env.world.config import WorldConfig
@@ -77,6 +78,33 @@ def _import_pybullet() -> Any:
 pb = _import_pybullet()
 
 _ROBOT_FRICTION = 1.0  # pybullet multiplies the two bodies' coefficients; the ground sets the value
+
+
+def _add_ground(cid: int, terrain: Terrain) -> int:
+    """The ground body of ``terrain``: the plane, or a heightfield of the terrain's height grid.
+
+    Bullet splits each heightfield cell along the other diagonal than MuJoCo (and
+    :mod:`~revolve_env.terrain`) does, so the grid is handed over turned a quarter turn
+    and the body turned back: the same triangles. Bullet centres the field between its lowest
+    and highest sample, hence the body's height.
+    """
+    if isinstance(terrain, Flat):
+        plane = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=cid)
+        return int(pb.createMultiBody(0.0, plane, physicsClientId=cid))
+    grid = terrain.heights()
+    turned = np.rot90(grid, -1)
+    s = terrain.spacing
+    shape = pb.createCollisionShape(
+        pb.GEOM_HEIGHTFIELD, meshScale=[s, s, 1.0], heightfieldData=turned.ravel().tolist(),
+        numHeightfieldRows=turned.shape[1], numHeightfieldColumns=turned.shape[0],
+        physicsClientId=cid)
+    middle = (float(grid.min()) + float(grid.max())) / 2
+    return int(pb.createMultiBody(0.0, shape, basePosition=[0.0, 0.0, middle],
+                                  baseOrientation=_QUARTER_TURN, physicsClientId=cid))
+
+
+_QUARTER_TURN = (0.0, 0.0, math.sin(-math.pi / 4), math.cos(-math.pi / 4))
+"""A quarter turn about z (xyzw), for the pybullet heightfield."""
 
 
 @dataclass
@@ -136,8 +164,7 @@ class PybulletBackend:
         pb.setGravity(0.0, 0.0, -c.gravity, physicsClientId=cid)
         if self._gui:
             pb.configureDebugVisualizer(pb.COV_ENABLE_GUI, 0, physicsClientId=cid)
-        plane = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=cid)
-        self._ground = pb.createMultiBody(0.0, plane, physicsClientId=cid)
+        self._ground = _add_ground(cid, c.terrain)
         pb.changeDynamics(self._ground, -1, lateralFriction=c.friction, restitution=0.0,
                           physicsClientId=cid)
         pb.changeVisualShape(self._ground, -1, rgbaColor=(0.85, 0.85, 0.8, 1.0),

@@ -42,11 +42,12 @@ __all__ = ["World"]
 
 
 class World:
-    """A flat world with gravity, friction, one point light and any number of robots.
+    """A world with gravity, friction, one point light, a ground and any number of robots.
 
-    Units are SI throughout (metres, seconds, radians, kilograms). Time advances in control
-    periods (``config.control_period``, 1/60 s by default), each made of ``config.substeps``
-    physics steps (1/240 s by default). Each control period, every active hinge behaves like
+    The ground is ``config.terrain`` (:mod:`revolve_env.terrain`), the plane by default. Units
+    are SI throughout (metres, seconds, radians, kilograms). Time advances in control periods
+    (``config.control_period``, 1/60 s by default), each made of ``config.substeps`` physics
+    steps (1/240 s by default). Each control period, every active hinge behaves like
     RoboGen's servo: it is commanded the velocity ``gain * (target - angle) / control_period``
     clipped to the servo's speed, with the servo's torque limit; passive hinges turn freely.
 
@@ -187,7 +188,7 @@ class World:
         self, robot: Robot, position: tuple[float, float] = (0.0, 0.0), yaw: float = 0.0,
         drop_height: float | None = None,
     ) -> int:
-        """Insert a robot, dropped so that its lowest point is ``drop_height`` above the ground.
+        """Insert a robot, its lowest point ``drop_height`` above the highest ground under it.
 
         The robot must be valid (``revolve_env.body.validate``); this method only builds it.
         Every other robot's state is kept exactly.
@@ -202,8 +203,9 @@ class World:
             A handle, never reused within this world.
 
         Raises:
-            ValueError: a non-finite position, yaw or drop height, or a robot the engine cannot
-                build (the world is unchanged then).
+            ValueError: a non-finite position, yaw or drop height, a robot the engine cannot
+                build, or (``TerrainError``) a robot reaching past the terrain's edge (the world
+                is unchanged then).
         """
         self._check_open()
         x, y = (float(v) for v in position)
@@ -213,7 +215,9 @@ class World:
         if not (math.isfinite(gap) and gap >= 0):
             raise ValueError(f"drop_height must be >= 0 m, got {drop_height}")
         model = build_model(robot)
-        placed = (x, y, gap - model.lowest_z)
+        # On the highest ground under its footprint (0 on the flat plane, as ever).
+        ground = self.config.terrain.ground_under(x, y, model.footprint_radius)
+        placed = (x, y, ground + gap - model.lowest_z)
         key = self._backend.add(model, placed, float(yaw))
         state = robot_state(key, model, robot, placed, float(yaw))
         handle = self._next_handle

@@ -12,9 +12,10 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 OWNERS = {
     "pybullet": ["revolve_env/world/pybullet_backend.py"],
-    # the backend, the scene it compiles (model building and MJCF text) and the batched scenes
+    # the backend, the scene it compiles (model building and MJCF text), the batched scenes and
+    # the ground (the plane or a terrain's heightfield)
     "mujoco": ["revolve_env/world/mujoco_backend.py", "revolve_env/world/mujoco_scene.py",
-               "revolve_env/world/mujoco_scenes.py"],
+               "revolve_env/world/mujoco_scenes.py", "revolve_env/world/mujoco_terrain.py"],
 }
 
 
