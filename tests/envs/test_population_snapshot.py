@@ -10,8 +10,8 @@ import pytest
 
 from revolve_env.body.examples import EXAMPLES
 from revolve_env.envs.population import PopulationEnv
-from revolve_env.status import agent_name
 from revolve_env.fitness import SlidingWindowFitness
+from revolve_env.status import agent_name
 from revolve_env.world.backend import SnapshotMismatchError
 
 pytest.importorskip("mujoco", reason="the mujoco package is not installed")
