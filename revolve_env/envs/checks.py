@@ -6,8 +6,9 @@ it is installed), a two-env determinism rollout and a pickle round trip of the s
 
 ``check_population(make_env)`` holds the population env to PettingZoo's contract while robots are
 born and die mid-episode (:class:`BirthsAndDeaths`, by default every 10 and every 15 steps):
-PettingZoo's ``parallel_api_test``, a two-env determinism rollout through the births (our seed test:
-PettingZoo's ``parallel_seed_test`` stops after one step), ``parallel_to_aec`` with PettingZoo's ``api_test``, and SuperSuit's wrappers
+PettingZoo's ``parallel_api_test``, a two-env determinism rollout through the births
+(:func:`check_population_determinism`, our seed test: PettingZoo's ``parallel_seed_test`` stops
+after one step), ``parallel_to_aec`` with PettingZoo's ``api_test``, and SuperSuit's wrappers
 (or, without SuperSuit, PettingZoo's own) constructed and stepped.
 """
 
