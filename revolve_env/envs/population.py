@@ -50,12 +50,12 @@ reported are :attr:`PopulationEnv.statuses`; the infos are made from them.
 ``lifecycle(env, k)``, if given, is called inside step ``k`` (counting from 1 after ``reset``)
 once the actions are checked and before the physics. It may call ``add_robot`` and
 ``remove_robot``: a robot it adds is simulated and reported in step ``k``; a robot it removes is
-reported in step ``k`` as removed and its action, given for that step, is dropped. This is how
-PettingZoo's own ``generated_agents_parallel_v0`` makes agents, and it is the way to use births
-and deaths through ``parallel_to_aec`` and wrapper libraries, which learn of agents only from
-what ``step`` reports (a robot removed between two steps would still get an action from them,
-which is an error here). An error raised by ``lifecycle`` propagates; the robots it added or
-removed before raising stay added or removed, nothing else changed.
+reported in step ``k`` as removed (unless it was added in that step too: then it is never
+reported) and its action, given for that step, is dropped. This is how PettingZoo's own
+``generated_agents_parallel_v0`` makes agents; births and deaths between two steps reach
+converters and wrappers as well, since ``agents`` changes only in ``step``. An error raised by
+``lifecycle`` propagates; the robots it added or removed before raising stay added or removed,
+nothing else changed.
 
 ## Control
 ``controlled_by="brain"``: the robot's own network drives its hinges (every brain in one call
@@ -109,6 +109,37 @@ random heading, no jitter, no noise). The rules in full: ``docs/population-env.m
 ``initial_robots``, else one of each example robot (brain-controlled, at random free places):
 each a ``Robot`` or a mapping with keys ``robot`` and optional ``position``, ``controlled_by``,
 ``yaw``. Other option keys are ignored (PettingZoo's API test passes arbitrary ones).
+
+## Arguments (of :class:`PopulationEnv` and :func:`population_env`)
+| Keyword             | Default  | Meaning                                                     |
+|---------------------|----------|-------------------------------------------------------------|
+| max_births          | 1000     | size of ``possible_agents``: the ids 0 .. max_births - 1    |
+| initial_robots      | None     | robots added by ``reset`` (see Reset)                       |
+| render_mode         | None     | "rgb_array"                                                 |
+| render_view         | "top"    | "top" (straight down) or "chase" (oblique), whole arena     |
+| render_size         | (480, 360) | image width and height. Pixels                            |
+| insertion_time      | 3.0      | not scored after birth. Seconds                             |
+| maturity_age        | 15.0     | age from which ``is_mature`` holds. Seconds                 |
+| fitness_window      | 12.0     | sliding window of the fitness. Seconds                      |
+| birth_radius        | 2.0      | random births lie within this distance of the origin. m     |
+| birth_clearance     | 0.02     | gap kept between footprints at birth. Metres                |
+| max_placement_tries | 200      | random draws in the birth disc before placing outside it    |
+| trajectory_stride   | 1        | control periods between trajectory samples                  |
+| max_cycles          | None     | truncate every robot after this many steps (None: never)    |
+| max_steps           | None     | deprecated name of ``max_cycles``                           |
+| control_period      | None     | time per env step. Seconds (a multiple of the timestep);    |
+|                     |          | None: world_config's (1/60 s by default)                    |
+| world_config        | None     | a :class:`~revolve_env.world.WorldConfig` (physics)         |
+| limits              | None     | validation limits (:class:`~revolve_env.body.Limits`)       |
+|                     |          | and the sizes of the uniform spaces (None: Table 1)         |
+| space_mode          | "exact"  | "exact" or "uniform" (see Spaces)                           |
+| proprioception      | False    | observe hinge angles and velocities                         |
+| lifecycle           | None     | births and deaths inside a step (see the module doc)        |
+| engine              | None     | "pybullet" or "mujoco"; None: world_config's (pybullet)     |
+| conditions          | random   | heading, jitter and noise of newborns (see Conditions);     |
+|                     | heading  | :data:`ONLINE_CONDITIONS` by default                        |
+| task                | None     | what robots are rewarded for (:func:`~revolve_env.tasks.    |
+|                     |          | make_task`: a task, a name, a table); None: Locomotion      |
 """
 
 from __future__ import annotations
@@ -214,7 +245,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     """A changing population of RoboGen robots in one world; reward is each robot's task gain.
 
     Agents, births and deaths, control, spaces, rewards, placement, conditions and reset are
-    documented in the module doc; the tables are here.
+    documented in the module doc (with the keyword arguments); the tables of a step are here.
 
     ## The five dicts of a step
     Keys: every agent alive before the step or born before the physics of the step (between
@@ -282,40 +313,11 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     | obs_mask       | bool per observation entry: True where it holds the robot's value     |
     | act_mask       | bool per action entry: True where it drives one of the robot's hinges |
 
-    ## Arguments
-    | Keyword             | Default  | Meaning                                                     |
-    |---------------------|----------|-------------------------------------------------------------|
-    | max_births          | 1000     | size of ``possible_agents``: the ids 0 .. max_births - 1    |
-    | initial_robots      | None     | robots added by ``reset`` (see Reset)                       |
-    | render_mode         | None     | "rgb_array"                                                 |
-    | render_view         | "top"    | "top" (straight down) or "chase" (oblique), whole arena     |
-    | render_size         | (480, 360) | image width and height. Pixels                            |
-    | insertion_time      | 3.0      | not scored after birth. Seconds                             |
-    | maturity_age        | 15.0     | age from which ``is_mature`` holds. Seconds                 |
-    | fitness_window      | 12.0     | sliding window of the fitness. Seconds                      |
-    | birth_radius        | 2.0      | random births lie within this distance of the origin. m     |
-    | birth_clearance     | 0.02     | gap kept between footprints at birth. Metres                |
-    | max_placement_tries | 200      | random draws in the birth disc before placing outside it    |
-    | trajectory_stride   | 1        | control periods between trajectory samples                  |
-    | max_cycles          | None     | truncate every robot after this many steps (None: never)    |
-    | max_steps           | None     | deprecated name of ``max_cycles``                           |
-    | control_period      | None     | time per env step. Seconds (a multiple of the timestep);    |
-    |                     |          | None: world_config's (1/60 s by default)                    |
-    | world_config        | None     | a :class:`~revolve_env.world.WorldConfig` (physics)         |
-    | limits              | None     | validation limits (:class:`~revolve_env.body.Limits`)       |
-    |                     |          | and the sizes of the uniform spaces (None: Table 1)         |
-    | space_mode          | "exact"  | "exact" or "uniform" (see Spaces)                           |
-    | proprioception      | False    | observe hinge angles and velocities                         |
-    | lifecycle           | None     | births and deaths inside a step (see the module doc)        |
-    | engine              | None     | "pybullet" or "mujoco"; None: world_config's (pybullet)     |
-    | conditions          | random   | heading, jitter and noise of newborns (see Conditions);     |
-    |                     | heading  | :data:`ONLINE_CONDITIONS` by default                        |
-    | task                | None     | what robots are rewarded for (:func:`~revolve_env.tasks.    |
-    |                     |          | make_task`: a task, a name, a table); None: Locomotion      |
+    The keyword arguments are in the module doc's table (Arguments).
 
-    Bad input raises before anything changes, naming the agent: an action for an agent not alive
-    (never born, removed, blown up) is a ``KeyError``; an action of the wrong shape (the uniform
-    shape in uniform mode) or with NaN or infinity is a ``ValueError``.
+    Bad input raises before anything changes, naming the agent: an action for an agent neither
+    alive nor removed since the last step (never born, dead) is a ``KeyError``; an action of the
+    wrong shape (the uniform shape in uniform mode) or with NaN or infinity is a ``ValueError``.
     """
 
     metadata: dict[str, Any] = {  # noqa: RUF012 (PettingZoo's convention; copied per instance)
