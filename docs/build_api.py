@@ -24,6 +24,17 @@ from pathlib import Path
 
 PACKAGES = ("revolve_env", "evolution")
 
+EXTRAS = {"revolve_env.envs.rllib": "ray.rllib"}
+"""Modules of an optional extra and the library they need: left out where it cannot be imported."""
+
+
+def _importable(module: str) -> bool:
+    try:
+        importlib.import_module(module)
+    except ImportError:
+        return False
+    return True
+
 
 def public_modules() -> list[str]:
     """Every module of :data:`PACKAGES` without a ``_private`` part, imported; packages first."""
@@ -34,6 +45,8 @@ def public_modules() -> list[str]:
         for info in pkgutil.walk_packages(root.__path__, f"{package}."):
             parent, _, leaf = info.name.rpartition(".")
             if any(part.startswith("_") for part in info.name.split(".")):
+                continue
+            if info.name in EXTRAS and not _importable(EXTRAS[info.name]):
                 continue
             importlib.import_module(info.name)
             if leaf not in getattr(sys.modules[parent], "__all__", ()):  # else pdoc adds it

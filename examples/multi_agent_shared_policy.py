@@ -107,7 +107,7 @@ def population(args: argparse.Namespace, controlled_by: str) -> revolve_env.Popu
                 (revolve_env.example("gecko"), controlled_by))
     return revolve_env.population_env(
         space_mode="uniform", proprioception=True, insertion_time=0.5, fitness_window=2.5,
-        birth_radius=3.0, max_births=60, max_steps=args.episode_steps, engine=args.engine,
+        birth_radius=3.0, max_births=60, max_cycles=args.episode_steps, engine=args.engine,
         lifecycle=BirthsAndDeaths(birth_every=args.birth_every, death_every=args.death_every,
                                   newborns=newborns))
 

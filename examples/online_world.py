@@ -26,11 +26,14 @@ steps_per_birth = round(BIRTH_EVERY / dt)
 step = 0
 while step * dt < SECONDS:
     step += 1
-    # Births happen between steps: the newborn is placed at a free spot of the birth disc.
+    # Births happen between steps: the newborn is placed at a free spot of the birth disc and
+    # enters env.agents in the next step, which reports its first observation (PettingZoo's
+    # convention: agents change only in step, so a policy over env.agents never misses one).
     if step % steps_per_birth == 0 and newborns:
         agent = env.add_robot(newborns.pop(0))
         print(f"t = {step * dt:.2f} s: born {agent}")
-    # Deaths too: the robot leaves the world now and the next step reports it terminated.
+    # Deaths too: the robot leaves the world now; the next step reports it terminated and
+    # takes it out of env.agents.
     if step == round(DEATH_AT / dt):
         env.remove_robot("robot_0")
         print(f"t = {step * dt:.2f} s: removed robot_0")

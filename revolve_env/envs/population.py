@@ -21,17 +21,28 @@ pool ``robot_0 .. robot_<max_births - 1>``. Robots enter through :meth:`Populati
 (or ``reset``'s initial robots) and leave through :meth:`PopulationEnv.remove_robot` or a
 physics blow-up:
 
-* A robot added between two steps is in ``agents`` at once and is reported in all five dicts of
-  the next ``step`` (it is simulated in that step).
-* A robot removed between two steps leaves the world (and ``agents``) at once; the next ``step``
-  reports it one last time with ``terminations[agent] = True`` and ``infos[agent]["death"] =
-  "removed"``; then it disappears.
+``agents`` changes only in ``step`` and ``reset`` (PettingZoo's convention): it is the robots
+the last of them reported alive, so ``{a: policy(obs[a]) for a in env.agents}`` always finds an
+observation, and converters (``parallel_to_aec``) and wrappers see every change in a step.
+
+* A robot added between two steps is in the world at once (placed, and simulated in the next
+  step: its brain drives it, or its targets stay 0 until it gets an action) and enters
+  ``agents`` in the next ``step``, which reports it in all five dicts with its first
+  observation; an action may be given to it there (its id is known), none is needed.
+  :meth:`PopulationEnv.observe` and :attr:`PopulationEnv.robot_ids` see it at once.
+* A robot removed between two steps leaves the world at once and ``agents`` in the next
+  ``step``, which reports it one last time with ``terminations[agent] = True`` and
+  ``infos[agent]["death"] = "removed"`` (an action given to it there is checked and dropped);
+  then it disappears. One removed before any step reported it is never reported.
 * A robot whose simulation blows up is removed at the end of the step that saw it, reported in
   that step with ``terminations[agent] = True``, ``infos[agent]["death"] = "blow_up"`` and the
   reason in ``infos[agent]["blow_up"]``.
 
-With ``max_steps`` set, every living robot is truncated after that many steps (the episode
-ends); by default the episode never ends on its own. Every robot's typed status
+With ``max_cycles`` set (PettingZoo's name; ``max_steps`` is its deprecated alias), step
+``max_cycles`` truncates every living robot and leaves ``agents`` empty: the episode has ended
+and a further ``step`` is refused (RuntimeError) until ``reset``; ``lifecycle`` is not called
+in that last step (a robot born there would be truncated at birth). By default the episode
+never ends on its own. Every robot's typed status
 (:class:`~revolve_env.status.RobotStatus`) is :meth:`PopulationEnv.status`; those the last step
 reported are :attr:`PopulationEnv.statuses`; the infos are made from them.
 
@@ -39,12 +50,12 @@ reported are :attr:`PopulationEnv.statuses`; the infos are made from them.
 ``lifecycle(env, k)``, if given, is called inside step ``k`` (counting from 1 after ``reset``)
 once the actions are checked and before the physics. It may call ``add_robot`` and
 ``remove_robot``: a robot it adds is simulated and reported in step ``k``; a robot it removes is
-reported in step ``k`` as removed and its action, given for that step, is dropped. This is how
-PettingZoo's own ``generated_agents_parallel_v0`` makes agents, and it is the way to use births
-and deaths through ``parallel_to_aec`` and wrapper libraries, which learn of agents only from
-what ``step`` reports (a robot removed between two steps would still get an action from them,
-which is an error here). An error raised by ``lifecycle`` propagates; the robots it added or
-removed before raising stay added or removed, nothing else changed.
+reported in step ``k`` as removed (unless it was added in that step too: then it is never
+reported) and its action, given for that step, is dropped. This is how PettingZoo's own
+``generated_agents_parallel_v0`` makes agents; births and deaths between two steps reach
+converters and wrappers as well, since ``agents`` changes only in ``step``. An error raised by
+``lifecycle`` propagates; the robots it added or removed before raising stay added or removed,
+nothing else changed.
 
 ## Control
 ``controlled_by="brain"``: the robot's own network drives its hinges (every brain in one call
@@ -98,12 +109,45 @@ random heading, no jitter, no noise). The rules in full: ``docs/population-env.m
 ``initial_robots``, else one of each example robot (brain-controlled, at random free places):
 each a ``Robot`` or a mapping with keys ``robot`` and optional ``position``, ``controlled_by``,
 ``yaw``. Other option keys are ignored (PettingZoo's API test passes arbitrary ones).
+
+## Arguments (of :class:`PopulationEnv` and :func:`population_env`)
+| Keyword             | Default  | Meaning                                                     |
+|---------------------|----------|-------------------------------------------------------------|
+| max_births          | 1000     | size of ``possible_agents``: the ids 0 .. max_births - 1    |
+| initial_robots      | None     | robots added by ``reset`` (see Reset)                       |
+| render_mode         | None     | "rgb_array"                                                 |
+| render_view         | "top"    | "top" (straight down) or "chase" (oblique), whole arena     |
+| render_size         | (480, 360) | image width and height. Pixels                            |
+| insertion_time      | 3.0      | not scored after birth. Seconds                             |
+| maturity_age        | 15.0     | age from which ``is_mature`` holds. Seconds                 |
+| fitness_window      | 12.0     | sliding window of the fitness. Seconds                      |
+| birth_radius        | 2.0      | random births lie within this distance of the origin. m     |
+| birth_clearance     | 0.02     | gap kept between footprints at birth. Metres                |
+| max_placement_tries | 200      | random draws in the birth disc before placing outside it    |
+| trajectory_stride   | 1        | control periods between trajectory samples                  |
+| max_cycles          | None     | truncate every robot after this many steps (None: never)    |
+| max_steps           | None     | deprecated name of ``max_cycles``                           |
+| control_period      | None     | time per env step. Seconds (a multiple of the timestep);    |
+|                     |          | None: world_config's (1/60 s by default)                    |
+| world_config        | None     | a :class:`~revolve_env.world.WorldConfig` (physics)         |
+| limits              | None     | validation limits (:class:`~revolve_env.body.Limits`)       |
+|                     |          | and the sizes of the uniform spaces (None: Table 1)         |
+| space_mode          | "exact"  | "exact" or "uniform" (see Spaces)                           |
+| proprioception      | False    | observe hinge angles and velocities                         |
+| lifecycle           | None     | births and deaths inside a step (see the module doc)        |
+| engine              | None     | "pybullet" or "mujoco"; None: world_config's (pybullet)     |
+| conditions          | random   | heading, jitter and noise of newborns (see Conditions);     |
+|                     | heading  | :data:`ONLINE_CONDITIONS` by default                        |
+| task                | None     | what robots are rewarded for (:func:`~revolve_env.tasks.    |
+|                     |          | make_task`: a task, a name, a table); None: Locomotion      |
+| terrain             | None     | "flat", "rugged", "crater", "bowl", a table; None: flat     |
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Literal
 
@@ -144,7 +188,7 @@ it may add and remove robots (see the module doc, Births and deaths inside a ste
 def _check_arguments(max_births: int, render_mode: str | None, render_view: str,
                      render_size: tuple[int, int], times: dict[str, float],
                      fitness_window: float, max_placement_tries: int, trajectory_stride: int,
-                     max_steps: int | None, space_mode: str, lifecycle: object,
+                     max_cycles: int | None, space_mode: str, lifecycle: object,
                      conditions: object) -> None:
     """Refuse bad constructor arguments (``times``: the ones that must be >= 0) by name."""
     if not isinstance(conditions, EvaluationConditions):
@@ -168,13 +212,25 @@ def _check_arguments(max_births: int, render_mode: str | None, render_view: str,
         raise ValueError(f"max_placement_tries must be >= 1, got {max_placement_tries}")
     if trajectory_stride < 1:
         raise ValueError(f"trajectory_stride must be >= 1, got {trajectory_stride}")
-    if max_steps is not None and max_steps < 1:
-        raise ValueError(f"max_steps must be >= 1 or None, got {max_steps}")
+    if max_cycles is not None and not (isinstance(max_cycles, int) and max_cycles >= 1):
+        raise ValueError(f"max_cycles must be an integer >= 1 or None, got {max_cycles!r}")
     if space_mode not in ("exact", "uniform"):
         raise ValueError(f"space_mode must be 'exact' or 'uniform', got {space_mode!r}")
     if lifecycle is not None and not callable(lifecycle):
         raise TypeError(f"lifecycle must be callable as lifecycle(env, step), got "
                         f"{type(lifecycle).__name__}")
+
+
+def _max_cycles(max_cycles: int | None, max_steps: int | None) -> int | None:
+    """The episode length: ``max_cycles``, or ``max_steps`` (its deprecated old name)."""
+    if max_steps is None:
+        return max_cycles
+    if max_cycles is not None and max_cycles != max_steps:
+        raise ValueError(f"max_steps is the deprecated name of max_cycles: give one, got "
+                         f"max_cycles={max_cycles} and max_steps={max_steps}")
+    warnings.warn("population_env(max_steps=...) is deprecated: use max_cycles (PettingZoo's "
+                  "name)", DeprecationWarning, stacklevel=3)
+    return max_steps
 
 
 def _world_config(world_config: WorldConfig | None, control_period: float | None,
@@ -195,7 +251,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     """A changing population of RoboGen robots in one world; reward is each robot's task gain.
 
     Agents, births and deaths, control, spaces, rewards, placement, conditions and reset are
-    documented in the module doc; the tables are here.
+    documented in the module doc (with the keyword arguments); the tables of a step are here.
 
     ## The five dicts of a step
     Keys: every agent alive before the step or born before the physics of the step (between
@@ -206,7 +262,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     | observations | its observation after it     | its last observation | zeros                  |
     | rewards      | fitness gain (0 inserting)   | 0.0                  | minus its fitness      |
     | terminations | False (True if it blew up)   | True                 | True                   |
-    | truncations  | True only at ``max_steps``   | False                | False                  |
+    | truncations  | True only at ``max_cycles``  | False                | False                  |
     | infos        | ``age`` = one control period | ``death="removed"``, | ``death="blow_up"``,   |
     |              | ``death=None``, its masks    | its last state       | reason in ``blow_up``  |
 
@@ -263,40 +319,11 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     | obs_mask       | bool per observation entry: True where it holds the robot's value     |
     | act_mask       | bool per action entry: True where it drives one of the robot's hinges |
 
-    ## Arguments
-    | Keyword             | Default  | Meaning                                                     |
-    |---------------------|----------|-------------------------------------------------------------|
-    | max_births          | 1000     | size of ``possible_agents``: the ids 0 .. max_births - 1    |
-    | initial_robots      | None     | robots added by ``reset`` (see Reset)                       |
-    | render_mode         | None     | "rgb_array"                                                 |
-    | render_view         | "top"    | "top" (straight down) or "chase" (oblique), whole arena     |
-    | render_size         | (480, 360) | image width and height. Pixels                            |
-    | insertion_time      | 3.0      | not scored after birth. Seconds                             |
-    | maturity_age        | 15.0     | age from which ``is_mature`` holds. Seconds                 |
-    | fitness_window      | 12.0     | sliding window of the fitness. Seconds                      |
-    | birth_radius        | 2.0      | random births lie within this distance of the origin. m     |
-    | birth_clearance     | 0.02     | gap kept between footprints at birth. Metres                |
-    | max_placement_tries | 200      | random draws in the birth disc before placing outside it    |
-    | trajectory_stride   | 1        | control periods between trajectory samples                  |
-    | max_steps           | None     | truncate every robot after this many steps (None: never)    |
-    | control_period      | None     | time per env step. Seconds (a multiple of the timestep);    |
-    |                     |          | None: world_config's (1/60 s by default)                    |
-    | world_config        | None     | a :class:`~revolve_env.world.WorldConfig` (physics)         |
-    | limits              | None     | validation limits (:class:`~revolve_env.body.Limits`)       |
-    |                     |          | and the sizes of the uniform spaces (None: Table 1)         |
-    | space_mode          | "exact"  | "exact" or "uniform" (see Spaces)                           |
-    | proprioception      | False    | observe hinge angles and velocities                         |
-    | lifecycle           | None     | births and deaths inside a step (see the module doc)        |
-    | engine              | None     | "pybullet" or "mujoco"; None: world_config's (pybullet)     |
-    | conditions          | random   | heading, jitter and noise of newborns (see Conditions);     |
-    |                     | heading  | :data:`ONLINE_CONDITIONS` by default                        |
-    | task                | None     | what robots are rewarded for (:func:`~revolve_env.tasks.    |
-    |                     |          | make_task`: a task, a name, a table); None: Locomotion      |
-    | terrain             | None     | "flat", "rugged", "crater", "bowl", a table; None: flat     |
+    The keyword arguments are in the module doc's table (Arguments).
 
-    Bad input raises before anything changes, naming the agent: an action for an agent not alive
-    (never born, removed, blown up) is a ``KeyError``; an action of the wrong shape (the uniform
-    shape in uniform mode) or with NaN or infinity is a ``ValueError``.
+    Bad input raises before anything changes, naming the agent: an action for an agent neither
+    alive nor removed since the last step (never born, dead) is a ``KeyError``; an action of the
+    wrong shape (the uniform shape in uniform mode) or with NaN or infinity is a ``ValueError``.
     """
 
     metadata: dict[str, Any] = {  # noqa: RUF012 (PettingZoo's convention; copied per instance)
@@ -318,6 +345,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         birth_clearance: float = 0.02,
         max_placement_tries: int = 200,
         trajectory_stride: int = 1,
+        max_cycles: int | None = None,
         max_steps: int | None = None,
         control_period: float | None = None,
         world_config: WorldConfig | None = None,
@@ -330,10 +358,11 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         task: Task | str | Mapping[str, Any] | None = None,
         terrain: Terrain | str | Mapping[str, Any] | None = None,
     ) -> None:
+        max_cycles = _max_cycles(max_cycles, max_steps)
         times = {"insertion_time": insertion_time, "maturity_age": maturity_age,
                  "birth_radius": birth_radius, "birth_clearance": birth_clearance}
         _check_arguments(max_births, render_mode, render_view, render_size, times, fitness_window,
-                         max_placement_tries, trajectory_stride, max_steps, space_mode, lifecycle,
+                         max_placement_tries, trajectory_stride, max_cycles, space_mode, lifecycle,
                          conditions)
         self.config = config = _world_config(world_config, control_period, engine, terrain,
                                              birth_radius)
@@ -344,8 +373,10 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self.insertion_time, self.maturity_age = float(insertion_time), float(maturity_age)
         self.birth_radius, self.birth_clearance = float(birth_radius), float(birth_clearance)
         self.max_placement_tries, self.trajectory_stride = max_placement_tries, trajectory_stride
-        self.fitness_window, self.max_steps, self.limits = float(fitness_window), max_steps, limits
-        self.space_mode, self.proprioception = space_mode, bool(proprioception)
+        self.fitness_window, self.max_cycles = float(fitness_window), max_cycles
+        self.limits = limits
+        self.space_mode: SpaceMode = space_mode
+        self.proprioception = bool(proprioception)
         self.lifecycle, self.conditions = lifecycle, conditions
         self.metadata = {**self.metadata, "render_fps": round(1.0 / config.control_period)}
         self._rules = BirthRules(self.birth_radius, self.birth_clearance, max_placement_tries,
@@ -386,12 +417,16 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     # -- the robots ------------------------------------------------------------------------
     @property
     def agents(self) -> list[str]:
-        """The living robots' agent names, in birth order (PettingZoo's ``agents``)."""
-        return self._roster.agents
+        """The agents the last ``step`` (or ``reset``) reported alive, in birth order.
+
+        PettingZoo's ``agents``: it changes only in ``step`` and ``reset`` (see the module doc,
+        Robots and agents); the robots in the world now are :attr:`robot_ids`.
+        """
+        return self._roster.announced
 
     @property
     def robot_ids(self) -> list[int]:
-        """The living robots' ids, in birth order."""
+        """The robots in the world now (born and not removed), by id, in birth order."""
         return list(self._roster.members)
 
     @property
@@ -426,7 +461,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     def status(self, robot: int | str) -> RobotStatus:
         """The status of a living robot now (its id or agent name); KeyError naming it."""
         member = self._member(robot, "status")
-        return self._roster.living.status(self.agents.index(member.agent))
+        return self._roster.living.status(self._roster.agents.index(member.agent))
 
     def agent_info(self, agent: int | str) -> dict[str, Any]:
         """The info of a living robot now (as ``step`` reports it)."""
@@ -442,7 +477,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         if self._roster.world is None:
             return {}
         centres = self._roster.world.states.core_pos.tolist()  # rows: the agents
-        return {a: (p[0], p[1]) for a, p in zip(self.agents, centres, strict=True)}
+        return {a: (p[0], p[1]) for a, p in zip(self._roster.agents, centres, strict=True)}
 
     def observe(self, robot: int | str) -> NDArray[np.float64]:
         """The current observation of a living robot (a copy, in its observation space).
@@ -451,7 +486,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         first one here. KeyError naming the agent when it is unknown, not yet born, or dead.
         """
         member = self._member(robot, "observe")
-        return self._roster.living.view_of(self.agents.index(member.agent))
+        return self._roster.living.view_of(self._roster.agents.index(member.agent))
 
     def _member(self, robot: int | str, what: str) -> Member:
         return self._roster.member(robot, what)
@@ -468,11 +503,12 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self._spaces.reset()
         for kwargs in initial_births(options, self.initial_robots):
             self.add_robot(**kwargs)
-        living, masks = self._roster.living, self._spaces.masks
-        statuses = living.statuses()
+        roster, masks = self._roster, self._spaces.masks
+        roster.announced = agents = list(roster.agents)
+        statuses = roster.living.statuses()
         self._statuses = {s.robot_id: s for s in statuses}
-        return (dict(zip(self.agents, living.views(), strict=True)),
-                {a: status_info(s, masks[a]) for a, s in zip(self.agents, statuses, strict=True)})
+        return (dict(zip(agents, roster.living.views(), strict=True)),
+                {a: status_info(s, masks[a]) for a, s in zip(agents, statuses, strict=True)})
 
     def step(self, actions: Mapping[str, ArrayLike]) -> Dicts:
         """Advance every robot one control period (see the class doc for the five dicts).
@@ -483,14 +519,17 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         roster = self._roster
         if roster.world is None:
             raise RuntimeError("call reset() before step()")
+        if self.max_cycles is not None and roster.steps >= self.max_cycles:
+            raise RuntimeError(f"the episode ended after max_cycles={self.max_cycles} steps (every "
+                               "agent truncated): call reset()")
         checked = roster.checked_actions(actions)
-        if self.lifecycle is not None:
+        last = self.max_cycles is not None and roster.steps + 1 >= self.max_cycles
+        if self.lifecycle is not None and not last:
             self.lifecycle(self, roster.steps + 1)
             # Robots it removed leave with this step's death report; their actions are dropped.
             checked = [(m, a) for m, a in checked if m.robot_id in roster.members]
         roster.act(checked)
-        truncate = self.max_steps is not None and roster.steps >= self.max_steps
-        dicts, self._statuses = report_step(roster, self._spaces.masks, truncate)
+        dicts, self._statuses = report_step(roster, self._spaces.masks, last)
         return dicts
 
     def render(self) -> NDArray[np.uint8] | None:
@@ -586,10 +625,14 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     def remove_robot(self, robot: int | str) -> None:
         """Take a living robot out of the world (between steps); its bodies are deleted at once.
 
-        The next ``step`` reports it one last time, terminated, with ``death="removed"``; a
-        KeyError names a robot unknown, not yet born, or already dead.
+        It stays in ``agents`` until the next ``step`` reports it one last time, terminated, with
+        ``death="removed"`` (an action given to it there is checked and dropped); a robot that no
+        step has reported yet (added since the last one) leaves unreported. A KeyError names a
+        robot unknown, not yet born, or already removed.
         """
-        self._roster.drop(self._member(robot, "remove_robot"), "removed")
+        member = self._member(robot, "remove_robot")
+        announced = member.agent in self._roster.announced
+        self._roster.drop(member, "removed" if announced else None)
 
 
 def population_env(**kwargs: Any) -> PopulationEnv:

@@ -80,4 +80,5 @@ def report_step(roster: Roster, masks: dict[str, Masks], truncate: bool
     gone = [m for m, e in zip(living.members, ended, strict=True) if e or truncate]
     for member in reversed(gone):
         roster.drop(member)
+    roster.announced = list(roster.agents)
     return (obs, rewards, terminations, truncations, infos), statuses

@@ -63,7 +63,10 @@ class Roster:
         self.world: World | None = None
         self.brain: BatchController | None = None
         self.members: dict[int, Member] = {}  # the living robots, by robot id, in row order
-        self.agents: list[str] = []  # their agent names, in row order (PettingZoo's agents)
+        self.agents: list[str] = []  # their agent names, in row order
+        # PettingZoo's agents: the living robots the last step (or reset) reported; they change
+        # only there, so a robot added or removed between two steps enters or leaves at the next.
+        self.announced: list[str] = []
         self.dead: list[tuple[Member, Death]] = []  # left since the last step, to report
         self.births = 0  # robots born in this episode
         self.next_id = 0  # the id of the next robot born without one
@@ -87,7 +90,7 @@ class Roster:
         self._relayout_brains()
 
     def _forget(self) -> None:
-        self.members, self.agents, self.dead = {}, [], []
+        self.members, self.agents, self.dead, self.announced = {}, [], [], []
         self.living.clear()
         self.births = self.next_id = self.steps = 0
 
@@ -126,11 +129,19 @@ class Roster:
                         ) -> list[tuple[Member, NDArray[np.float64]]]:
         """Every action checked before anything changes; the agent-controlled robots' targets.
 
+        An action for a robot removed since the last step (still one of ``announced``, reported
+        dead by this step) is checked and dropped.
+
         Raises:
-            KeyError: an action for an agent not alive; ValueError: a bad shape or value.
+            KeyError: an action for an agent neither alive nor removed since the last step;
+            ValueError: a bad shape or value.
         """
         checked: list[tuple[Member, NDArray[np.float64]]] = []
+        leaving = {m.agent: m for m, _ in self.dead}
         for agent, action in actions.items():
+            if agent in leaving:
+                self.spaces.checked_action(leaving[agent], action)
+                continue
             member = self.member(agent, "action")
             a = self.spaces.checked_action(member, action)
             if member.controlled_by == "agent":
@@ -267,6 +278,7 @@ class Roster:
             "world": world.snapshot(),
             "noise_rng": None if self.noise is None else dict(self.noise.bit_generator.state),
             "births": self.births, "next_id": self.next_id, "steps": self.steps,
+            "announced": list(self.announced),
             "members": [member_snapshot(m, self.living.final(row), brain, with_robot=False)
                         for row, m in enumerate(self.living.members)],
             "dead": [(member_snapshot(m, _final(m), None, with_robot=True), death)
@@ -290,6 +302,9 @@ class Roster:
         self.members = {m.robot_id: m for m in restored.members}
         self.agents = [m.agent for m in restored.members]
         self.dead = restored.dead
+        # A snapshot from before `announced` existed: every robot it holds was announced.
+        self.announced = [str(a) for a in snapshot.get(
+            "announced", [m.agent for m, _ in restored.dead] + self.agents)]
         self.spaces.restore(restored.masks, restored.spaces, restored.uniform)
         try:
             self.living.restore(restored.members, restored.rows, restored.world)

@@ -22,10 +22,10 @@ population env's steps (``lifecycle=``).
 
 ## Episodes (what SB3 sees per slot)
 * A slot's episode is one robot's life in that slot. When its robot dies (removed, blown up, or
-  truncated at ``max_steps``) the slot reports ``done=True`` with the robot's last observation in
+  truncated at ``max_cycles``) the slot reports ``done=True`` with the robot's last observation in
   ``infos[i]["terminal_observation"]`` and ``infos[i]["episode"] = {"r": life's return,
   "l": steps, "t": wall seconds}`` (what SB3's ``Monitor`` writes, so ``ep_info_buffer`` and the
-  logger's ``rollout/ep_rew_mean`` work). A removal and the ``max_steps`` truncation are not the
+  logger's ``rollout/ep_rew_mean`` work). A removal and the ``max_cycles`` truncation are not the
   robot's doing: they set ``infos[i]["TimeLimit.truncated"] = True``, so SB3 bootstraps the value
   there; a blow-up is a true termination.
 * When a newborn takes an empty slot, the slot's stretch of emptiness ends with ``done=True``
@@ -33,7 +33,7 @@ population env's steps (``lifecycle=``).
   of the step of birth is not credited to any slot (the policy did not act for it; it is 0
   during insertion anyway); from the next step on every reward of the robot is its slot's.
 * ``infos[i]["agent"]`` names the slot's robot (None when empty) after the step.
-* When no robot is alive any more (every one died, or ``max_steps`` truncated them all) the
+* When no robot is alive any more (every one died, or ``max_cycles`` truncated them all) the
   population env is reset (with the seed given to :meth:`PopulationVecEnv.seed`, then that
   seed + 1, + 2, ...; unseeded before any ``seed`` call) and the initial robots take their slots.
 

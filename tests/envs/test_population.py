@@ -43,7 +43,7 @@ def test_ids_are_never_reused_and_the_dead_stay_dead() -> None:
     env.remove_robot(a)
     c = env.add_robot(snake(2))
     assert (a, b, c) == ("robot_0", "robot_1", "robot_2")
-    assert env.agents == [b, c]
+    assert env.robot_ids == [1, 2] and env.agents == []  # agents change in step only
     with pytest.raises(KeyError, match="robot_0.*dead"):
         env.remove_robot(a)
     with pytest.raises(KeyError, match="robot_0.*dead"):
@@ -53,15 +53,20 @@ def test_ids_are_never_reused_and_the_dead_stay_dead() -> None:
     with pytest.raises(KeyError, match="unknown agent 'robot_99'"):
         env.remove_robot("robot_99")
     _, _, term, _, infos = env.step({})
-    assert term == {a: True, b: False, c: False}
-    assert infos[a]["death"] == "removed"
+    assert term == {b: False, c: False}  # robot_0 left before a step reported it: never an agent
+    assert env.agents == [b, c]
+    env.remove_robot(b)
+    assert env.robot_ids == [2] and env.agents == [b, c]  # b leaves agents in the next step
+    _, _, term, _, infos = env.step({b: np.zeros(2, np.float32)})  # its action is dropped
+    assert term == {b: True, c: False} and infos[b]["death"] == "removed"
+    assert env.agents == [c]
     _, _, term, _, _ = env.step({})
-    assert set(term) == {b, c}  # reported once, then gone
+    assert set(term) == {c}  # reported once, then gone
     assert env.add_robot(snake(2)) == "robot_3"
     bodies = env.world.body_count()
     with pytest.raises(ValueError, match="max_births=4"):
         env.add_robot(snake(2))
-    assert env.world.body_count() == bodies and len(env.agents) == 3
+    assert env.world.body_count() == bodies and env.robot_ids == [2, 3]
     assert set(env.agents) <= set(env.possible_agents)
 
 
@@ -167,9 +172,9 @@ def test_a_removed_robot_leaves_no_body_behind() -> None:
     env.step({})
     for agent in (agents[0], agents[2]):
         env.remove_robot(agent)
-    assert env.world.body_count() == 1 and env.agents == []
+    assert env.world.body_count() == 1 and env.robot_ids == []
     _, _, term, _, _ = env.step({})
-    assert term == {agents[0]: True, agents[2]: True}
+    assert term == {agents[0]: True, agents[2]: True} and env.agents == []
 
 
 def test_brain_and_agent_robots_share_the_world() -> None:
@@ -276,8 +281,8 @@ def test_blow_up_removes_the_robot_with_a_reason() -> None:
         env.step({wild: np.zeros(2)})
 
 
-def test_max_steps_truncates_everyone() -> None:
-    env = small_env(max_steps=3)
+def test_max_cycles_truncates_everyone_and_ends_the_episode() -> None:
+    env = small_env(max_cycles=3)
     env.reset(seed=0)
     a = env.add_robot(snake(2))
     for _ in range(2):
@@ -285,6 +290,20 @@ def test_max_steps_truncates_everyone() -> None:
         assert trunc == {a: False}
     _, _, term, trunc, _ = env.step({})
     assert trunc == {a: True} and term == {a: False} and env.agents == []
+    with pytest.raises(RuntimeError, match=r"max_cycles=3 .*reset\(\)"):
+        env.step({})
+    env.reset(seed=0)  # a new episode runs its max_cycles steps again
+    assert env.step({})[3] == {a: False for a in env.agents}
+
+
+def test_max_steps_is_the_deprecated_name_of_max_cycles() -> None:
+    with pytest.warns(DeprecationWarning, match="max_cycles"):
+        env = small_env(max_steps=4)
+    assert env.max_cycles == 4
+    with pytest.raises(ValueError, match="give one"):
+        small_env(max_steps=4, max_cycles=5)
+    with pytest.raises(ValueError, match="max_cycles must be an integer >= 1"):
+        small_env(max_cycles=0)
 
 
 def test_a_crowded_birth_disc_places_the_newborn_outside_it() -> None:

@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
-from pettingzoo.test import parallel_api_test, parallel_seed_test
+from pettingzoo.test import parallel_api_test
 
 from revolve_env.body.examples import gecko, snake
+from revolve_env.envs.checks import check_population_determinism, population_with_births
 from revolve_env.envs.population import PopulationEnv, population_env
 
 
@@ -89,9 +90,32 @@ def test_parallel_api_on_the_bare_env_with_blow_ups() -> None:
         parallel_api_test(env, num_cycles=5)
 
 
-def test_parallel_seed_test() -> None:
-    parallel_seed_test(lambda: population_env(
-        initial_robots=[gecko(), {"robot": snake(3), "controlled_by": "agent"}]), num_cycles=20)
+def test_the_seed_test_runs_every_step_through_births_and_deaths() -> None:
+    """Our seed test (PettingZoo's parallel_seed_test stops after one step): same seed, same
+    observations, rewards, terminations, truncations, infos and agents, step by step."""
+    def make() -> PopulationEnv:
+        return population_with_births(max_cycles=45)
+
+    run = check_population_determinism(make, seed=4, steps=100)
+    # max_cycles ended it; births at 10, 20, 30, 40, deaths at 15, 30 and everyone at 45.
+    assert (run.steps, run.births) == (45, 4) and run.deaths >= 2 + 4
+
+
+def test_the_seed_test_fails_on_an_unseeded_birth() -> None:
+    """It can fail: a newborn placed by an unseeded generator is somewhere else in each env."""
+    rngs = iter([np.random.default_rng(1), np.random.default_rng(2)])
+
+    def make() -> PopulationEnv:
+        rng = next(rngs)
+
+        def births(env: PopulationEnv, k: int) -> None:
+            if k == 5:
+                env.add_robot(snake(2), position=(float(rng.uniform(2, 3)), 0.0))
+
+        return population_env(initial_robots=[gecko()], lifecycle=births)
+
+    with pytest.raises(AssertionError, match=r"step 5: infos differ"):
+        check_population_determinism(make, steps=10)
 
 
 def test_reset_with_the_same_seed_replays_births_and_observations() -> None:

@@ -26,12 +26,12 @@ def _env(conditions: EvaluationConditions | None = None, **kw: Any) -> Populatio
 def _play(env: PopulationEnv, seed: int, steps: int = 12) -> list[Any]:
     """Births by the placement rule (brain and agent robots), steps; what every step gave."""
     env.reset(seed=seed)
-    env.add_robot(EXAMPLES["spider"]())
-    env.add_robot(EXAMPLES["gecko"](), controlled_by="agent")
-    env.add_robot(EXAMPLES["snake"]())
-    out: list[Any] = [{a: env.agent_info(a)["birth_position"] for a in env.agents},
-                      {a: env._roster.member(a, "test").yaw for a in env.agents},
-                      {a: env.observe(a) for a in env.agents}]
+    born = [env.add_robot(EXAMPLES["spider"]()),
+            env.add_robot(EXAMPLES["gecko"](), controlled_by="agent"),
+            env.add_robot(EXAMPLES["snake"]())]
+    out: list[Any] = [{a: env.agent_info(a)["birth_position"] for a in born},
+                      {a: env._roster.member(a, "test").yaw for a in born},
+                      {a: env.observe(a) for a in born}]
     for _ in range(steps):
         obs, rewards, *_ = env.step({"robot_1": np.full(6, 0.5, dtype=np.float32)})
         out.append((obs, rewards))
@@ -89,7 +89,7 @@ def test_a_jittered_birth_that_overlaps_is_refused_and_changes_nothing() -> None
     state = env.np_random.bit_generator.state
     with pytest.raises(ValueError, match="overlaps robot_0"):
         env.add_robot(EXAMPLES["gecko"](), (0.05, 0.0))
-    assert env.np_random.bit_generator.state == state and env.agents == ["robot_0"]
+    assert env.np_random.bit_generator.state == state and env.robot_ids == [0]
 
 
 def test_noise_is_reproducible_changes_the_run_and_never_the_births() -> None:
@@ -109,7 +109,7 @@ def test_sensor_noise_reaches_what_brains_read_and_agents_observe() -> None:
     truth = env.world.read_sensors(m.handle)
     seen = env.observe(agent)
     assert not np.array_equal(seen, truth)
-    brain_reads = env._roster.living.obs_of(env.agents.index(agent))
+    brain_reads = env._roster.living.obs_of(env._roster.agents.index(agent))
     np.testing.assert_array_equal(seen, brain_reads)  # the brain's inputs: the same noisy values
     # Touch and light values stay in [0, 1]; only the IMU is unbounded.
     low, high = m.sensor_low, m.sensor_high

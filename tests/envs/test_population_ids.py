@@ -25,7 +25,9 @@ def test_a_caller_gives_its_own_ids_which_never_repeat() -> None:
     assert env.add_robot(example("spider")) == "robot_0"
     assert env.add_robot(example("gecko"), robot_id=4) == "robot_4"  # a gap: 1..3 never born
     assert env.add_robot(example("snake")) == "robot_5"  # then one more than the last
-    assert env.robot_ids == [0, 4, 5] and env.agents == ["robot_0", "robot_4", "robot_5"]
+    assert env.robot_ids == [0, 4, 5] and env.agents == []  # agents change in step only
+    env.step({})
+    assert env.agents == ["robot_0", "robot_4", "robot_5"]
     for bad, message in ((5, "robot_id 5 is used or below the last one"),
                          (2, "the next free one is 6"), (20, "not below max_births=20"),
                          (True, "must be an integer")):

@@ -11,6 +11,7 @@ import pytest
 from revolve_env.body.examples import EXAMPLES
 from revolve_env.envs.population import PopulationEnv
 from revolve_env.fitness import SlidingWindowFitness
+from revolve_env.status import agent_name
 from revolve_env.world.backend import SnapshotMismatchError
 
 pytest.importorskip("mujoco", reason="the mujoco package is not installed")
@@ -45,8 +46,10 @@ def _play(env: PopulationEnv, steps: int, seed: int) -> list[Any]:
             env.add_robot(EXAMPLES["gecko"]())
         if k == steps // 2 and len(env.agents) > 2:
             env.remove_robot(env.agents[1])
+        alive = {agent_name(r) for r in env.robot_ids}  # robots removed since the last step
         actions = {a: rng.uniform(-1, 1, env.action_space(a).shape).astype(np.float32)
-                   for a in env.agents if env.agent_info(a)["controlled_by"] == "agent"}
+                   for a in env.agents if a in alive and env.agent_info(a)["controlled_by"] ==
+                   "agent"}
         out.append(env.step(actions))
     out.append({a: env.agent_info(a) for a in env.agents})
     out.append(env.np_random.uniform())

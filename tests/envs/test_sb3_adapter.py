@@ -86,13 +86,13 @@ def test_padding_of_actions_and_bad_shapes() -> None:
 
 
 def test_overflow_is_unslotted_and_an_empty_world_resets() -> None:
-    venv = _vec(n_slots=1, max_steps=20)
+    venv = _vec(n_slots=1, max_cycles=20)
     venv.seed(2)
     venv.reset()
     for _ in range(20):
         _, _, dones, infos = venv.step(np.zeros((1, 10), np.float32))
     assert venv.unslotted  # gecko born at step 6 while the spider held the only slot
-    assert venv.resets == 2  # max_steps truncated every robot: a new population episode
+    assert venv.resets == 2  # max_cycles truncated every robot: a new population episode
     assert dones[0] and infos[0]["TimeLimit.truncated"] and infos[0]["agent"] == "robot_0"
     venv.close()
 

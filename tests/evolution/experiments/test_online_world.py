@@ -29,7 +29,7 @@ def test_the_world_holds_only_the_runs_robots() -> None:
         a = world.add(gecko(), 3).robot_id
         birth = world.add(snake(), 5)
         b = birth.robot_id
-        assert (a, b) == (3, 5) and world._env.agents == ["robot_3", "robot_5"]
+        assert (a, b) == (3, 5) and world._env.robot_ids == [3, 5]  # in the world at once
         # The position recorded is the one the env used (the shared placement rule).
         assert birth.inside and world._env.status(b).birth_position == birth.position
         statuses = world.advance_to(0.5)

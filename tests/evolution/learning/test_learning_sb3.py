@@ -36,7 +36,7 @@ def drive_in_population(agent: PolicyAgent | None, robot: Robot, insertion: floa
     from revolve_env.envs import PopulationEnv
 
     steps = round((insertion + seconds) / control_period)
-    env = PopulationEnv(insertion_time=insertion, fitness_window=seconds, max_steps=steps,
+    env = PopulationEnv(insertion_time=insertion, fitness_window=seconds, max_cycles=steps,
                         control_period=control_period,
                         proprioception=agent is not None and agent.proprioception)
     entry = {"robot": robot, "position": (0.0, 0.0), "yaw": 0.0,
