@@ -145,9 +145,6 @@ each a ``Robot`` or a mapping with keys ``robot`` and optional ``position``, ``c
 
 from __future__ import annotations
 
-import dataclasses
-import math
-import warnings
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Literal
 
@@ -162,6 +159,7 @@ from revolve_env.body.validate import Limits
 from revolve_env.conditions import EvaluationConditions
 from revolve_env.envs.agent_spaces import AgentSpaces, SpaceMode
 from revolve_env.envs.arena import arena_frame
+from revolve_env.envs.arguments import check_arguments, max_cycles_of, world_config_of
 from revolve_env.envs.births import BirthRules, initial_births, next_robot_id, plan_birth
 from revolve_env.envs.living import Living
 from revolve_env.envs.members import Controller, LifeClock, Member, sensor_bounds
@@ -171,7 +169,7 @@ from revolve_env.envs.roster import Roster
 from revolve_env.fitness import DEFAULT_WINDOW
 from revolve_env.status import RobotStatus, agent_name
 from revolve_env.tasks import Task, make_task
-from revolve_env.terrain import Heightfield, Terrain
+from revolve_env.terrain import Terrain
 from revolve_env.world import World, WorldConfig
 
 __all__ = ["ONLINE_CONDITIONS", "Controller", "Lifecycle", "PopulationEnv", "SpaceMode",
@@ -183,67 +181,6 @@ ONLINE_CONDITIONS = EvaluationConditions(heading="random")
 Lifecycle = Callable[["PopulationEnv", int], None]
 """Called as ``lifecycle(env, k)`` inside step ``k`` (1, 2, ... since reset), before the physics;
 it may add and remove robots (see the module doc, Births and deaths inside a step)."""
-
-
-def _check_arguments(max_births: int, render_mode: str | None, render_view: str,
-                     render_size: tuple[int, int], times: dict[str, float],
-                     fitness_window: float, max_placement_tries: int, trajectory_stride: int,
-                     max_cycles: int | None, space_mode: str, lifecycle: object,
-                     conditions: object) -> None:
-    """Refuse bad constructor arguments (``times``: the ones that must be >= 0) by name."""
-    if not isinstance(conditions, EvaluationConditions):
-        raise TypeError(f"conditions must be an EvaluationConditions, got "
-                        f"{type(conditions).__name__}")
-    if not (isinstance(max_births, int) and max_births >= 1):
-        raise ValueError(f"max_births must be an integer >= 1, got {max_births!r}")
-    if render_mode is not None and render_mode != "rgb_array":
-        raise ValueError(f"render_mode must be 'rgb_array' or None, got {render_mode!r}")
-    if render_view not in ("top", "chase"):
-        raise ValueError(f"render_view must be 'top' or 'chase', got {render_view!r}")
-    if len(render_size) != 2 or min(render_size) < 1:
-        raise ValueError(f"render_size must be (width, height) in pixels, got {render_size!r}")
-    for name, value in times.items():
-        if not (math.isfinite(value) and value >= 0):
-            raise ValueError(f"{name} must be a finite number >= 0, got {value}")
-    if not (math.isfinite(fitness_window) and fitness_window > 0):
-        raise ValueError(f"fitness_window must be a positive number of seconds, got "
-                         f"{fitness_window}")
-    if max_placement_tries < 1:
-        raise ValueError(f"max_placement_tries must be >= 1, got {max_placement_tries}")
-    if trajectory_stride < 1:
-        raise ValueError(f"trajectory_stride must be >= 1, got {trajectory_stride}")
-    if max_cycles is not None and not (isinstance(max_cycles, int) and max_cycles >= 1):
-        raise ValueError(f"max_cycles must be an integer >= 1 or None, got {max_cycles!r}")
-    if space_mode not in ("exact", "uniform"):
-        raise ValueError(f"space_mode must be 'exact' or 'uniform', got {space_mode!r}")
-    if lifecycle is not None and not callable(lifecycle):
-        raise TypeError(f"lifecycle must be callable as lifecycle(env, step), got "
-                        f"{type(lifecycle).__name__}")
-
-
-def _max_cycles(max_cycles: int | None, max_steps: int | None) -> int | None:
-    """The episode length: ``max_cycles``, or ``max_steps`` (its deprecated old name)."""
-    if max_steps is None:
-        return max_cycles
-    if max_cycles is not None and max_cycles != max_steps:
-        raise ValueError(f"max_steps is the deprecated name of max_cycles: give one, got "
-                         f"max_cycles={max_cycles} and max_steps={max_steps}")
-    warnings.warn("population_env(max_steps=...) is deprecated: use max_cycles (PettingZoo's "
-                  "name)", DeprecationWarning, stacklevel=3)
-    return max_steps
-
-
-def _world_config(world_config: WorldConfig | None, control_period: float | None,
-                  engine: str | None, terrain: Terrain | str | Mapping[str, Any] | None,
-                  birth_radius: float) -> WorldConfig:
-    """``world_config`` with the period, engine, terrain given (TerrainError: birth disc off it)."""
-    config = world_config if world_config is not None else WorldConfig()
-    if control_period is not None:  # replace() validates it against the timestep
-        config = dataclasses.replace(config, control_period=control_period)
-    config = config.with_engine(engine).with_terrain(terrain)
-    if isinstance(config.terrain, Heightfield):
-        config.terrain.check_disc(birth_radius, "the birth disc: birth_radius")
-    return config
 
 
 # pettingzoo ships no type information (no py.typed), so mypy sees ParallelEnv as Any.
@@ -358,13 +295,13 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         task: Task | str | Mapping[str, Any] | None = None,
         terrain: Terrain | str | Mapping[str, Any] | None = None,
     ) -> None:
-        max_cycles = _max_cycles(max_cycles, max_steps)
+        max_cycles = max_cycles_of(max_cycles, max_steps)
         times = {"insertion_time": insertion_time, "maturity_age": maturity_age,
                  "birth_radius": birth_radius, "birth_clearance": birth_clearance}
-        _check_arguments(max_births, render_mode, render_view, render_size, times, fitness_window,
+        check_arguments(max_births, render_mode, render_view, render_size, times, fitness_window,
                          max_placement_tries, trajectory_stride, max_cycles, space_mode, lifecycle,
                          conditions)
-        self.config = config = _world_config(world_config, control_period, engine, terrain,
+        self.config = config = world_config_of(world_config, control_period, engine, terrain,
                                              birth_radius)
         self.task, self.max_births = make_task(task), max_births
         self.initial_robots = None if initial_robots is None else list(initial_robots)
