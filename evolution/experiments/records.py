@@ -38,12 +38,13 @@ __all__ = [
     "LearningRecord",
     "PopulationSnapshot",
     "REEVALUATIONS_TABLE",
+    "SB3_OF_OLD_RUNS",
     "ReevaluationRecord",
     "RobotRecord",
     "RunRecord",
 ]
 
-SCHEMA_VERSION = 5
+SCHEMA_VERSION = 6
 """Version of the database layout; a database with a newer one is refused, an older one is
 upgraded when opened (see the module docstring)."""
 
@@ -204,6 +205,26 @@ WHERE key = 'config' AND json_valid(value) AND json_type(value) = 'object'
 Nothing else changes: the runs continue and report as before. (A config with neither key is
 offline, the default of both names.)"""
 
+SB3_OF_OLD_RUNS = """
+UPDATE meta SET value = json_set(value, '$.learning.normalize', json('false'))
+WHERE key = 'config' AND json_valid(value) AND json_type(value) = 'object'
+    AND json_extract(value, '$.learning.learner') = 'sb3'
+    AND json_type(value, '$.learning.normalize') IS NULL;
+UPDATE meta SET value = json_set(value, '$.learning.settings', 'sb3-defaults')
+WHERE key = 'config' AND json_valid(value) AND json_type(value) = 'object'
+    AND json_extract(value, '$.learning.learner') = 'sb3'
+    AND json_type(value, '$.learning.settings') IS NULL;
+"""
+"""Schema version 6, for a stored config whose infants learn with SB3 (``learning.learner =
+"sb3"``): how its learner trained before it took revolve_env.rl's normalised env and PPO settings
+(:class:`~evolution.learning.SB3Learner`'s ``normalize`` and ``settings``). It trained on raw
+observations and rewards (``normalize = false``) with SB3's own defaults under
+``algorithm_kwargs`` (``settings = "sb3-defaults"``: ``n_steps`` 2048, exploration std 1, ...);
+with both the learner trains exactly as it did (the same env, seeds and keyword arguments), so a
+resumed run's remaining infants learn to the numbers of an uninterrupted run. A key already there
+is kept. Written out literally on purpose: a migration must not change when the code's defaults
+do, and this statement is the one home of that rule."""
+
 SCHEMA = SCHEMA_V1 + LEARNING_TABLE + POLICY_COLUMN + REEVALUATIONS_TABLE
 """The current layout (version :data:`SCHEMA_VERSION`)."""
 
@@ -212,7 +233,7 @@ TABLES = frozenset(re.findall(r"CREATE TABLE (\w+)", SCHEMA))
 
 MIGRATIONS: dict[int, str] = {1: LEARNING_TABLE, 2: POLICY_COLUMN,
                                3: REEVALUATIONS_TABLE + CONDITIONS_OF_OLD_RUNS,
-                               4: MODE_OF_OLD_CONFIGS}
+                               4: MODE_OF_OLD_CONFIGS, 5: SB3_OF_OLD_RUNS}
 """For each old version, the statements that bring it to the next one."""
 
 

@@ -38,13 +38,18 @@ with it (``"learned"``), so a resumed run continues with the same genomes.
 Schema versions: 1 had no ``learning`` table; 2 had no ``learning.policy`` column (the reference
 to a saved SB3 policy in ``<results>/policies/``); 3 had no ``reevaluations`` table, and its
 stored configs no ``evaluation`` table; 4 named the stored config's offline/online switch
-``engine``. An older database is upgraded in place when opened, in one transaction (the empty
-``learning`` and ``reevaluations`` tables and the ``policy`` column, NULL in old rows, are added;
-a stored config without ``evaluation`` gains the conditions its runs lived under,
+``engine``; 5 stored SB3 learning tables without ``normalize`` and ``settings``. An older database
+is upgraded in place when opened, in one transaction (the empty ``learning`` and
+``reevaluations`` tables and the ``policy`` column, NULL in old rows, are added; a stored config
+without ``evaluation`` gains the conditions its runs lived under,
 :data:`~evolution.experiments.records.CONDITIONS_OF_OLD_RUNS`: heading 0 offline, a random
 heading online, no noise; its ``engine`` key becomes ``mode``,
-:data:`~evolution.experiments.records.MODE_OF_OLD_CONFIGS`; the version is set to 5; nothing
-else changes); a database newer than this package is refused.
+:data:`~evolution.experiments.records.MODE_OF_OLD_CONFIGS`; an SB3 learning table gains
+``normalize = false`` and ``settings = "sb3-defaults"``, how its learner trained then,
+:data:`~evolution.experiments.records.SB3_OF_OLD_RUNS`; the version is set to 6; nothing else
+changes); a database newer than this package is refused. An old database that cannot be written
+is upgraded in a read-only copy in memory instead: readers (``report``, ``show``) read it,
+``resume`` refuses it as it refuses any read-only database.
 
 The query functions at the bottom (``fitness_over_births``, ``final_population``, ...) are what
 reports and plots read.
@@ -208,6 +213,8 @@ class Store:
             ) from error
         try:
             _check_database(db, path, check)
+        except _ReadOnly:
+            db = _upgraded_copy(db, path)
         except StoreError:
             db.close()
             raise
@@ -578,6 +585,8 @@ def _check_database(db: sqlite3.Connection, path: Path, check: tuple[str] | None
         try:
             _migrate(db, version)
         except sqlite3.Error as error:
+            if _is_read_only(error):
+                raise _ReadOnly(path) from error
             raise StoreError(
                 f"{path} has schema version {version}, older than this package's "
                 f"{SCHEMA_VERSION}, and could not be upgraded in place ({error}); open it "
@@ -590,6 +599,37 @@ def _check_database(db: sqlite3.Connection, path: Path, check: tuple[str] | None
         raise StoreError(
             f"{path} is incomplete: table(s) {', '.join(missing)} missing; corrupt?"
         )
+
+
+class _ReadOnly(StoreError):
+    """An old database that cannot be upgraded in place because it cannot be written."""
+
+
+def _is_read_only(error: sqlite3.Error) -> bool:
+    """Whether SQLite refused a write because the file (or its folder) is read-only."""
+    code = getattr(error, "sqlite_errorcode", None)
+    return code is not None and code & 0xFF == sqlite3.SQLITE_READONLY
+
+
+def _upgraded_copy(db: sqlite3.Connection, path: Path) -> sqlite3.Connection:
+    """A read-only database of an older schema, upgraded in a copy in memory; ``db`` is closed.
+
+    ``revolve report``, ``show`` and the other readers read it as they read one upgraded in
+    place; the copy refuses writes (``query_only``), so ``resume`` still finds it read-only
+    (:func:`~evolution.experiments.integrity.check_writable`) and nothing is written anywhere.
+    """
+    copy = sqlite3.connect(":memory:", isolation_level=None, check_same_thread=False)
+    try:
+        db.backup(copy)
+    finally:
+        db.close()
+    try:
+        _check_database(copy, path, ("ok",))
+    except BaseException:
+        copy.close()
+        raise
+    copy.execute("PRAGMA query_only = ON")
+    return copy
 
 
 def _migrate(db: sqlite3.Connection, version: int) -> None:

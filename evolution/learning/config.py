@@ -19,7 +19,15 @@ An experiment config with learning is an ordinary experiment TOML (see
     #           control_period = 0.0166667, algorithm_kwargs = { n_steps = 256 },
     #           normalize = true (VecNormalize of observations and rewards),
     #           proprioception = false (true: the policy also observes hinge angles and speeds;
-    #           the online world then observes them for every agent-controlled robot)
+    #           the online world then observes them for every agent-controlled robot),
+    #           settings = "benchmark" (PPO starts from revolve_env.rl.ppo_settings, under
+    #           algorithm_kwargs; "sb3-defaults": from SB3's own defaults)
+
+Results stored before the learner trained on normalised envs with the benchmark's settings (schema
+version 5 and older) had neither ``normalize`` nor ``settings``: the store's upgrade writes
+``normalize = false`` and ``settings = "sb3-defaults"`` into their ``sb3`` tables
+(:data:`~evolution.experiments.records.SB3_OF_OLD_RUNS`), with which the learner trains exactly as
+it did then, so that such a run resumes to the numbers it would have had uninterrupted.
 
 A ``budget`` too small for one learning step is refused here (a ``ValueError``; in an experiment
 config a one-line ``ConfigError``): CMA-ES needs the inborn evaluation and one generation
@@ -60,7 +68,7 @@ _KEYS = {
     "cma-es": _COMMON | {"sigma", "popsize", "workers"},
     "random-search": _COMMON | {"sigma", "popsize", "workers"},
     "sb3": _COMMON | {"algorithm", "policy", "action", "n_envs", "vec_env", "control_period",
-                      "algorithm_kwargs", "normalize", "proprioception"},
+                      "algorithm_kwargs", "normalize", "proprioception", "settings"},
 }
 
 
@@ -114,7 +122,8 @@ def training_center_from_dict(data: Mapping[str, Any], engine: str = "pybullet",
     learner: Learner
     if name == "sb3":
         kwargs = {k: data[k] for k in ("algorithm", "policy", "action", "n_envs", "vec_env",
-                                       "control_period", "normalize", "proprioception")
+                                       "control_period", "normalize", "proprioception",
+                                       "settings")
                   if k in data}
         learner = SB3Learner(**kwargs, **timing, engine=engine, conditions=conditions,
                              algorithm_kwargs=dict(data.get("algorithm_kwargs", {})), task=scored,

@@ -311,6 +311,10 @@ class SB3Learner:
             (:mod:`revolve_env.tasks`; an experiment's task).
         terrain: The ground of the training envs and evaluations (:mod:`revolve_env.terrain`;
             an experiment's ``world.terrain``).
+        settings: ``"benchmark"``: PPO starts from :func:`revolve_env.rl.ppo_settings`;
+            ``"sb3-defaults"``: from SB3's own defaults (the learner before it took the
+            benchmark's settings; with ``normalize=False`` it trains exactly as that one did,
+            which is how results stored then resume). Under ``algorithm_kwargs`` either way.
     """
 
     algorithm: type | str = "PPO"
@@ -328,6 +332,7 @@ class SB3Learner:
     proprioception: bool = False
     task: Task = Locomotion()
     terrain: Terrain = Flat()
+    settings: Literal["benchmark", "sb3-defaults"] = "benchmark"
 
     learns_policy = True  # class constant: the controller is the policy, not the genome's network
 
@@ -336,6 +341,9 @@ class SB3Learner:
             raise ValueError(f"action must be 'targets' or 'modulate', got {self.action!r}")
         if self.vec_env not in ("subproc", "dummy"):
             raise ValueError(f"vec_env must be 'subproc' or 'dummy', got {self.vec_env!r}")
+        if self.settings not in ("benchmark", "sb3-defaults"):
+            raise ValueError(f"settings must be 'benchmark' or 'sb3-defaults', got "
+                             f"{self.settings!r}")
         for flag in ("normalize", "proprioception"):
             if not isinstance(getattr(self, flag), bool):
                 raise ValueError(f"{flag} must be true or false, got {getattr(self, flag)!r}")
@@ -357,11 +365,15 @@ class SB3Learner:
         return 2 * (self.insertion + self.seconds)
 
     def _algorithm_kwargs(self) -> dict[str, Any]:
-        """The algorithm's keyword arguments: PPO's start from the benchmark's settings."""
+        """The algorithm's keyword arguments: PPO's start from the benchmark's settings.
+
+        With ``settings="sb3-defaults"``, from SB3's own defaults (nothing added).
+        """
         from stable_baselines3 import PPO
 
         cls = _algorithm_class(self.algorithm)
-        base = ppo_settings(self.action) if issubclass(cls, PPO) else {}
+        benchmark = self.settings == "benchmark" and issubclass(cls, PPO)
+        base = ppo_settings(self.action) if benchmark else {}
         return {**base, **dict(self.algorithm_kwargs)}
 
     def _rollout(self) -> tuple[int, int]:

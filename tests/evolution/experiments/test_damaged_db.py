@@ -29,7 +29,7 @@ from evolution.cli import main
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import ProgressEvent, api, loop, preset
 from evolution.experiments.integrity import verify
-from evolution.experiments.store import DB_NAME, Store
+from evolution.experiments.store import DB_NAME, SCHEMA_VERSION, Store
 
 SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
 HALF = ("rowid IN (SELECT rowid FROM {t} ORDER BY rowid DESC "
@@ -256,20 +256,31 @@ def _without_root() -> Iterator[None]:
             os.seteuid(0)
 
 
+@pytest.mark.parametrize("version", [SCHEMA_VERSION, SCHEMA_VERSION - 1])
 def test_a_read_only_database_is_refused_by_resume_and_read_by_the_others(
-        interrupted: Path, capsys: pytest.CaptureFixture[str], fake_physics: None) -> None:
+        interrupted: Path, capsys: pytest.CaptureFixture[str], fake_physics: None,
+        version: int) -> None:
+    """Also one of the previous schema: it cannot be upgraded in place, so it is upgraded in
+    memory for the readers, and still refused by resume."""
     # Outside pytest's private temporary folder, so that another user can reach it.
     base = Path(tempfile.mkdtemp(prefix="revolve-readonly-"))
     try:
         folder = base / "exp"
         shutil.copytree(interrupted, folder)
+        con = sqlite3.connect(folder / DB_NAME)
+        con.execute("UPDATE meta SET value = ? WHERE key = 'schema_version'", (str(version),))
+        con.commit()
+        con.close()
         for path in (base, folder):
             path.chmod(0o777)
         digest = _digest(folder)
         commands = _commands(folder, base)
-        with _read_only(folder):
-            with _without_root():
-                line = _one_line_error(capsys, commands["resume"])
+        # Once as root on a copy, so that the commands import all they need (the other user
+        # cannot read root's site-packages).
+        warm = _commands(shutil.copytree(folder, base / "warm"), base / "warm")
+        assert main(warm["report"]) == 0 and main(warm["show"]) == 0
+        with _read_only(folder), _without_root():
+            line = _one_line_error(capsys, commands["resume"])
             assert "cannot be written" in line
             assert main(commands["report"]) == 0
             assert main(commands["show"]) == 0

@@ -241,7 +241,7 @@ def test_version_3_run_is_upgraded_and_keeps_every_row(study: Path, tmp_path: Pa
     _as_version_3(db)
     before = dump_results(db)
     with Store.open(db) as store:
-        assert store.meta()["schema_version"] == "5"
+        assert store.meta()["schema_version"] == "6"
         assert store.config["evaluation"]["heading"] == 0.0  # an offline run: heading 0
         assert store.config["mode"] == "offline" and "engine" not in store.config
     assert dump_results(db) == before

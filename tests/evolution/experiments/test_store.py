@@ -174,7 +174,7 @@ def test_version_1_database_is_upgraded_in_place(tmp_path: Path) -> None:
     db.commit()
     db.close()
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == str(SCHEMA_VERSION) == "5"
+        assert s.meta()["schema_version"] == str(SCHEMA_VERSION) == "6"
         assert s.learning(0) == [] and [r.robot_id for r in s.robots(0)] == [0]
         assert set(s.table_counts()) == TABLES
 
@@ -197,7 +197,7 @@ def test_version_2_database_gains_the_policy_column(tmp_path: Path) -> None:
     db.commit()
     db.close()
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == "5"
+        assert s.meta()["schema_version"] == "6"
         assert s.learning(0) == [LearningRecord(0, 0.0, "darwinian", None, 0.5, 0.75, 3, 21.0)]
 
 
@@ -252,7 +252,7 @@ def test_version_3_database_is_upgraded_in_place(
     before = _dump(path, old_tables)
     renamed = {("mode" if k == "engine" else k): v for k, v in config.items()}
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == "5"
+        assert s.meta()["schema_version"] == "6"
         assert s.config == {**renamed, "evaluation": {
             "heading": heading, "position_jitter": 0.0, "sensor_noise": 0.0,
             "actuator_noise": 0.0}}
@@ -284,7 +284,7 @@ def test_version_4_database_names_its_mode(tmp_path: Path, mode: str | None) -> 
     if mode is not None:
         expected["mode"] = mode
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == "5" and s.config == expected
+        assert s.meta()["schema_version"] == "6" and s.config == expected
         assert ExperimentConfig.from_dict({**s.config, "births": 15}).mode == (mode or "offline")
     assert _dump(path, tables) == before
     with Store.open(path) as s:  # opening again changes nothing more
