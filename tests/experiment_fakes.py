@@ -18,7 +18,7 @@ import numpy as np
 
 from evolution.config import EvolutionConfig
 from evolution.evaluation import EvalOutcome, EvalTask, evaluate_after_infancy
-from evolution.experiments import Birth, ExperimentConfig, ProgressEvent, RobotStatus
+from evolution.experiments import Birth, ExperimentConfig, ProgressEvent, RobotStatus, load_config
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import to_json
 from revolve_env.brain import get_params, param_bounds
@@ -245,3 +245,20 @@ def kill_after(births: int) -> Callable[[ProgressEvent], None]:
         if event.births >= births and not event.replaying:
             raise Kill(f"killed at {event.births} births")
     return progress
+
+
+def tiny_run(name: str, **changes: Any) -> ExperimentConfig:
+    """Shipped config ``name`` shrunk to seconds of real physics: 6 births, 1 s windows.
+
+    Robots of the shipped size (small ones barely move in 1 s, so neither heading, noise, task
+    nor terrain would show); ``scenario3`` also gets a small online world. ``changes`` override
+    any key, tables (``world``, ``evaluation``, ``task``) merged as ``--set`` would.
+    """
+    values: dict[str, Any] = dict(
+        runs=1, births=6, population_size=3, offspring_size=3, insertion=0.5,
+        evaluation_time=1.0, fertile_age=1.5, diversity_interval=0, workers=1)
+    if name == "scenario3":
+        values.update(min_alive=2, max_alive=5, conception_interval=1.0, checkpoint_interval=2)
+    values.update(changes)
+    return load_config(name, values)
+

@@ -11,6 +11,7 @@ from typing import Any
 
 import pytest
 from experiment_fakes import dump_results as dump
+from experiment_fakes import tiny_run
 
 from evolution import experiments
 from evolution.evaluation import EvalOutcome, EvalTask, LocalEvaluator, evaluate_task
@@ -86,13 +87,7 @@ def test_the_training_center_learns_under_the_conditions() -> None:
 def tiny(mode: str, **evaluation: Any) -> ExperimentConfig:
     """A few seconds of real physics: 6 births, 1 s windows (robots of the shipped size: the
     small ones of the other tests barely move in 1 s, so neither heading nor noise shows)."""
-    name = "scenario3" if mode == "online" else "scenario1"
-    values: dict[str, Any] = dict(
-        runs=1, births=6, population_size=3, offspring_size=3, insertion=0.5,
-        evaluation_time=1.0, fertile_age=1.5, diversity_interval=0, workers=1)
-    if mode == "online":
-        values.update(min_alive=2, max_alive=5, conception_interval=1.0, checkpoint_interval=2)
-    return load_config(name, {**values, "evaluation": evaluation})
+    return tiny_run("scenario3" if mode == "online" else "scenario1", evaluation=evaluation)
 
 
 def ideal_evaluate(task: EvalTask) -> EvalOutcome:

@@ -14,6 +14,7 @@ from typing import Any
 
 import pytest
 from experiment_fakes import dump_results as dump
+from experiment_fakes import tiny_run
 
 from evolution import experiments
 from evolution.evaluation import EvalTask, LocalEvaluator, evaluate_task, evaluation_seed
@@ -29,16 +30,9 @@ DIRECTED = {"name": "directed-locomotion", "heading": 0.0}
 
 
 def tiny(mode: str, task: dict[str, Any] | None = None) -> ExperimentConfig:
-    """6 births, 1 s windows (as tests/evolution/experiments/test_config_evaluation.py)."""
+    """6 births, 1 s windows, ``task`` as the ``[task]`` table (none: no table)."""
     name = "scenario3" if mode == "online" else "scenario1"
-    values: dict[str, Any] = dict(
-        runs=1, births=6, population_size=3, offspring_size=3, insertion=0.5,
-        evaluation_time=1.0, fertile_age=1.5, diversity_interval=0, workers=1)
-    if mode == "online":
-        values.update(min_alive=2, max_alive=5, conception_interval=1.0, checkpoint_interval=2)
-    if task is not None:
-        values["task"] = task
-    return load_config(name, values)
+    return tiny_run(name) if task is None else tiny_run(name, task=task)
 
 
 def _run(config: ExperimentConfig, out: Path) -> dict[str, Any]:

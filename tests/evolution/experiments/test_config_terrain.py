@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from experiment_fakes import Kill, kill_after, small
+from experiment_fakes import Kill, kill_after, small, tiny_run
 from experiment_fakes import dump_results as dump
 
 from evolution import experiments
@@ -24,14 +24,8 @@ RUGGED = {"name": "rugged", "size": 10.0, "resolution": 0.05, "height": 0.03, "s
 
 
 def tiny(name: str, terrain: Any, **changes: Any) -> ExperimentConfig:
-    values: dict[str, Any] = dict(
-        runs=1, births=8, population_size=3, offspring_size=3, insertion=0.5,
-        evaluation_time=1.0, fertile_age=1.5, diversity_interval=0, workers=1)
-    if name == "scenario3":
-        values.update(min_alive=2, max_alive=5, conception_interval=1.0, checkpoint_interval=2)
-    values.update(changes)
-    return small(load_config(name, {"world": {"engine": "mujoco", "terrain": terrain},
-                                    **values}))
+    return small(tiny_run(name, births=8, world={"engine": "mujoco", "terrain": terrain},
+                          **changes))
 
 
 def test_world_terrain_is_a_name_or_a_table_kept_in_full(tmp_path: Path) -> None:

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from experiment_fakes import Kill, kill_after, small
+from experiment_fakes import Kill, kill_after, small, tiny_run
 from experiment_fakes import dump_results as dump
 
 from evolution import experiments
@@ -21,14 +21,7 @@ pytest.importorskip("mujoco", reason="the mujoco package is not installed")
 
 
 def tiny(name: str, **changes: Any) -> ExperimentConfig:
-    values: dict[str, Any] = dict(
-        runs=1, births=8, population_size=3, offspring_size=3, insertion=0.5,
-        evaluation_time=1.0, fertile_age=1.5, diversity_interval=0, workers=1)
-    if name == "scenario3":
-        values.update(min_alive=2, max_alive=5, conception_interval=1.0, fertile_age=1.5,
-                      checkpoint_interval=2)
-    values.update(changes)
-    return small(load_config(name, {"world": {"engine": "mujoco"}, **values}))
+    return small(tiny_run(name, births=8, world={"engine": "mujoco"}, **changes))
 
 
 def test_world_engine_is_one_config_key_stored_with_the_results(tmp_path: Path) -> None:
