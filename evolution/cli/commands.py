@@ -175,7 +175,8 @@ def _cmd_resume(args: argparse.Namespace) -> int:
     # Every database is checked before any is continued: a damaged or read-only one stops the
     # command with nothing changed.
     for folder in _experiment_dirs(Path(args.dir)):
-        config = check_resumable(folder / DB_NAME, args.trust_pickled_policies)
+        config = check_resumable(folder / DB_NAME, args.trust_pickled_policies,
+                                 args.trust_task_code)
         with Store.open(folder / DB_NAME) as store:
             runs = store.runs()
         if work_left(config, runs):
@@ -197,7 +198,8 @@ def _cmd_resume(args: argparse.Namespace) -> int:
         if config.learning is not None:
             _say(_describe_learning(config) + " (rebuilt from the stored learning table)")
         try:
-            summary = resume(folder, bar, trust_pickled_policies=args.trust_pickled_policies)
+            summary = resume(folder, bar, trust_pickled_policies=args.trust_pickled_policies,
+                             trust_task_code=args.trust_task_code)
         except KeyboardInterrupt:
             bar.close()
             print(f"revolve: interrupted; finished work is saved in {folder}; continue with: "

@@ -82,7 +82,7 @@ def _cmd_reevaluate(args: argparse.Namespace) -> int:
                              shared_world=args.shared_world, workers=args.workers,
                              progress=count, include_unfinished=args.include_unfinished,
                              trust_pickled_policies=args.trust_pickled_policies,
-                             every_set=args.all)
+                             every_set=args.all, trust_task_code=args.trust_task_code)
     except KeyboardInterrupt:
         print("revolve reevaluate: interrupted; finished reevaluations are saved; run the same "
               "command again to continue", file=sys.stderr)

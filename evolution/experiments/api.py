@@ -32,6 +32,7 @@ __all__ = [
     "ProgressCallback",
     "check_physics",
     "check_resumable",
+    "check_task_code",
     "config_differences",
     "flat_keys",
     "pending_jobs",
@@ -122,6 +123,7 @@ def resume(
     world_factory: WorldFactory | None = None,
     infancy: InfancyHook | None = None,
     trust_pickled_policies: bool = False,
+    trust_task_code: bool = False,
 ) -> ExperimentSummary:
     """Continue an interrupted experiment to the result an uninterrupted one would have given.
 
@@ -136,7 +138,8 @@ def resume(
 
     ``trust_pickled_policies``: an online SB3 run may reload policies that older versions saved
     as pickles; unpickling can run code, so they are refused unless this is true (only for a
-    results folder whose author you trust).
+    results folder whose author you trust). ``trust_task_code``: a stored ``[task]`` that names a
+    class of the user's own is imported (its module's code runs) only if this is true.
 
     Raises:
         StoreError: no usable results database in ``out_dir`` (missing, corrupt, empty, newer
@@ -146,7 +149,7 @@ def resume(
     """
     check_infancy(infancy)
     db_path = Path(out_dir) / DB_NAME
-    config = check_resumable(db_path, trust_pickled_policies)
+    config = check_resumable(db_path, trust_pickled_policies, trust_task_code)
     infancy = infancy_for(config, infancy)
     check_infancy(infancy)
     return _execute(config, db_path, progress, evaluator, world_factory, infancy,
@@ -173,7 +176,8 @@ def _execute(
     return ExperimentSummary(db_path.parent, db_path, tuple(summaries))
 
 
-def check_resumable(db_path: Path, trust_pickled_policies: bool = False) -> ExperimentConfig:
+def check_resumable(db_path: Path, trust_pickled_policies: bool = False,
+                    trust_task_code: bool = False) -> ExperimentConfig:
     """The stored configuration of a results database that can be continued.
 
     The database is checked before anything is written to it
@@ -189,11 +193,34 @@ def check_resumable(db_path: Path, trust_pickled_policies: bool = False) -> Expe
         runs = store.runs()
         if work_left(config, runs):
             check_physics(store, config)
+            check_task_code(db_path, config, trust_task_code)
             check_writable(store)
             if config.mode == "online":  # offline runs never reload a policy
                 refuse_pickled(store, {r.run_id for r in runs if r.status != "finished"},
                                trust_pickled_policies)
     return config
+
+
+def check_task_code(db_path: Path, config: ExperimentConfig, trust: bool) -> None:
+    """Refuse to import the module of a task class a stored configuration names, unless trusted.
+
+    A results folder holds no code, but its ``[task]`` may name a class of the user's own by
+    dotted path; running it imports that module from this machine's Python path, which runs the
+    module's code (as unpickling would): only for a folder whose author the user trusts.
+
+    Raises:
+        StoreError: the task is a class of the user's own and ``trust`` is false (one line
+            naming it and the way to allow it).
+    """
+    try:
+        config.fitness_task(allow_import=trust)
+    except ConfigError as error:
+        if trust:
+            raise
+        raise StoreError(
+            f"{db_path}: {error}; to run it, revolve imports the module it names from your "
+            "Python path: pass --trust-task-code (Python: trust_task_code=True) for a results "
+            "folder whose author you trust") from None
 
 
 def check_physics(store: Store, config: ExperimentConfig) -> None:

@@ -51,9 +51,10 @@ online, and what infants learn (the paper's ``f = v + 5 s``, ``locomotion``, wit
     heading = 1.57                 # its parameters, radians here
 
 It is stored with the results, so ``resume`` and ``reevaluate`` score with the same task. A
-class of your own is imported (from your Python path: a results folder carries no code) only
-when a run starts or resumes, or a re-evaluation runs; opening a stored configuration to read or
-report it never imports a module.
+class of your own is imported (from your Python path: a results folder carries no code) when a
+run starts; resuming or re-evaluating a stored one imports it only when the user trusts the folder
+(``trust_task_code``, :func:`~evolution.experiments.api.check_task_code`); opening a stored
+configuration to read or report it never imports a module.
 """
 
 from __future__ import annotations

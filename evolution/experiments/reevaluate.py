@@ -59,6 +59,7 @@ import numpy as np
 import revolve_env
 from evolution.evaluation import EvalOutcome, EvalTask, Evaluator, make_evaluator
 from evolution.experiments import results_folder
+from evolution.experiments.api import check_task_code
 from evolution.experiments.config import MAX_SECONDS
 from evolution.experiments.folders import ResultSet, select_results
 from evolution.experiments.integrity import check_writable, verify
@@ -276,6 +277,7 @@ def reevaluate(
     include_unfinished: bool = False,
     trust_pickled_policies: bool = False,
     every_set: bool = False,
+    trust_task_code: bool = False,
 ) -> ReevaluationSummary:
     """Reevaluate the chosen robots of every experiment at or below ``path`` (module docs).
 
@@ -299,6 +301,8 @@ def reevaluate(
         every_set: Every set of experiments below ``path`` (studies and lone experiments
             together), not only the one :func:`~evolution.experiments.folders.select_results`
             takes.
+        trust_task_code: Import the module of a task class of the user's own that a stored
+            ``[task]`` names (its code runs: only for a folder whose author you trust).
 
     Returns:
         What was planned and written.
@@ -307,7 +311,7 @@ def reevaluate(
         StoreError: no results database below ``path``, a damaged or read-only one, or a
             saved policy that cannot be used (checked, all of them, before anything is
             evaluated), or several studies and nothing else below ``path`` without
-            ``every_set``.
+            ``every_set``, or a stored task class of the user's own not trusted.
         ValueError: a bad ``k`` (1 to :data:`MAX_K`), ``which`` or window offset (0 to
             :data:`~evolution.experiments.config.MAX_SECONDS`).
         KeyboardInterrupt: Ctrl-C; everything committed stays, running again continues.
@@ -322,7 +326,7 @@ def reevaluate(
                          f"got {list(window_offsets)!r}")
     selection = select_results(path, every_set, "revolve reevaluate")
     plans = [_plan(db, k, which, offsets, shared_world, conditions, seed, include_unfinished,
-                   trust_pickled_policies)
+                   trust_pickled_policies, trust_task_code)
              for db in selection.databases]
     total = sum(len(plan.todo) for plan in plans)
     used = evaluator or make_evaluator("local", workers)
@@ -361,7 +365,7 @@ class _DatabasePlan:
 
 def _plan(db: Path, k: int, which: str, offsets: tuple[float, ...], shared_world: bool,
           conditions: EvaluationConditions | None, seed: int | None, include_unfinished: bool,
-          trust_pickled: bool) -> _DatabasePlan:
+          trust_pickled: bool, trust_task_code: bool) -> _DatabasePlan:
     """The evaluations asked of a database and those not stored yet (checked first).
 
     The saved policies they need are loaded here, before anything is evaluated.
@@ -369,6 +373,7 @@ def _plan(db: Path, k: int, which: str, offsets: tuple[float, ...], shared_world
     with Store.open(db) as store:
         config = verify(store)
         check_writable(store)
+        check_task_code(db, config, trust_task_code)
         engine = config.world.engine
         if store.physics_revisions[engine] != revolve_env.PHYSICS_REVISIONS[engine]:
             _log.warning("%s: its fitness was measured with %s physics revision %d; it is "

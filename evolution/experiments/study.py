@@ -427,7 +427,8 @@ def _check_existing(folder: Path, config: ExperimentConfig) -> ExperimentConfig:
     Raises:
         StoreError: a damaged or read-only database, or one of other settings (named).
     """
-    stored = check_resumable(folder / DB_NAME)
+    # The study's own settings name the task (compared below): importing it is the user's choice.
+    stored = check_resumable(folder / DB_NAME, trust_task_code=True)
     how = {k: getattr(config, k) for k in _EXECUTION_KEYS}
     differ = config_differences(stored.replace(**how), config)
     if differ:

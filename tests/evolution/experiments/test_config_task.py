@@ -17,12 +17,13 @@ from experiment_fakes import dump_results as dump
 from experiment_fakes import tiny_run
 
 from evolution import experiments
+from evolution.cli.commands import main
 from evolution.evaluation import EvalTask, LocalEvaluator, evaluate_task, evaluation_seed
 from evolution.experiments import ConfigError, ExperimentConfig, load_config
 from evolution.experiments.config import DEFAULT_EVALUATION
 from evolution.experiments.reevaluate import reevaluate
 from evolution.experiments.run import decode, run_seed
-from evolution.experiments.store import Store
+from evolution.experiments.store import Store, StoreError
 from revolve_env.conditions import EvaluationConditions
 from revolve_env.tasks import DirectedLocomotion, Locomotion
 
@@ -117,7 +118,8 @@ def test_a_run_scores_with_its_task_and_stores_it(tmp_path: Path, mode: str) -> 
             assert outcome.fitness == fitness
 
 
-def test_a_class_of_ones_own_scores_a_run_and_its_resume(tmp_path: Path) -> None:
+def test_a_class_of_ones_own_scores_a_run_and_its_resume(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     config = tiny("offline", {"name": "experiment_tasks:Forward", "scale": 2.0})
     whole = _run(config, tmp_path / "whole")
 
@@ -128,8 +130,19 @@ def test_a_class_of_ones_own_scores_a_run_and_its_resume(tmp_path: Path) -> None
     with pytest.raises(KeyboardInterrupt):
         experiments.run(config, tmp_path / "cut", stop,
                         evaluator=LocalEvaluator(1, evaluate_task))
-    experiments.resume(tmp_path / "cut", evaluator=LocalEvaluator(1, evaluate_task))
+    before = dump(tmp_path / "cut" / "results.sqlite")
+    # Resuming someone's folder must not run the code its task names unless trusted.
+    with pytest.raises(StoreError, match="pass --trust-task-code"):
+        experiments.resume(tmp_path / "cut", evaluator=LocalEvaluator(1, evaluate_task))
+    assert main(["resume", str(tmp_path / "cut")]) == 2  # the command line says it in one line
+    assert "--trust-task-code" in capsys.readouterr().err
+    assert dump(tmp_path / "cut" / "results.sqlite") == before
+    experiments.resume(tmp_path / "cut", evaluator=LocalEvaluator(1, evaluate_task),
+                       trust_task_code=True)
     assert dump(tmp_path / "cut" / "results.sqlite")["fitness"] == whole["fitness"]
+    with pytest.raises(StoreError, match="pass --trust-task-code"):
+        reevaluate(tmp_path / "cut", k=1, workers=1)
+    assert reevaluate(tmp_path / "cut", k=1, workers=1, trust_task_code=True).added > 0
 
 
 def test_reevaluation_scores_with_the_stored_task(tmp_path: Path) -> None:
