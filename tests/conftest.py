@@ -39,6 +39,10 @@ def pytest_configure(config: pytest.Config) -> None:
     os.environ.setdefault("RAY_TMPDIR", str(session / _RAY))
     tempfile.tempdir = str(session)
     config.stash[_KEY] = session
+    # MuJoCo's OpenGL backend, before a test module imports mujoco (as the package does).
+    from revolve_env.world.opengl import choose_mujoco_gl
+
+    choose_mujoco_gl()
 
 
 def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:

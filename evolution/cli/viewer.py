@@ -1,7 +1,8 @@
 """``revolve show`` and ``revolve watch``: what a robot or an online run looks like.
 
-``revolve show ROBOT | --db DIR (--robot ID | --best) [--run R]`` re-simulates one robot alone
-at the origin, driven by its own brain, and writes a GIF (or MP4) of it. For a robot of a
+``revolve show ROBOT | --db DIR (--robot ID | --best) [--run R] [--size WxH] [--camera C]``
+re-simulates one robot alone at the origin, driven by its own brain, and writes a GIF (or MP4)
+of it, filmed by a camera (:data:`revolve_env.cameras.CAMERAS`) at a size. For a robot of a
 results database it first says which robot it draws (experiment, run, id, birth and its time)
 and compares the fitness stored with the results to the re-simulated one; when they differ (by
 more than :data:`TOLERANCE`) it says why, from the stored configuration and records: the
@@ -11,10 +12,12 @@ conditions. An offline robot evaluated under ideal conditions is re-simulated wi
 evaluation's engine, timing and seed, so its fitness is reproduced exactly; a robot whose
 Training Center learned a new controller is drawn with that controller (the one evaluated).
 
-``revolve watch ROBOT | RESULTS [--run R] [--engine E] [--record OUT] [--seconds S]``:
+``revolve watch ROBOT | RESULTS [--run R] [--engine E] [--record OUT] [--seconds S]
+[--size WxH] [--camera C]``:
 
-* a robot (JSON file or example name): the engine's window (pybullet) with the robot walking
-  in real time; with ``--record OUT`` the same as ``show`` without the window.
+* a robot (JSON file or example name): the engine's window (pybullet's, or MuJoCo's viewer)
+  with the robot walking in real time; with ``--record OUT`` the same as ``show`` without the
+  window.
 * an online experiment's results folder: the run is replayed from its stored configuration and
   seed into a temporary database (the same births, deaths and fitness as stored: the replay is
   checked robot by robot against the stored genomes), and the whole world is shown in a window
@@ -64,6 +67,7 @@ from evolution.experiments.records import FitnessSample, RobotRecord
 from evolution.experiments.run import ReplayError, run_seed, world_seed
 from revolve_env.body.robot import PartType, Robot
 from revolve_env.body.serialize import from_json
+from revolve_env.cameras import CAMERAS, MAX_SIZE, check_size
 from revolve_env.conditions import IDEAL, EvaluationConditions
 from revolve_env.terrain import Flat, Terrain
 
@@ -205,35 +209,34 @@ def _describe(plan: _Plan, video: Video) -> list[str]:
     return lines
 
 
-def _frames(seconds: float, fps: float) -> None:
-    """Refuse a video of more than :data:`MAX_FRAMES` frames (all are held in memory).
+def _frames(seconds: float, fps: float, size: tuple[int, int] = (480, 360)) -> None:
+    """Refuse a video of more than :data:`MAX_FRAMES` 480 x 360 frames' memory (all are held).
 
     Raises:
-        CliError: ``seconds * fps`` frames would be too many.
+        CliError: ``seconds * fps`` frames of ``size`` (pixels) would be too many.
     """
-    if seconds * fps > MAX_FRAMES:
+    most = max(1, MAX_FRAMES * 480 * 360 // (size[0] * size[1]))
+    if seconds * fps > most:
         raise CliError(f"{seconds:g} s at {fps:g} frames per second would be "
-                       f"{seconds * fps:.0f} frames, more than {MAX_FRAMES} (about "
-                       f"{MAX_FRAMES * 518_400 / 1e9:.0f} GB of memory): give fewer --seconds "
-                       "or a lower --fps")
+                       f"{seconds * fps:.0f} frames, more than {most} of {size[0]} x {size[1]} "
+                       f"pixels (about {MAX_FRAMES * 518_400 / 1e9:.0f} GB of memory): give "
+                       "fewer --seconds, a lower --fps or a smaller --size")
 
 
 def render_setup(engine: str) -> None:
-    """Make rendering on ``engine`` possible here, before anything loads it.
+    """Refuse, before anything is simulated, to render on ``engine`` where it cannot draw.
 
-    MuJoCo: an offscreen OpenGL backend that works (:mod:`revolve_env.envs.offscreen`).
+    MuJoCo: its OpenGL backend (:func:`revolve_env.envs.watch.render_problem`; chosen, where
+    there is no display, when MuJoCo is first imported).
 
     Raises:
-        CliError: none works here (one line: what to install or set).
+        CliError: it cannot render here (one line: what to install or set).
     """
-    if engine != "mujoco":
-        return  # pybullet renders with its own software renderer
-    from revolve_env.envs.offscreen import OffscreenGLError, choose_mujoco_gl
+    from revolve_env.envs.watch import render_problem
 
-    try:
-        choose_mujoco_gl()
-    except OffscreenGLError as error:
-        raise CliError(str(error)) from None
+    problem = render_problem(engine)
+    if problem is not None:
+        raise CliError(f"{problem}, or use --engine pybullet")
 
 
 def _cmd_show(args: argparse.Namespace) -> int:
@@ -243,22 +246,26 @@ def _cmd_show(args: argparse.Namespace) -> int:
     plan = _plan(args)
     _check_drivable(plan)
     out = Path(args.out) if args.out else Path(f"{plan.name}.gif")
-    _frames(plan.insertion + plan.seconds, args.fps)
+    _frames(plan.insertion + plan.seconds, args.fps, args.size)
     try:
         check_video(out, args.fps)
     except VideoError as error:
         raise CliError(f"cannot show {plan.name}: {error}") from None
     render_setup(plan.engine)
     from revolve_env.envs.recording import BlowUpError, record_robot
+    from revolve_env.envs.watch import RenderUnavailableError
 
     try:
         with warnings.catch_warnings(record=True) as notes:
             warnings.simplefilter("always", UserWarning)
             video = record_robot(plan.robot, out, seconds=plan.seconds, insertion=plan.insertion,
                                  fps=args.fps, engine=plan.engine, seed=plan.seed,
-                                 conditions=plan.conditions, terrain=plan.terrain)
+                                 conditions=plan.conditions, terrain=plan.terrain,
+                                 width=args.size[0], height=args.size[1], camera=args.camera)
     except (BlowUpError, VideoError) as error:  # the robot's or the video's fault, not ours
         raise CliError(f"cannot show {plan.name}: {error}") from None
+    except RenderUnavailableError as error:  # no OpenGL context after all
+        raise CliError(str(error)) from None
     for note in notes:
         _say(f"note: {note.message}")
     for line in _describe(plan, video):
@@ -277,6 +284,25 @@ def _timing_arguments(p: argparse.ArgumentParser, help_seconds: str,
                         "period; a GIF plays at most 50)")
     p.add_argument("--engine", choices=revolve_env.ENGINES,
                    help="physics engine (default: the stored one, else pybullet)")
+    p.add_argument("--size", type=frame_size, default=(480, 360), metavar="WxH",
+                   help="frame width and height in pixels (default 480x360)")
+
+
+def _camera_argument(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--camera", choices=tuple(CAMERAS), default="track",
+                   help="where a robot is filmed from: track (1 m from its core, following it; "
+                        "the default), far (2.5 m, following), top (straight down, following), "
+                        "fixed (3 m from its start: it walks across the picture)")
+
+
+def frame_size(text: str) -> tuple[int, int]:
+    """An argparse type: ``WxH`` (e.g. ``640x480``), each a whole number of pixels."""
+    try:
+        width, height = (int(part) for part in text.lower().split("x"))
+        return check_size(width, height)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT in pixels, each 1 to "
+                                         f"{MAX_SIZE} (e.g. 640x480), got {text!r}") from None
 
 
 def add_show(sub: Any) -> None:
@@ -293,6 +319,7 @@ def add_show(sub: Any) -> None:
     p.add_argument("--out", metavar="FILE", help="GIF (or MP4) to write")
     _timing_arguments(p, "evaluation time after insertion, seconds (default: the stored "
                          "evaluation_time, else 12)")
+    _camera_argument(p)
     p.set_defaults(handler=_cmd_show)
 
 
@@ -315,21 +342,27 @@ class RecordingWorld(PopulationWorld):
         seed: The world's seed (:func:`evolution.experiments.run.world_seed`).
         every: Control periods between frames.
         sink: Called with each frame.
+        size: Frame width and height. Pixels.
     """
 
-    def __init__(self, config: ExperimentConfig, seed: int, every: int, sink: FrameSink) -> None:
+    def __init__(self, config: ExperimentConfig, seed: int, every: int, sink: FrameSink,
+                 size: tuple[int, int] = (480, 360)) -> None:
         super().__init__(config, seed)
+        self._env.render_size = size
         self._period = every * float(self._env.config.control_period)
         self._next = 0.0
         self._sink = sink
         self._added = 0  # births asked for (robots born dead included)
-        self._colors: dict[int, tuple[float, float, float]] = {}
+        self._colors: dict[int, int] = {}  # robot id: its PALETTE index, for life
 
     def add(self, robot: Robot, robot_id: int, policy: Any = None) -> Any:
-        """Add the robot and remember its colour for the legend."""
+        """Add the robot and give it a colour of its own for its tag and the legend."""
+        from revolve_env.envs.watch import pick_color
+
         self._added += 1
+        alive = [self._colors[r] for r in self._env.robot_ids if r in self._colors]
         birth = super().add(robot, robot_id, policy)
-        self._colors[robot_id] = robot.body.color
+        self._colors[robot_id] = pick_color(alive)
         return birth
 
     def advance_to(self, t: float) -> Any:
@@ -350,20 +383,22 @@ class RecordingWorld(PopulationWorld):
                 merged[robot_id] = status
 
     def _frame(self) -> None:
-        from revolve_env.envs.watch import Label, label_frame
+        from revolve_env.envs.watch import PALETTE, Label, label_frame
 
         labels = []
+        pixels = self._env.render_pixels("top")
         for robot_id in self._env.robot_ids:
-            color = self._colors.get(robot_id, (0.5, 0.5, 0.5))
+            color = PALETTE[self._colors.get(robot_id, 0)]
             fitness = float(self._env.status(robot_id).fitness)
-            labels.append(Label(f"#{robot_id}  {fitness:.3f} m", color, fitness))
+            labels.append(Label(f"#{robot_id}  {fitness:.3f} m", color, fitness,
+                                tag=f"#{robot_id}", at=pixels.get(robot_id)))
         header = (f"t = {self.time:6.1f} s   births {self._added}   alive {len(labels)}   "
                   "(id, fitness)")
         self._sink(label_frame(self._env.render_frame("top"), header, labels), self.time)
 
 
 def replay_online(config: ExperimentConfig, run_id: int, stored: Store | None, every: int,
-                  sink: FrameSink) -> int:
+                  sink: FrameSink, size: tuple[int, int] = (480, 360)) -> int:
     """Replay run ``run_id`` of an online experiment, sending a frame every ``every`` steps.
 
     The run is stepped again from its seed (the loop, :class:`~evolution.experiments.loop.
@@ -378,7 +413,7 @@ def replay_online(config: ExperimentConfig, run_id: int, stored: Store | None, e
     """
     robots: list[RobotRecord] = []
     samples: list[FitnessSample] = []
-    world = RecordingWorld(config, world_seed(run_seed(config.seed, run_id)), every, sink)
+    world = RecordingWorld(config, world_seed(run_seed(config.seed, run_id)), every, sink, size)
     try:
         with Evolution(config, run_id=run_id, world=world) as evolution:
             while not evolution.done:
@@ -455,7 +490,7 @@ def _write(frames: list[NDArray[np.uint8]], out: Path, fps: float) -> Path:
 
 def _watch_results(args: argparse.Namespace, folder: Path) -> int:
     from revolve_env.envs.video import VideoError, check_video
-    from revolve_env.envs.watch import control_period, has_display
+    from revolve_env.envs.watch import RenderUnavailableError, control_period, has_display
 
     db = folder if folder.name == DB_NAME else folder / DB_NAME
     with Store.open(db) as store:
@@ -479,7 +514,7 @@ def _watch_results(args: argparse.Namespace, folder: Path) -> int:
         every = max(1, round(1.0 / (args.fps * dt)))
         if args.record:
             _frames(min(stored_time, math.inf if args.seconds is None else args.seconds),
-                    1.0 / (every * dt))
+                    1.0 / (every * dt), args.size)
             try:
                 check_video(args.record, 1.0 / (every * dt))
             except VideoError as error:
@@ -498,7 +533,11 @@ def _watch_results(args: argparse.Namespace, folder: Path) -> int:
         _say(f"replaying run {args.run} of {config.name} ({config.world.engine}) from its seed"
              + ("" if args.seconds is None else f" for {args.seconds:g} s"))
         same = args.engine in (None, config.world.engine)
-        births = replay_online(config, args.run, store if same else None, every, sink)
+        try:
+            births = replay_online(config, args.run, store if same else None, every, sink,
+                                   args.size)
+        except RenderUnavailableError as error:  # no OpenGL context after all
+            raise CliError(str(error)) from None
     _say(f"{births} births replayed" + (" (the stored robots)" if same else ""))
     if args.record:
         written = _write(frames, Path(args.record), 1.0 / (every * dt))
@@ -514,9 +553,6 @@ def _watch_robot(args: argparse.Namespace) -> int:
         args.out = args.record
         return _cmd_show(args)
     _check_drivable(plan)
-    if plan.engine != "pybullet":
-        raise CliError(f"cannot watch {plan.name} live on {plan.engine}: a live window needs "
-                       "pybullet (--engine pybullet), or write a video with --record")
     try:
         fitness = watch_robot(plan.robot, plan.seconds, plan.insertion, engine=plan.engine,
                               seed=plan.seed, conditions=plan.conditions, terrain=plan.terrain)
@@ -553,4 +589,5 @@ def add_watch(sub: Any) -> None:
     _timing_arguments(p, "a robot: evaluation time after insertion (default 12); results: stop "
                          "the replay at this simulated time (default: the run's end), seconds",
                       positive_float)
+    _camera_argument(p)
     p.set_defaults(handler=_cmd_watch)

@@ -26,6 +26,7 @@ from revolve_env.body.examples import resolve_robot
 from revolve_env.body.robot import Layer, Robot
 from revolve_env.body.validate import Limits
 from revolve_env.brain import BatchController
+from revolve_env.cameras import Camera, check_size, make_camera
 from revolve_env.conditions import EvaluationConditions, with_noise_shortcuts
 from revolve_env.envs.observations import hinge_values, proprio_bounds, saturated_sensor_bounds
 from revolve_env.evaluation import start_generator
@@ -168,7 +169,12 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     | robot              | "spider"  | Robot, example name or path to its JSON                   |
     |                    |           | (:func:`~revolve_env.body.examples.resolve_robot`);        |
     |                    |           | validated before any physics                               |
-    | render_mode        | None      | "rgb_array" or "human"                                    |
+    | render_mode        | None      | "rgb_array" or "human" (MuJoCo's or pybullet's window;    |
+    |                    |           | without a display it warns once and draws nothing)         |
+    | width, height      | 480, 360  | frame size ("rgb_array"), as Gymnasium's MujocoEnv. Pixels |
+    | camera             | "track"   | a :class:`~revolve_env.cameras.Camera` or the name of |
+    |                    |           | one (:data:`~revolve_env.cameras.CAMERAS`: "track"    |
+    |                    |           | follows the core at 1 m, "far", "top", "fixed")            |
     | insertion_time     | 3.0       | settling phase, not scored. Seconds                        |
     | evaluation_time    | 12.0      | scored phase. Seconds                                      |
     | control_period     | None      | time per env step. Seconds (a multiple of the timestep);   |
@@ -216,7 +222,12 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         conditions: EvaluationConditions | None = None,
         task: Task | str | Mapping[str, Any] | None = None,
         terrain: Terrain | str | Mapping[str, Any] | None = None,
+        width: int = 480,
+        height: int = 360,
+        camera: str | Camera = "track",
     ) -> None:
+        self.width, self.height = check_size(width, height)
+        self.camera = make_camera(camera)
         robot = resolve_robot(robot, limits)[0]
         if controller is None:  # the robot's network runs under the policy's modulation
             controller = "brain" if action == "modulate" else "agent"
@@ -269,6 +280,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
 
         self._world: World | None = None
         self._handle = -1
+        self._start = np.zeros(3)
         self._brain: BatchController | None = None
         self._brain_in = np.zeros(self._n_inputs)
         self._brain_out = np.zeros(self._n_outputs)
@@ -296,6 +308,8 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         start = self.conditions.start(start_generator(seed) if seed is not None
                                       else self.np_random)
         self._handle = self._world.add_robot(self.robot, start.position, start.yaw)
+        if not self.camera.track:  # a fixed camera looks at where the core started
+            self._start = self._world.core_position(self._handle).copy()
         if self.controller == "brain":
             self._brain = BatchController(self.config.control_period)
             self._brain.add(self.robot)
@@ -342,11 +356,13 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         """Frame on the core: an RGB (height, width, 3) array, or None with "human" (a window)."""
         if self._world is None or self.render_mode is None:
             return None
-        target = self._world.core_position(self._handle)
+        cam = self.camera
+        target = self._world.core_position(self._handle) if cam.track else self._start
         if self.render_mode == "human":
-            self._world.look_at(target)
+            self._world.look_at(target, cam.distance)
             return None
-        return self._world.render(target=target)
+        return self._world.render(self.width, self.height, target, cam.distance, cam.yaw,
+                                  cam.pitch)
 
     def close(self) -> None:
         """Release the physics world (and its window); the next ``reset()`` makes a new one."""

@@ -158,7 +158,7 @@ from revolve_env.body.robot import Robot
 from revolve_env.body.validate import Limits
 from revolve_env.conditions import EvaluationConditions
 from revolve_env.envs.agent_spaces import AgentSpaces, SpaceMode
-from revolve_env.envs.arena import arena_frame
+from revolve_env.envs.arena import arena_frame, arena_pixels
 from revolve_env.envs.arguments import check_arguments, max_cycles_of, world_config_of
 from revolve_env.envs.births import BirthRules, initial_births, next_robot_id, plan_birth
 from revolve_env.envs.living import Living
@@ -479,6 +479,14 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         """An RGB image of the whole arena from ``view``, whatever the render mode."""
         return arena_frame(self.world, list(self._roster.members.values()), self.birth_radius,
                            self.render_size, view)
+
+    def render_pixels(self, view: Literal["top", "chase"] = "top"
+                      ) -> dict[int, tuple[float, float]]:
+        """Where each living robot's core is in :meth:`render_frame`'s picture: pixels (x, y)."""
+        members = list(self._roster.members.values())
+        pixels = arena_pixels(self.world, members, self.birth_radius, self.render_size, view)
+        return {m.robot_id: (float(x), float(y)) for m, (x, y) in zip(members, pixels,
+                                                                      strict=True)}
 
     def close(self) -> None:
         """Release the physics client (the env can be reset again)."""

@@ -1,8 +1,8 @@
 """Videos of a robot walking: frames from the locomotion environment, written as GIF (or MP4).
 
-The camera of :class:`revolve_env.envs.LocomotionEnv` follows the robot over a plain ground, so
-every frame is annotated with the simulated time, the fitness so far and a small map of the
-path the core has travelled (north up, 1 m scale bar), which is what shows the robot moving.
+The camera of :class:`revolve_env.envs.LocomotionEnv` follows the robot (by default) over a
+ground with a grid, and every frame is annotated with the simulated time, the fitness so far and
+a small map of the path the core has travelled (north up, 1 m scale bar).
 Written by :func:`revolve_env.envs.video.write_video`: GIF with Pillow (a dependency), MP4 needs
 ``imageio-ffmpeg`` too (without it a GIF is written instead). The video plays in real time: a
 frame every ``round(1 / (fps * control_period))`` control periods, written at exactly that frame
@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.body.robot import Robot
+from revolve_env.cameras import Camera
 from revolve_env.conditions import EvaluationConditions
 from revolve_env.envs.episode import run_episode
 from revolve_env.envs.locomotion import LocomotionEnv
@@ -96,6 +97,9 @@ def record_robot(
     seed: int = 0,
     conditions: EvaluationConditions | None = None,
     terrain: Terrain | str | Mapping[str, Any] | None = None,
+    width: int = 480,
+    height: int = 360,
+    camera: str | Camera = "track",
 ) -> Video:
     """Simulate ``robot`` driven by its own brain and write a video of it.
 
@@ -104,17 +108,21 @@ def record_robot(
         path: Where to write the video (``.gif`` or ``.mp4``).
         seconds: Evaluation time after insertion. Seconds.
         insertion: Settling time shown first. Seconds.
-        fps: Frames per simulated second (the GIF plays in real time; 480x360 pixels). The
-            frame period is a whole number of control periods, the nearest to ``1 / fps``.
+        fps: Frames per simulated second (the GIF plays in real time). The frame period is a
+            whole number of control periods, the nearest to ``1 / fps``.
         engine: Physics engine (``"pybullet"`` or ``"mujoco"``); None: pybullet.
         seed: Seed of the episode (:func:`revolve_env.evaluate`'s ``seed``).
         conditions: Start heading, jitter and noise (default
             :data:`~revolve_env.conditions.IDEAL`); with the same ``seed`` the robot starts and
             moves exactly as in ``evaluate(..., seed=seed, conditions=conditions)``.
         terrain: The ground (:func:`revolve_env.terrain.make_terrain`); None: flat.
+        width: Frame width. Pixels.
+        height: Frame height. Pixels.
+        camera: A :class:`~revolve_env.cameras.Camera` or its name (default: following the
+            core at 1 m).
 
     Raises:
-        ValueError: bad timing, or a robot the environment cannot drive (no hinge).
+        ValueError: bad timing, size or camera, or a robot the environment cannot drive (no hinge).
         VideoError: a video that could not be written (:func:`check_video`), before anything
             is simulated.
     """
@@ -122,7 +130,8 @@ def record_robot(
         raise VideoError(f"fps must be a positive number, got {fps}")
     env = LocomotionEnv(robot, render_mode="rgb_array", insertion_time=insertion,
                         evaluation_time=seconds, fitness_window=seconds, controller="brain",
-                        engine=engine, conditions=conditions, terrain=terrain)
+                        engine=engine, conditions=conditions, terrain=terrain, width=width,
+                        height=height, camera=camera)
     try:
         dt = env.config.control_period
         every = max(1, round(1.0 / (fps * dt)))

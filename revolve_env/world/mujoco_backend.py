@@ -96,12 +96,10 @@ import hashlib
 import importlib
 import math
 import os
-import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
@@ -109,7 +107,10 @@ from revolve_env.world import mujoco_scene as scene
 from revolve_env.world.backend import BodyStates, PlacedModel, SnapshotMismatchError
 from revolve_env.world.config import WorldConfig
 from revolve_env.world.model import RobotModel
+from revolve_env.world.mujoco_gl import mujoco  # its OpenGL backend chosen first
 from revolve_env.world.mujoco_scene import SERVO_KV, RobotLayout, robot_layout
+from revolve_env.world.mujoco_view import View, Viewer
+from revolve_env.world.opengl import HOW_TO, RenderUnavailableError, has_display, render_problem
 
 __all__ = ["SERVO_KV", "MujocoBackend"]
 
@@ -167,19 +168,19 @@ class MujocoBackend:
 
         Args:
             config: Physics settings (timestep, gravity, friction, torque limit).
-            gui: Must be False: this backend has no interactive window (use ``render``).
+            gui: Show the scene in MuJoCo's own window (opened at the first ``look_at``).
 
         Raises:
-            RuntimeError: ``gui`` was asked for.
+            RuntimeError: ``gui`` was asked for without a display.
         """
-        if gui:
-            raise RuntimeError("the 'mujoco' engine has no GUI window in revolve-env; "
-                               "use render_mode='rgb_array'")
+        if gui and not has_display():
+            raise RuntimeError("cannot open MuJoCo's window: no display ($DISPLAY is unset)")
         self.config = config
         self._robots: dict[int, _Robot] = {}
         self._next_key = 0
         self._closed = False
-        self._renderer: mujoco.Renderer | None = None
+        self._view: View | None = None
+        self._viewer: Viewer | None = Viewer() if gui else None
         self._render_error: str | None = None
         self._new_scene()
 
@@ -471,14 +472,16 @@ class MujocoBackend:
         self._drop_renderer()
 
     def _drop_renderer(self) -> None:
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        if self._view is not None:
+            self._view.close()
+            self._view = None
 
     def close(self) -> None:
         if not self._closed:
             self._closed = True
             self._drop_renderer()
+            if self._viewer is not None:
+                self._viewer.close()
 
     # -- snapshots ------------------------------------------------------------------------------
     @property
@@ -573,44 +576,39 @@ class MujocoBackend:
             raise SnapshotMismatchError(f"cannot restore the MuJoCo snapshot: {e}") from e
         self._kinematics_fresh = True
         self._touching = touching.copy()
-        self._renderer = None
+        self._drop_renderer()
 
     # -- rendering ------------------------------------------------------------------------------
     def render(self, width: int, height: int, target: tuple[float, float, float],
                distance: float, yaw_deg: float, pitch_deg: float) -> NDArray[np.uint8]:
+        """A frame of the scene with a grid on the ground (:mod:`.mujoco_view`; looks only).
+
+        Raises:
+            RenderUnavailableError: no OpenGL context here (one line: what to install or set).
+        """
         self._sync()
-        r = self._renderer
-        if r is None or r.width != width or r.height != height:
-            if r is not None:
-                r.close()
-            if self._render_error is None and sys.platform.startswith("linux") and (
-                os.environ.get("MUJOCO_GL", "glfw") == "glfw"
-                and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
-            ):
-                # MuJoCo's default GLFW context needs a display; a failed context creation
-                # followed by a second attempt aborts the whole process: never try.
-                self._render_error = "no display for MuJoCo's default GLFW context"
+        view = self._view
+        if view is None or view.physics is not self._model or (view.width, view.height) != (
+                width, height):
+            self._drop_renderer()
+            if self._render_error is None:
+                # MuJoCo's default GLFW context without a display: a failed context creation
+                # followed by a second attempt aborts the whole process, so never try.
+                self._render_error = render_problem()
             if self._render_error is not None:
-                raise RuntimeError(f"MuJoCo cannot render here ({self._render_error}); set "
-                                   "MUJOCO_GL=egl or osmesa with that library installed")
+                raise RenderUnavailableError(self._render_error)
             try:
-                self._model.vis.global_.offwidth = max(width, self._model.vis.global_.offwidth)
-                self._model.vis.global_.offheight = max(height, self._model.vis.global_.offheight)
-                r = mujoco.Renderer(self._model, height, width)
+                view = View(self._model, self._spec, width, height)
             except Exception as e:  # noqa: BLE001 (no GL context: EGL/OSMesa/GLFW all missing)
-                self._render_error = str(e)  # never retried: a second failure aborts
-                raise RuntimeError(f"MuJoCo cannot render here ({e}); set MUJOCO_GL=egl or "
-                                   "osmesa with that library installed") from None
-            self._renderer = r
-        mujoco.mj_kinematics(self._model, self._data)
-        camera = mujoco.MjvCamera()
-        camera.lookat[:] = target
-        camera.distance = distance
-        # pybullet's yaw 0 looks along +y; MuJoCo's azimuth 0 along +x.
-        camera.azimuth = yaw_deg - 90.0
-        camera.elevation = pitch_deg
-        r.update_scene(self._data, camera)
-        return np.asarray(r.render(), dtype=np.uint8).copy()
+                gl = os.environ.get("MUJOCO_GL", "glfw")
+                self._render_error = (f"MuJoCo cannot render here with MUJOCO_GL={gl} ({e}); "
+                                      f"{HOW_TO}")  # never retried: a second failure aborts
+                raise RenderUnavailableError(self._render_error) from None
+            self._view = view
+        return view.frame(self._data.qpos, target, distance, yaw_deg, pitch_deg)
 
     def look_at(self, target: tuple[float, float, float], distance: float) -> None:
-        """No interactive window: nothing to point."""
+        """Draw the scene now in MuJoCo's window (with ``gui``; else nothing)."""
+        if self._viewer is not None:
+            self._sync()
+            self._viewer.show(self._model, self._spec, self._data.qpos, target, distance)

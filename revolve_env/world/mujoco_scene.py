@@ -33,7 +33,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from xml.sax.saxutils import quoteattr
 
-import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
@@ -41,6 +40,7 @@ from revolve_env.world._rotations import matrix_to_quat
 from revolve_env.world.backend import PlacedModel
 from revolve_env.world.config import WorldConfig
 from revolve_env.world.model import RobotModel
+from revolve_env.world.mujoco_gl import mujoco  # its OpenGL backend chosen first
 from revolve_env.world.mujoco_terrain import add_ground
 
 __all__ = ["COLORS", "CONTACT_STEPS", "HINGE_ARMATURE", "SERVO_KV", "RobotLayout", "attach",

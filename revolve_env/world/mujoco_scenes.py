@@ -23,7 +23,6 @@ separate models (15 random robots, measured).
 
 from __future__ import annotations
 
-import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
@@ -31,6 +30,7 @@ from revolve_env.world.backend import BodyStates
 from revolve_env.world.config import WorldConfig
 from revolve_env.world.isolated import IsolatedBackend
 from revolve_env.world.mujoco_backend import _SAVED, MujocoBackend, _all_finite, _c_einsum
+from revolve_env.world.mujoco_gl import mujoco  # its OpenGL backend chosen first
 
 __all__ = ["MujocoScenes"]
 

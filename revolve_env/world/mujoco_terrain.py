@@ -7,9 +7,8 @@ rebuilt snapshot) gets its ground here, from :mod:`revolve_env.terrain`'s height
 
 from __future__ import annotations
 
-import mujoco
-
 from revolve_env.terrain import Flat, Terrain
+from revolve_env.world.mujoco_gl import mujoco  # its OpenGL backend chosen first
 
 __all__ = ["add_ground"]
 

@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 from revolve_env.terrain import Flat, Terrain
 from revolve_env.world._rotations import matrix_to_quat, quat_to_matrix
 from revolve_env.world.backend import BodyStates, PlacedModel, scene_mjcf
+from revolve_env.world.camera import FOV_DEG
 from revolve_env.world.config import WorldConfig
 from revolve_env.world.model import LinkModel, RobotModel
 
@@ -425,7 +426,7 @@ class PybulletBackend:
             cameraTargetPosition=list(target), distance=distance, yaw=yaw_deg, pitch=pitch_deg,
             roll=0.0, upAxisIndex=2, physicsClientId=cid,
         )
-        proj = pb.computeProjectionMatrixFOV(fov=60.0, aspect=width / height, nearVal=0.01,
+        proj = pb.computeProjectionMatrixFOV(fov=FOV_DEG, aspect=width / height, nearVal=0.01,
                                              farVal=100.0, physicsClientId=cid)
         renderer = pb.ER_BULLET_HARDWARE_OPENGL if self._gui else pb.ER_TINY_RENDERER
         _, _, rgba, _, _ = pb.getCameraImage(width, height, view, proj, renderer=renderer,

@@ -12,11 +12,13 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 OWNERS = {
     "pybullet": ["revolve_env/world/pybullet_backend.py"],
-    # the backend, the scene it compiles (model building and MJCF text), the batched scenes and
-    # the ground (the plane or a terrain's heightfield)
-    "mujoco": ["revolve_env/world/mujoco_backend.py", "revolve_env/world/mujoco_scene.py",
-               "revolve_env/world/mujoco_scenes.py", "revolve_env/world/mujoco_terrain.py"],
+    # one module imports MuJoCo, once its OpenGL backend is chosen (issue 31); the backend, the
+    # scene it compiles, the batched scenes, the ground and the frames take it from there
+    "mujoco": ["revolve_env/world/mujoco_gl.py"],
 }
+MUJOCO_USERS = ["revolve_env/world/mujoco_backend.py", "revolve_env/world/mujoco_scene.py",
+                "revolve_env/world/mujoco_scenes.py", "revolve_env/world/mujoco_terrain.py",
+                "revolve_env/world/mujoco_view.py"]
 
 
 def _imported(path: Path) -> set[str]:
@@ -36,6 +38,15 @@ def test_only_its_backend_imports_an_engine(engine: str) -> None:
         for p in (ROOT / package).rglob("*.py") if engine in _imported(p)
     )
     assert importers == OWNERS[engine]
+
+
+def test_mujoco_is_taken_only_from_the_module_that_chooses_its_opengl_backend() -> None:
+    users = sorted(
+        str(p.relative_to(ROOT)) for package in ("revolve_env", "evolution")
+        for p in (ROOT / package).rglob("*.py") if "revolve_env.world.mujoco_gl" in {
+            node.module for node in ast.walk(ast.parse(p.read_text(encoding="utf-8")))
+            if isinstance(node, ast.ImportFrom)})
+    assert users == MUJOCO_USERS
 
 
 def test_a_world_loads_only_the_engine_it_uses() -> None:

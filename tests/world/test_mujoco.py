@@ -297,11 +297,6 @@ def test_unknown_engine_and_missing_package_are_one_clear_error(
         population_env(engine="mujoco")
 
 
-def test_no_gui_window_is_a_clear_error() -> None:
-    with pytest.raises(RuntimeError, match="no GUI window"):
-        World(MJ, gui=True)
-
-
 def test_render_gives_a_picture_or_says_why_not() -> None:
     with World(MJ) as world:
         world.add_robot(spider())

@@ -23,6 +23,7 @@ from revolve_env.body.robot import Activation, Layer, Neuron, Node, PartType, Ro
 from revolve_env.body.serialize import to_json
 from revolve_env.conditions import EvaluationConditions
 from revolve_env.envs.recording import record_robot
+from revolve_env.envs.watch import PALETTE
 
 TINY = ["--set", "evaluation_time=1", "--set", "insertion=0.5", "--set", "fertile_age=1",
         "--set", "diversity_interval=0", "--set", "evolution.initial_parts_mean=5",
@@ -35,6 +36,17 @@ def _error(capsys: pytest.CaptureFixture[str], argv: list[str]) -> str:
     err = capsys.readouterr().err
     lines = err.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+def _usage_error(capsys: pytest.CaptureFixture[str], argv: list[str]) -> str:
+    """Run ``argv``, expect argparse's exit status 2 and one line on stderr; return it."""
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as done:
+        main(argv)
+    assert done.value.code == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1, lines
     return lines[0]
 
 
@@ -149,6 +161,23 @@ def test_watch_records_an_online_world_with_ids_and_fitness(
     legend = frame[18:60, :60]
     # the legend: white panel with a swatch per living robot, black text
     assert (legend == 255).all(axis=2).mean() > 0.3 and (legend < 40).all(axis=2).any()
+    # each robot tagged with its id on the picture, in a palette colour of its own
+    # (a tag's box is about 25 x 17 pixels, a legend's swatch 7 x 7)
+    picture = frame.reshape(-1, 3).astype(int)
+    tagged = [c for c in PALETTE
+              if (np.abs(picture - np.round(255 * np.array(c))) <= 2).all(axis=1).sum() > 150]
+    assert len(tagged) >= 2
+
+
+def test_watch_records_at_the_size_asked(
+        online: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "small.gif"
+    assert main(["watch", str(online), "--record", str(out), "--seconds", "0.5", "--fps", "4",
+                 "--size", "200x150"]) == 0
+    with Image.open(out) as gif:
+        assert gif.size == (200, 150)
+    assert "WIDTHxHEIGHT" in _usage_error(capsys, ["watch", str(online), "--record", str(out),
+                                                   "--size", "200"])
 
 
 def test_watch_with_more_seconds_than_the_run_stops_at_its_end(
@@ -170,8 +199,8 @@ def test_windows_need_a_display_and_name_record(
         assert "no display" in line and "--record" in line
     line = _error(capsys, ["watch", str(offline)])
     assert "offline experiment" in line and "revolve show --db" in line
-    line = _error(capsys, ["watch", "spider", "--engine", "mujoco"])
-    assert "pybullet" in line
+    line = _error(capsys, ["watch", "spider", "--engine", "mujoco"])  # MuJoCo's window too
+    assert "no display" in line and "--record" in line
 
 
 def test_watch_records_a_robot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -181,6 +210,21 @@ def test_watch_records_a_robot(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert "spider: fitness re-simulated alone" in capsys.readouterr().out
     with Image.open(out) as gif:
         assert gif.n_frames == 5
+
+
+def test_show_films_with_the_camera_and_size_asked(tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    frames = {}
+    for camera in ("track", "top"):
+        out = tmp_path / f"{camera}.gif"
+        assert main(["show", "spider", "--seconds", "0.2", "--insertion", "0", "--fps", "5",
+                     "--size", "160x120", "--camera", camera, "--out", str(out)]) == 0
+        with Image.open(out) as gif:
+            assert gif.size == (160, 120)
+            frames[camera] = np.asarray(gif.convert("RGB"))
+    assert not np.array_equal(frames["track"], frames["top"])
+    line = _usage_error(capsys, ["show", "spider", "--camera", "nowhere"])
+    assert "--camera" in line and "track" in line
 
 
 def test_a_replay_that_does_not_repeat_the_stored_run_is_refused(
