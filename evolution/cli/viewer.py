@@ -284,15 +284,15 @@ def _timing_arguments(p: argparse.ArgumentParser, help_seconds: str,
                         "period; a GIF plays at most 50)")
     p.add_argument("--engine", choices=revolve_env.ENGINES,
                    help="physics engine (default: the stored one, else pybullet)")
-    p.add_argument("--size", type=frame_size, default=(480, 360), metavar="WxH",
-                   help="frame width and height in pixels (default 480x360)")
+    p.add_argument("--size", type=frame_size, default="480x360", metavar="WxH",
+                   help="frame width and height, pixels")
 
 
 def _camera_argument(p: argparse.ArgumentParser) -> None:
     p.add_argument("--camera", choices=tuple(CAMERAS), default="track",
-                   help="where a robot is filmed from: track (1 m from its core, following it; "
-                        "the default), far (2.5 m, following), top (straight down, following), "
-                        "fixed (3 m from its start: it walks across the picture)")
+                   help="where a robot is filmed from: track (1 m from its core, following it), "
+                        "far (2.5 m, following), top (straight down, following), fixed (3 m "
+                        "from its start: it walks across the picture)")
 
 
 def frame_size(text: str) -> tuple[int, int]:

@@ -600,8 +600,8 @@ class MujocoBackend:
             try:
                 view = View(self._model, self._spec, width, height)
             except Exception as e:  # noqa: BLE001 (no GL context: EGL/OSMesa/GLFW all missing)
-                gl = os.environ.get("MUJOCO_GL", "glfw")
-                self._render_error = (f"MuJoCo cannot render here with MUJOCO_GL={gl} ({e}); "
+                gl, why = os.environ.get("MUJOCO_GL", "glfw"), " ".join(str(e).split())
+                self._render_error = (f"MuJoCo cannot render here with MUJOCO_GL={gl} ({why}); "
                                       f"{HOW_TO}")  # never retried: a second failure aborts
                 raise RenderUnavailableError(self._render_error) from None
             self._view = view
