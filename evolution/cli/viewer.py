@@ -66,6 +66,7 @@ from revolve_env.body.robot import PartType, Robot
 from revolve_env.body.serialize import from_json
 from revolve_env.conditions import IDEAL, EvaluationConditions
 from revolve_env.terrain import Flat, Terrain
+from revolve_env.world import engines
 
 if TYPE_CHECKING:
     from revolve_env.envs.recording import Video
@@ -226,8 +227,8 @@ def render_setup(engine: str) -> None:
     Raises:
         CliError: none works here (one line: what to install or set).
     """
-    if engine != "mujoco":
-        return  # pybullet renders with its own software renderer
+    if not engines.engine(engine).offscreen_gl:
+        return  # a renderer of its own (pybullet's software renderer)
     from revolve_env.envs.offscreen import OffscreenGLError, choose_mujoco_gl
 
     try:
@@ -514,9 +515,11 @@ def _watch_robot(args: argparse.Namespace) -> int:
         args.out = args.record
         return _cmd_show(args)
     _check_drivable(plan)
-    if plan.engine != "pybullet":
+    if not engines.engine(plan.engine).gui:
+        windows = engines.capable("gui")
         raise CliError(f"cannot watch {plan.name} live on {plan.engine}: a live window needs "
-                       "pybullet (--engine pybullet), or write a video with --record")
+                       f"{' or '.join(windows)} (--engine {windows[0]}), or write a video with "
+                       "--record")
     try:
         fitness = watch_robot(plan.robot, plan.seconds, plan.insertion, engine=plan.engine,
                               seed=plan.seed, conditions=plan.conditions, terrain=plan.terrain)

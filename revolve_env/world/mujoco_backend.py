@@ -106,9 +106,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.world import mujoco_scene as scene
-from revolve_env.world.backend import BodyStates, PlacedModel, SnapshotMismatchError
+from revolve_env.world.backend import BodyStates, SnapshotMismatchError
 from revolve_env.world.config import WorldConfig
-from revolve_env.world.model import RobotModel
+from revolve_env.world.model import PlacedModel, RobotModel
 from revolve_env.world.mujoco_scene import SERVO_KV, RobotLayout, robot_layout
 
 __all__ = ["SERVO_KV", "MujocoBackend"]
@@ -538,7 +538,7 @@ class MujocoBackend:
                 raise SnapshotMismatchError(
                     f"the snapshot is of {state.get('engine')} {state.get('mujoco')}, not mujoco "
                     f"{mujoco.__version__}")
-            keys = [key for key, _, _, _ in robots]
+            keys = [r.key for r in robots]
             if keys != list(state["keys"]):
                 raise SnapshotMismatchError(f"robots {keys} do not match the snapshot's "
                                             f"{list(state['keys'])}")
@@ -546,11 +546,10 @@ class MujocoBackend:
             colors = [int(c) for c in state["colors"]]
             if not all(0 <= c <= scene.COLORS for c in colors):
                 raise SnapshotMismatchError(f"the snapshot's collision bits {colors} are invalid")
-            for (key, model, position, yaw), was_diverged, color in zip(robots, diverged, colors,
-                                                                         strict=True):
-                robot = self._build(model, position, yaw, color)
+            for placed, was_diverged, color in zip(robots, diverged, colors, strict=True):
+                robot = self._build(placed.model, placed.position, placed.yaw, color)
                 robot.diverged = bool(was_diverged)
-                self._robots[key] = robot
+                self._robots[placed.key] = robot
             self._next_key = int(state["next_key"])
             self._rebuild()
             self._compile()
