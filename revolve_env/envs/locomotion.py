@@ -28,14 +28,14 @@ from revolve_env.body.validate import Limits
 from revolve_env.brain import BatchController
 from revolve_env.conditions import EvaluationConditions, with_noise_shortcuts
 from revolve_env.envs.observations import hinge_values, proprio_bounds, saturated_sensor_bounds
-from revolve_env.evaluation import start_generator
-from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
-from revolve_env.registration import (
+from revolve_env.episode_length import (
     DEFAULT_EVALUATION_TIME,
     DEFAULT_INSERTION_TIME,
     DEFAULT_ROBOT,
     episode_steps,
 )
+from revolve_env.evaluation import start_generator
+from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
 from revolve_env.tasks import BaseTask, Task, make_task, score
 from revolve_env.terrain import Terrain
 from revolve_env.world import World, WorldConfig, with_engine
