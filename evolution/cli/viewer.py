@@ -66,7 +66,6 @@ from revolve_env.body.robot import PartType, Robot
 from revolve_env.body.serialize import from_json
 from revolve_env.conditions import IDEAL, EvaluationConditions
 from revolve_env.terrain import Flat, Terrain
-from revolve_env.world import engines
 
 if TYPE_CHECKING:
     from revolve_env.envs.recording import Video
@@ -227,7 +226,7 @@ def render_setup(engine: str) -> None:
     Raises:
         CliError: none works here (one line: what to install or set).
     """
-    if not engines.engine(engine).offscreen_gl:
+    if not revolve_env.engine(engine).offscreen_gl:
         return  # a renderer of its own (pybullet's software renderer)
     from revolve_env.envs.offscreen import OffscreenGLError, choose_mujoco_gl
 
@@ -515,8 +514,8 @@ def _watch_robot(args: argparse.Namespace) -> int:
         args.out = args.record
         return _cmd_show(args)
     _check_drivable(plan)
-    if not engines.engine(plan.engine).gui:
-        windows = engines.capable("gui")
+    if not revolve_env.engine(plan.engine).gui:
+        windows = [name for name in revolve_env.ENGINES if revolve_env.engine(name).gui]
         raise CliError(f"cannot watch {plan.name} live on {plan.engine}: a live window needs "
                        f"{' or '.join(windows)} (--engine {windows[0]}), or write a video with "
                        "--record")

@@ -84,7 +84,6 @@ from revolve_env.terrain import (
     make_terrain,
     terrain_table,
 )
-from revolve_env.world.engines import with_engine
 
 __all__ = ["DEFAULT_EVALUATION", "MAX_BIRTHS", "MAX_RADIUS", "MAX_SECONDS", "MAX_WORKERS",
            "ConfigError", "ExperimentConfig", "WorldSettings", "as_config", "check_name",
@@ -345,7 +344,8 @@ class ExperimentConfig:
                                    else "the start disc: evaluation.position_jitter")
             except TerrainError as error:
                 raise ConfigError(f"world.terrain: {error}") from None
-        period = with_engine(revolve_env.WorldConfig(), self.world.engine).control_period
+        physics = revolve_env.with_engine(revolve_env.WorldConfig(), self.world.engine)
+        period = physics.control_period
         if self.evaluation_time < period:
             raise ConfigError(f"evaluation_time must cover one control period ({period:.6g} s "
                               f"on {self.world.engine}), got {self.evaluation_time}")
