@@ -84,7 +84,7 @@ def scene_spec(config: WorldConfig) -> mujoco.MjSpec:
     opt = spec.option
     opt.timestep = config.timestep
     opt.gravity = [0.0, 0.0, -config.gravity]
-    opt.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE  # these two: see the backend doc
+    opt.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE  # these two: see docs/engines.md
     opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET | mujoco.mjtDisableBit.mjDSBL_ISLAND
     ground = add_ground(spec, config.terrain)  # the plane or the terrain's heightfield
     ground.friction = [config.friction, 0.0, 0.0]
