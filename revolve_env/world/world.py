@@ -485,10 +485,6 @@ class World:
         self._check_open()
         return self._targets.copy()
 
-    def hinge_targets(self, handle: int) -> NDArray[np.float64]:
-        """Position targets of a robot's active hinges, output order (a copy). Radians."""
-        return self._robot_targets(self._state(handle)).copy()
-
     @property
     def states(self) -> BodyStates:
         """Every robot's state after the last control period, rows in insertion order.
@@ -535,16 +531,6 @@ class World:
             return self._now.core_pos.copy()
         rows = [self._state(h).row for h in handles]
         return self._now.core_pos[rows] if rows else np.empty((0, 3))
-
-    def core_rotation(self, handle: int) -> NDArray[np.float64]:
-        """Rotation from the core frame to the world frame, shape (3, 3)."""
-        rot: NDArray[np.float64] = self._now.core_rot[self._state(handle).row].copy()
-        return rot
-
-    def core_velocity(self, handle: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Linear velocity of the core's centre (m/s) and angular velocity (rad/s), world frame."""
-        r = self._state(handle).row
-        return self._now.core_vel[r].copy(), self._now.core_angvel[r].copy()
 
     def joint_angles(self, handle: int) -> NDArray[np.float64]:
         """Angles of the active hinges in controller output order. Radians."""

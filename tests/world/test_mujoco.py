@@ -128,9 +128,13 @@ def _run_survivors(birth: tuple[float, float] | None) -> np.ndarray:
         out = []
         for i in range(90):
             if i == 30 and birth is not None:
-                before = [world.core_position(a), *world.core_velocity(b), world.joint_angles(a)]
+                row = world.rows([b])[0]
+                before = [world.core_position(a), world.states.core_vel[row].copy(),
+                          world.states.core_angvel[row].copy(), world.joint_angles(a)]
                 c = world.add_robot(every_part(), position=birth, yaw=1.0)
-                after = [world.core_position(a), *world.core_velocity(b), world.joint_angles(a)]
+                row = world.rows([b])[0]
+                after = [world.core_position(a), world.states.core_vel[row],
+                         world.states.core_angvel[row], world.joint_angles(a)]
                 # the birth itself keeps the state bit for bit
                 for x, y in zip(before, after, strict=True):
                     np.testing.assert_array_equal(x, y)
