@@ -28,7 +28,7 @@ from revolve_env.conditions import (
 from revolve_env.fitness import trajectory_window
 from revolve_env.tasks import Task, make_task, score
 from revolve_env.terrain import Terrain
-from revolve_env.world import World, WorldConfig
+from revolve_env.world import World, WorldConfig, with_engine
 from revolve_env.world.signals import SignalReader, signal_reader
 
 __all__ = ["EvaluationResult", "evaluate", "evaluate_many", "evaluation_mjcf", "start_generator"]
@@ -191,7 +191,7 @@ def evaluate_many(
         raise ValueError(f"{len(seeds)} seeds for {len(robots)} robots")
     conditions = with_noise_shortcuts(conditions, 0.0, 0.0)
     scored = make_task(task)
-    cfg = (config if config is not None else WorldConfig()).with_engine(engine).with_terrain(
+    cfg = with_engine(config if config is not None else WorldConfig(), engine).with_terrain(
         terrain)
     dt = cfg.control_period
     insertion_ticks = round(insertion / dt)
@@ -357,6 +357,6 @@ def evaluation_mjcf(robot: Robot, seed: int = 0, *, config: WorldConfig | None =
     """
     validate(robot, limits)
     start = conditions.start(start_generator(seed))
-    with World((config if config is not None else WorldConfig()).with_engine("mujoco")) as world:
+    with World(with_engine(config if config is not None else WorldConfig(), "mujoco")) as world:
         world.add_robot(robot, start.position, start.yaw)
         return world.to_mjcf()

@@ -11,7 +11,8 @@ Both default to the spider (``gym.make("revolve_env/Locomotion-v1")``); ``robot=
 :class:`~revolve_env.body.robot.Robot`, an example name or a robot JSON file
 (:func:`revolve_env.body.examples.resolve_robot`).
 
-Episode length: the env truncates itself after ``insertion_time + evaluation_time`` seconds,
+Episode length (the rule and the defaults are in :mod:`revolve_env.episode_length`, which the
+env imports too): the env truncates itself after ``insertion_time + evaluation_time`` seconds,
 :func:`episode_steps` control periods. The registered ``max_episode_steps`` is that of the
 default times, :data:`DEFAULT_MAX_EPISODE_STEPS` (3 s + 12 s at 60 Hz = 900 steps), so that
 ``env.spec.max_episode_steps`` is the episode's length, and Gymnasium's ``TimeLimit`` (which
@@ -35,6 +36,15 @@ from typing import Any
 import gymnasium
 from gymnasium.envs.registration import WrapperSpec
 
+from revolve_env.episode_length import (
+    DEFAULT_CONTROL_PERIOD,
+    DEFAULT_EVALUATION_TIME,
+    DEFAULT_INSERTION_TIME,
+    DEFAULT_MAX_EPISODE_STEPS,
+    DEFAULT_ROBOT,
+    episode_steps,
+)
+
 __all__ = [
     "DEFAULT_CONTROL_PERIOD",
     "DEFAULT_EVALUATION_TIME",
@@ -52,36 +62,6 @@ LOCOMOTION_ID = "revolve_env/Locomotion-v0"
 """Gymnasium id of :class:`~revolve_env.envs.LocomotionEnv` observing RoboGen's sensors only."""
 LOCOMOTION_V1_ID = "revolve_env/Locomotion-v1"
 """Gymnasium id of :class:`~revolve_env.envs.LocomotionEnv` with ``proprioception=True``."""
-
-DEFAULT_ROBOT = "spider"
-"""The robot of ``gym.make`` without ``robot=``: an example name."""
-DEFAULT_INSERTION_TIME = 3.0
-"""The paper's settling phase before the evaluation, not scored. Seconds."""
-DEFAULT_EVALUATION_TIME = 12.0
-"""The paper's evaluation time (and fitness window). Seconds."""
-DEFAULT_CONTROL_PERIOD = 1.0 / 60.0
-"""Time per env step of the default :class:`~revolve_env.world.WorldConfig`. Seconds. A copy,
-because importing ``revolve_env`` (which registers the envs) must not import the world package;
-``tests/test_registration.py`` holds the two equal."""
-
-
-def episode_steps(insertion_time: float, evaluation_time: float,
-                  control_period: float) -> tuple[int, int]:
-    """``(insertion steps, steps of the whole episode)`` of the single-robot env.
-
-    Args:
-        insertion_time: Settling phase. Seconds.
-        evaluation_time: Scored phase. Seconds.
-        control_period: Time per env step. Seconds.
-    """
-    insertion = round(insertion_time / control_period)
-    return insertion, insertion + round(evaluation_time / control_period)
-
-
-DEFAULT_MAX_EPISODE_STEPS = episode_steps(DEFAULT_INSERTION_TIME, DEFAULT_EVALUATION_TIME,
-                                          DEFAULT_CONTROL_PERIOD)[1]
-"""Steps of an episode with the default times (900): the registered ``max_episode_steps``."""
-
 
 class TimeLimitFits(gymnasium.Wrapper[Any, Any, Any, Any],
                     gymnasium.utils.RecordConstructorArgs):

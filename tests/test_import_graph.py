@@ -20,7 +20,13 @@ reporting                 ``evolution.reporting``
 command line              ``evolution.cli``
 ======================== =================================================================
 
-Every import statement counts: module level, inside functions and under ``TYPE_CHECKING``.
+Every import statement counts: module level, inside functions and under ``TYPE_CHECKING``. So do
+imports by name: the string argument of ``importlib.import_module(...)`` or ``__import__(...)``,
+and any string that is a dotted path of a project module (``"revolve_env.world.mujoco_backend"``,
+``"package.module:Class"``), as in a registry table whose entries are imported when asked for.
+One by-name edge is not held to the layers: a package's ``__init__`` serving names of its own
+submodules lazily (a PEP 562 ``__getattr__`` table) imports them only when a user asks for such
+a name, never when it is imported itself; it still counts for circles.
 """
 
 from __future__ import annotations
@@ -56,20 +62,20 @@ LIBRARY = 5
 """The pure evolutionary library may import only the description layer, not the physics."""
 
 
-def _module_name(path: Path) -> str:
-    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+def _module_name(path: Path, root: Path) -> str:
+    parts = list(path.relative_to(root).with_suffix("").parts)
     if parts[-1] == "__init__":
         parts.pop()
     return ".".join(parts)
 
 
-def _modules() -> dict[str, Path]:
+def _modules(root: Path = ROOT, packages: tuple[str, ...] = PACKAGES) -> dict[str, Path]:
     found = {}
-    for package in PACKAGES:
-        for path in (ROOT / package).rglob("*.py"):
-            found[_module_name(path)] = path
-        for stub in (ROOT / package).rglob("*.pyi"):  # compiled extensions
-            found.setdefault(_module_name(stub), stub)
+    for package in packages:
+        for path in (root / package).rglob("*.py"):
+            found[_module_name(path, root)] = path
+        for stub in (root / package).rglob("*.pyi"):  # compiled extensions
+            found.setdefault(_module_name(stub, root), stub)
     return found
 
 
@@ -86,14 +92,24 @@ def layer(module: str) -> int:
     return rank
 
 
-def imports(module: str) -> set[str]:
+def _parse(path: Path) -> ast.Module:
+    return ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+
+
+def _known(name: str, module: str, modules: dict[str, Path]) -> str | None:
+    """The project module ``name`` is (or is inside), unless it is ``module`` itself."""
+    while name and name not in modules:
+        name = name.rpartition(".")[0]
+    return name if name and name != module else None
+
+
+def imports(module: str, modules: dict[str, Path] = MODULES) -> set[str]:
     """The project modules that ``module`` imports (a ``from P import name`` of a submodule
     counts as that submodule)."""
-    path = MODULES[module]
-    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    path = modules[module]
     is_package = path.name == "__init__.py"
     found: set[str] = set()
-    for node in ast.walk(tree):
+    for node in ast.walk(_parse(path)):
         if isinstance(node, ast.Import):
             names = [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -102,19 +118,53 @@ def imports(module: str) -> set[str]:
                 anchor = module.split(".") if is_package else module.split(".")[:-1]
                 anchor = anchor[: len(anchor) - node.level + 1]
                 base = ".".join([*anchor, base] if base else anchor)
-            names = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in MODULES else base
+            names = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in modules else base
                      for alias in node.names]
         else:
             continue
-        for name in names:
-            while name and name not in MODULES:
-                name = name.rpartition(".")[0]
-            if name and name != module:
-                found.add(name)
+        found |= {known for name in names if (known := _known(name, module, modules))}
     return found
 
 
-GRAPH = {module: imports(module) for module in MODULES}
+def _is_import_call(node: ast.Call) -> bool:
+    f = node.func
+    return ((isinstance(f, ast.Name) and f.id in ("__import__", "import_module"))
+            or (isinstance(f, ast.Attribute) and f.attr == "import_module"))
+
+
+def imports_by_name(module: str, modules: dict[str, Path] = MODULES) -> set[str]:
+    """The project modules that ``module`` names as strings to import (see the module doc)."""
+    tree = _parse(modules[module])
+    docstrings = {id(node.body[0].value) for node in ast.walk(tree)
+                  if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef,
+                                       ast.AsyncFunctionDef))
+                  and node.body and isinstance(node.body[0], ast.Expr)
+                  and isinstance(node.body[0].value, ast.Constant)}
+    names: set[str] = set()
+    for node in ast.walk(tree):
+        if (isinstance(node, ast.Call) and _is_import_call(node) and node.args
+                and isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str)):
+            names.add(node.args[0].value)
+        elif (isinstance(node, ast.Constant) and isinstance(node.value, str)
+              and id(node) not in docstrings):
+            path = node.value.partition(":")[0]
+            if "." in path and path in modules:  # a dotted path, not a word like "evolution"
+                names.add(path)
+    return {known for name in names if (known := _known(name, module, modules))}
+
+
+def _lazy_export(module: str, name: str, modules: dict[str, Path] = MODULES) -> bool:
+    """Whether ``name`` is a submodule that the package ``module`` serves names of lazily."""
+    return (modules[module].name == "__init__.py" and name.startswith(module + ".")
+            and name not in imports(module, modules))
+
+
+def graph(modules: dict[str, Path] = MODULES) -> dict[str, set[str]]:
+    """Every module's imports, by statement and by name."""
+    return {m: imports(m, modules) | imports_by_name(m, modules) for m in modules}
+
+
+GRAPH = graph()
 
 
 def test_the_layers_cover_both_packages() -> None:
@@ -126,22 +176,24 @@ def test_the_layers_cover_both_packages() -> None:
 @pytest.mark.parametrize("module", sorted(MODULES))
 def test_imports_run_down_the_layers(module: str) -> None:
     own = layer(module)
-    up = sorted(f"{name} (layer {layer(name)})" for name in GRAPH[module] if layer(name) > own)
+    up = sorted(f"{name} (layer {layer(name)})" for name in GRAPH[module]
+                if layer(name) > own and not _lazy_export(module, name))
     assert not up, f"{module} (layer {own}) imports up a layer: {', '.join(up)}"
     if own == LIBRARY:
         physics = sorted(name for name in GRAPH[module] if 0 < layer(name) < LIBRARY)
         assert not physics, f"the pure library module {module} imports {', '.join(physics)}"
 
 
-def _cycle() -> list[str] | None:
-    """One import circle among the project's modules, or None."""
+def _cycle(edges: dict[str, set[str]] | None = None) -> list[str] | None:
+    """One import circle among the project's modules (``edges``: :data:`GRAPH`), or None."""
+    edges = GRAPH if edges is None else edges
     state: dict[str, int] = {}  # 1: on the current path, 2: done
     path: list[str] = []
 
     def visit(module: str) -> list[str] | None:
         state[module] = 1
         path.append(module)
-        for name in sorted(GRAPH[module]):
+        for name in sorted(edges[module]):
             if state.get(name) == 1:
                 return [*path[path.index(name):], name]
             if name not in state:
@@ -152,7 +204,7 @@ def _cycle() -> list[str] | None:
         state[module] = 2
         return None
 
-    for module in sorted(GRAPH):
+    for module in sorted(edges):
         if module not in state:
             found = visit(module)
             if found:
@@ -175,3 +227,42 @@ def test_the_checker_sees_a_circle_and_an_upward_import() -> None:
         GRAPH.clear()
         GRAPH.update(saved)
     assert layer("evolution.cli.commands") > layer("evolution.experiments.api") > layer("evolution")
+
+
+def test_a_circle_through_a_registry_string_is_a_circle(tmp_path: Path) -> None:
+    """A package whose registry names a module by string, and that module imports the registry
+    back: no import statement closes the circle, the string does."""
+    package = tmp_path / "fakepkg"
+    package.mkdir()
+    (package / "__init__.py").write_text('"""A fake package."""\n')
+    (package / "registry.py").write_text(
+        '"""fakepkg.backend is named in this docstring: not an edge."""\n'
+        'TABLE = {"backend": ("fakepkg.backend", "Backend")}\n'
+        'WORDS = ("fakepkg", "registry")\n')
+    (package / "backend.py").write_text("from fakepkg.registry import TABLE\n")
+    (package / "loader.py").write_text(
+        "import importlib\n"
+        "def load():\n"
+        "    return importlib.import_module('fakepkg.plugin')\n")
+    (package / "plugin.py").write_text("from fakepkg import loader\n")
+    (package / "lazy.py").write_text("X = 1\n")
+    modules = _modules(tmp_path, ("fakepkg",))
+    assert imports("fakepkg.registry", modules) == set()
+    assert imports_by_name("fakepkg.registry", modules) == {"fakepkg.backend"}
+    assert imports_by_name("fakepkg.loader", modules) == {"fakepkg.plugin"}
+    edges = graph(modules)
+    cycle = _cycle(edges)
+    assert cycle is not None and {"fakepkg.backend", "fakepkg.registry"} <= set(cycle)
+    edges["fakepkg.backend"] = set()
+    cycle = _cycle(edges)
+    assert cycle is not None and {"fakepkg.loader", "fakepkg.plugin"} <= set(cycle)
+    edges["fakepkg.plugin"] = set()
+    assert _cycle(edges) is None
+
+
+def test_a_lazy_export_is_held_to_the_layers_only_when_imported() -> None:
+    assert "evolution.experiments" in imports_by_name("evolution")
+    assert _lazy_export("evolution", "evolution.experiments")
+    assert not _lazy_export("evolution", "evolution.operators")  # imported by a statement
+    assert not _lazy_export("evolution.experiments.config", "evolution.experiments.registry")
+    assert "revolve_env.world.mujoco_backend" in GRAPH["revolve_env.world.engines"]

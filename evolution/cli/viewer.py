@@ -553,6 +553,11 @@ def _watch_robot(args: argparse.Namespace) -> int:
         args.out = args.record
         return _cmd_show(args)
     _check_drivable(plan)
+    if not revolve_env.engine(plan.engine).gui:
+        windows = [name for name in revolve_env.ENGINES if revolve_env.engine(name).gui]
+        raise CliError(f"cannot watch {plan.name} live on {plan.engine}: a live window needs "
+                       f"{' or '.join(windows)} (--engine {windows[0]}), or write a video with "
+                       "--record")
     try:
         fitness = watch_robot(plan.robot, plan.seconds, plan.insertion, engine=plan.engine,
                               seed=plan.seed, conditions=plan.conditions, terrain=plan.terrain)

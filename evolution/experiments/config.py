@@ -344,7 +344,8 @@ class ExperimentConfig:
                                    else "the start disc: evaluation.position_jitter")
             except TerrainError as error:
                 raise ConfigError(f"world.terrain: {error}") from None
-        period = revolve_env.WorldConfig().with_engine(self.world.engine).control_period
+        physics = revolve_env.with_engine(revolve_env.WorldConfig(), self.world.engine)
+        period = physics.control_period
         if self.evaluation_time < period:
             raise ConfigError(f"evaluation_time must cover one control period ({period:.6g} s "
                               f"on {self.world.engine}), got {self.evaluation_time}")

@@ -14,7 +14,7 @@ from typing import Any
 
 from revolve_env.conditions import EvaluationConditions
 from revolve_env.terrain import Heightfield, Terrain
-from revolve_env.world import WorldConfig
+from revolve_env.world import WorldConfig, with_engine
 
 __all__ = ["check_arguments", "max_cycles_of", "world_config_of"]
 
@@ -74,7 +74,7 @@ def world_config_of(world_config: WorldConfig | None, control_period: float | No
     config = world_config if world_config is not None else WorldConfig()
     if control_period is not None:  # replace() validates it against the timestep
         config = dataclasses.replace(config, control_period=control_period)
-    config = config.with_engine(engine).with_terrain(terrain)
+    config = with_engine(config, engine).with_terrain(terrain)
     if isinstance(config.terrain, Heightfield):
         config.terrain.check_disc(birth_radius, "the birth disc: birth_radius")
     return config

@@ -29,17 +29,17 @@ from revolve_env.brain import BatchController
 from revolve_env.cameras import Camera, check_size, make_camera
 from revolve_env.conditions import EvaluationConditions, with_noise_shortcuts
 from revolve_env.envs.observations import hinge_values, proprio_bounds, saturated_sensor_bounds
-from revolve_env.evaluation import start_generator
-from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
-from revolve_env.registration import (
+from revolve_env.episode_length import (
     DEFAULT_EVALUATION_TIME,
     DEFAULT_INSERTION_TIME,
     DEFAULT_ROBOT,
     episode_steps,
 )
+from revolve_env.evaluation import start_generator
+from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
 from revolve_env.tasks import BaseTask, Task, make_task, score
 from revolve_env.terrain import Terrain
-from revolve_env.world import World, WorldConfig
+from revolve_env.world import World, WorldConfig, with_engine
 from revolve_env.world.signals import SignalReader, signal_reader
 
 __all__ = ["LocomotionEnv"]
@@ -242,7 +242,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         config = world_config if world_config is not None else WorldConfig()
         if control_period is not None:  # replace() validates it against the timestep
             config = dataclasses.replace(config, control_period=control_period)
-        config = config.with_engine(engine).with_terrain(terrain)
+        config = with_engine(config, engine).with_terrain(terrain)
         self.config = config
         self.robot = robot
         self.render_mode = render_mode

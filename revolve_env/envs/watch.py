@@ -92,9 +92,9 @@ class Label:
 
 def control_period(engine: str) -> float:
     """The control period of the default world of ``engine``. Seconds."""
-    from revolve_env.world import WorldConfig
+    from revolve_env.world import WorldConfig, with_engine
 
-    return WorldConfig().with_engine(engine).control_period
+    return with_engine(WorldConfig(), engine).control_period
 
 
 def _ink(rgb: tuple[int, ...]) -> tuple[int, int, int]:
@@ -163,7 +163,8 @@ def watch_robot(robot: Robot, seconds: float = 12.0, insertion: float = 3.0, *,
         robot: A valid robot with at least one active hinge.
         seconds: Evaluation time after insertion. Seconds.
         insertion: Settling time first. Seconds.
-        engine: ``"pybullet"`` (None means it) or ``"mujoco"`` (MuJoCo's own window).
+        engine: An engine with a GUI window (:attr:`~revolve_env.world.engines.Engine.gui`:
+            pybullet's GUI or MuJoCo's own viewer; None means the default world's).
         seed: Seed of the episode.
         conditions: Start heading, jitter and noise (default: ideal); with the same ``seed``
             the robot starts as in ``evaluate(..., seed=seed, conditions=conditions)``.
@@ -174,8 +175,14 @@ def watch_robot(robot: Robot, seconds: float = 12.0, insertion: float = 3.0, *,
 
     Raises:
         NoDisplayError: no display here.
-        ValueError: an unknown ``engine``, or a robot that cannot be driven.
+        ValueError: ``engine`` has no GUI window, or the robot cannot be driven.
     """
+    from revolve_env.world.engines import capable
+    from revolve_env.world.engines import engine as engine_record
+
+    if engine is not None and not engine_record(engine).gui:
+        raise ValueError(f"a live window needs an engine with a GUI window "
+                         f"({', '.join(capable('gui'))}), not {engine!r}")
     if not has_display():
         raise NoDisplayError("no display for a live window ($DISPLAY is unset)")
     from revolve_env.envs.episode import run_episode

@@ -12,21 +12,17 @@ Every ``task=`` keyword (``revolve_env.evaluate``, ``gymnasium.make("revolve_env
 task=...)``, ``population_env(task=...)``, the learners) takes a task, a name or a table.
 """
 
-from revolve_env.tasks.base import (
-    SIGNALS,
-    BaseTask,
-    Task,
-    TaskError,
-    check_task_name,
-    make_task,
-    score,
-    task_class,
-    task_from_dict,
-    task_name,
-)
+from revolve_env.tasks.base import SIGNALS, BaseTask, Task, TaskError, score, task_name
 from revolve_env.tasks.light import LightFollowing
 from revolve_env.tasks.locomotion import DirectedLocomotion, Locomotion
-from revolve_env.tasks.registry import DEFAULT_TASK, TASKS
+from revolve_env.tasks.registry import (
+    DEFAULT_TASK,
+    TASKS,
+    check_task_name,
+    make_task,
+    task_class,
+    task_from_dict,
+)
 
 __all__ = [
     "DEFAULT_TASK",

@@ -10,12 +10,14 @@ rest, the same for every task: nothing is sampled during insertion, a window wit
 samples scores 0 (:func:`score`), a robot whose simulation blows up scores 0 from then on.
 
 A task is plain data: a frozen dataclass whose fields are its parameters, with a name, so that
-it is stored with results (:meth:`Task.to_dict`) and made again (:func:`task_from_dict`).
+it is stored with results (:meth:`Task.to_dict`) and made again
+(:func:`~revolve_env.tasks.registry.task_from_dict`).
 :class:`BaseTask` gives a user's class everything but :meth:`~Task.fitness`. Names resolve
-through ONE function, :func:`task_class`: a shipped task's name
-(:data:`~revolve_env.tasks.registry.TASKS`) or the dotted path ``"package.module:ClassName"`` of
-a user's class. :func:`make_task` turns whatever a ``task=`` keyword was given into a checked
-task; a class that does not follow the protocol is refused in one line naming it.
+through ONE function, :func:`~revolve_env.tasks.registry.task_class` (in the registry, above the
+tasks it names): a shipped task's name (:data:`~revolve_env.tasks.registry.TASKS`) or the dotted
+path ``"package.module:ClassName"`` of a user's class.
+:func:`~revolve_env.tasks.registry.make_task` turns whatever a ``task=`` keyword was given into a
+checked task; a class that does not follow the protocol is refused in one line naming it.
 
 Signals: a task that needs more than the core's path names one of :data:`SIGNALS` in its
 ``signal`` attribute; the world samples it for every robot with each fitness sample
@@ -30,9 +32,6 @@ Signals: a task that needs more than the core's path names one of :data:`SIGNALS
 from __future__ import annotations
 
 import dataclasses
-import importlib
-import re
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar, Protocol, runtime_checkable
 
@@ -40,16 +39,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.fitness import Window
-from revolve_env.tasks.registry import DEFAULT_TASK, TASKS
 
-__all__ = ["SIGNALS", "BaseTask", "Task", "TaskError", "make_task", "score", "task_class",
-           "task_from_dict", "task_name"]
+__all__ = ["SIGNALS", "BaseTask", "Task", "TaskError", "check", "check_class", "score",
+           "task_name"]
 
 SIGNALS: tuple[str, ...] = ("light",)
 """Signals a task may ask the world to sample with every fitness sample (see the module doc)."""
-
-_PATH = re.compile(r"^[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*(\.[A-Za-z_]\w*)*$")
-
 
 class TaskError(ValueError):
     """An unknown task name, a class that fails the protocol, or bad task parameters."""
@@ -75,7 +70,7 @@ class Task(Protocol):
         """Every robot's reward for a control step, from its fitness after and before it."""
 
     def to_dict(self) -> dict[str, Any]:
-        """``{"name": name, **parameters}``: plain data that :func:`task_from_dict` reads."""
+        """``{"name": name, **parameters}``: what :func:`revolve_env.tasks.task_from_dict` reads."""
 
 
 @dataclass(frozen=True)
@@ -88,6 +83,10 @@ class BaseTask:
     """
 
     signal: ClassVar[str | None] = None
+    #: The short name a shipped task is stored under (:data:`~revolve_env.tasks.TASKS`), set by
+    #: the class that owns it; any other class, a subclass of a shipped one included, is stored
+    #: under its dotted path.
+    registered: ClassVar[str | None] = None
 
     @property
     def name(self) -> str:
@@ -112,61 +111,11 @@ class BaseTask:
 
 def task_name(cls: type) -> str:
     """The name a task class is stored under: its registry name, else ``module:QualName``."""
-    path = f"{cls.__module__}:{cls.__qualname__}"
-    for name, target in TASKS.items():
-        if target == path:
-            return name
-    return path
+    own = vars(cls).get("registered")  # the class's own, not one inherited
+    return own if isinstance(own, str) else f"{cls.__module__}:{cls.__qualname__}"
 
 
-def check_task_name(name: object) -> str:
-    """The dotted path ``name`` stands for: a shipped task's, or ``name`` if it is one.
-
-    Imports nothing (the form is checked, not the class).
-
-    Raises:
-        TaskError: ``name`` is not a string, a shipped name or ``"package.module:ClassName"``.
-    """
-    if not isinstance(name, str):
-        raise TaskError(f"a task name must be a string, got {type(name).__name__}")
-    path = TASKS.get(name, name)
-    if not _PATH.match(path):
-        raise TaskError(f"unknown task {name!r}: use one of {', '.join(TASKS)} or the dotted "
-                        "path of your own class, 'package.module:ClassName'")
-    return path
-
-
-def task_class(name: str, *, allow_import: bool = True) -> type:
-    """The class a task name stands for: a shipped task's name or ``"package.module:Class"``.
-
-    Resolving a dotted path imports its module, which runs that module's code: a name read
-    from a results folder someone else made must be resolved with ``allow_import=False`` (then
-    only the shipped tasks resolve) unless the user asked for it (a resume of their own run).
-
-    Raises:
-        TaskError: one line naming the unknown name, the module that does not import (or may
-            not be imported), or the class that does not follow the :class:`Task` protocol.
-    """
-    path = check_task_name(name)
-    if name not in TASKS and not allow_import:
-        raise TaskError(f"task {name!r} is a class of your own: resolving it imports its "
-                        "module, which is not allowed here")
-    module_name, qualname = path.split(":")
-    try:
-        obj: Any = importlib.import_module(module_name)
-    except ImportError as e:
-        raise TaskError(f"task {name!r}: cannot import module {module_name!r} ({e})") from None
-    for part in qualname.split("."):
-        if not hasattr(obj, part):
-            raise TaskError(f"task {name!r}: module {module_name!r} has no {qualname!r}")
-        obj = getattr(obj, part)
-    if not isinstance(obj, type):
-        raise TaskError(f"task {name!r} is not a class")
-    _check_class(obj, name)
-    return obj
-
-
-def _check_class(cls: type, name: str) -> None:
+def check_class(cls: type, name: str) -> None:
     """Refuse a class that lacks a member of the protocol (one line naming it)."""
     missing = [m for m in ("fitness", "reward", "to_dict") if not callable(getattr(cls, m, None))]
     missing += [m for m in ("name", "signal") if not hasattr(cls, m)]
@@ -175,11 +124,11 @@ def _check_class(cls: type, name: str) -> None:
                         f"{', '.join(missing)} (subclass revolve_env.tasks.BaseTask)")
 
 
-def _check(task: object) -> Task:
+def check(task: object) -> Task:
     """``task`` if it follows the protocol, with a known signal and a plain-data form."""
     cls = type(task)
     label = f"{cls.__module__}:{cls.__qualname__}"
-    _check_class(cls, label)
+    check_class(cls, label)
     assert isinstance(task, Task)
     if task.signal is not None and task.signal not in SIGNALS:
         raise TaskError(f"task {label!r} asks for signal {task.signal!r}; known signals: "
@@ -192,57 +141,6 @@ def _check(task: object) -> Task:
     except TypeError:
         raise TaskError(f"task {label!r} must be hashable (a frozen dataclass)") from None
     return task
-
-
-def task_from_dict(data: Mapping[str, Any], *, allow_import: bool = True) -> Task:
-    """The task a :meth:`Task.to_dict` describes.
-
-    Its class (:func:`task_class`, ``allow_import`` as there) made with the other keys as
-    keyword arguments.
-
-    Raises:
-        TaskError: no ``name``, an unknown name or class, or parameters the class refuses.
-    """
-    if not isinstance(data, Mapping) or "name" not in data:
-        got = dict(data) if isinstance(data, Mapping) else data
-        raise TaskError(f"a task table needs a 'name' (one of {', '.join(TASKS)} or "
-                        f"'package.module:ClassName'), got {got!r}")
-    name = data["name"]
-    cls = task_class(name, allow_import=allow_import)
-    params = {k: v for k, v in data.items() if k != "name"}
-    try:
-        task = cls(**params)
-    except TypeError as e:
-        known = ([f.name for f in dataclasses.fields(cls)] if dataclasses.is_dataclass(cls)
-                 else [])
-        raise TaskError(f"task {name!r}: bad parameters {sorted(params)} ({e}); its parameters: "
-                        f"{', '.join(known) or 'none'}") from None
-    except ValueError as e:
-        raise TaskError(f"task {name!r}: {e}") from None
-    return _check(task)
-
-
-def make_task(task: Task | str | Mapping[str, Any] | None = None) -> Task:
-    """A checked task from what a ``task=`` keyword got.
-
-    Args:
-        task: None (the paper's :class:`~revolve_env.tasks.Locomotion`), a task object, a name
-            (a shipped task with its defaults, or ``"package.module:ClassName"``), or a mapping
-            ``{"name": ..., **parameters}`` (:func:`task_from_dict`).
-
-    Raises:
-        TaskError: see :func:`task_class` and :func:`task_from_dict`.
-    """
-    if task is None:
-        task = DEFAULT_TASK
-    if isinstance(task, str):
-        return task_from_dict({"name": task})
-    if isinstance(task, Mapping):
-        return task_from_dict(task)
-    if isinstance(task, type):
-        raise TaskError(f"task={task.__qualname__} is a class: pass an instance, "
-                        f"{task.__qualname__}()")
-    return _check(task)
 
 
 def score(task: Task, window: Window) -> NDArray[np.float64]:

@@ -32,6 +32,7 @@ class LightFollowing(BaseTask):
     """
 
     signal: ClassVar[str | None] = "light"
+    registered: ClassVar[str | None] = "light-following"
 
     def fitness(self, window: Window) -> NDArray[np.float64]:
         """Every robot's gain in light intensity over its window (dimensionless)."""

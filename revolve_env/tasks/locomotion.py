@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,6 +38,7 @@ class Locomotion(BaseTask):
         s_weight: Weight of the displacement ``s`` (the paper: 5).
     """
 
+    registered: ClassVar[str | None] = "locomotion"
     s_weight: float = DEFAULT_S_WEIGHT
 
     def __post_init__(self) -> None:
@@ -60,6 +62,7 @@ class DirectedLocomotion(BaseTask):
         heading: The rewarded direction. Radians.
     """
 
+    registered: ClassVar[str | None] = "directed-locomotion"
     heading: float = 0.0
 
     def __post_init__(self) -> None:

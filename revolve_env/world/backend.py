@@ -1,4 +1,4 @@
-"""The physics-backend interface under :class:`~revolve_env.world.World`, and the engine registry.
+"""The physics-backend interface under :class:`~revolve_env.world.World`.
 
 A backend is the only place that talks to a physics engine. It knows nothing of servos, sensors,
 targets or blow-ups: :class:`~revolve_env.world.World` owns those rules and drives a backend
@@ -16,16 +16,14 @@ through a handful of batched primitives (one call per control period for all rob
 * :meth:`PhysicsBackend.snapshot` / :meth:`PhysicsBackend.restore`: the engine's whole state, for
   an exact continuation in a scene rebuilt from the same robots (where
   :attr:`PhysicsBackend.exact_restore` says the engine allows it),
-* :meth:`PhysicsBackend.mjcf`: the scene as MuJoCo's MJCF (:func:`scene_mjcf`, for any engine).
+* :meth:`PhysicsBackend.mjcf`: the scene as MuJoCo's MJCF.
 
-Engines are chosen by name (``WorldConfig.engine``): :data:`ENGINES` lists them and
-:func:`make_backend` imports the chosen one lazily, so a missing optional engine only matters
-to whoever selects it.
+The engines, and the factory that builds a backend by name, are in
+:mod:`revolve_env.world.engines`.
 """
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -33,18 +31,13 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from revolve_env.world.config import (
-    _REGISTRY,
-    ENGINES,
-    EngineUnavailableError,
-    WorldConfig,
-    require_engine,
-)
-from revolve_env.world.model import RobotModel
+from revolve_env.world.model import PlacedModel, RobotModel
 
-__all__ = ["ENGINES", "BodyStates", "EngineUnavailableError", "PhysicsBackend", "PlacedModel",
-           "SnapshotMismatchError", "make_backend", "require_engine", "scene_mjcf"]
+__all__ = ["BodyStates", "EngineUnavailableError", "PhysicsBackend", "SnapshotMismatchError"]
 
+
+class EngineUnavailableError(ImportError):
+    """The selected physics engine's Python package is not installed (or does not import)."""
 
 
 class SnapshotMismatchError(ValueError):
@@ -53,10 +46,6 @@ class SnapshotMismatchError(ValueError):
     Other robots, another engine or engine version, or damaged data: the continuation would not
     be exact.
     """
-
-
-PlacedModel = tuple[int, RobotModel, tuple[float, float, float], float]
-"""A robot as a backend built it: (key, model, root position in metres, yaw in radians)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -184,7 +173,9 @@ class PhysicsBackend(Protocol):
         """The scene as placed (the robots where they were added) as MuJoCo's MJCF text.
 
         Raises:
-            EngineUnavailableError: the ``mujoco`` package is not installed.
+            ImportError: the ``mujoco`` package is not installed (``World.to_mjcf`` checks it
+                first, in one line).
+            NotImplementedError: no one scene holds the robots (an isolated world).
         """
         ...
 
@@ -199,44 +190,3 @@ class PhysicsBackend(Protocol):
             NotImplementedError: the engine cannot restore its state exactly.
         """
         ...
-
-
-_ISOLATED: dict[str, tuple[str, str]] = {
-    "pybullet": ("revolve_env.world.isolated", "IsolatedBackend"),
-    "mujoco": ("revolve_env.world.mujoco_scenes", "MujocoScenes"),
-}
-"""The backend of an isolated world (a scene per robot) for each engine."""
-
-
-def make_backend(config: WorldConfig, *, gui: bool = False,
-                 isolated: bool = False) -> PhysicsBackend:
-    """A fresh backend of ``config.engine`` built from ``config``.
-
-    With ``isolated``, every robot is in a scene of its own
-    (:class:`~revolve_env.world.isolated.IsolatedBackend`).
-
-    Raises:
-        ValueError: unknown engine name.
-        EngineUnavailableError: its package is not installed.
-        RuntimeError: the engine could not start (e.g. a GUI without a display).
-    """
-    require_engine(config.engine)
-    module, cls = _ISOLATED[config.engine] if isolated else _REGISTRY[config.engine][:2]
-    backend: PhysicsBackend = getattr(importlib.import_module(module), cls)(config, gui=gui)
-    return backend
-
-
-def scene_mjcf(config: WorldConfig, robots: Sequence[PlacedModel]) -> str:
-    """MJCF of the MuJoCo scene of ``config`` holding ``robots`` as placed, in order.
-
-    What a MuJoCo world compiles when these robots are added to it in this order; the MuJoCo
-    model builder (:func:`revolve_env.world.mujoco_scene.scene_mjcf`) is imported here, so that a
-    world of another engine can be exported too.
-
-    Raises:
-        EngineUnavailableError: the ``mujoco`` package is not installed.
-    """
-    require_engine("mujoco")
-    module = importlib.import_module("revolve_env.world.mujoco_scene")
-    text: str = module.scene_mjcf(config, robots)
-    return text

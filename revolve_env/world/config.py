@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import importlib
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -12,48 +11,7 @@ from typing import Any
 from revolve_env.body.parts import SERVO
 from revolve_env.terrain import Flat, Terrain, TerrainError, make_terrain
 
-__all__ = ["ENGINES", "PHYSICS_REVISIONS", "EngineUnavailableError", "TerrainError",
-           "WorldConfig", "require_engine"]
-
-#: Engine name -> (backend module, class, the pip package it needs); the backends are imported
-#: lazily by :func:`revolve_env.world.backend.make_backend`.
-_REGISTRY: dict[str, tuple[str, str, str]] = {
-    "pybullet": ("revolve_env.world.pybullet_backend", "PybulletBackend", "pybullet"),
-    "mujoco": ("revolve_env.world.mujoco_backend", "MujocoBackend", "mujoco"),
-}
-#: Names accepted by ``WorldConfig(engine=...)`` and every ``engine=`` keyword.
-ENGINES: tuple[str, ...] = tuple(_REGISTRY)
-
-#: Engine name -> the revision of how this package steps it. Raised by a change that moves that
-#: engine's numbers (the results store records the revisions a run was made with, and a run
-#: made with another revision is not continued: its remaining births would live in other
-#: physics). MuJoCo 2: the discrete integrator with islands off and one spec per robot
-#: (revision 1, with ``implicitfast``, made every result stored before revision numbers).
-PHYSICS_REVISIONS: dict[str, int] = {"pybullet": 1, "mujoco": 2}
-
-
-class EngineUnavailableError(ImportError):
-    """The selected physics engine's Python package cannot be imported."""
-
-
-def require_engine(engine: str) -> None:
-    """Check that ``engine`` is a known engine whose package imports.
-
-    Raises:
-        ValueError: unknown engine name.
-        EngineUnavailableError: its package is not installed.
-    """
-    if engine not in _REGISTRY:
-        raise ValueError(f"unknown physics engine {engine!r}: choose one of {', '.join(ENGINES)}")
-    module, _, package = _REGISTRY[engine]
-    try:  # the backend module first: it imports pybullet without its build banner
-        importlib.import_module(module)
-        importlib.import_module(package)
-    except ImportError as e:
-        raise EngineUnavailableError(
-            f"engine {engine!r} needs the {package!r} package, which cannot be imported ({e}); "
-            f"install it with: pip install {package}"
-        ) from None
+__all__ = ["TerrainError", "WorldConfig"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -66,10 +24,12 @@ class WorldConfig:
     sensor readings and the blow-up check are refreshed once per control period.
 
     Attributes:
-        engine: The physics engine, one of :data:`~revolve_env.world.backend.ENGINES`:
-            ``"pybullet"`` (the reference) or ``"mujoco"`` (faster; see
-            :mod:`revolve_env.world.mujoco_backend` for its integrator and contact settings).
-            Every rule above the engine (servo law, sensors, blow-up policy) is the same for both.
+        engine: The physics engine, a name of :data:`~revolve_env.world.engines.ENGINES`:
+            ``"pybullet"`` (the reference) or ``"mujoco"`` (faster; see docs/engines.md for its
+            integrator and contact settings). Every rule above the engine (servo law, sensors,
+            blow-up policy) is the same for both. The name is checked against the engine
+            registry (:mod:`revolve_env.world.engines`) where a world or an env is made; this
+            record is pure data and knows no engine.
         timestep: Physics step. Seconds.
         control_period: Control step; a whole multiple of ``timestep``. Seconds.
         gravity: Magnitude of gravity, pointing down (-z). Metres per second squared.
@@ -119,9 +79,8 @@ class WorldConfig:
     def __post_init__(self) -> None:
         if not isinstance(self.terrain, Terrain):  # a name or a table: read it (or refuse it)
             object.__setattr__(self, "terrain", make_terrain(self.terrain))
-        if self.engine not in ENGINES:
-            raise ValueError(f"unknown physics engine {self.engine!r}: choose one of "
-                             f"{', '.join(ENGINES)}")
+        if not isinstance(self.engine, str):
+            raise ValueError(f"engine must be an engine's name, got {self.engine!r}")
         if not (self.timestep > 0 and math.isfinite(self.timestep)):
             raise ValueError(f"timestep must be a positive number of seconds, got {self.timestep}")
         ratio = self.control_period / self.timestep
@@ -144,20 +103,6 @@ class WorldConfig:
             raise ValueError(f"light_position must be 3 finite numbers, got {self.light_position}")
         if self.solver_iterations < 1:
             raise ValueError(f"solver_iterations must be >= 1, got {self.solver_iterations}")
-
-    def with_engine(self, engine: str | None) -> WorldConfig:
-        """This config on ``engine`` (None: its own), checked to be known and installed.
-
-        The one place where an ``engine=`` keyword (of ``evaluate`` and the envs) meets a config,
-        so that a missing package fails when the env is made rather than at its first reset.
-
-        Raises:
-            ValueError: unknown engine name.
-            EngineUnavailableError: the engine's package is not installed.
-        """
-        config = self if engine is None else dataclasses.replace(self, engine=engine)
-        require_engine(config.engine)
-        return config
 
     def with_terrain(self, terrain: Terrain | str | Mapping[str, Any] | None) -> WorldConfig:
         """This config on ``terrain`` (None: its own): a spec, a name or a table.

@@ -15,16 +15,16 @@ Not available in an isolated world: snapshots (there is no one scene to save) an
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import fields
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from revolve_env.world.backend import BodyStates, PhysicsBackend, PlacedModel, make_backend
+from revolve_env.world.backend import BodyStates, PhysicsBackend
 from revolve_env.world.config import WorldConfig
-from revolve_env.world.model import RobotModel
+from revolve_env.world.model import PlacedModel, RobotModel
 
 __all__ = ["IsolatedBackend"]
 
@@ -32,16 +32,14 @@ __all__ = ["IsolatedBackend"]
 class IsolatedBackend:
     """A backend per robot behind one batched interface (see the module doc)."""
 
-    def __init__(self, config: WorldConfig, *, gui: bool = False) -> None:
-        """No robots yet.
+    def __init__(self, config: WorldConfig, *,
+                 scene: Callable[[WorldConfig], PhysicsBackend]) -> None:
+        """No robots yet; each robot will get a scene of its own, ``scene(config)``.
 
-        Raises:
-            RuntimeError: ``gui`` was asked for (an isolated world has no window).
+        (:func:`~revolve_env.world.engines.make_backend` passes the engine's backend class.)
         """
-        if gui:
-            raise RuntimeError("an isolated world has no GUI window (its robots are in separate "
-                               "scenes)")
         self.config = config
+        self._make_scene = scene
         self._scenes: dict[int, PhysicsBackend] = {}
         self._outputs: dict[int, int] = {}  # active hinges of each robot
         self._next_key = 0
@@ -52,7 +50,7 @@ class IsolatedBackend:
 
     # -- robots -------------------------------------------------------------------------------
     def add(self, model: RobotModel, position: tuple[float, float, float], yaw: float) -> int:
-        scene = make_backend(self.config)
+        scene = self._make_scene(self.config)
         try:
             scene.add(model, position, yaw)  # its only robot: key 0 in that scene
         except BaseException:

@@ -25,6 +25,7 @@ __all__ = [
     "PART_SHADES",
     "LightSensorModel",
     "LinkModel",
+    "PlacedModel",
     "RobotModel",
     "TouchSensorModel",
     "build_model",
@@ -152,6 +153,23 @@ class RobotModel:
     def n_outputs(self) -> int:
         """Number of active hinges (controller outputs)."""
         return len(self.active_links)
+
+
+@dataclass(frozen=True, slots=True)
+class PlacedModel:
+    """A robot as a backend built it (what rebuilding its scene needs).
+
+    Attributes:
+        key: The backend's key of the robot.
+        model: Its physical model.
+        position: Its root link frame's origin when it was added, world frame. Metres.
+        yaw: Its turn about the vertical when it was added. Radians.
+    """
+
+    key: int
+    model: RobotModel
+    position: tuple[float, float, float]
+    yaw: float
 
 
 def drawn_colors(asm: Assembly) -> list[tuple[float, float, float]]:

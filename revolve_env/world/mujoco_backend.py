@@ -1,93 +1,12 @@
 """The MuJoCo backend (it, ``mujoco_scene``, ``_scenes`` and ``_terrain`` import ``mujoco``).
 
-The scene is an :class:`mujoco.MjSpec` that one :class:`MujocoBackend` owns with the compiled
-``MjModel``/``MjData`` pair. Each robot is built from the same engine-neutral
-:class:`~revolve_env.world.model.RobotModel` as the pybullet backend: one body per link (same
-frames), explicit masses, centres of mass and principal inertias, the same collision boxes, a
-free joint at the root, unlimited hinges at the hinge anchors, welded touch-sensor halves (bodies
-without a joint) and one velocity servo per active hinge (:mod:`~revolve_env.world.mujoco_scene`
-builds them, one spec per robot, and says how a robot is kept from colliding with itself).
-
-Births append the newborn's spec to the scene's and compile it again; deaths rebuild the scene's
-spec from the survivors' specs, compiled when the scene is next stepped or its contacts read, so
-that a cull of many robots compiles once (the survivors are read where they are in the previous
-model meanwhile: the same state). Either way every surviving robot's integration state (``qpos``,
-``qvel``, ``qacc_warmstart``) is copied, slice by slice, from the old ``MjData`` to the new one (a
-newborn is appended after every existing body), and a robot's addresses in the new model come from
-its layout (:class:`~revolve_env.world.mujoco_scene.RobotLayout`), not from name look-ups. The
-survivors' state is kept bit for bit, and the compiled model is the one a scene of the robots
-present compiles to, bit for bit (snapshots check it). Where the newborn is moves them by 1e-13 m
-(a birth 0.8 m away against one 40 m away, the order of the collision pass), and its presence by
-2e-7 m within 1.5 s (the solver converges over more bodies; with the integrator and islands used
-before, see below: not at all, and 1e-13 m). Measured by ``benchmarks/bench_births.py`` in a world
-of 30 random robots: a birth costs 9-12 ms of CPU (before: 10-14 ms), a death with its compile
-11-14 ms (before 17-96 ms: hundreds of ``MjSpec.delete`` calls), a cull of 10 robots 18 ms (before
-2 s). The floor is MuJoCo's compile of the whole scene, 5.5-6 ms at 30 robots and growing with the
-square of the scene's size (half of it is ``mj_setConst``'s inverse weight of every body, a solve
-over every degree of freedom each).
-
-Settings, chosen by measurement (the five example robots over 3 + 12 s on their own brains,
-fitness ``v + 5 s`` in metres; pybullet gives spider 10.2, gecko 8.9, snake 10.0, sensor crawler
-0.7, bar walker 0.6):
-
-* Integrator ``discrete`` at ``config.timestep`` (1/240 s = 4.2 ms by default), the one that
-  solves the constraints in the same metric as the implicit velocity update (``M + h D``: the
-  mass matrix plus the servos' velocity gain times the step). ``implicitfast``, used before,
-  solves the contacts with ``M`` and then integrates with ``M + h D``; on a servo's hinge
-  ``h D`` (0.2 N m s/rad x 4.2 ms = 8e-4 kg m^2) is eight times the gearbox armature, so a
-  contact impulse between two robots' light parts is applied to their hinges with a fraction of
-  its planned effect, the parts go on interpenetrating (3 mm, then 7 mm a step later, 200 N) and
-  the robots are flung: the online world lost robots in pairs and triples at one instant (core
-  speeds 12-430 m/s, spins 200-300 rad/s). A stress crowd (30 walking example robots packed in
-  a 1 m disc, each replaced after 60 s or when lost; three 3-minute runs) lost 18 robots in 288
-  lives with ``implicitfast``, none in 270 with ``discrete``. What did not help there: softer
-  robot-robot contacts (a 0.02 s time constant: 7 of 7 lost again in the same run), an elliptic
-  cone (7), frictionless robot-robot contacts (32), a 2 mm contact margin (22), a 1e-3 kg m^2
-  armature (9), half the timestep (9, at twice the cost); explicit ``Euler`` with a 1e-3
-  armature lost none but ranked robots further from pybullet (Spearman rho 0.65 on 200 random
-  robots). With ``discrete`` the examples score spider 10.3, gecko 7.8, snake 10.3, sensor
-  crawler 2.2, bar walker 1.5 (``implicitfast``: 10.2, 7.5, 9.8, 2.3, 1.4) and rho is 0.73
-  (0.745). It costs 30 % more per physics step for one robot (17 against 13 microseconds),
-  2 % more for 30 robots in a crowd and 12 % for 30 robots spread out. Constraint islands are
-  disabled (``mjDSBL_ISLAND``): with them ``discrete`` cost 28 % more in the crowd, and they no
-  longer kept robots' solves apart (a robot frozen after a blow-up moved a distant one by
-  1e-17 m); without them a birth moves the others by 2e-7 m within 1.5 s (1e-13 m before), the
-  solver converging over more bodies. 1/120 s: the snake fell from 10.3 to 5.6 and rho to 0.61.
-* The servo: a velocity actuator, ``force = kv * (v_target - qvel)`` clipped to the torque
-  limit (see :data:`~revolve_env.world.mujoco_scene.SERVO_KV`), on hinges with a gearbox armature
-  (see :data:`~revolve_env.world.mujoco_scene.HINGE_ARMATURE`).
-  With kv = 0.2, armature 1e-4 and the contacts below the examples score spider 10.2, gecko 7.2,
-  snake 9.8, sensor crawler 2.3, bar walker 1.4 (straight displacement 1.62, 1.04, 1.60, 0.33,
-  0.17 m; ``implicitfast``); a commanded hinge reaches 0.86x its top speed within one control
-  period and settles on its target with no error. kv 0.5 or 1.0 gave the same rank correlation
-  with pybullet (0.73) and weaker gaits.
-* Solver: Newton (MuJoCo's default) converges in 2-3 iterations per step. For 30 random robots
-  in one world (about 170 contacts) a physics step took 0.30 ms; CG 0.48 ms, an elliptic cone
-  0.36-0.40 ms, tolerance 1e-5 or 5 iterations no faster. Making and solving the constraints
-  is about 70 % of a step, collision detection 11 %.
-* Contacts: stiff (time constant :data:`~revolve_env.world.mujoco_scene.CONTACT_STEPS` physics
-  steps, see there; MuJoCo's default 0.02 s let the light parts sink and slip), pyramidal cone
-  (an elliptic cone with impratio 10, or 3 noslip iterations, ranked robots no closer to
-  pybullet), condim 3 (sliding friction only, as in pybullet), the ground's friction on
-  robot-ground contacts (``config.friction``) and 1.0 between robots, as in the pybullet
-  backend. A robot never collides with itself (collision bits, see
-  :mod:`~revolve_env.world.mujoco_scene`). Hinges have no limits (as in pybullet: the servo's
-  target range is the limit).
-* Blow-ups: ``mjDSBL_AUTORESET`` is set, since MuJoCo would otherwise reset the *whole* scene
-  when one robot's accelerations became NaN. MuJoCo's constraint solver spreads a NaN to every
-  robot within the step, so a control period that ends non-finite is replayed one physics step
-  at a time and the robots that caused it are put back at rest where the period started and
-  reported as ``diverged`` (the world flags them as blown up); the others carry on exactly as
-  if nothing had happened.
-
-Snapshots (:meth:`MujocoBackend.snapshot` / :meth:`MujocoBackend.restore`) are exact: the scene is
-rebuilt from the same robots, keys and poses in the same order and compiled once; the compiled
-model must hash to the snapshot's (its MJB bytes: every array, name and option), then MuJoCo's
-full integration state (``mj_getState`` with ``mjSTATE_INTEGRATION``: time, positions,
-velocities, actuator state, controls, applied forces, the solver's warm start) is written back.
-The bodies touching something (which MuJoCo's contact list, one physics step old after a step,
-gave the touch sensors) are stored too: a fresh ``mj_forward`` would find the contacts of the
-current state instead.
+One :class:`MujocoBackend` owns a scene's ``MjSpec`` (one spec per robot, attached; built by
+:mod:`~revolve_env.world.mujoco_scene`) and its compiled ``MjModel``/``MjData``. Births and deaths
+recompile the scene and copy every survivor's integration state bit for bit; a robot whose state
+turns non-finite is put back at rest and reported as ``diverged``; snapshots restore exactly (the
+rebuilt model must hash to the snapshot's). The settings (the ``discrete`` integrator with islands
+off, velocity servos on hinges with a gearbox armature, stiff pyramidal contacts) and the
+measurements behind each: docs/engines.md, "The MuJoCo backend".
 """
 
 from __future__ import annotations
@@ -104,9 +23,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.world import mujoco_scene as scene
-from revolve_env.world.backend import BodyStates, PlacedModel, SnapshotMismatchError
+from revolve_env.world.backend import BodyStates, SnapshotMismatchError
 from revolve_env.world.config import WorldConfig
-from revolve_env.world.model import RobotModel
+from revolve_env.world.model import PlacedModel, RobotModel
 from revolve_env.world.mujoco_gl import mujoco  # its OpenGL backend chosen first
 from revolve_env.world.mujoco_scene import SERVO_KV, RobotLayout, robot_layout
 from revolve_env.world.mujoco_view import View, Viewer
@@ -541,7 +460,7 @@ class MujocoBackend:
                 raise SnapshotMismatchError(
                     f"the snapshot is of {state.get('engine')} {state.get('mujoco')}, not mujoco "
                     f"{mujoco.__version__}")
-            keys = [key for key, _, _, _ in robots]
+            keys = [r.key for r in robots]
             if keys != list(state["keys"]):
                 raise SnapshotMismatchError(f"robots {keys} do not match the snapshot's "
                                             f"{list(state['keys'])}")
@@ -549,11 +468,10 @@ class MujocoBackend:
             colors = [int(c) for c in state["colors"]]
             if not all(0 <= c <= scene.COLORS for c in colors):
                 raise SnapshotMismatchError(f"the snapshot's collision bits {colors} are invalid")
-            for (key, model, position, yaw), was_diverged, color in zip(robots, diverged, colors,
-                                                                         strict=True):
-                robot = self._build(model, position, yaw, color)
+            for placed, was_diverged, color in zip(robots, diverged, colors, strict=True):
+                robot = self._build(placed.model, placed.position, placed.yaw, color)
                 robot.diverged = bool(was_diverged)
-                self._robots[key] = robot
+                self._robots[placed.key] = robot
             self._next_key = int(state["next_key"])
             self._rebuild()
             self._compile()

@@ -37,9 +37,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.world._rotations import matrix_to_quat
-from revolve_env.world.backend import PlacedModel
 from revolve_env.world.config import WorldConfig
-from revolve_env.world.model import RobotModel
+from revolve_env.world.model import PlacedModel, RobotModel
 from revolve_env.world.mujoco_gl import mujoco  # its OpenGL backend chosen first
 from revolve_env.world.mujoco_terrain import add_ground
 
@@ -85,7 +84,7 @@ def scene_spec(config: WorldConfig) -> mujoco.MjSpec:
     opt = spec.option
     opt.timestep = config.timestep
     opt.gravity = [0.0, 0.0, -config.gravity]
-    opt.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE  # these two: see the backend doc
+    opt.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE  # these two: see docs/engines.md
     opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET | mujoco.mjtDisableBit.mjDSBL_ISLAND
     ground = add_ground(spec, config.terrain)  # the plane or the terrain's heightfield
     ground.friction = [config.friction, 0.0, 0.0]
@@ -320,6 +319,6 @@ def scene_mjcf(config: WorldConfig, robots: Sequence[PlacedModel]) -> str:
     The model a MuJoCo world compiles when these robots are added to it in this order (each
     robot gets the next collision bit), whichever engine's world they come from.
     """
-    specs = [(key, robot_spec(model, position, yaw, config, min(i, COLORS)))
-             for i, (key, model, position, yaw) in enumerate(robots)]
+    specs = [(r.key, robot_spec(r.model, r.position, r.yaw, config, min(i, COLORS)))
+             for i, r in enumerate(robots)]
     return mjcf(scene_spec(config), specs)

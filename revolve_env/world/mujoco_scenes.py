@@ -38,8 +38,8 @@ __all__ = ["MujocoScenes"]
 class MujocoScenes(IsolatedBackend):
     """Robots in MuJoCo scenes of their own, one batched interface (see the module doc)."""
 
-    def __init__(self, config: WorldConfig, *, gui: bool = False) -> None:
-        super().__init__(config, gui=gui)
+    def __init__(self, config: WorldConfig) -> None:
+        super().__init__(config, scene=MujocoBackend)
         self._velocities = np.zeros(0)
         self._torque = config.max_torque
         self._parity = 0  # which of the two state buffers holds the state now

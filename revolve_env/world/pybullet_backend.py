@@ -38,10 +38,10 @@ from numpy.typing import NDArray
 
 from revolve_env.terrain import Flat, Terrain
 from revolve_env.world._rotations import matrix_to_quat, quat_to_matrix
-from revolve_env.world.backend import BodyStates, PlacedModel, scene_mjcf
+from revolve_env.world.backend import BodyStates
 from revolve_env.world.camera import FOV_DEG
 from revolve_env.world.config import WorldConfig
-from revolve_env.world.model import LinkModel, RobotModel
+from revolve_env.world.model import LinkModel, PlacedModel, RobotModel
 
 __all__ = ["PybulletBackend"]
 
@@ -392,9 +392,15 @@ class PybulletBackend:
         return int(pb.getNumBodies(physicsClientId=self._cid))
 
     def mjcf(self) -> str:
-        """The robots as placed, in MuJoCo's model (:func:`~.backend.scene_mjcf`)."""
-        return scene_mjcf(self.config, [(key, b.model, b.position, b.yaw)
-                                        for key, b in self._bodies.items()])
+        """The robots as placed, in MuJoCo's model (:func:`~.mujoco_scene.scene_mjcf`).
+
+        Raises:
+            ImportError: the ``mujoco`` package is not installed.
+        """
+        from revolve_env.world.mujoco_scene import scene_mjcf  # MuJoCo only when exported
+
+        return scene_mjcf(self.config, [PlacedModel(key, b.model, b.position, b.yaw)
+                                         for key, b in self._bodies.items()])
 
     # -- snapshots ------------------------------------------------------------------------------
     @property

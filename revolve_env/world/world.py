@@ -17,16 +17,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import to_json
-from revolve_env.world.backend import (
-    BodyStates,
-    PhysicsBackend,
-    PlacedModel,
-    SnapshotMismatchError,
-    make_backend,
-)
+from revolve_env.world.backend import BodyStates, PhysicsBackend, SnapshotMismatchError
 from revolve_env.world.blowups import Screen, all_calm, reason
 from revolve_env.world.config import WorldConfig
-from revolve_env.world.model import build_model
+from revolve_env.world.engines import make_backend, require_engine
+from revolve_env.world.model import PlacedModel, build_model
 from revolve_env.world.robot_state import (
     Layout,
     RobotState,
@@ -78,6 +73,7 @@ class World:
                 exactly as in a world of its own. No snapshots, no GUI.
 
         Raises:
+            ValueError: unknown engine name.
             EngineUnavailableError: the engine's package is not installed.
             RuntimeError: the engine could not start, or a GUI was asked for without a display,
                 while another GUI is open, or of an engine that has none.
@@ -247,6 +243,7 @@ class World:
             NotImplementedError: an ``isolated`` world (each robot in a scene of its own).
         """
         self._check_open()
+        require_engine("mujoco")  # the format is MuJoCo's: its model builder writes it
         return self._backend.mjcf()
 
     # -- snapshots ----------------------------------------------------------------------------
@@ -295,7 +292,7 @@ class World:
             raise SnapshotMismatchError(f"the snapshot is of engine {snapshot.get('engine')!r}, "
                                         f"this world runs {self.engine!r}")
         robots, targets, prev_vel = restored_states(snapshot)
-        placed: list[PlacedModel] = [(r.key, r.model, r.placed, r.yaw) for r in robots.values()]
+        placed = [PlacedModel(r.key, r.model, r.placed, r.yaw) for r in robots.values()]
         self._robots.clear()
         self._time = 0.0
         try:
@@ -488,10 +485,6 @@ class World:
         self._check_open()
         return self._targets.copy()
 
-    def hinge_targets(self, handle: int) -> NDArray[np.float64]:
-        """Position targets of a robot's active hinges, output order (a copy). Radians."""
-        return self._robot_targets(self._state(handle)).copy()
-
     @property
     def states(self) -> BodyStates:
         """Every robot's state after the last control period, rows in insertion order.
@@ -538,16 +531,6 @@ class World:
             return self._now.core_pos.copy()
         rows = [self._state(h).row for h in handles]
         return self._now.core_pos[rows] if rows else np.empty((0, 3))
-
-    def core_rotation(self, handle: int) -> NDArray[np.float64]:
-        """Rotation from the core frame to the world frame, shape (3, 3)."""
-        rot: NDArray[np.float64] = self._now.core_rot[self._state(handle).row].copy()
-        return rot
-
-    def core_velocity(self, handle: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Linear velocity of the core's centre (m/s) and angular velocity (rad/s), world frame."""
-        r = self._state(handle).row
-        return self._now.core_vel[r].copy(), self._now.core_angvel[r].copy()
 
     def joint_angles(self, handle: int) -> NDArray[np.float64]:
         """Angles of the active hinges in controller output order. Radians."""

@@ -7,6 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from world_views import hinge_targets
 
 from revolve_env.body.examples import gecko, snake, spider
 from revolve_env.body.geometry import Assembly, PlacedBox, assemble, overlapping_boxes
@@ -360,7 +361,7 @@ def test_brains_keep_their_own_network_when_another_brain_robot_dies() -> None:
             env.remove_robot(first)  # shifts every later robot's slice in the batch arrays
         reference.step(inputs, out)
         obs, _, _, _, _ = env.step({})
-        world_targets = env.world.hinge_targets(env._roster.member(second, "test").handle)
+        world_targets = hinge_targets(env.world, env._roster.member(second, "test").handle)
         np.testing.assert_allclose(world_targets, np.clip(out, -1, 1) * math.radians(45.0),
                                    atol=1e-9)
         inputs = obs[second]

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from world_views import hinge_targets
 
 from revolve_env import EvaluationConditions
 from revolve_env.body.examples import EXAMPLES
@@ -125,14 +126,14 @@ def test_actuator_noise_reaches_the_targets_of_agents_and_brains() -> None:
     brain = env.add_robot(EXAMPLES["spider"](), (1.0, 0.0))
     env.step({driven: np.zeros(8, dtype=np.float32)})
     for agent in (driven, brain):
-        targets = env.world.hinge_targets(env._roster.member(agent, "test").handle)
+        targets = hinge_targets(env.world, env._roster.member(agent, "test").handle)
         assert np.count_nonzero(targets) == len(targets)
         assert np.all(np.abs(targets) <= 1.0)  # the world clips
     quiet = _env()
     quiet.reset(seed=1)
     q = quiet.add_robot(EXAMPLES["spider"](), (0.0, 0.0), controlled_by="agent")
     quiet.step({q: np.zeros(8, dtype=np.float32)})
-    assert not np.any(quiet.world.hinge_targets(quiet._roster.member(q, "test").handle))
+    assert not np.any(hinge_targets(quiet.world, quiet._roster.member(q, "test").handle))
 
 
 def test_snapshots_carry_the_noise_generator_exactly() -> None:

@@ -9,7 +9,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import pytest
-from user_tasks import AliveBonus, Sideways
+from user_tasks import AliveBonus, Sideways, Straighter
 
 import revolve_env
 from evolution.evaluation import EvalTask, evaluate_robot, evaluate_robots
@@ -135,6 +135,9 @@ def test_a_users_task_is_stored_and_made_again_by_its_dotted_path() -> None:
         shipped = make_task(name)
         assert shipped.name == name and task_from_dict(shipped.to_dict()) == shipped
     assert task_class("directed-locomotion") is DirectedLocomotion
+    mine = Straighter()  # a subclass of a shipped task is the user's: its own dotted path
+    assert mine.to_dict() == {"name": "user_tasks:Straighter", "s_weight": 10.0}
+    assert task_from_dict(mine.to_dict()) == mine and Locomotion().name == "locomotion"
 
 
 def test_a_users_task_in_the_population_env_scores_every_robot() -> None:

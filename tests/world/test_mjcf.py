@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -9,8 +10,7 @@ import pytest
 from world_robots import every_part, lone_core, snake, spider
 
 from revolve_env import example
-from revolve_env.world import World, WorldConfig
-from revolve_env.world import config as registry_module
+from revolve_env.world import World, WorldConfig, engines
 from revolve_env.world.backend import EngineUnavailableError
 
 mujoco = pytest.importorskip("mujoco", reason="the mujoco package is not installed")
@@ -86,9 +86,9 @@ def test_an_isolated_world_is_no_one_mjcf_scene() -> None:
 
 
 def test_without_mujoco_the_export_is_one_clear_error(monkeypatch: pytest.MonkeyPatch) -> None:
-    registry = dict(registry_module._REGISTRY)
-    registry["mujoco"] = ("revolve_env.world.mujoco_backend", "MujocoBackend", "no_such_mujoco")
-    monkeypatch.setattr(registry_module, "_REGISTRY", registry)
+    monkeypatch.setattr(engines, "TABLE", tuple(
+        dataclasses.replace(e, package="no_such_mujoco", pip="no_such_mujoco")
+        if e.name == "mujoco" else e for e in engines.TABLE))
     with World(WorldConfig(engine="pybullet")) as world:
         world.add_robot(spider())
         with pytest.raises(EngineUnavailableError, match="pip install no_such_mujoco"):

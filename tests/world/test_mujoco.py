@@ -3,6 +3,7 @@ contained blow-ups; the ``engine=`` parameter everywhere."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 from typing import Any
@@ -15,8 +16,7 @@ from world_robots import every_part, lone_core, snake, spider
 from revolve_env import evaluate, example, population_env
 from revolve_env.body.parts import SERVO
 from revolve_env.body.robot import Node, PartType, Robot
-from revolve_env.world import World, WorldConfig, build_model, require_engine
-from revolve_env.world import config as registry_module
+from revolve_env.world import World, WorldConfig, build_model, engines, require_engine
 from revolve_env.world.backend import EngineUnavailableError
 
 mujoco = pytest.importorskip("mujoco", reason="the 'mujoco' package is not installed: "
@@ -128,9 +128,13 @@ def _run_survivors(birth: tuple[float, float] | None) -> np.ndarray:
         out = []
         for i in range(90):
             if i == 30 and birth is not None:
-                before = [world.core_position(a), *world.core_velocity(b), world.joint_angles(a)]
+                row = world.rows([b])[0]
+                before = [world.core_position(a), world.states.core_vel[row].copy(),
+                          world.states.core_angvel[row].copy(), world.joint_angles(a)]
                 c = world.add_robot(every_part(), position=birth, yaw=1.0)
-                after = [world.core_position(a), *world.core_velocity(b), world.joint_angles(a)]
+                row = world.rows([b])[0]
+                after = [world.core_position(a), world.states.core_vel[row],
+                         world.states.core_angvel[row], world.joint_angles(a)]
                 # the birth itself keeps the state bit for bit
                 for x, y in zip(before, after, strict=True):
                     np.testing.assert_array_equal(x, y)
@@ -283,14 +287,14 @@ def test_unknown_engine_and_missing_package_are_one_clear_error(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     with pytest.raises(ValueError, match="unknown physics engine 'bullet': choose one of"):
-        WorldConfig(engine="bullet")
+        World(WorldConfig(engine="bullet"))
     with pytest.raises(ValueError, match="unknown physics engine"):
         evaluate(example("spider"), engine="ode")
     with pytest.raises(ValueError, match="unknown physics engine"):
         gym.make("revolve_env/Locomotion-v0", robot=example("spider"), engine="ode")
-    registry = dict(registry_module._REGISTRY)
-    registry["mujoco"] = ("revolve_env.world.mujoco_backend", "MujocoBackend", "no_such_mujoco")
-    monkeypatch.setattr(registry_module, "_REGISTRY", registry)
+    monkeypatch.setattr(engines, "TABLE", tuple(
+        dataclasses.replace(e, package="no_such_mujoco", pip="no_such_mujoco")
+        if e.name == "mujoco" else e for e in engines.TABLE))
     with pytest.raises(EngineUnavailableError, match="pip install no_such_mujoco"):
         require_engine("mujoco")
     with pytest.raises(EngineUnavailableError):

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 from world_robots import every_part, snake, spider
+from world_views import hinge_targets
 
 from revolve_env.body.examples import sensor_crawler
 from revolve_env.world import World, WorldConfig
@@ -59,7 +60,7 @@ def test_setting_all_targets_at_once_is_setting_each_robots(engine: str) -> None
         b.set_targets(hb[0], values[:8])
         b.set_targets(hb[1], values[8:])
         np.testing.assert_array_equal(a.targets, b.targets)
-        np.testing.assert_array_equal(a.hinge_targets(ha[1]), b.hinge_targets(hb[1]))
+        np.testing.assert_array_equal(hinge_targets(a, ha[1]), hinge_targets(b, hb[1]))
         assert np.abs(a.targets).max() == pytest.approx(math.radians(45.0))
         a.step(20)
         b.step(20)
@@ -81,9 +82,9 @@ def test_a_non_finite_entry_blows_up_its_robot_only_and_holds_its_hinges(engine:
         assert reason is not None and "non-finite hinge targets" in reason
         assert world.blown_up.tolist() == [False, True]
         assert not world.blown_up.flags.writeable
-        np.testing.assert_array_equal(world.hinge_targets(first),
+        np.testing.assert_array_equal(hinge_targets(world, first),
                                       np.full(8, 0.5 * math.radians(45.0)))
-        assert not world.hinge_targets(second).any()
+        assert not hinge_targets(world, second).any()
         world.set_target_entries(index[:2], np.array([1.0, -1.0]))  # a part of the first
-        assert world.hinge_targets(first)[:2].tolist() == [math.radians(45.0),
-                                                           -math.radians(45.0)]
+        assert hinge_targets(world, first)[:2].tolist() == [math.radians(45.0),
+                                                            -math.radians(45.0)]
