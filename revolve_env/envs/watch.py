@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.body.robot import Robot
-from revolve_env.conditions import EvaluationConditions
+from revolve_env.conditions import IDEAL, EvaluationConditions
 from revolve_env.terrain import Terrain
 
 __all__ = ["Label", "NoDisplayError", "control_period", "has_display", "label_frame", "watch_robot"]
@@ -126,7 +126,8 @@ def watch_robot(robot: Robot, seconds: float = 12.0, insertion: float = 3.0, *,
 
     env = LocomotionEnv(robot, render_mode="human", insertion_time=insertion,
                         evaluation_time=seconds, fitness_window=seconds, controller="brain",
-                        conditions=conditions, terrain=terrain)
+                        conditions=conditions if conditions is not None else IDEAL,
+                        terrain=terrain)  # evaluate's conditions: no env default start noise
     dt = env.config.control_period
     started = time.perf_counter()
 
