@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.body.parts import sensor_bounds
-from revolve_env.body.robot import Robot
+from revolve_env.body.robot import Layer, Robot
 from revolve_env.body.validate import Limits, validate
 from revolve_env.brain import BatchController
 from revolve_env.conditions import (
@@ -201,10 +201,15 @@ def evaluate_many(
     if not robots:
         return []
     rngs = [np.random.default_rng(seed) for seed in seeds]
-    starts = [conditions.start(start_generator(seed)) for seed in seeds]
+    gens = [start_generator(seed) for seed in seeds]
+    starts = [conditions.start(g) for g in gens]
+    # The hinges' start noise (none under the paper's conditions: nothing drawn), after the start.
+    joints = [conditions.start_joints(g, len(robot.neurons_of(Layer.OUTPUT)))
+              for g, robot in zip(gens, robots, strict=True)]
     with World(cfg, isolated=True) as world:
         paths = _rollout(world, robots, starts, insertion_ticks, evaluation_ticks, rngs,
-                         conditions.sensor_noise, conditions.actuator_noise, scored.signal)
+                         conditions.sensor_noise, conditions.actuator_noise, scored.signal,
+                         joints)
     window = trajectory_window([p for p, _, _ in paths],
                                None if scored.signal is None else [g for _, g, _ in paths])
     fitness = score(scored, window).tolist()
@@ -222,8 +227,11 @@ def _rollout(
     world: World, robots: Sequence[Robot], starts: Sequence[Start], insertion_ticks: int,
     evaluation_ticks: int, rngs: Sequence[np.random.Generator], sensor_noise: float,
     actuator_noise: float, signal: str | None = None,
+    joints: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]] | None] | None = None,
 ) -> list[tuple[NDArray[np.float64], NDArray[np.float64], str | None]]:
     """Drop ``robots`` into ``world`` at ``starts`` and let their own networks drive them.
+
+    ``joints``: per robot, its active hinges' start angles and speeds (None: at rest at 0).
 
     One pass per control period over every robot: their sensor values as one array, one call of
     the compiled controller for all networks, every target set at once. A robot whose
@@ -249,6 +257,9 @@ def _rollout(
             raise ValueError(
                 f"the network has {n_in} inputs / {n_out} outputs but the body has "
                 f"{world.n_inputs(h)} sensor values / {world.n_outputs(h)} active hinges")
+    for h, hinges in zip(handles, joints or [None] * n, strict=True):
+        if hinges is not None:
+            world.set_hinge_state(h, *hinges)
     bounds = [sensor_bounds(robot) for robot in robots]
     noisy = sensor_noise > 0 or actuator_noise > 0
     outputs = np.zeros(brain.n_outputs)

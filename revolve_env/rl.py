@@ -292,7 +292,9 @@ def policy_fitness(model: Any, venv: VecEnv, *, seeds: Iterable[int] = (0,),
     Args:
         model: A trained SB3 model (anything with ``predict(obs, deterministic=True)``).
         venv: Its training env from :func:`make_vec_env`.
-        seeds: The episodes' reset seeds (the start and noise of ``conditions``).
+        seeds: The episodes' reset seeds (the start and noise of ``conditions``). The hinges
+            start at rest (``reset_noise_scale=0``, the paper's start) unless the training env
+            was given ``conditions`` or a ``reset_noise_scale`` of its own.
         insertion_time: Settling phase, not scored. Seconds.
         evaluation_time: Scored phase and fitness window. Seconds.
 
@@ -309,6 +311,8 @@ def policy_fitness(model: Any, venv: VecEnv, *, seeds: Iterable[int] = (0,),
                  if isinstance(venv, VecNormalize) and venv.norm_obs else None)
     kwargs = {**spec.kwargs, "insertion_time": insertion_time,
               "evaluation_time": evaluation_time, "fitness_window": evaluation_time}
+    if "conditions" not in kwargs:  # the paper's start, unless the training env chose its own
+        kwargs.setdefault("reset_noise_scale", 0.0)
     env = LocomotionEnv(**kwargs)
 
     def act(observation: NDArray[np.float64]) -> NDArray[np.float32]:

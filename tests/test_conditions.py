@@ -29,7 +29,8 @@ conditions = st.builds(EvaluationConditions, headings, amounts, amounts, amounts
 
 # -- the object --------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("field", ["position_jitter", "sensor_noise", "actuator_noise"])
+@pytest.mark.parametrize("field", ["position_jitter", "sensor_noise", "actuator_noise",
+                                   "reset_noise_scale"])
 @pytest.mark.parametrize("value", [-0.1, math.nan, math.inf, True, "0.1", None])
 def test_a_bad_amount_is_refused_naming_the_field(field: str, value: object) -> None:
     with pytest.raises(ValueError, match=f"^{field} must be a finite number >= 0"):
@@ -103,7 +104,37 @@ def test_the_start_follows_the_generator() -> None:
     assert np.mean(np.array(r) < 0.5 / math.sqrt(2)) == pytest.approx(0.5, abs=0.03)
 
 
+def test_the_hinges_start_noise_is_uniform_within_its_scale_and_draws_nothing_when_off() -> None:
+    rng = np.random.default_rng(0)
+    before = rng.bit_generator.state
+    assert IDEAL.start_joints(rng, 8) is None and rng.bit_generator.state == before
+    drawn = EvaluationConditions(reset_noise_scale=0.2).start_joints(rng, 4000)
+    assert drawn is not None
+    for values in drawn:  # angles (rad), then speeds (rad/s)
+        assert values.shape == (4000,) and np.abs(values).max() <= 0.2
+        assert np.mean(np.abs(values) < 0.1) == pytest.approx(0.5, abs=0.03)
+    with pytest.raises(ValueError, match="^reset_noise_scale must be <= pi/4"):
+        EvaluationConditions(reset_noise_scale=1.0)
+
+
+def test_conditions_without_start_noise_are_written_as_before_it_existed() -> None:
+    assert IDEAL.to_dict() == {"heading": 0.0, "position_jitter": 0.0, "sensor_noise": 0.0,
+                               "actuator_noise": 0.0}
+    shaken = EvaluationConditions(reset_noise_scale=0.1)
+    assert shaken.to_dict()["reset_noise_scale"] == 0.1
+    assert EvaluationConditions.from_dict(shaken.to_dict()) == shaken
+
+
 # -- evaluate() under conditions ---------------------------------------------------------------
+
+def test_start_noise_on_the_hinges_changes_evaluate_per_seed_and_the_seed_reproduces_it() -> None:
+    shaken = EvaluationConditions(reset_noise_scale=0.1)
+    a, b = (evaluate(spider(), seed=s, conditions=shaken, **SHORT) for s in (0, 1))
+    again = evaluate(spider(), seed=0, conditions=shaken, **SHORT)
+    plain = evaluate(spider(), seed=0, **SHORT)
+    assert a.fitness != b.fitness and a.fitness != plain.fitness
+    np.testing.assert_array_equal(a.trajectory, again.trajectory)
+
 
 def test_ideal_conditions_are_bit_identical_to_none() -> None:
     plain = evaluate(spider(), seed=4, **SHORT)

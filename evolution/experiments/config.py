@@ -376,7 +376,9 @@ class ExperimentConfig:
         data: dict[str, Any] = {}
         for f in fields(self):
             value = getattr(self, f.name)
-            if f.name in ("evaluation", "evolution", "world"):
+            if f.name == "evaluation":  # reset_noise_scale only when set: as stored before it
+                value = value.to_dict()
+            elif f.name in ("evolution", "world"):
                 value = {g.name: getattr(value, g.name) for g in fields(value)}
                 if f.name == "world" and value["terrain"] == "flat":
                     del value["terrain"]  # the plane: the stored config as before terrains

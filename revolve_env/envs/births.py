@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.body.examples import EXAMPLES
-from revolve_env.body.robot import Robot
+from revolve_env.body.robot import Layer, Robot
 from revolve_env.body.validate import Limits, validate
 from revolve_env.brain.spec import NetworkSpec
 from revolve_env.conditions import EvaluationConditions
@@ -168,6 +168,8 @@ class BirthPlan:
         inside: Whether it lies in the birth disc.
         yaw: Heading. Radians.
         radius: Footprint radius. Metres.
+        joints: Its active hinges' start angles (radians) and speeds (radians per second), drawn
+            by ``conditions.start_joints``; None: at rest at 0.
     """
 
     robot_id: int
@@ -181,13 +183,14 @@ class BirthPlan:
     inside: bool
     yaw: float
     radius: float
+    joints: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
 
 
 def plan_birth(rules: BirthRules, robot_id: int, agent: str, robot: Robot,
                position: tuple[float, float] | None, controlled_by: str, yaw: float | None,
                occupied: Sequence[Disc], names: Sequence[str], rng: np.random.Generator
                ) -> BirthPlan:
-    """Check, place and head a newborn (draws from ``rng``: placement or jitter, then heading).
+    """Check, place and head a newborn (draws from ``rng``: placement or jitter, heading, hinges).
 
     Args:
         rules: The env's placement rules.
@@ -237,6 +240,7 @@ def plan_birth(rules: BirthRules, robot_id: int, agent: str, robot: Robot,
         heading = float(rng.uniform(0.0, 2.0 * math.pi))
     else:
         heading = float(rules.conditions.heading)
+    joints = rules.conditions.start_joints(rng, len(robot.neurons_of(Layer.OUTPUT)))
     controller: Controller = "brain" if controlled_by == "brain" else "agent"
     return BirthPlan(robot_id, agent, robot, controller, spec, low, high, xy, inside, heading,
-                     radius)
+                     radius, joints)

@@ -27,7 +27,7 @@ from revolve_env.body.robot import Layer, Robot
 from revolve_env.body.validate import Limits
 from revolve_env.brain import BatchController
 from revolve_env.cameras import Camera, check_size, make_camera
-from revolve_env.conditions import EvaluationConditions, with_noise_shortcuts
+from revolve_env.conditions import EvaluationConditions, with_noise_shortcuts, with_reset_noise
 from revolve_env.envs.observations import hinge_values, proprio_bounds, saturated_sensor_bounds
 from revolve_env.episode_length import (
     DEFAULT_EVALUATION_TIME,
@@ -132,10 +132,17 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     ## Starting state
     The robot is dropped at the origin with heading 0, or where ``conditions`` put it: a random
     heading (``heading="random"``, uniform in ``[0, 2 pi)``) and/or a position drawn uniformly
-    from a disc of radius ``position_jitter`` metres around the origin. The start is drawn at
+    from a disc of radius ``position_jitter`` metres around the origin. Then, as in Gymnasium's
+    MuJoCo envs, every active hinge starts at an angle drawn uniformly from
+    ``[-reset_noise_scale, reset_noise_scale]`` radians and a speed drawn uniformly from the same
+    interval in radians per second (default 0.1: :data:`~revolve_env.conditions.
+    DEFAULT_RESET_NOISE_SCALE`), so ``reset(seed=0)`` and ``reset(seed=1)`` give different
+    episodes; ``reset_noise_scale=0`` starts every hinge at rest at 0. The start is drawn at
     every reset: from :func:`revolve_env.evaluation.start_generator` of the reset's seed (so the
-    env and :func:`revolve_env.evaluate` start alike for the same seed), or from ``np_random``
-    when reset gets no seed. Nothing is drawn for a fixed heading without jitter.
+    env and :func:`revolve_env.evaluate` with the same conditions start alike for the same seed),
+    or from ``np_random`` when reset gets no seed. Nothing is drawn for a fixed heading without
+    jitter and no reset noise. Given ``conditions`` (an experiment's) keep their own
+    ``reset_noise_scale`` (0 unless set): the paper's start.
 
     ## Rewards
     ``task`` (:mod:`revolve_env.tasks`; default :class:`~revolve_env.tasks.Locomotion`, the
@@ -182,7 +189,11 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     | fitness_window     | 12.0      | sliding window of the fitness. Seconds                     |
     | conditions         | None      | start heading, jitter and noise (an                        |
     |                    |           | :class:`~revolve_env.conditions.EvaluationConditions`);    |
-    |                    |           | None: ``IDEAL`` (heading 0 at the origin, no noise)        |
+    |                    |           | None: ``IDEAL`` (heading 0 at the origin, no noise) with   |
+    |                    |           | the default ``reset_noise_scale``                          |
+    | reset_noise_scale  | None      | half-width of the uniform noise on the hinges' start       |
+    |                    |           | angles (rad) and speeds (rad/s); None: the conditions'     |
+    |                    |           | when given, else 0.1; 0: start at rest (see Starting state)|
     | sensor_noise       | 0.0       | std of Gaussian sensor noise (units of each sensor); a     |
     |                    |           | shortcut for ``conditions``, not with it                   |
     | actuator_noise     | 0.0       | std of Gaussian noise on normalized targets (likewise)     |
@@ -225,6 +236,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         width: int = 480,
         height: int = 360,
         camera: str | Camera = "track",
+        reset_noise_scale: float | None = None,
     ) -> None:
         self.width, self.height = check_size(width, height)
         self.camera = make_camera(camera)
@@ -237,7 +249,10 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         _check_arguments(render_mode, self.metadata["render_modes"], insertion_time,
                          evaluation_time, fitness_window, sensor_noise, actuator_noise,
                          controller, action)
-        self.conditions = with_noise_shortcuts(conditions, sensor_noise, actuator_noise)
+        self.conditions = with_reset_noise(
+            with_noise_shortcuts(conditions, sensor_noise, actuator_noise), reset_noise_scale,
+            conditions_given=conditions is not None)
+        self.reset_noise_scale = self.conditions.reset_noise_scale
 
         config = world_config if world_config is not None else WorldConfig()
         if control_period is not None:  # replace() validates it against the timestep
@@ -305,11 +320,14 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
             self._world = self._make_world()
         else:
             self._world.reset()
-        start = self.conditions.start(start_generator(seed) if seed is not None
-                                      else self.np_random)
+        rng = start_generator(seed) if seed is not None else self.np_random
+        start = self.conditions.start(rng)
         self._handle = self._world.add_robot(self.robot, start.position, start.yaw)
         if not self.camera.track:  # a fixed camera looks at where the core started
             self._start = self._world.core_position(self._handle).copy()
+        joints = self.conditions.start_joints(rng, self._n_outputs)
+        if joints is not None:
+            self._world.set_hinge_state(self._handle, *joints)
         if self.controller == "brain":
             self._brain = BatchController(self.config.control_period)
             self._brain.add(self.robot)

@@ -102,7 +102,13 @@ so far). A removed robot's last reward is 0.
 A newborn is placed by :func:`revolve_env.envs.placement.place` (the online engine's rule too),
 or at a given position; its heading, position jitter and noise follow ``conditions``
 (:class:`~revolve_env.conditions.EvaluationConditions`, default :data:`ONLINE_CONDITIONS`:
-random heading, no jitter, no noise). The rules in full: ``docs/population-env.md``.
+random heading, no jitter, no noise). Every newborn's active hinges start at angles and speeds
+drawn uniformly from ``[-reset_noise_scale, reset_noise_scale]`` (radians, radians per second;
+Gymnasium's convention), from the env's generator seeded by ``reset(seed=...)``: by default 0.1
+(:data:`~revolve_env.conditions.DEFAULT_RESET_NOISE_SCALE`), so seeds give different episodes;
+given ``conditions`` (an experiment's) keep their own (0 unless set: the paper's start);
+``reset_noise_scale=0`` starts every hinge at rest at 0. The rules in full:
+``docs/population-env.md``.
 
 ## Reset
 ``reset(seed, options)`` builds a fresh world and adds ``options["robots"]``, else
@@ -136,8 +142,11 @@ each a ``Robot`` or a mapping with keys ``robot`` and optional ``position``, ``c
 | proprioception      | False    | observe hinge angles and velocities                         |
 | lifecycle           | None     | births and deaths inside a step (see the module doc)        |
 | engine              | None     | "pybullet" or "mujoco"; None: world_config's (pybullet)     |
-| conditions          | random   | heading, jitter and noise of newborns (see Conditions);     |
-|                     | heading  | :data:`ONLINE_CONDITIONS` by default                        |
+| conditions          | None     | heading, jitter and noise of newborns (see Conditions);     |
+|                     |          | None: :data:`ONLINE_CONDITIONS` with reset noise 0.1        |
+| reset_noise_scale   | None     | half-width of the uniform noise on newborns' hinge start    |
+|                     |          | angles (rad) and speeds (rad/s); None: the conditions'      |
+|                     |          | when given, else 0.1; 0: at rest (see Birth placement)      |
 | task                | None     | what robots are rewarded for (:func:`~revolve_env.tasks.    |
 |                     |          | make_task`: a task, a name, a table); None: Locomotion      |
 | terrain             | None     | "flat", "rugged", "crater", "bowl", a table; None: flat     |
@@ -156,7 +165,7 @@ from pettingzoo import ParallelEnv
 
 from revolve_env.body.robot import Robot
 from revolve_env.body.validate import Limits
-from revolve_env.conditions import EvaluationConditions
+from revolve_env.conditions import EvaluationConditions, with_reset_noise
 from revolve_env.envs.agent_spaces import AgentSpaces, SpaceMode
 from revolve_env.envs.arena import arena_frame, arena_pixels
 from revolve_env.envs.arguments import check_arguments, max_cycles_of, world_config_of
@@ -291,16 +300,20 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         proprioception: bool = False,
         lifecycle: Lifecycle | None = None,
         engine: str | None = None,
-        conditions: EvaluationConditions = ONLINE_CONDITIONS,
+        conditions: EvaluationConditions | None = None,
         task: Task | str | Mapping[str, Any] | None = None,
         terrain: Terrain | str | Mapping[str, Any] | None = None,
+        reset_noise_scale: float | None = None,
     ) -> None:
         max_cycles = max_cycles_of(max_cycles, max_steps)
+        given = conditions is not None
+        conditions = conditions if conditions is not None else ONLINE_CONDITIONS
         times = {"insertion_time": insertion_time, "maturity_age": maturity_age,
                  "birth_radius": birth_radius, "birth_clearance": birth_clearance}
         check_arguments(max_births, render_mode, render_view, render_size, times, fitness_window,
                          max_placement_tries, trajectory_stride, max_cycles, space_mode, lifecycle,
                          conditions)
+        conditions = with_reset_noise(conditions, reset_noise_scale, conditions_given=given)
         self.config = config = world_config_of(world_config, control_period, engine, terrain,
                                              birth_radius)
         self.task, self.max_births = make_task(task), max_births

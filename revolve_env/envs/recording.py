@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 from revolve_env.body.robot import Robot
 from revolve_env.cameras import Camera
-from revolve_env.conditions import EvaluationConditions
+from revolve_env.conditions import IDEAL, EvaluationConditions
 from revolve_env.envs.episode import run_episode
 from revolve_env.envs.locomotion import LocomotionEnv
 from revolve_env.envs.video import VideoError, check_video, write_video
@@ -130,8 +130,9 @@ def record_robot(
         raise VideoError(f"fps must be a positive number, got {fps}")
     env = LocomotionEnv(robot, render_mode="rgb_array", insertion_time=insertion,
                         evaluation_time=seconds, fitness_window=seconds, controller="brain",
-                        engine=engine, conditions=conditions, terrain=terrain, width=width,
-                        height=height, camera=camera)
+                        engine=engine, conditions=conditions if conditions is not None else IDEAL,
+                        terrain=terrain, width=width, height=height,
+                        camera=camera)  # evaluate's conditions: no env default start noise
     try:
         dt = env.config.control_period
         every = max(1, round(1.0 / (fps * dt)))

@@ -167,6 +167,8 @@ class Roster:
         n_outputs = len(plan.robot.neurons_of(Layer.OUTPUT))
         padded = self.spaces.is_padded(plan.agent)
         handle = world.add_robot(plan.robot, plan.position, plan.yaw)
+        if plan.joints is not None:  # the start noise (one value per active hinge, finite)
+            world.set_hinge_state(handle, *plan.joints)
         member = Member(
             robot_id=plan.robot_id, agent=plan.agent, robot=plan.robot,
             controlled_by=plan.controlled_by, handle=handle,

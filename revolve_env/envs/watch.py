@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.body.robot import Robot
-from revolve_env.conditions import EvaluationConditions
+from revolve_env.conditions import IDEAL, EvaluationConditions
 from revolve_env.terrain import Terrain
 from revolve_env.world import opengl
 from revolve_env.world.opengl import RenderUnavailableError, has_display
@@ -190,7 +190,8 @@ def watch_robot(robot: Robot, seconds: float = 12.0, insertion: float = 3.0, *,
 
     env = LocomotionEnv(robot, render_mode="human", insertion_time=insertion,
                         evaluation_time=seconds, fitness_window=seconds, controller="brain",
-                        conditions=conditions, terrain=terrain, engine=engine)
+                        conditions=conditions if conditions is not None else IDEAL,
+                        terrain=terrain, engine=engine)  # evaluate's conditions: no start noise
     dt = env.config.control_period
     started = time.perf_counter()
 

@@ -96,6 +96,15 @@ class PhysicsBackend(Protocol):
         """Delete a robot; every other robot's state is kept exactly."""
         ...
 
+    def set_hinges(self, key: int, hinges: NDArray[np.intp], angles: NDArray[np.float64],
+                   velocities: NDArray[np.float64]) -> None:
+        """Put some hinges of one robot at angles (radians) and speeds (radians per second).
+
+        ``hinges`` are indices into the robot's hinges in model link order (``joint_pos``'s
+        layout); the rest of the scene is unchanged. For a start perturbation, before stepping.
+        """
+        ...
+
     def set_joint_velocities(self, velocities: NDArray[np.float64], max_torque: float) -> None:
         """Drive every active hinge of every robot towards a velocity until the next call.
 

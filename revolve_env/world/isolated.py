@@ -74,6 +74,10 @@ class IsolatedBackend:
         self._links = []
         self._runs = None
 
+    def set_hinges(self, key: int, hinges: NDArray[np.intp], angles: NDArray[np.float64],
+                   velocities: NDArray[np.float64]) -> None:
+        self._scenes[key].set_hinges(0, hinges, angles, velocities)  # its scene's only robot
+
     # -- stepping -------------------------------------------------------------------------------
     def set_joint_velocities(self, velocities: NDArray[np.float64], max_torque: float) -> None:
         start = 0

@@ -239,6 +239,17 @@ class MujocoBackend:
         self._arrays()
         self._deaths_pending = True
 
+    def set_hinges(self, key: int, hinges: NDArray[np.intp], angles: NDArray[np.float64],
+                   velocities: NDArray[np.float64]) -> None:
+        self._sync()
+        r = self._robots[key]
+        d = self._data
+        d.qpos[r.hinge_qpos[hinges]] = angles
+        d.qvel[r.hinge_dofs[hinges]] = velocities
+        mujoco.mj_kinematics(self._model, d)  # the links where the hinges now put them
+        self._kinematics_fresh = True
+        self._touching = None
+
     # -- stepping -------------------------------------------------------------------------------
     def set_joint_velocities(self, velocities: NDArray[np.float64], max_torque: float) -> None:
         self._sync()

@@ -97,6 +97,11 @@ class MujocoScenes(IsolatedBackend):
                                             list[tuple[mujoco.MjData, NDArray[np.intp]]],
                                             NDArray[np.intp], int]] = {}
 
+    def set_hinges(self, key: int, hinges: NDArray[np.intp], angles: NDArray[np.float64],
+                   velocities: NDArray[np.float64]) -> None:
+        super().set_hinges(key, hinges, angles, velocities)
+        self._layout_scenes()  # the shared state buffers gather the new state
+
     # -- stepping -------------------------------------------------------------------------------
     def set_joint_velocities(self, velocities: NDArray[np.float64], max_torque: float) -> None:
         if max_torque != self._torque:

@@ -293,6 +293,14 @@ class PybulletBackend:
         pb.removeBody(self._bodies.pop(key).body, physicsClientId=self._cid)
         self._links = []
 
+    def set_hinges(self, key: int, hinges: NDArray[np.intp], angles: NDArray[np.float64],
+                   velocities: NDArray[np.float64]) -> None:
+        b = self._bodies[key]
+        for hinge, angle, speed in zip(hinges.tolist(), angles.tolist(), velocities.tolist(),
+                                       strict=True):
+            pb.resetJointState(b.body, b.all_joints[hinge], angle, speed,
+                               physicsClientId=self._cid)
+
     # -- stepping -------------------------------------------------------------------------------
     def set_joint_velocities(self, velocities: NDArray[np.float64], max_torque: float) -> None:
         cid = self._cid

@@ -354,6 +354,30 @@ class World:
             self._blown[state.row] = True
             self._n_blown += 1
 
+    def set_hinge_state(self, handle: int, angles: ArrayLike, velocities: ArrayLike) -> None:
+        """Put a robot's active hinges at ``angles`` (radians) and speeds (radians per second).
+
+        In controller output order, one value per active hinge; a start perturbation
+        (:meth:`~revolve_env.conditions.EvaluationConditions.start_joints`), set before the robot
+        is stepped. The servos' targets are unchanged.
+
+        Raises:
+            ValueError: a shape that is not one value per active hinge, or NaN or infinity.
+        """
+        state = self._state(handle)
+        a = np.asarray(angles, dtype=np.float64).reshape(-1)
+        v = np.asarray(velocities, dtype=np.float64).reshape(-1)
+        n = state.model.n_outputs
+        if a.shape != (n,) or v.shape != (n,):
+            raise ValueError(f"robot {handle} has {n} active hinges, got {a.shape[0]} angles and "
+                             f"{v.shape[0]} velocities")
+        if not (np.isfinite(a).all() and np.isfinite(v).all()):
+            raise ValueError("hinge angles and velocities must be finite")
+        self._backend.set_hinges(state.key, state.active_local, a, v)
+        self._now = self._backend.read()
+        self._imu = None
+        self._sensors = None
+
     # -- control ------------------------------------------------------------------------------
     def set_targets(self, handle: int, targets: ArrayLike) -> None:
         """Set the active hinges' position targets, normalized to [-1, 1] (= +-45 degrees).

@@ -12,6 +12,7 @@ from world_views import hinge_targets
 
 from revolve_env import EvaluationConditions
 from revolve_env.body.examples import EXAMPLES
+from revolve_env.conditions import DEFAULT_RESET_NOISE_SCALE
 from revolve_env.envs.population import ONLINE_CONDITIONS, PopulationEnv
 
 NOISE = EvaluationConditions(heading="random", sensor_noise=0.1, actuator_noise=0.1)
@@ -52,11 +53,13 @@ def _equal(a: list[Any], b: list[Any]) -> bool:
     return same(a, b)
 
 
-def test_the_default_is_a_random_heading_without_noise() -> None:
+def test_the_default_is_a_random_heading_without_noise_and_the_hinges_start_noise() -> None:
     env = _env()
-    assert env.conditions is ONLINE_CONDITIONS
     assert EvaluationConditions(heading="random") == ONLINE_CONDITIONS
-    assert _equal(_play(env, 3), _play(_env(EvaluationConditions(heading="random")), 3))
+    shaken = EvaluationConditions(heading="random", reset_noise_scale=DEFAULT_RESET_NOISE_SCALE)
+    assert env.conditions == shaken
+    assert _equal(_play(env, 3), _play(_env(shaken), 3))
+    assert _env(ONLINE_CONDITIONS).conditions is ONLINE_CONDITIONS  # given: kept as it is
     with pytest.raises(TypeError, match="conditions must be an EvaluationConditions"):
         _env({"heading": "random"})  # type: ignore[arg-type]
 
@@ -79,7 +82,7 @@ def test_jitter_moves_births_at_a_given_position_only() -> None:
     x, y = env.agent_info(given)["birth_position"]
     assert 0 < math.hypot(x - 2.0, y - 1.0) <= 0.3
     # Placement-rule births are already random in the birth disc: the same as without jitter.
-    plain, jittered = _play(_env(), 9), _play(_env(jitter), 9)
+    plain, jittered = _play(_env(ONLINE_CONDITIONS), 9), _play(_env(jitter), 9)
     assert _equal(plain, jittered)
 
 
@@ -94,7 +97,7 @@ def test_a_jittered_birth_that_overlaps_is_refused_and_changes_nothing() -> None
 
 
 def test_noise_is_reproducible_changes_the_run_and_never_the_births() -> None:
-    quiet, noisy, again, other = (_play(_env(), 4), _play(_env(NOISE), 4),
+    quiet, noisy, again, other = (_play(_env(ONLINE_CONDITIONS), 4), _play(_env(NOISE), 4),
                                   _play(_env(NOISE), 4), _play(_env(NOISE), 5))
     assert _equal(noisy, again)
     assert not _equal(noisy, other)

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-pytest.importorskip("ray.rllib", reason="needs ray[rllib] (the rllib extra)")
+pytest.importorskip("ray.rllib", reason="needs RLlib (the rllib extra)")
 
 from revolve_env.body.examples import gecko, snake, spider  # noqa: E402
 from revolve_env.envs.checks import BirthsAndDeaths  # noqa: E402

@@ -88,7 +88,8 @@ def test_light_following_reads_the_robots_light_sensor() -> None:
     robot = example("sensor_crawler")
     [k] = light_inputs(robot).tolist()
     env = revolve_env.LocomotionEnv(robot, controller="brain", insertion_time=0.5,
-                                    evaluation_time=2.0, task="light-following")
+                                    evaluation_time=2.0, task="light-following",
+                                    reset_noise_scale=0.0)  # evaluate's start, at rest
     obs, _ = env.reset(seed=0)
     zero = np.zeros(env.action_space.shape or (0,), np.float32)
     readings, total, done, step = [], 0.0, False, 0
@@ -111,7 +112,8 @@ def test_light_following_reads_the_robots_light_sensor() -> None:
 def test_every_task_scores_alike_in_evaluate_and_the_gym_env(task: Any) -> None:
     robot = example("sensor_crawler")
     env = gym.make("revolve_env/Locomotion-v1", robot=robot, controller="brain",
-                   insertion_time=0.5, evaluation_time=2.0, task=task)
+                   insertion_time=0.5, evaluation_time=2.0, task=task,
+                   reset_noise_scale=0.0)  # evaluate's start, at rest
     env.reset(seed=4)
     done, total = False, 0.0
     while not done:

@@ -37,7 +37,7 @@ def drive_in_population(agent: PolicyAgent | None, robot: Robot, insertion: floa
 
     steps = round((insertion + seconds) / control_period)
     env = PopulationEnv(insertion_time=insertion, fitness_window=seconds, max_cycles=steps,
-                        control_period=control_period,
+                        control_period=control_period, reset_noise_scale=0.0,  # as experiments
                         proprioception=agent is not None and agent.proprioception)
     entry = {"robot": robot, "position": (0.0, 0.0), "yaw": 0.0,
              "controlled_by": "brain" if agent is None else "agent"}
