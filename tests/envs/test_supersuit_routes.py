@@ -17,7 +17,7 @@ import pytest
 ss = pytest.importorskip("supersuit", reason="needs supersuit (the test extra)")
 sb3 = pytest.importorskip("stable_baselines3", reason="needs stable-baselines3 (the test extra)")
 
-from world_views import hinge_targets
+from world_views import hinge_targets  # noqa: E402
 
 from revolve_env.body.examples import gecko, snake, spider  # noqa: E402
 from revolve_env.envs.black_death import BlackDeath  # noqa: E402
