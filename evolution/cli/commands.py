@@ -14,8 +14,9 @@ one is left exactly as it was. Any other error is a bug: its traceback is shown 
 saying so (status 1).
 Ctrl-C stops after the last commit point (status 130); ``revolve resume`` continues from there.
 
-The modules that load a physics engine (``revolve_env.envs``) are imported by the commands that
-simulate, so the other commands start without one.
+Each command imports what it uses when it runs (the experiments, the reporting stack, a physics
+engine), and each subcommand's options are defined when it is used (:data:`COMMANDS`), so
+``revolve --help`` and ``revolve --version`` load none of them (``benchmarks/bench_startup.py``).
 """
 
 from __future__ import annotations
