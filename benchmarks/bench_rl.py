@@ -180,8 +180,8 @@ class FitnessCallback(BaseCallback):
     def record(self) -> None:
         a, c = self.args, self.curve
         wall = time.perf_counter() - self.start
-        (fitness,) = rl.policy_fitness(self.model, self.venv, insertion_time=a.insertion,
-                                       evaluation_time=a.evaluation)
+        fitness = rl.policy_fitness(self.model, self.venv, insertion_time=a.insertion,
+                                  evaluation_time=a.evaluation)
         buffer = self.model.ep_info_buffer
         train = float(np.mean([e["r"] for e in buffer])) if buffer else float("nan")
         c.steps.append(self.num_timesteps)
@@ -198,7 +198,7 @@ class FitnessCallback(BaseCallback):
             print(line, flush=True)
 
     def record_full(self, line: str) -> None:
-        (full,) = rl.policy_fitness(self.model, self.venv)
+        full = rl.policy_fitness(self.model, self.venv)
         self.curve.full[str(self.num_timesteps)] = full
         print(f"{line}  12 s window {full:6.3f} (CPG {self.curve.cpg_full:.3f})", flush=True)
 

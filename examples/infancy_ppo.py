@@ -1,8 +1,12 @@
 """Infancy learning with stable-baselines3: PPO modulates one robot's own gait.
 
-Run from the repository root: ``python examples/infancy_ppo.py`` (needs ``pip install .[learn]``;
-about 40 s on one core).
+Run from the repository root: ``python examples/infancy_ppo.py [ROLLOUTS]`` (needs
+``pip install .[learn]``). The default, 64 PPO rollouts (32 k steps), is what it takes to end above
+the inborn gait: 98 s of CPU (measured 2026-11-27 under ``nice`` on a loaded 2-core machine).
+Fewer rollouts (``2``: a few seconds) show the steps without the gain.
 """
+
+import sys
 
 import numpy as np
 import torch
@@ -27,7 +31,8 @@ learner = SB3Learner(
     insertion=0.5,          # seconds of settling in each training episode
     seconds=2.5,            # scored seconds of each training episode (and the fitness window)
 )
-STEPS = 64 * 512  # 64 PPO rollouts of 128 steps in each of the 4 envs
+ROLLOUTS = int(sys.argv[1]) if len(sys.argv) > 1 else 64
+STEPS = ROLLOUTS * 512  # PPO rollouts of 128 steps in each of the 4 envs
 BUDGET = STEPS / 60 + 2 * (0.5 + 2.5)  # simulated seconds: the steps and two evaluations
 
 # The policy lives outside the genome, so an SB3 learner is Darwinian only.

@@ -15,17 +15,21 @@ m/s; 0 during a robot's 0.5 s insertion), the number of robots that lived in the
 how many of them were born after the population episode began. One iteration is one whole
 population episode (``--n-steps`` = ``--episode-steps`` = 600 steps, 10 s: the same schedule of
 births and deaths every iteration, so iterations compare). At the end it runs the same schedule
-once with every robot on its own network (the CPG) for reference, and writes the curve with that
-line to ``--figure``. The rewards are those of the stochastic training policy.
+once with every robot on its own network (the CPG) for reference, and with ``--figure PNG``
+draws the curve with that line. The rewards are those of the stochastic training policy.
 
-Measured here (2 shared cores, pybullet, seed 0, 150 iterations, 137 s): 0.13 m/s per robot at
-the first iteration, above the CPGs' 0.516 m/s from iteration 62 (298 k slot-steps, 37 k
-population steps), 1.18 m/s at iteration 150.
+By default it runs 10 iterations: about 1 min of CPU (measured on 2026-11-27 under ``nice`` on
+this project's loaded 2-core machine: 12 s to start and for the CPG reference, then 4.6 s of CPU
+per iteration), with the reward per robot still near its start (0.13 to 0.15 m/s over the
+first 4 iterations). The curve of docs/rl.md needs 150 iterations (about 12 min of CPU): 0.13 m/s
+per robot at the first iteration, above the CPGs' 0.516 m/s from iteration 62 (298 k
+slot-steps, 37 k population steps), 1.18 m/s at iteration 150 (pybullet, seed 0).
 
 Usage::
 
-    python examples/multi_agent_shared_policy.py                 # 150 iterations, ~2.5 min
-    python examples/multi_agent_shared_policy.py --iterations 4 --figure ''
+    python examples/multi_agent_shared_policy.py                 # 10 iterations, ~1 min CPU
+    python examples/multi_agent_shared_policy.py --iterations 150 \
+        --figure docs/figures/multi_agent_curve.png              # the docs' curve, ~12 min CPU
 """
 
 from __future__ import annotations
@@ -185,7 +189,8 @@ def plot(rows: list[dict[str, Any]], path: Path, args: argparse.Namespace,
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--iterations", type=int, default=150)
+    parser.add_argument("--iterations", type=int, default=10,
+                        help="PPO iterations (150 for the curve of docs/rl.md)")
     parser.add_argument("--slots", type=int, default=8, help="most robots driven at once")
     parser.add_argument("--n-steps", type=int, default=600, help="rollout length per slot")
     parser.add_argument("--birth-every", type=int, default=60, help="steps between births")
@@ -194,8 +199,9 @@ def main() -> None:
                         help="population episode length (then a fresh world)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--engine", default="pybullet", choices=["pybullet", "mujoco"])
-    parser.add_argument("--figure", default="docs/figures/multi_agent_curve.png",
-                        help="PNG of the curve ('' for none)")
+    parser.add_argument("--figure", default="", metavar="PNG",
+                        help="also draw the curve into this PNG (default: none; the docs' "
+                             "figure: docs/figures/multi_agent_curve.png)")
     args = parser.parse_args()
     rows = run(args)
     cpg = cpg_baseline(args)

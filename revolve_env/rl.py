@@ -280,14 +280,14 @@ def make_ppo(venv: VecEnv, *, seed: int = 0, **overrides: Any) -> PPO:
 
 def policy_fitness(model: Any, venv: VecEnv, *, seeds: Iterable[int] = (0,),
                    insertion_time: float = DEFAULT_INSERTION_TIME,
-                   evaluation_time: float = DEFAULT_EVALUATION_TIME) -> list[float]:
+                   evaluation_time: float = DEFAULT_EVALUATION_TIME) -> float:
     """Fitness of ``model``'s deterministic policy in the paper's window, statistics frozen.
 
-    One episode per seed of the env ``venv`` trains on (same robot, observation and action
-    modes, engine and conditions), but ``insertion_time`` + ``evaluation_time`` seconds long
-    with the fitness window equal to the evaluation time. The observations are normalised with a
-    frozen copy of ``venv``'s statistics (:class:`ObservationNormalization`): ``venv`` is not
-    stepped and nothing in it changes.
+    One episode per seed (one by default) of the env ``venv`` trains on (same robot,
+    observation and action modes, engine and conditions), but ``insertion_time`` +
+    ``evaluation_time`` seconds long with the fitness window equal to the evaluation time. The
+    observations are normalised with a frozen copy of ``venv``'s statistics
+    (:class:`ObservationNormalization`): ``venv`` is not stepped and nothing in it changes.
 
     Args:
         model: A trained SB3 model (anything with ``predict(obs, deterministic=True)``).
@@ -299,11 +299,20 @@ def policy_fitness(model: Any, venv: VecEnv, *, seeds: Iterable[int] = (0,),
         evaluation_time: Scored phase and fitness window. Seconds.
 
     Returns:
-        The fitness ``f = v + 5 s`` of each episode (0 after a blow-up). Metres.
+        The fitness ``f = v + 5 s`` of the episode, the mean over the episodes when several
+        seeds are given (a blown-up episode counts 0; for each episode's, call it per seed).
+        Metres.
+
+    Raises:
+        ValueError: ``seeds`` is empty.
     """
     from stable_baselines3.common.vec_env import VecNormalize
 
     from revolve_env.envs.episode import run_episode
+
+    seeds = list(seeds)
+    if not seeds:
+        raise ValueError("policy_fitness needs at least one seed")
     from revolve_env.envs.locomotion import LocomotionEnv
 
     spec = venv.get_attr("spec", [0])[0]
@@ -325,6 +334,6 @@ def policy_fitness(model: Any, venv: VecEnv, *, seeds: Iterable[int] = (0,),
         for seed in seeds:
             info = run_episode(env, seed, act)
             fitness.append(0.0 if info["blow_up"] is not None else float(info["fitness"]))
-        return fitness
+        return float(np.mean(fitness))
     finally:
         env.close()

@@ -85,17 +85,21 @@ def test_a_short_ppo_run_and_its_evaluation_on_the_paper_window() -> None:
     model.learn(2048)
     assert model.num_timesteps == 2048
     mean, var, count = venv.obs_rms.mean.copy(), venv.obs_rms.var.copy(), venv.obs_rms.count
-    (fitness,) = rl.policy_fitness(model, venv)  # 3 s + 12 s
+    fitness = rl.policy_fitness(model, venv)  # 3 s + 12 s
     # The evaluation neither steps the training envs nor updates the statistics.
     assert venv.obs_rms.count == count
     np.testing.assert_array_equal(venv.obs_rms.mean, mean)
     np.testing.assert_array_equal(venv.obs_rms.var, var)
-    assert np.isfinite(fitness) and fitness >= 0
+    # One episode: a float in metres, as the README prints it.
+    assert isinstance(fitness, float) and np.isfinite(fitness) and fitness >= 0
     # Deterministic: the same policy and statistics give the same numbers, seed after seed
-    # (ideal conditions: the seed changes nothing).
-    short = rl.policy_fitness(model, venv, insertion_time=0.1, evaluation_time=0.4, seeds=(0, 1))
+    # (ideal conditions: the seed changes nothing), and several seeds give their episodes' mean.
+    short = [rl.policy_fitness(model, venv, insertion_time=0.1, evaluation_time=0.4, seeds=[seed])
+             for seed in (0, 1)]
     assert short[0] == short[1] == rl.policy_fitness(model, venv, insertion_time=0.1,
-                                                      evaluation_time=0.4)[0]
+                                                      evaluation_time=0.4, seeds=(0, 1))
+    with pytest.raises(ValueError, match="at least one seed"):
+        rl.policy_fitness(model, venv, seeds=())
     venv.close()
 
 
@@ -107,7 +111,7 @@ def test_modulate_mode_starts_on_the_robot_s_gait() -> None:
     assert float(model.policy.log_std.detach().mean()) == -1.5  # type: ignore[operator]
     # Before any training the deterministic policy is nearly the zero action: the CPG's gait.
     cpg = rl.policy_fitness(model, venv, insertion_time=0.1, evaluation_time=0.4)
-    assert cpg[0] > 0.05
+    assert cpg > 0.05
     venv.close()
 
 

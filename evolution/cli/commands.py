@@ -14,25 +14,24 @@ one is left exactly as it was. Any other error is a bug: its traceback is shown 
 saying so (status 1).
 Ctrl-C stops after the last commit point (status 130); ``revolve resume`` continues from there.
 
-The modules that load a physics engine (``revolve_env.envs``) are imported by the commands that
-simulate, so the other commands start without one.
+Each command imports what it uses when it runs (the experiments, the reporting stack, a physics
+engine), and each subcommand's options are defined when it is used (:data:`COMMANDS`), so
+``revolve --help`` and ``revolve --version`` load none of them (``benchmarks/bench_startup.py``).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
+import importlib
 import sys
-import tempfile
-import time
 import traceback
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, NoReturn, TypeAlias
+from typing import TYPE_CHECKING, Any, NoReturn, TypeAlias
 
+from evolution.cli.logs import cli_logging, duration, metres
 from evolution.cli.options import parse_set as _parse_set
-from evolution.cli.progress import ProgressDisplay, cli_logging, duration, metres
-from evolution.cli.reevaluate import add_reevaluate
+from evolution.cli.options import tensorboard_argument
 from evolution.cli.robots import (
     EXIT_INTERRUPTED,
     CliError,
@@ -45,37 +44,10 @@ from evolution.cli.robots import (
     workers,
     writable_folder,
 )
-from evolution.cli.study import add_study
-from evolution.cli.viewer import add_show, add_watch
-from evolution.config import EvolutionConfig
-from evolution.evaluation import EvalTask, evaluate_robot
-from evolution.experiments import (
-    DB_NAME,
-    ConfigError,
-    ExperimentConfig,
-    ExperimentSummary,
-    ReplayError,
-    Store,
-    StoreError,
-    learning_names,
-    load_config,
-    resume,
-    run,
-    shipped_configs,
-)
-from evolution.experiments.api import check_resumable, work_left
-from evolution.experiments.callbacks import (
-    TensorBoardLogger,
-    TensorBoardUnavailableError,
-    combine,
-)
-from evolution.experiments.folders import left_out_note
-from evolution.experiments.store import package_version
-from evolution.random_robot import RandomRobotError
-from evolution.reporting import report
-from revolve_env.body.examples import spider
-from revolve_env.body.export import bill_of_materials, to_sdf, to_urdf
-from revolve_env.body.validate import RobotError
+
+if TYPE_CHECKING:
+    from evolution.experiments import ExperimentConfig, ExperimentSummary
+    from evolution.experiments.callbacks import TensorBoardLogger
 
 __all__ = ["CliError", "build_parser", "main"]
 
@@ -115,6 +87,10 @@ def _print_runs(summary: ExperimentSummary) -> None:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    from evolution.cli.progress import ProgressDisplay
+    from evolution.experiments import load_config, run
+    from evolution.experiments.callbacks import combine
+
     overrides = _parse_set(args.set or [])
     for key in ("runs", "births", "seed", "workers", "name"):
         value = getattr(args, key)
@@ -152,12 +128,16 @@ def _tensorboard(args: argparse.Namespace, name: str) -> list[TensorBoardLogger]
     """
     if not args.tensorboard:
         return []
+    from evolution.experiments.callbacks import TensorBoardLogger
+
     folder = Path(args.tensorboard) / name
     writable_folder(folder, "--tensorboard")
     return [TensorBoardLogger(folder)]
 
 
 def _experiment_dirs(root: Path) -> list[Path]:
+    from evolution.experiments import DB_NAME, StoreError
+
     if not root.exists():
         raise StoreError(f"no such results directory: {root}")
     if (root / DB_NAME).is_file():
@@ -169,6 +149,11 @@ def _experiment_dirs(root: Path) -> list[Path]:
 
 
 def _cmd_resume(args: argparse.Namespace) -> int:
+    from evolution.cli.progress import ProgressDisplay
+    from evolution.experiments import DB_NAME, Store, resume
+    from evolution.experiments.api import check_resumable, work_left
+    from evolution.experiments.callbacks import combine
+
     if args.tensorboard:
         writable_folder(Path(args.tensorboard), "--tensorboard")
     todo = []
@@ -211,24 +196,30 @@ def _cmd_resume(args: argparse.Namespace) -> int:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
+    from evolution.experiments.folders import left_out_note
+    from evolution.reporting import report
+
     formats = tuple(f.strip() for f in args.formats.split(",") if f.strip())
     if not formats or any(f not in FIGURE_FORMATS for f in formats):
         raise CliError(f"--formats takes a comma-separated list of {', '.join(FIGURE_FORMATS)}; "
                        f"got {args.formats!r}")
     result = report(args.dir, args.out, formats, brain_aware=args.brain_aware,
                     every_set=args.all)
-    _say(f"{len(result.experiments)} experiment(s): "
-         + ", ".join(f"{e.label} ({len(e.runs)} runs)" for e in result.experiments))
+    if not args.quiet:  # --quiet: what was left out and where the page is, no list of files
+        _say(f"{len(result.experiments)} experiment(s): "
+             + ", ".join(f"{e.label} ({len(e.runs)} runs)" for e in result.experiments))
+        for path in (*result.figures, *result.tables):
+            _say(str(path))
     note = left_out_note(args.dir, result.left_out, "revolve report")
     if note:
         _say(note)
-    for path in (*result.figures, *result.tables):
-        _say(str(path))
     _say(f"open in a browser: {result.page}")
     return 0
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
+    from revolve_env.body.export import bill_of_materials, to_sdf, to_urdf
+
     robot, _ = load_robot(args)
     if args.format == "urdf":
         text = to_urdf(robot)
@@ -241,6 +232,8 @@ def _cmd_export(args: argparse.Namespace) -> int:
     elif args.format == "bom":
         text = bill_of_materials(robot).to_text()
     else:
+        import json
+
         text = json.dumps(bill_of_materials(robot).to_dict(), indent=2)
     if not text.endswith("\n"):
         text += "\n"
@@ -253,6 +246,15 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
+    import tempfile
+    import time
+
+    from evolution.cli.progress import ProgressDisplay
+    from evolution.config import EvolutionConfig
+    from evolution.evaluation import EvalTask, evaluate_robot
+    from evolution.experiments import ExperimentConfig, run
+    from revolve_env.body.examples import spider
+
     started = time.perf_counter()
     # The config first: every value is checked before anything is simulated.
     config = ExperimentConfig(
@@ -316,25 +318,129 @@ class _DefaultsParser(_Parser):
         super().__init__(*args, **kwargs)
 
 
+COMMANDS: dict[str, tuple[str, str]] = {
+    "run": ("evolution.cli.commands:_add_run", "run an experiment"),
+    "resume": ("evolution.cli.commands:_add_resume", "continue interrupted experiments"),
+    "reevaluate": ("evolution.cli.reevaluate:add_reevaluate",
+                   "evaluate stored robots again: the optimism of a single evaluation"),
+    "report": ("evolution.cli.commands:_add_report",
+               "figures, tables and a browser page comparing experiments"),
+    "show": ("evolution.cli.viewer:add_show", "render a GIF of a robot walking"),
+    "watch": ("evolution.cli.viewer:add_watch",
+              "watch a robot or an online run live (or record it)"),
+    "export": ("evolution.cli.commands:_add_export",
+               "export a robot as URDF, SDF, MuJoCo MJCF or bill of materials"),
+    "demo": ("evolution.cli.commands:_add_demo",
+             "check the installation: evaluate a robot, evolve a few"),
+    "study": ("evolution.cli.study:add_study",
+              "run the paper's five experiments and draw their figures"),
+}
+"""Every subcommand: the ``module:function`` that adds its options, and its line in ``--help``."""
+
+
+class _Command(_DefaultsParser):
+    """A subcommand's parser whose options are added when it is first used.
+
+    Its ``define`` function (``module:function``, given the subcommand's parser through
+    :class:`_Into`) runs when the subcommand is parsed or its help or usage is shown, so
+    ``revolve --help`` and ``revolve --version`` import none of the commands' modules (they load
+    the experiments, the reporting stack and the physics engines: seconds of CPU).
+    """
+
+    def __init__(self, *args: Any, define: str = "", **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._define = define
+
+    def define(self) -> None:
+        """Add the subcommand's options (once)."""
+        if self._define:
+            module, _, function = self._define.partition(":")
+            self._define = ""
+            getattr(importlib.import_module(module), function)(_Into(self))
+            _chatter(self, argparse.SUPPRESS)  # also after the command: revolve report -q
+
+    def parse_known_args(  # type: ignore[override]  # typeshed's overloads, same behaviour
+            self, args: Sequence[str] | None = None,
+            namespace: argparse.Namespace | None = None) -> tuple[argparse.Namespace, list[str]]:
+        """Define the options, then parse as argparse does."""
+        self.define()
+        return super().parse_known_args(args, namespace)
+
+    def format_usage(self) -> str:
+        """Define the options, then the usage line."""
+        self.define()
+        return super().format_usage()
+
+    def format_help(self) -> str:
+        """Define the options, then the help."""
+        self.define()
+        return super().format_help()
+
+
+class _Into(argparse._SubParsersAction):  # type: ignore[type-arg]  # not generic at run time
+    """What a command's ``add_*`` function is given when its deferred parser is defined.
+
+    ``add_parser(name, description=..., epilog=...)`` hands back the parser registered under
+    ``name`` (see :class:`_Command`) with that description and epilog, instead of a new one.
+    """
+
+    def __init__(self, parser: argparse.ArgumentParser) -> None:
+        super().__init__(option_strings=[], prog=parser.prog, parser_class=type(parser))
+        self._parser = parser
+
+    def add_parser(self, name: str, **kwargs: Any) -> Any:
+        """The parser of ``name``, with the ``description`` and ``epilog`` given."""
+        for key in ("description", "epilog"):
+            if key in kwargs:
+                setattr(self._parser, key, kwargs[key])
+        return self._parser
+
+
+class _Version(argparse.Action):
+    """``--version``: the installed version, looked up only when asked for."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS,
+                 default: str = argparse.SUPPRESS, help: str | None = None) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=default, help=help)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: Any, option_string: str | None = None) -> NoReturn:
+        # As evolution.experiments.store.package_version, without importing the experiments.
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            number = version("revolve-env")
+        except PackageNotFoundError:  # run from a checkout (PYTHONPATH)
+            import revolve_env
+
+            number = revolve_env.__version__
+        print(f"{parser.prog} {number}")  # on stdout, as argparse's own version action
+        parser.exit()
+
+
+def _chatter(parser: argparse.ArgumentParser, default: Any) -> None:
+    """``-v``/``--verbose`` and ``-q``/``--quiet`` (a subcommand's default leaves revolve's)."""
+    chatter = parser.add_mutually_exclusive_group()
+    chatter.add_argument("-v", "--verbose", action="store_true", default=default,
+                         help="also log every commit point and every failure (DEBUG)")
+    chatter.add_argument("-q", "--quiet", action="store_true", default=default,
+                         help="no progress display, only warnings and errors (on stderr); "
+                              "report and study list no files")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of ``revolve`` (one subparser per subcommand)."""
+    """The argument parser of ``revolve`` (one subparser per subcommand, defined on first use)."""
     parser = _Parser(
         prog="revolve",
         description="Online and offline evolution of modular robots (the Revolve experiments).",
         epilog="Start with `revolve demo`; then `revolve run quick` and `revolve report results`.",
     )
-    parser.add_argument("--version", action="version",
-                        version=f"%(prog)s {package_version()}")
-    chatter = parser.add_mutually_exclusive_group()
-    chatter.add_argument("-v", "--verbose", action="store_true",
-                         help="also log every commit point and every failure (DEBUG)")
-    chatter.add_argument("-q", "--quiet", action="store_true",
-                         help="no progress display, only warnings and errors (on stderr)")
+    parser.add_argument("--version", action=_Version, help="show the version and exit")
+    _chatter(parser, False)
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
-                                parser_class=_DefaultsParser)
-    for add in (_add_run, _add_resume, add_reevaluate, _add_report, add_show, add_watch,
-                _add_export, _add_demo, add_study):
-        add(sub)
+                                parser_class=_Command)
+    for name, (define, summary) in COMMANDS.items():
+        sub.add_parser(name, help=summary, define=define)
     return parser
 
 
@@ -342,11 +448,13 @@ _Subparsers: TypeAlias = "argparse._SubParsersAction[_DefaultsParser]"
 
 
 def _add_run(sub: _Subparsers) -> None:
+    from evolution.experiments import learning_names, shipped_configs
+
     learning = learning_names()
     names = ", ".join(sorted(set(shipped_configs()) - set(learning)))
     learning_list = ", ".join(learning)
     p = sub.add_parser(
-        "run", help="run an experiment",
+        "run",
         description="Run an experiment and store it in OUT/<name>/results.sqlite (name from the "
                     "config or --name). Several experiments may share OUT; existing results are "
                     "never overwritten. Ctrl-C stops after the last commit point; continue with "
@@ -372,33 +480,26 @@ def _add_run(sub: _Subparsers) -> None:
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="change any config key, e.g. --set evaluation_time=6, "
                         "--set evolution.max_parts=20 or --set learning.budget=35 (repeatable)")
-    _tensorboard_argument(p)
+    tensorboard_argument(p)
     p.set_defaults(handler=_cmd_run)
 
 
 def _add_resume(sub: _Subparsers) -> None:
     p = sub.add_parser(
-        "resume", help="continue interrupted experiments",
+        "resume",
         description="Continue every unfinished run of the experiment in DIR (a folder holding "
                     "results.sqlite), or of every experiment below DIR, to the result an "
                     "uninterrupted run would have given.",
     )
     p.add_argument("dir", metavar="DIR", help="an experiment's results folder, or a folder of them")
-    _tensorboard_argument(p)
+    tensorboard_argument(p)
     trust_argument(p)
     p.set_defaults(handler=_cmd_resume)
 
 
-def _tensorboard_argument(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--tensorboard", metavar="DIR",
-                        help="also write each run's fitness, population size and speed against "
-                             "births for TensorBoard to DIR/<name>/run<N> (needs "
-                             'pip install "revolve-env[tensorboard]")')
-
-
 def _add_report(sub: _Subparsers) -> None:
     p = sub.add_parser(
-        "report", help="figures, tables and a browser page comparing experiments",
+        "report",
         description="Compare the experiments at or below DIR: one study, or the experiments "
                     "outside any study (what is left out is named; --all compares every set). "
                     "Each pair is compared at the most births both reached, and robots lost to "
@@ -427,7 +528,7 @@ def _add_report(sub: _Subparsers) -> None:
 
 def _add_export(sub: _Subparsers) -> None:
     p = sub.add_parser(
-        "export", help="export a robot as URDF, SDF, MuJoCo MJCF or bill of materials",
+        "export",
         description="Write a robot as URDF or SDF, as MuJoCo MJCF (mjcf: the very model "
                     "revolve-env steps on MuJoCo, ground and settings included, placed where "
                     "an evaluation starts it; needs the mujoco package), or its bill of "
@@ -442,7 +543,7 @@ def _add_export(sub: _Subparsers) -> None:
 
 def _add_demo(sub: _Subparsers) -> None:
     p = sub.add_parser(
-        "demo", help="check the installation: evaluate a robot, evolve a few",
+        "demo",
         description="Evaluate the example spider and print its fitness, then evolve a small "
                     "population for a few births and print the best fitness (3 to 8 s on two "
                     "cores, measured).",
@@ -459,12 +560,34 @@ def _add_demo(sub: _Subparsers) -> None:
     p.set_defaults(handler=_cmd_demo)
 
 
-INPUT_ERRORS: tuple[type[Exception], ...] = (
-    ConfigError, StoreError, RobotError, CliError, RandomRobotError, OSError,
-    TensorBoardUnavailableError,  # an optional extra, named with its pip command
+INPUT_ERRORS: tuple[tuple[str, str], ...] = (
+    ("evolution.experiments.errors", "ConfigError"),
+    ("evolution.experiments.errors", "StoreError"),
+    ("revolve_env.body.errors", "RobotError"),
+    ("evolution.random_robot", "RandomRobotError"),
+    # an optional extra, named with its pip command
+    ("evolution.experiments.callbacks", "TensorBoardUnavailableError"),
 )
-"""Bad input: reported on one line (exit status 2). :class:`ReplayError` is a
-:class:`StoreError` but means a bug (a non-deterministic simulation), so it is not among them."""
+"""Bad input besides :class:`CliError` and :class:`OSError`, as (defining module, class):
+reported on one line (exit status 2). :class:`~evolution.experiments.run.ReplayError` is a
+``StoreError`` but means a bug (a non-deterministic simulation), so it is not among them."""
+
+
+def _loaded(module: str, name: str) -> type[BaseException] | None:
+    """The class ``module.name`` if that module has been imported, else ``None``.
+
+    An exception of a class whose module was never imported cannot have been raised, so the
+    error handling of :func:`main` needs no import (a command that never loaded the experiments
+    does not load them to report its error).
+    """
+    found = sys.modules.get(module)
+    return None if found is None else getattr(found, name, None)
+
+
+def input_errors() -> tuple[type[BaseException], ...]:
+    """The classes of bad input that can have been raised so far (see :data:`INPUT_ERRORS`)."""
+    found = (_loaded(module, name) for module, name in INPUT_ERRORS)
+    return (CliError, OSError, *(kind for kind in found if kind is not None))
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -482,17 +605,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("revolve: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
-    except ReplayError:
-        return _bug(args.command)
-    except INPUT_ERRORS as error:
-        message = str(error).splitlines()[0] if str(error) else type(error).__name__
-        print(f"revolve {args.command}: error: {message}", file=sys.stderr)
-        return EXIT_USAGE
-    except ImportError as error:
-        print(f"revolve {args.command}: error: {error} (a dependency of revolve-env is missing: "
-              "reinstall it with pip)", file=sys.stderr)
-        return EXIT_USAGE
-    except Exception:  # noqa: BLE001 - every other error is a bug: show it whole
+    except Exception as error:  # noqa: BLE001 - sorted below; a bug shows its traceback
+        replay = _loaded("evolution.experiments.run", "ReplayError")
+        if replay is not None and isinstance(error, replay):
+            return _bug(args.command)
+        if isinstance(error, input_errors()):
+            message = str(error).splitlines()[0] if str(error) else type(error).__name__
+            print(f"revolve {args.command}: error: {message}", file=sys.stderr)
+            return EXIT_USAGE
+        if isinstance(error, ImportError):
+            print(f"revolve {args.command}: error: {error} (a dependency of revolve-env is "
+                  "missing: reinstall it with pip)", file=sys.stderr)
+            return EXIT_USAGE
         return _bug(args.command)
 
 

@@ -1,4 +1,4 @@
-"""Command-line input shared by the experiment subcommands: ``--set KEY=VALUE``.
+"""Command-line input shared by the experiment subcommands: ``--set KEY=VALUE``, ``--tensorboard``.
 
 Bad input raises :class:`~evolution.cli.robots.CliError`, which ``revolve`` reports on one line
 with exit status 2.
@@ -6,13 +6,22 @@ with exit status 2.
 
 from __future__ import annotations
 
+import argparse
 import tomllib
 from collections.abc import Sequence
 from typing import Any
 
 from evolution.cli.robots import CliError
 
-__all__ = ["parse_set"]
+__all__ = ["parse_set", "tensorboard_argument"]
+
+
+def tensorboard_argument(parser: argparse.ArgumentParser) -> None:
+    """``--tensorboard DIR``: each run's scalars for TensorBoard in ``DIR/<experiment>/run<N>``."""
+    parser.add_argument("--tensorboard", metavar="DIR",
+                        help="also write each run's fitness, population size and speed against "
+                             "births for TensorBoard to DIR/<experiment>/run<N> (needs "
+                             'pip install "revolve-env[tensorboard]")')
 
 
 def parse_set(items: Sequence[str]) -> dict[str, Any]:

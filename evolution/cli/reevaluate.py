@@ -109,7 +109,7 @@ def _cmd_reevaluate(args: argparse.Namespace) -> int:
 def add_reevaluate(sub: Any) -> None:
     """Register the ``reevaluate`` subcommand on ``revolve``'s subparsers."""
     p = sub.add_parser(
-        "reevaluate", help="evaluate stored robots again: the optimism of a single evaluation",
+        "reevaluate",
         description="Evaluate the final population of every run of one set of experiments "
                     "below RESULTS (a study, or the experiments outside any study; --all: "
                     "every set) (or, with "

@@ -4,6 +4,10 @@ A robot is named on the command line as a JSON file, an example name, or a robot
 database (``--db DIR --robot ID`` or ``--best``, in ``--run R``); :func:`stored_robot` also
 returns what the database says about it (experiment, run seed, record, learning), which is what
 ``revolve show`` compares its re-simulation with. Bad input raises :class:`CliError` (one line).
+
+The experiments and the robot description are imported by the functions that read a database,
+a robot or a bound they set, not with this module: ``revolve --help`` builds its parser without
+them (or numpy).
 """
 
 from __future__ import annotations
@@ -14,15 +18,12 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from evolution.experiments import DB_NAME, ExperimentConfig, Store, StoreError
-from evolution.experiments.config import MAX_SECONDS, MAX_WORKERS
-from evolution.experiments.integrity import verify
-from evolution.experiments.records import LearningRecord, RobotRecord
-from revolve_env.body.errors import RobotError
-from revolve_env.body.examples import EXAMPLES, resolve_robot
-from revolve_env.body.robot import Robot
+if TYPE_CHECKING:
+    from evolution.experiments import ExperimentConfig
+    from evolution.experiments.records import LearningRecord, RobotRecord
+    from revolve_env.body.robot import Robot
 
 __all__ = [
     "EXIT_INTERRUPTED",
@@ -81,12 +82,27 @@ positive_int = number(int, 1, strict=False)
 non_negative_int = number(int, 0, strict=False)
 positive_float = number(float, 0.0, strict=True)
 non_negative_float = number(float, 0.0, strict=False)
-workers = number(int, 0, strict=False, high=MAX_WORKERS)
-"""Worker processes (0: all cores), at most :data:`~evolution.experiments.config.MAX_WORKERS`."""
-seconds = number(float, 0.0, strict=True, high=MAX_SECONDS)
-"""A simulated duration, at most :data:`~evolution.experiments.config.MAX_SECONDS`."""
-non_negative_seconds = number(float, 0.0, strict=False, high=MAX_SECONDS)
-"""A simulated duration that may be 0, at most ``MAX_SECONDS``."""
+
+
+def workers(text: str) -> int:
+    """Worker processes (0: all cores), at most the experiments' ``MAX_WORKERS``."""
+    from evolution.experiments.config import MAX_WORKERS
+
+    return int(number(int, 0, strict=False, high=MAX_WORKERS)(text))
+
+
+def seconds(text: str) -> float:
+    """A simulated duration, at most :data:`~evolution.experiments.config.MAX_SECONDS`."""
+    from evolution.experiments.config import MAX_SECONDS
+
+    return float(number(float, 0.0, strict=True, high=MAX_SECONDS)(text))
+
+
+def non_negative_seconds(text: str) -> float:
+    """A simulated duration that may be 0, at most ``MAX_SECONDS``."""
+    from evolution.experiments.config import MAX_SECONDS
+
+    return float(number(float, 0.0, strict=False, high=MAX_SECONDS)(text))
 
 
 def trust_argument(parser: argparse.ArgumentParser) -> None:
@@ -177,6 +193,9 @@ def stored_robot(args: argparse.Namespace) -> StoredRobot:
         raise CliError("give either a robot file/example or --db, not both")
     if (args.robot_id is None) == (not args.best):
         raise CliError("with --db, give --robot ID or --best")
+    from evolution.experiments import DB_NAME, Store, StoreError
+    from evolution.experiments.integrity import verify
+
     run = 0 if args.run is None else args.run
     db = Path(args.db)
     db = db if db.name == DB_NAME else db / DB_NAME
@@ -214,6 +233,8 @@ def load_robot(args: argparse.Namespace) -> tuple[Robot, str]:
     if args.db is not None:
         stored = stored_robot(args)
         return stored.robot, stored.name
+    from revolve_env.body.examples import EXAMPLES
+
     no_db(args)
     if args.robot is None:
         raise CliError("give a robot JSON file, an example name "
@@ -236,6 +257,9 @@ def no_db(args: argparse.Namespace) -> None:
 
 def robot_file(name: str) -> tuple[Robot, str]:
     """A robot JSON file or an example name (:func:`resolve_robot`'s rule), and a short name."""
+    from revolve_env.body.errors import RobotError
+    from revolve_env.body.examples import resolve_robot
+
     try:
         return resolve_robot(name)
     except RobotError as error:

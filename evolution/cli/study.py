@@ -22,13 +22,22 @@ import shlex
 import sys
 from collections.abc import Mapping
 from contextlib import closing
+from pathlib import Path
 from typing import Any
 
-from evolution.cli.options import parse_set
+from evolution.cli.options import parse_set, tensorboard_argument
 from evolution.cli.progress import ProgressDisplay, duration, metres
-from evolution.cli.robots import EXIT_INTERRUPTED, CliError, non_negative_int, positive_int, workers
+from evolution.cli.robots import (
+    EXIT_INTERRUPTED,
+    CliError,
+    non_negative_int,
+    positive_int,
+    workers,
+    writable_folder,
+)
 from evolution.evaluation import Evaluator
 from evolution.experiments import ProgressEvent
+from evolution.experiments.callbacks import TensorBoardLogger
 from evolution.experiments.estimate import RunWork, StudyEstimate, calibrate_all, estimate
 from evolution.experiments.study import (
     PAPER_EXPERIMENTS,
@@ -50,10 +59,18 @@ class StudyDisplay:
         stream: Where to draw (default stderr).
         weights: Cost of one birth of each experiment, by name (the ETA weighs births by it;
             :meth:`StudyEstimate.weights`); default: all alike.
+        tensorboard: Also write each run's scalars for TensorBoard, in
+            ``tensorboard/<experiment>/run<N>`` (:class:`TensorBoardLogger`); ``None``: not.
+
+    Raises:
+        TensorBoardUnavailableError: ``tensorboard`` is given, but its packages are missing.
     """
 
     def __init__(self, plan: StudyPlan, stream: Any = None,
-                 weights: Mapping[str, float] | None = None) -> None:
+                 weights: Mapping[str, float] | None = None,
+                 tensorboard: Path | None = None) -> None:
+        self.loggers = {} if tensorboard is None else {
+            e.name: TensorBoardLogger(tensorboard / e.name) for e in plan.experiments if e.jobs}
         self.display = ProgressDisplay(stream=stream)
         for experiment in plan.experiments:
             if experiment.jobs:
@@ -65,10 +82,14 @@ class StudyDisplay:
     def __call__(self, experiment: str, event: ProgressEvent) -> None:
         """Take one event of run ``event.run_id`` of ``experiment``."""
         self.display(event, label=experiment)
+        if experiment in self.loggers:
+            self.loggers[experiment](event)
 
     def close(self) -> None:
-        """End the display."""
+        """End the display and write the TensorBoard files."""
         self.display.close()
+        for logger in self.loggers.values():
+            logger.close()
 
 
 def _say(text: str) -> None:
@@ -91,6 +112,8 @@ def _again(args: argparse.Namespace) -> str:
         words += ["--ray-address", args.ray_address]
     if args.no_estimate:
         words += ["--no-estimate"]
+    if args.tensorboard:
+        words += ["--tensorboard", args.tensorboard]
     return shlex.join(words)
 
 
@@ -131,7 +154,13 @@ def _cmd_study(args: argparse.Namespace) -> int:
         with closing(study_evaluator(args.evaluator, args.workers, args.ray_address)) as used:
             _estimate([RunWork(c.name, c) for c in configs for _ in range(c.runs)], used.workers)
         return 0
+    if args.tensorboard:  # a missing extra or a file in the way, refused before any work
+        writable_folder(Path(args.tensorboard), "--tensorboard")
+        TensorBoardLogger(args.tensorboard).close()
     plan = prepare_study(args.out, **settings)
+    if args.tensorboard:
+        for experiment in plan.experiments:
+            writable_folder(Path(args.tensorboard) / experiment.name, "--tensorboard")
     where = "Ray" if args.evaluator == "ray" else f"{args.workers or 'all'} core(s)"
     _say(f"study in {plan.out_dir}: {len(plan.experiments)} experiment(s), {plan.pending} "
          f"unfinished run(s) on {where}")
@@ -150,7 +179,8 @@ def _cmd_study(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace, plan: StudyPlan, evaluator: Evaluator | None,
          weights: Mapping[str, float] | None) -> int:
-    display = StudyDisplay(plan, weights=weights)
+    tensorboard = Path(args.tensorboard) if args.tensorboard else None
+    display = StudyDisplay(plan, weights=weights, tensorboard=tensorboard)
     try:
         summary = run_study(plan, display, evaluator)
     except KeyboardInterrupt:
@@ -168,9 +198,10 @@ def _run(args: argparse.Namespace, plan: StudyPlan, evaluator: Evaluator | None,
     else:
         _say("every run had finished already")
     result = report(plan.out_dir)
-    _say(f"report of {len(result.experiments)} experiment(s) in {result.out_dir}:")
-    for path in (*result.figures, *result.tables):
-        _say(f"  {path}")
+    if not args.quiet:  # --quiet: where the page is, no list of files
+        _say(f"report of {len(result.experiments)} experiment(s) in {result.out_dir}:")
+        for path in (*result.figures, *result.tables):
+            _say(f"  {path}")
     _say(f"open in a browser: {result.page}")
     return 0
 
@@ -178,7 +209,7 @@ def _run(args: argparse.Namespace, plan: StudyPlan, evaluator: Evaluator | None,
 def add_study(sub: argparse._SubParsersAction[Any]) -> None:
     """Register ``revolve study`` (its options' defaults shown in ``--help``)."""
     p = sub.add_parser(
-        "study", help="run the paper's five experiments and draw their figures",
+        "study",
         description="Run the paper's study: scenario1, scenario2, scenario3, baseline_a and "
                     "baseline_b, --runs runs of --births births each, all runs side by side on "
                     "one pool of workers (or Ray), into OUT/<name>/results.sqlite; then write "
@@ -208,6 +239,7 @@ def add_study(sub: argparse._SubParsersAction[Any]) -> None:
                         "instance)")
     p.add_argument("--evaluator", choices=("local", "ray"), default="local",
                    help="local processes, or Ray tasks (pip install '.[ray]')")
+    tensorboard_argument(p)
     p.add_argument("--ray-address", metavar="ADDRESS",
                    help="an existing Ray cluster, e.g. auto or HOST:PORT (default: start a "
                         "local instance)")

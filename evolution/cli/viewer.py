@@ -308,7 +308,7 @@ def frame_size(text: str) -> tuple[int, int]:
 def add_show(sub: Any) -> None:
     """Register ``revolve show`` on the subcommand parsers ``sub``."""
     p = sub.add_parser(
-        "show", help="render a GIF of a robot walking",
+        "show",
         description="Simulate a robot alone, driven by its own brain, and write an animated GIF "
                     "(with time, fitness and a map of its path). The robot is a JSON file, an "
                     "example name, or a robot of a results database (--db DIR --robot ID / "
@@ -571,6 +571,11 @@ def _cmd_watch(args: argparse.Namespace) -> int:
     target = Path(args.target)
     if target.is_dir() or target.name == DB_NAME:
         return _watch_results(args, target)
+    from revolve_env.body.examples import EXAMPLES
+
+    if not target.exists() and target.suffix.lower() != ".json" and args.target not in EXAMPLES:
+        raise CliError(f"no such folder: {target} (nor a robot JSON file or an example name: "
+                       f"{', '.join(EXAMPLES)})")
     args.robot, args.db = args.target, None
     return _watch_robot(args)
 
@@ -578,7 +583,7 @@ def _cmd_watch(args: argparse.Namespace) -> int:
 def add_watch(sub: Any) -> None:
     """Register ``revolve watch`` on the subcommand parsers ``sub``."""
     p = sub.add_parser(
-        "watch", help="watch a robot or an online run live (or record it)",
+        "watch",
         description="Open a live window on a robot (the engine's window, in real time) or on an "
                     "online experiment's run (replayed from its stored config and seed: births, "
                     "deaths and fitness as stored). --record OUT writes a video instead, without "

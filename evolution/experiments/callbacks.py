@@ -28,7 +28,9 @@ tag                    value
 =====================  ==================================================================
 
 Events of an online run replaying to its last commit point (on resume) are not written again;
-the commit point a resumed run continues from is (the same values at the same step).
+the commit point a resumed run continues from is (the same values at the same step). A run's
+``finished`` event repeats its last commit point: it closes the run's file without writing that
+point a second time.
 View them with ``tensorboard --logdir LOG_DIR``. It needs ``pip install "revolve-env[tensorboard]"``
 (the ``tensorboard`` package and PyTorch, whose ``SummaryWriter`` writes the files); without them
 making a logger raises :class:`TensorBoardUnavailableError` (an ``ImportError``) saying so.
@@ -116,6 +118,7 @@ class TensorBoardLogger(EventObserver):
         self.flush_secs = flush_secs
         self._writer_class = SummaryWriter
         self.writers: dict[int, Any] = {}
+        self._steps: dict[int, int] = {}  # run -> the last step written
 
     def __call__(self, event: ProgressEvent) -> None:
         """Write the scalars of one event (not those of a replay)."""
@@ -127,6 +130,10 @@ class TensorBoardLogger(EventObserver):
                                         flush_secs=self.flush_secs)
             self.writers[event.run_id] = writer
         step = event.births
+        if event.finished and self._steps.get(event.run_id) == step:
+            self.writers.pop(event.run_id).close()  # its last commit point, written already
+            return
+        self._steps[event.run_id] = step
         for tag, value in (("fitness/best", event.best), ("fitness/mean", event.mean),
                            ("population/size", event.population_size),
                            ("speed/sim_speed", event.sim_speed),

@@ -29,10 +29,12 @@ from evolution.reporting.data import ExperimentData, common_births, runs_on_grid
 from evolution.reporting.stats import ALPHA, CURVE_FRACTIONS
 from evolution.reporting.style import (
     colors,
+    every_tick_label,
     legend_below,
     new_figure,
     points_over_box,
     runs_and_median,
+    styled,
     text_color,
     tick_label,
 )
@@ -45,6 +47,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FIGURES",
+    "FIGURE_DPI",
     "LEARNING_FIGURES",
     "curve_tests",
     "diversity_over_births",
@@ -64,6 +67,10 @@ ONLINE_FITNESS = ("Online: sliding-window fitness f = v + 5 s (m) over the robot
 BIRTHS = ("Births: robots delivered; a robot lost before its first fitness (blow-up, unbuildable "
           "body, non-finite fitness) is a failed birth, left out of the births axis; lost robots "
           "have no fitness (never 0 m) and are counted in the legend and in lost_robots.png.")
+FIGURE_DPI = 150
+"""Pixels per inch of the PNG figures (the page shows each at its size in inches, so that the
+text of every figure reads at one size)."""
+
 RUNS = "Thin lines: each run; thick line: the median over runs (where every run has a value)."
 
 
@@ -106,6 +113,7 @@ def _compared_note(experiments: Sequence[ExperimentData]) -> str:
             "(as the engines count them, failed births included).")
 
 
+@styled
 def fitness_over_births(experiments: Sequence[ExperimentData]) -> Figure:
     """Population mean (top) and best (bottom) fitness over births.
 
@@ -137,9 +145,10 @@ def fitness_over_births(experiments: Sequence[ExperimentData]) -> Figure:
         what = "isolated evaluation" if kind == "offline" else "sliding window, shared world"
         for ax, stat in ((mean_ax, "mean"), (best_ax, "best")):
             ax.set_ylabel(f"population {stat} fitness (m)")
-            ax.set_title(f"{kind.capitalize()}: population {stat} ({what})", fontsize="medium")
+            ax.set_title(f"{kind.capitalize()}: population {stat} ({what})")
             ax.grid(alpha=0.3)
         best_ax.set_xlabel("births")
+    every_tick_label([ax for row in axes for ax in row])  # the online panels too
     common = _mark_common([ax for row in axes for ax in row], experiments)
     if common is not None:
         handles.append(common)
@@ -157,6 +166,7 @@ def _population_title(experiments: Sequence[ExperimentData]) -> tuple[int, str]:
                     f"populations at {births} births (the most every run reached)")
 
 
+@styled
 def final_fitness(experiments: Sequence[ExperimentData]) -> Figure:
     """Every robot's fitness in the compared populations, over a box, with each run's mean.
 
@@ -188,11 +198,12 @@ def final_fitness(experiments: Sequence[ExperimentData]) -> Figure:
                        color=palette[e.label], edgecolor="black", lw=0.8, zorder=4)
             names.append(tick_label(e.title, f"{len(e.runs)} runs, {pooled.size} robots",
                                     f"{e.lost_before(births)} lost"))
-        ax.set_xticks(range(1, len(group) + 1), names, fontsize="small")
+        ax.set_xticks(range(1, len(group) + 1), names)
         ax.set_xlim(0.4, len(group) + 0.6)
         ax.set_ylabel("fitness (m)")
-        ax.set_title(f"{kind.capitalize()} fitness", fontsize="medium")
+        ax.set_title(f"{kind.capitalize()} fitness")
         ax.grid(axis="y", alpha=0.3)
+    every_tick_label(axes[0])  # the online panel too
     key = [Line2D([], [], ls="", marker="o", color="0.4", ms=4),
            Line2D([], [], ls="", marker="D", color="0.6", markeredgecolor="black", ms=6)]
     legend_below(top, key, ["one robot", "one run's mean"])
@@ -200,6 +211,7 @@ def final_fitness(experiments: Sequence[ExperimentData]) -> Figure:
     return figure
 
 
+@styled
 def diversity_over_births(experiments: Sequence[ExperimentData]) -> Figure:
     """Population diversity over births (and the brain-aware one when it was computed)."""
     brain = any(r.brain_diversity.size for e in experiments for r in e.runs)
@@ -231,7 +243,7 @@ def diversity_over_births(experiments: Sequence[ExperimentData]) -> Figure:
                 labels.append(_label(e))
         ax.set_xlabel("births")
         ax.set_ylabel("mean pairwise distance (edits)")
-        ax.set_title(what, fontsize="medium")
+        ax.set_title(what)
         ax.grid(alpha=0.3)
     common = _mark_common(axes[0], experiments)
     if common is not None:
@@ -242,6 +254,7 @@ def diversity_over_births(experiments: Sequence[ExperimentData]) -> Figure:
     return figure
 
 
+@styled
 def final_diversity(experiments: Sequence[ExperimentData]) -> Figure:
     """Each run's diversity in the compared populations (and brain-aware when computed)."""
     births, what = _population_title(experiments)
@@ -266,15 +279,16 @@ def final_diversity(experiments: Sequence[ExperimentData]) -> Figure:
             points_over_box(ax, p, finite, palette[e.label], rng, size=40, marker="D",
                             edge=True)
             names.append(tick_label(e.title, f"{finite.size} runs"))
-        ax.set_xticks(range(1, len(experiments) + 1), names, fontsize="small")
+        ax.set_xticks(range(1, len(experiments) + 1), names)
         ax.set_xlim(0.4, len(experiments) + 0.6)
         ax.set_ylabel(f"{kind} diversity (edits)")
-        ax.set_title(f"{kind.capitalize()} diversity", fontsize="medium")
+        ax.set_title(f"{kind.capitalize()} diversity")
         ax.grid(axis="y", alpha=0.3)
     top.suptitle(f"Diversity of the {what}")
     return figure
 
 
+@styled
 def lost_robots(experiments: Sequence[ExperimentData]) -> Figure:
     """Cumulative robots lost over births, each run a step line."""
     caption = ("Robots lost over births: robots lost to a blow-up (in the isolated evaluation or "
@@ -301,7 +315,7 @@ def lost_robots(experiments: Sequence[ExperimentData]) -> Figure:
                               f"{lost - failed} later in life)")
     if not any(r.lost_robots for e in experiments for r in e.runs):
         ax.text(0.5, 0.5, "no robot was lost in any run", transform=ax.transAxes,
-                ha="center", va="center", fontsize="large", color="0.3")
+                ha="center", va="center", color="0.3")
     from matplotlib.ticker import MaxNLocator
 
     ax.set_xlabel("births")
@@ -309,13 +323,13 @@ def lost_robots(experiments: Sequence[ExperimentData]) -> Figure:
     most = max((r.lost_robots for e in experiments for r in e.runs), default=0)
     ax.set_ylim(0, max(1.0, 1.08 * most))  # 0 to 1 when none was lost, not a sliver
     ax.yaxis.set_major_locator(MaxNLocator(integer=True))
-    ax.set_title("Robots lost (blow-ups, unbuildable bodies, failed evaluations)",
-                 fontsize="medium")
+    ax.set_title("Robots lost (blow-ups, unbuildable bodies, failed evaluations)")
     ax.grid(alpha=0.3)
     legend_below(top, handles, labels, ncols=1)
     return figure
 
 
+@styled
 def curve_tests(experiments: Sequence[ExperimentData]) -> Figure:
     """A12 of every pair at equal births (colour), ``*`` where significant after Holm."""
     from matplotlib import colormaps
@@ -328,8 +342,9 @@ def curve_tests(experiments: Sequence[ExperimentData]) -> Figure:
                "(never beyond), two-sided Mann-Whitney U per point, Holm-Bonferroni over the "
                "points of a pair. Colour: Vargha-Delaney A12 (1: every run of A above every run "
                "of B; 0.5: no effect; blank: no value on one side); cell text: births, *: "
-               "p_holm < 0.05; n: runs per side. Offline and online fitness are different "
-               "measurements (see fitness_over_births).")
+               "p_holm < 0.05; n: runs per side. Like with like: offline experiments are "
+               "paired with offline ones, online with online (their fitness are different "
+               "measurements, see fitness_over_births), never one with the other.")
     figure, _, ((ax,),) = new_figure(10.0, max(2.5, 0.42 * len(pairs) + 1.4), caption)
     cmap = colormaps["RdBu_r"]
     matrix = np.full((max(1, len(pairs)), len(CURVE_FRACTIONS)), np.nan)
@@ -340,15 +355,19 @@ def curve_tests(experiments: Sequence[ExperimentData]) -> Figure:
         matrix[i, j] = float(r["a12"])
         sizes[pair] = f"n={r['n_a']}/{r['n_b']}"
         mark = "*" if float(r["p_holm"]) < ALPHA else ""
-        ax.text(j, i, f"{int(r['births'])}{mark}", ha="center", va="center", fontsize=7,
+        ax.text(j, i, f"{int(r['births'])}{mark}", ha="center", va="center",
                 color=text_color(cmap(float(r["a12"]))))
     image = ax.imshow(matrix, cmap=cmap, vmin=0.0, vmax=1.0, aspect="auto")
     figure.colorbar(image, ax=ax, label="A12 (A over B)")
     ax.set_yticks(range(len(pairs)), [f"{titles[a]} vs {titles[b]} ({sizes[(a, b)]})"
-                                      for a, b in pairs], fontsize="small")
+                                      for a, b in pairs])
+    if not pairs:
+        ax.text(0.5, 0.5, "no two experiments of one mode to compare (offline with offline, "
+                "online with online)", transform=ax.transAxes, ha="center", va="center",
+                color="0.3")
     ax.set_xticks(range(len(CURVE_FRACTIONS)), [f"{round(100 * f)}" for f in CURVE_FRACTIONS])
     ax.set_xlabel("births, % of those both reached (cell text: births; *: p_holm < 0.05)")
-    ax.set_title("Population mean fitness, A vs B at equal births", fontsize="medium")
+    ax.set_title("Population mean fitness, A vs B at equal births")
     return figure
 
 
@@ -363,6 +382,7 @@ FIGURES: dict[str, Callable[[Sequence[ExperimentData]], Figure]] = {
 """Figure file stems and the functions drawing them."""
 
 
+@styled
 def learning_gain(experiments: Sequence[ExperimentData]) -> Figure:
     """Every infant's inborn and learned fitness, for each experiment that learns.
 
@@ -390,7 +410,7 @@ def learning_gain(experiments: Sequence[ExperimentData]) -> Figure:
             ax.scatter(np.full(means.size, position), means, s=42, marker="D",
                        color=palette[e.label], edgecolor="black", lw=0.8, zorder=4)
             names.append(tick_label(e.title, name))
-    ax.set_xticks(range(1, position + 1), names, fontsize="small")
+    ax.set_xticks(range(1, position + 1), names)
     ax.set_xlim(0.4, position + 0.6)
     ax.set_ylabel("fitness in the Training Center (m)")
     ax.set_title("Infancy learning: inborn vs learned controller")
@@ -421,8 +441,8 @@ def write_figures(
 
 
 def save_figure(figure: Figure, out_dir: Path, stem: str, formats: Sequence[str]) -> list[Path]:
-    """Save ``figure`` as ``out_dir/<stem>.<fmt>`` for each format (150 dpi); the paths."""
+    """Save ``figure`` as ``out_dir/<stem>.<fmt>`` for each format (:data:`FIGURE_DPI`)."""
     paths = [out_dir / f"{stem}.{fmt}" for fmt in formats]
     for path in paths:
-        figure.savefig(path, dpi=150)
+        figure.savefig(path, dpi=FIGURE_DPI)
     return paths

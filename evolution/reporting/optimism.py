@@ -40,7 +40,7 @@ from evolution.experiments.records import ReevaluationRecord
 from evolution.experiments.store import DB_NAME, Store
 from evolution.reporting.data import ExperimentData
 from evolution.reporting.figures import save_figure
-from evolution.reporting.style import colors, legend_below
+from evolution.reporting.style import colors, legend_below, styled
 from evolution.reporting.tables import Section, markdown_table, write_csv
 from evolution.reporting.tables import markdown as section_markdown
 
@@ -268,6 +268,7 @@ EXPLANATION = (
 """What the table's columns mean (the Markdown section and the CLI print it under the table)."""
 
 
+@styled
 def figure(rows: Sequence[OptimismRow], palette: Mapping[str, str] | None = None) -> Figure:
     """Stored vs reevaluated fitness of every robot (left), optimism with its CI (right).
 
@@ -276,7 +277,8 @@ def figure(rows: Sequence[OptimismRow], palette: Mapping[str, str] | None = None
     """
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(11.0, 5.2), layout="constrained")
+    # Two lines of tick label per row on the right.
+    fig = Figure(figsize=(11.0, max(5.2, 0.36 * len(rows) + 2.4)), layout="constrained")
     left, right = fig.subplots(1, 2)
     fallback = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000")
     low, high = math.inf, -math.inf
@@ -302,7 +304,7 @@ def figure(rows: Sequence[OptimismRow], palette: Mapping[str, str] | None = None
     legend_below(fig, handles, labels, ncols=2)
     right.axvline(0.0, color="black", lw=0.8)
     right.set_yticks(range(len(rows)),
-                     [f"{r.experiment}\n{r.setting}" for r in rows], fontsize=6)
+                     [f"{r.experiment}\n{r.setting}" for r in rows])
     right.invert_yaxis()
     right.set_xlabel("optimism = stored - mean reevaluated, m\n(mean over runs, 95 % bootstrap "
                      "CI over runs)")
@@ -310,7 +312,7 @@ def figure(rows: Sequence[OptimismRow], palette: Mapping[str, str] | None = None
     fig.suptitle("Optimism of a single evaluation: stored fitness vs K reevaluations under fresh "
                  "conditions\n(fitness f = v + 5 s over "
                  f"{' / '.join(f'{w:g}' for w in windows)} s, metres; v: path length, s: "
-                 "displacement; each point a robot)", fontsize=10)
+                 "displacement; each point a robot)")
     return fig
 
 

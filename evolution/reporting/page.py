@@ -13,12 +13,14 @@ from __future__ import annotations
 
 import html
 import math
+import struct
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from evolution.experiments.api import flat_keys
 from evolution.experiments.store import DB_NAME, Store, package_version
 from evolution.reporting.data import Included
+from evolution.reporting.figures import FIGURE_DPI
 from evolution.reporting.reproduce import Command
 from evolution.reporting.tables import Cell, Section
 
@@ -49,11 +51,17 @@ h1 { font-size: 1.6em; } h2 { margin-top: 2em; border-bottom: 1px solid #ccc; }
 nav a { margin-right: 1em; }
 figure { margin: 1.5em 0; } figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
 figcaption { font-size: 0.9em; color: #333; }
-.scroll { overflow-x: auto; }
-table { border-collapse: collapse; font-size: 0.85em; margin: 0.8em 0; }
+.scroll { overflow-x: auto; max-width: 100%; margin: 0.8em 0;
+  background: linear-gradient(to right, #fff 30%, rgba(255,255,255,0)) left / 2em 100%,
+    linear-gradient(to left, #fff 30%, rgba(255,255,255,0)) right / 2em 100%,
+    radial-gradient(farthest-side at 0 50%, rgba(0,0,0,.25), rgba(0,0,0,0)) left / .8em 100%,
+    radial-gradient(farthest-side at 100% 50%, rgba(0,0,0,.25), rgba(0,0,0,0)) right / .8em 100%;
+  background-repeat: no-repeat; background-attachment: local, local, scroll, scroll; }
+table { border-collapse: collapse; font-size: 0.85em; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.5em; text-align: right; }
-th { background: #f0f0f0; position: sticky; top: 0; }
+th { background: #f0f0f0; white-space: normal; vertical-align: bottom; }
 td.text, th.text { text-align: left; }
+td.text { overflow-wrap: anywhere; min-width: 6em; }
 td.num { white-space: nowrap; }
 tr.differs td { background: #fff4d6; }
 pre { background: #f6f6f6; padding: 0.8em; overflow-x: auto; }
@@ -76,12 +84,23 @@ def _cell(value: Cell) -> tuple[str, str]:
     return str(value), "text"
 
 
+def _header(column: str) -> str:
+    """A column name that may wrap after each underscore (``final_<wbr>fitness_<wbr>mean``)."""
+    return html.escape(column).replace("_", "_<wbr>")
+
+
 def _table(name: str, columns: Sequence[str], rows: Sequence[Mapping[str, Cell]],
            row_classes: Sequence[str] = ()) -> list[str]:
+    """A table in a box of the page's width, never cut at its edge.
+
+    Its headers (after each underscore) and text cells wrap, and what is still wider scrolls
+    sideways inside the box, whose edges cast a shadow where there is more.
+    """
     kinds = [_cell(rows[0][c])[1] if rows else "text" for c in columns]
-    head = "".join(f'<th scope="col" class="{kind}">{html.escape(c)}</th>'
+    head = "".join(f'<th scope="col" class="{kind}">{_header(c)}</th>'
                    for c, kind in zip(columns, kinds, strict=True))
-    lines = ['<div class="scroll">', f'<table id="{html.escape(name)}">',
+    lines = [f'<div class="scroll" role="region" tabindex="0" aria-label="{html.escape(name)}">',
+             f'<table id="{html.escape(name)}">',
              f"<thead><tr>{head}</tr></thead>", "<tbody>"]
     for k, row in enumerate(rows):
         cells = []
@@ -136,10 +155,34 @@ def _figures(out_dir: Path, figures: Sequence[Path]) -> list[str]:
         lines.append(f'<figure id="figure-{html.escape(stem)}">')
         if shown is not None:
             lines.append(f'<img src="{html.escape(shown.relative_to(out_dir).as_posix())}" '
-                         f'alt="{html.escape(title)}">')
+                         f'alt="{html.escape(title)}"{_shown_size(shown)}>')
         lines += [f"<figcaption><strong>{html.escape(title)}</strong> "
                   f"({html.escape(stem)}: {links})</figcaption>", "</figure>"]
     return [*lines, "</section>"]
+
+
+CSS_PX_PER_INCH = 96
+"""A browser's pixels per inch: a figure shown at its size in inches."""
+
+
+def _shown_size(image: Path) -> str:
+    """``width``/``height`` attributes showing a PNG figure at its size in inches.
+
+    Every figure's text has one size in points (:data:`~evolution.reporting.style.TEXT_SIZE`):
+    shown at ``FIGURE_DPI`` pixels per inch each, a wide figure would be shrunk to the page and
+    its text with it, a narrow one not. At :data:`CSS_PX_PER_INCH` they read alike (the widest
+    is shrunk a little where the page is narrower). Empty for an SVG (its own size is in
+    inches) or a file that is not a PNG.
+    """
+    if image.suffix != ".png":
+        return ""
+    with open(image, "rb") as f:
+        head = f.read(24)
+    if head[:8] != b"\x89PNG\r\n\x1a\n" or head[12:16] != b"IHDR":
+        return ""
+    width, height = struct.unpack(">II", head[16:24])
+    scale = CSS_PX_PER_INCH / FIGURE_DPI
+    return f' width="{round(width * scale)}" height="{round(height * scale)}"'
 
 
 def _commands(commands: Sequence[Command]) -> list[str]:

@@ -9,6 +9,8 @@
   (:func:`runs_and_median`); distributions as every value's point over a box
   (:func:`points_over_box`), so no outlier hides.
 * A caption inside every figure (:func:`new_figure`), so it reads without the report's text.
+* One text size in every figure (:data:`TEXT_SIZE`; :func:`styled` draws a figure with it), and
+  tick labels on every panel, shared scale or not (:func:`every_tick_label`).
 
 Figures are ``matplotlib.figure.Figure`` objects drawn directly (no ``pyplot``): nothing depends
 on a display or on the global backend.
@@ -16,10 +18,11 @@ on a display or on the global backend.
 
 from __future__ import annotations
 
+import functools
 import textwrap
 import warnings
-from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, ParamSpec
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,9 +33,14 @@ if TYPE_CHECKING:
     from matplotlib.artist import Artist
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure, SubFigure
+    from matplotlib.typing import RcKeyType
 
 __all__ = [
     "OTHER_COLORS",
+    "TEXT_SIZE",
+    "TEXT_STYLE",
+    "every_tick_label",
+    "styled",
     "tick_label",
     "PAPER_COLORS",
     "colors",
@@ -51,6 +59,56 @@ reddish purple, orange)."""
 
 OTHER_COLORS = ("#56B4E9", "#000000", "#999999", "#8C510A", "#F0E442")
 """Colours of other experiments, in order (sky blue, black, grey, brown, yellow)."""
+
+
+TEXT_SIZE = 9.0
+"""The one text size of every figure of a report: titles, axis and tick labels, legends,
+captions, cell text. Points (a figure of any width, saved at 150 dpi and shown on the page at
+its size, reads at the same size as the others)."""
+
+TEXT_STYLE: dict[RcKeyType, float | str] = {
+    "font.size": TEXT_SIZE, "axes.titlesize": TEXT_SIZE, "axes.labelsize": TEXT_SIZE,
+    "xtick.labelsize": TEXT_SIZE, "ytick.labelsize": TEXT_SIZE, "legend.fontsize": TEXT_SIZE,
+    "legend.title_fontsize": TEXT_SIZE, "figure.titlesize": TEXT_SIZE,
+    "figure.titleweight": "bold", "axes.titleweight": "normal",
+}
+"""The matplotlib settings :func:`styled` draws with (only the figure's title is bold)."""
+
+_P = ParamSpec("_P")
+
+
+def styled(draw: Callable[_P, Figure]) -> Callable[_P, Figure]:
+    """``draw`` with the report's text: every text of its figure at :data:`TEXT_SIZE`.
+
+    The figure is drawn under :data:`TEXT_STYLE` (matplotlib's ``rc_context``: the global
+    settings are restored after), then every text it holds and every axis's tick labels (made
+    when the figure is saved) are set to :data:`TEXT_SIZE`, whatever size a call asked for.
+    """
+
+    @functools.wraps(draw)
+    def with_style(*args: _P.args, **kwargs: _P.kwargs) -> Figure:
+        from matplotlib import rc_context
+        from matplotlib.text import Text
+
+        with rc_context(TEXT_STYLE):
+            figure = draw(*args, **kwargs)
+        for text in figure.findobj(Text):
+            text.set_fontsize(TEXT_SIZE)
+        for ax in figure.axes:
+            ax.tick_params(labelsize=TEXT_SIZE)
+        return figure
+
+    return with_style
+
+
+def every_tick_label(axes: Sequence[Axes]) -> None:
+    """Tick labels on the y axis of every panel, shared scale or not.
+
+    matplotlib shows a shared y axis's labels on the leftmost panel only; a panel of its own
+    (the online one beside the offline one) needs its own numbers to be read.
+    """
+    for ax in axes:
+        ax.tick_params(axis="y", labelleft=True)
 
 
 def colors(experiments: Sequence[ExperimentData]) -> dict[str, str]:
@@ -96,15 +154,16 @@ def new_figure(width: float, height: float, caption: str, ncols: int = 1, nrows:
     """
     from matplotlib.figure import Figure
 
+    # About 16 characters an inch at TEXT_SIZE; a line 1.2 text sizes high.
     lines = textwrap.wrap(caption, width=int(width * 16), break_on_hyphens=False)
-    caption_height = 0.16 * len(lines) + 0.12
+    caption_height = 1.2 * TEXT_SIZE / 72 * len(lines) + 0.12
     figure = Figure(figsize=(width, height + caption_height), layout="constrained")
     parts = figure.subfigures(2, 1, height_ratios=[height, caption_height])
     assert isinstance(parts, np.ndarray)  # two subfigures come as an array
     top, bottom = parts
     axes = top.subplots(nrows, ncols, squeeze=False, sharey=sharey, sharex=sharex,
                         width_ratios=width_ratios)
-    bottom.text(0.01, 0.98, "\n".join(lines), va="top", ha="left", fontsize=8)
+    bottom.text(0.01, 0.98, "\n".join(lines), va="top", ha="left", fontsize=TEXT_SIZE)
     return figure, top, [list(row) for row in axes]
 
 
@@ -113,7 +172,7 @@ def legend_below(holder: Figure | SubFigure, handles: Sequence[Artist], labels: 
     """One legend for every panel, below them: never over the data."""
     if handles:
         holder.legend(list(handles), list(labels), loc="outside lower center",
-                      ncols=max(1, min(ncols, len(labels))), fontsize="small", frameon=False)
+                      ncols=max(1, min(ncols, len(labels))), frameon=False)
 
 
 def runs_and_median(ax: Axes, grid: NDArray[np.int64], values: NDArray[np.float64],

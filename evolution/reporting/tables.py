@@ -36,6 +36,7 @@ __all__ = [
     "LEARNING_COLUMNS",
     "MANN_WHITNEY_COLUMNS",
     "POOLED_SAMPLES",
+    "POOLED_SHOWN_COLUMNS",
     "SUMMARY_COLUMNS",
     "TESTED_SAMPLES",
     "compared_births",
@@ -186,6 +187,11 @@ side's runs lost among those births, ``p_min`` the smallest p the group sizes al
 Holm-Bonferroni over the pairs of one sample, ``a12`` the Vargha-Delaney effect size of A over
 B with its 95 % interval (:func:`evolution.reporting.stats.a12_interval`)."""
 
+POOLED_SHOWN_COLUMNS = tuple(c for c in MANN_WHITNEY_COLUMNS
+                             if c not in ("u_statistic", "p_value", "p_min", "p_holm"))
+"""Columns of the pooled table on the page and in ``summary.md``: no p-values (they would look
+stronger than the real, per-run tests); ``tests_pooled_descriptive.csv`` keeps every column."""
+
 CURVE_COLUMNS = ("experiment_a", "experiment_b", "point", "births", "n_a", "n_b", "median_a",
                  "median_b", "p_value", "p_min", "p_holm", "a12")
 """Columns of ``curve_tests.csv``: per-run population mean fitness at equal births (engine
@@ -268,15 +274,19 @@ def _curve_values(e: ExperimentData, births: int) -> NDArray[np.float64]:
 
 
 def curve_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Cell]]:
-    """Whole-curve tests: every pair at :data:`CURVE_FRACTIONS` of :func:`compared_births`.
+    """Whole-curve tests: each pair of one mode at :data:`CURVE_FRACTIONS` of the births.
 
+    The births are :func:`compared_births`. Like with like: offline experiments with offline
+    ones, online with online. An online curve is the sliding-window fitness of a shared world,
+    an offline one the isolated evaluations of a population: the same births do not mean the
+    same thing, so such a pair is not tested.
     Each run gives its population mean fitness at those engine births; a point where either
     side has no value (before the first commit point, or no fitness yet) is left out. Births
     beyond what both reached are never compared.
     """
     rows: list[dict[str, Cell]] = []
     for a, b in combinations(experiments, 2):
-        if not a.runs or not b.runs:
+        if not a.runs or not b.runs or a.online != b.online:
             continue
         reached = compared_births(a, b)
         block: list[dict[str, Cell]] = []
@@ -469,14 +479,21 @@ def sections(included: Included, tables: Mapping[str, list[dict[str, Cell]]]
                 "the births of a pair)",
                 ("Population mean fitness of each run at 10 %, 20 %, ... 100 % of the births "
                  f"both experiments reached; a point counts when p_holm < {ALPHA} (A12 says "
-                 "the side). Point by point: `curve_tests.csv`.",),
+                 "the side). Like with like: offline experiments are paired with offline ones "
+                 "and online with online (an online curve is sliding-window fitness in a shared "
+                 "world, not the same measurement at the same births). Point by point: "
+                 "`curve_tests.csv`.",),
                 CURVE_SUMMARY_COLUMNS, tuple(curve_summary_rows(tables["curve"])),
                 "(no pair to compare)", "curve_summary"),
-        Section("Descriptive only: pooled populations",
+        Section("Descriptive only: pooled populations (no p-values shown)",
                 ("Robots of one run share their ancestry and world, so they are not "
-                 "independent samples; these p-values describe the pooled populations and are "
-                 "no test of the experiments.", *_test_text(POOLED_SAMPLES)),
-                MANN_WHITNEY_COLUMNS, tuple(tables["pooled"]), none, "tests_pooled"),
+                 "independent samples: a test on them counts every robot as a sample and gives "
+                 "p-values far smaller than the data support. The tests of this report are the "
+                 "per-run tests above. This table therefore shows only the pooled medians and "
+                 "A12 as a description; its p-values are left out of this page and of "
+                 "summary.md, and kept only in `tests_pooled_descriptive.csv`.",
+                 *[t for t in _test_text(POOLED_SAMPLES) if not t.startswith("- `p_")]),
+                POOLED_SHOWN_COLUMNS, tuple(tables["pooled"]), none, "tests_pooled"),
     ]
 
 

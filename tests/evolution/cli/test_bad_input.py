@@ -21,7 +21,6 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from evolution import experiments
-from evolution.cli import commands as cli_commands
 from evolution.cli import main
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import api, loop, preset
@@ -45,7 +44,7 @@ def nothing_runs(monkeypatch: pytest.MonkeyPatch) -> None:
     import revolve_env.envs.recording
 
     monkeypatch.setattr(api, "_execute", _ran)
-    monkeypatch.setattr(cli_commands, "evaluate_robot", _ran)
+    monkeypatch.setattr("evolution.evaluation.evaluate_robot", _ran)  # revolve demo
     monkeypatch.setattr(revolve_env.envs.recording, "record_robot", _ran)
     monkeypatch.setattr(reevaluate_module, "make_evaluator", _ran)
     monkeypatch.setattr("evolution.cli.viewer.replay_online", _ran)

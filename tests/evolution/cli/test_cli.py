@@ -252,7 +252,14 @@ def test_run_then_report(fake_physics: None, tmp_path: Path,
     assert all(0.0 <= float(r["p_value"]) <= 1.0 for r in tests)
     assert (report_dir / "summary.md").is_file()
     assert (report_dir / "index.html").is_file()
-    assert f"open in a browser: {report_dir / 'index.html'}" in capsys.readouterr().out
+    listed = capsys.readouterr().out
+    assert f"open in a browser: {report_dir / 'index.html'}" in listed
+    assert str(report_dir / "summary.csv") in listed  # every file written is listed...
+    for quiet in (["-q", "report", str(out)], ["report", str(out), "-q"]):
+        assert main([*quiet, "--formats", "png", "--out", str(tmp_path / "quiet")]) == 0
+        # ... but --quiet (before or after the command) prints where the page is, no files.
+        assert capsys.readouterr().out == (
+            f"open in a browser: {tmp_path / 'quiet' / 'index.html'}\n"), quiet
 
 
 def test_ctrl_c_then_resume(monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
@@ -531,13 +538,13 @@ def test_learning_run_ctrl_c_then_resume_rebuilds_the_learner(
 def test_internal_errors_show_their_traceback_and_say_it_is_a_bug(
         monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
-    from evolution.cli import commands as cli_main
+    from evolution import experiments
     from evolution.experiments import ReplayError
 
     def broken(*args: object, **kwargs: object) -> None:
         raise KeyError("an internal slip")
 
-    monkeypatch.setattr(cli_main, "run", broken)
+    monkeypatch.setattr(experiments, "run", broken)  # what revolve run calls
     assert main(["run", "quick", "--births", "15", "--out", str(tmp_path)]) == 1
     err = capsys.readouterr().err
     assert "Traceback" in err and "KeyError" in err and "this is a bug" in err
@@ -545,7 +552,7 @@ def test_internal_errors_show_their_traceback_and_say_it_is_a_bug(
     def replay(*args: object, **kwargs: object) -> None:
         raise ReplayError("replay made a different robot 3")
 
-    monkeypatch.setattr(cli_main, "run", replay)
+    monkeypatch.setattr(experiments, "run", replay)
     assert main(["run", "quick", "--births", "15", "--out", str(tmp_path / "b")]) == 1
     err = capsys.readouterr().err
     assert "Traceback" in err and "ReplayError" in err and "this is a bug" in err

@@ -171,3 +171,33 @@ def test_study_on_ray_gives_the_local_databases(tmp_path: Path) -> None:
     for name in PAPER_EXPERIMENTS:
         assert (dump_results(tmp_path / "ray" / name / DB_NAME, tables)
                 == dump_results(tmp_path / "local" / name / DB_NAME, tables)), name
+
+
+def test_tensorboard_logs_each_run_under_its_experiment_and_quiet_lists_no_files(
+        fake_physics: None, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    pytest.importorskip("tensorboard", reason="TensorBoard logging needs the tensorboard package")
+    pytest.importorskip("torch", reason="TensorBoard logging writes with torch's SummaryWriter")
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    out, tb = tmp_path / "study", tmp_path / "tb"
+    assert main(["study", "--out", str(out), "--runs", "2", "--births", "12", *TINY, "--only",
+                 "scenario1", "scenario3", "--no-estimate", "--tensorboard", str(tb), "-q"]) == 0
+    assert sorted(p.relative_to(tb).as_posix() for p in tb.glob("*/*")) == [
+        "scenario1/run0", "scenario1/run1", "scenario3/run0", "scenario3/run1"]
+    acc = EventAccumulator(str(tb / "scenario1" / "run1"))
+    acc.Reload()
+    steps = [e.step for e in acc.Scalars("population/size")]
+    assert steps == [4, 8, 12]  # each commit point once: the finished event is not written again
+    printed = capsys.readouterr().out
+    assert "open in a browser: " in printed and ".png" not in printed and ".csv" not in printed
+
+
+def test_tensorboard_beside_a_file_is_refused_before_any_work(
+        fake_physics: None, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "tb").write_text("a file, not a folder")
+    out = tmp_path / "study"
+    assert main(["study", "--out", str(out), "--only", "scenario1", "--no-estimate",
+                 "--tensorboard", str(tmp_path / "tb"), *TINY]) == 2
+    err = capsys.readouterr().err
+    assert "--tensorboard" in err and "is a file" in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()

@@ -253,3 +253,19 @@ def test_show_refuses_a_robot_without_an_active_hinge_in_one_line(
     line = _error(capsys, ["show", str(path), "--out", str(tmp_path / "still.gif")])
     assert "no active hinge" in line
     assert not (tmp_path / "still.gif").exists()
+
+
+@pytest.mark.parametrize("target", ["no_such_folder", "results/no_such_run/", "a/b"])
+def test_watch_of_a_missing_folder_says_the_folder_does_not_exist(
+        target: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    missing = tmp_path / target
+    assert main(["watch", str(missing)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"revolve watch: error: no such folder: {missing}"), err
+    assert "robot file:" not in err and len(err.splitlines()) == 1
+
+
+def test_watch_of_a_missing_robot_file_still_names_the_robot_file(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["watch", str(tmp_path / "robot.json")]) == 2
+    assert "no such robot file" in capsys.readouterr().err

@@ -44,12 +44,13 @@ def test_a_run_writes_its_scalars_against_births(tmp_path: Path) -> None:
     scalars = _scalars(tmp_path / "tb" / "run1")
     assert set(scalars) == {"fitness/best", "fitness/mean", "population/size", "speed/sim_speed",
                             "failures/total"}
-    # One point per commit point (15, 30, 45 births) plus the finished event at 45.
-    assert [step for step, _ in scalars["fitness/best"]] == [15, 30, 45, 45]
+    # One point per commit point (15, 30, 45 births); the finished event repeats the last one and
+    # is not written again.
+    assert [step for step, _ in scalars["fitness/best"]] == [15, 30, 45]
     last = [e for e in events if e.run_id == 1][-1]
     assert scalars["fitness/best"][-1][1] == pytest.approx(last.best)
     assert scalars["fitness/mean"][-1][1] == pytest.approx(last.mean)
-    assert [v for _, v in scalars["population/size"]] == [15.0] * 4
+    assert [v for _, v in scalars["population/size"]] == [15.0] * 3
 
 
 def test_the_logger_observes_a_loop_stepped_in_python(tmp_path: Path) -> None:
@@ -61,7 +62,7 @@ def test_the_logger_observes_a_loop_stepped_in_python(tmp_path: Path) -> None:
     with TensorBoardLogger(tmp_path / "loop") as tensorboard:
         Evolution(config, evaluator=SERIAL, observers=[tensorboard]).run()
     looped, stored = _scalars(tmp_path / "loop" / "run0"), _scalars(tmp_path / "run" / "run0")
-    assert [step for step, _ in looped["fitness/best"]] == [15, 30, 45, 45]
+    assert [step for step, _ in looped["fitness/best"]] == [15, 30, 45]
     for tag in ("fitness/best", "fitness/mean", "population/size", "failures/total"):
         assert looped[tag] == stored[tag], tag
 

@@ -7,6 +7,7 @@ five blows up, and the fake shared world.
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -19,8 +20,14 @@ from evolution.experiments import preset, run
 from evolution.experiments.store import DB_NAME, Store
 from evolution.reporting import find_experiments, report
 from evolution.reporting.data import LABELS, ExperimentData, births_axis, common_births
-from evolution.reporting.figures import curve_tests, final_fitness, fitness_over_births, lost_robots
-from evolution.reporting.style import PAPER_COLORS, colors, contrast_ratio, text_color
+from evolution.reporting.figures import (
+    FIGURES,
+    curve_tests,
+    final_fitness,
+    fitness_over_births,
+    lost_robots,
+)
+from evolution.reporting.style import PAPER_COLORS, TEXT_SIZE, colors, contrast_ratio, text_color
 from revolve_env.body.serialize import from_json
 
 LOSSY = LocalEvaluator(workers=1, function=fake_evaluate_with_losses)
@@ -35,6 +42,28 @@ def results(tmp_path_factory: pytest.TempPathFactory) -> Path:
     run(small(preset("scenario3", births=20, runs=2, diversity_interval=10)),
         root / "scenario3", evaluator=LOSSY, world_factory=fake_world)
     return root
+
+
+@pytest.fixture(scope="module")
+def offline_pair(results: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The results above and baseline A (offline, two runs): a pair of one mode to compare."""
+    root = tmp_path_factory.mktemp("pair")
+    for name in ("scenario1", "scenario3"):
+        shutil.copytree(results / name, root / name)
+    run(small(preset("baseline_a", births=30, runs=2, diversity_interval=10)),
+        root / "baseline_a", evaluator=LOSSY)
+    return root
+
+
+def _drawn(figure: object) -> list[object]:
+    """The visible, non-empty texts of a figure once drawn (tick labels are made then)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.text import Text
+
+    FigureCanvasAgg(figure)  # type: ignore[arg-type]
+    figure.canvas.draw()  # type: ignore[attr-defined]
+    return [t for t in figure.findobj(Text)  # type: ignore[attr-defined]
+            if t.get_visible() and t.get_text().strip()]
 
 
 def test_births_axis_takes_the_failed_births_off() -> None:
@@ -167,13 +196,13 @@ def test_brain_aware_report(results: Path, tmp_path: Path) -> None:
     assert (tmp_path / "out" / "diversity_over_births.png").stat().st_size > 5000
 
 
-def test_heatmap_text_reads_on_every_cell(results: Path) -> None:
+def test_heatmap_text_reads_on_every_cell(offline_pair: Path) -> None:
     """Cell text is black or white, whichever contrasts more: at least WCAG's 4.5 on every
     colour of the scale (black text on the darkest cells was 1.5 to 2)."""
     from matplotlib import colormaps
     from matplotlib.colors import to_rgb
 
-    figure = curve_tests(find_experiments(results))
+    figure = curve_tests(find_experiments(offline_pair))
     ax = figure.axes[0]
     (image,) = ax.images
     cells = image.get_array()
@@ -186,3 +215,34 @@ def test_heatmap_text_reads_on_every_cell(results: Path) -> None:
         background = colormaps["RdBu_r"](value)
         assert contrast_ratio(background, to_rgb(text_color(background))) >= 4.5
     assert text_color((0.02, 0.19, 0.38)) == "white" and text_color((0.97, 0.97, 0.97)) == "black"
+
+
+def test_every_figure_has_one_text_size(offline_pair: Path) -> None:
+    experiments = find_experiments(offline_pair)
+    for stem, draw in FIGURES.items():
+        texts = _drawn(draw(experiments))
+        assert len(texts) > 5, stem
+        sizes = {t.get_fontsize() for t in texts}  # type: ignore[attr-defined]
+        assert sizes == {TEXT_SIZE}, (stem, sizes)
+
+
+def test_online_panels_have_their_own_y_tick_labels(results: Path) -> None:
+    experiments = find_experiments(results)
+    for figure, panels in ((fitness_over_births(experiments), 4), (final_fitness(experiments), 2)):
+        _drawn(figure)
+        for ax in figure.axes[:panels]:
+            numbers = [t.get_text() for t in ax.get_yticklabels()
+                       if t.get_visible() and t.get_text()]
+            assert len(numbers) >= 2, ax.get_title()
+
+
+def test_the_curve_heatmap_pairs_like_with_like(results: Path, offline_pair: Path) -> None:
+    figure = curve_tests(find_experiments(offline_pair))
+    rows = [t.get_text() for t in figure.axes[0].get_yticklabels()]
+    assert len(rows) == 1 and rows[0].startswith("Scenario 1") and "Baseline A" in rows[0]
+    assert not any("Scenario 3" in row for row in rows)  # online, never with offline
+    # One offline and one online experiment: no pair, and the figure says why.
+    alone = curve_tests(find_experiments(results))
+    assert not alone.axes[0].get_yticklabels() or not any(
+        t.get_text() for t in alone.axes[0].get_yticklabels())
+    assert any("offline with offline" in t.get_text() for t in alone.axes[0].texts)

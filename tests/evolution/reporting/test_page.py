@@ -29,9 +29,9 @@ from evolution.reporting.optimism import MARKDOWN_COLUMNS
 from evolution.reporting.page import SETTINGS_TABLE
 from evolution.reporting.reproduce import EXECUTION_KEYS
 from evolution.reporting.tables import (
-    CURVE_SUMMARY_COLUMNS,
     INCLUDED_COLUMNS,
     MANN_WHITNEY_COLUMNS,
+    POOLED_SHOWN_COLUMNS,
     SUMMARY_COLUMNS,
 )
 
@@ -146,10 +146,12 @@ def test_every_table_has_its_columns_and_the_csv_rows(written: Report, results: 
     page = _parse(written.page)
     out = written.out_dir
     expected = {"included": INCLUDED_COLUMNS, "summary": SUMMARY_COLUMNS,
-                "tests_per_run": MANN_WHITNEY_COLUMNS, "curve_summary": CURVE_SUMMARY_COLUMNS,
-                "tests_pooled": MANN_WHITNEY_COLUMNS, "optimism": MARKDOWN_COLUMNS}
+                "tests_per_run": MANN_WHITNEY_COLUMNS, "tests_pooled": POOLED_SHOWN_COLUMNS,
+                "optimism": MARKDOWN_COLUMNS}
     for name, columns in expected.items():
         assert tuple(page.tables[name][0]) == columns, name
+    # Scenario 1 is offline, scenario 3 online: no pair of one mode, so no whole-curve table.
+    assert "curve_summary" not in page.tables and "(no pair to compare)" in page.text
     for name, csv_name in (("summary", "summary.csv"), ("tests_per_run", "tests_per_run.csv"),
                            ("tests_pooled", "tests_pooled_descriptive.csv"),
                            ("optimism", "optimism.csv")):
@@ -166,6 +168,60 @@ def test_every_table_has_its_columns_and_the_csv_rows(written: Report, results: 
     assert lost > 0 and included["scenario1"]["lost_robots"] == str(lost)
     assert included["scenario3"]["lost_robots"] == "0"
     assert included["scenario1"]["births_budget"] == "30"
+
+
+def _css(page: str) -> dict[str, str]:
+    """The page's style sheet as selector -> declarations (whitespace folded)."""
+    sheet = page[page.index("<style>") + 7:page.index("</style>")]
+    rules = {}
+    for block in sheet.split("}"):
+        if "{" in block:
+            selectors, body = block.split("{", 1)
+            for selector in selectors.split(","):
+                rules[" ".join(selector.split())] = " ".join(body.split())
+    return rules
+
+
+def test_wide_tables_wrap_and_scroll_inside_the_page(written: Report) -> None:
+    """No table is cut at the page's 1,200 px: headers wrap after each underscore, text cells
+    wrap, and what is still wider scrolls sideways in its own box."""
+    text = written.page.read_text(encoding="utf-8")
+    css = _css(text)
+    assert "overflow-x: auto" in css[".scroll"] and "max-width: 100%" in css[".scroll"]
+    assert "nowrap" not in css["th"] and "white-space: normal" in css["th"]
+    assert "overflow-wrap: anywhere" in css["td.text"]
+    assert not any("nowrap" in body for selector, body in css.items()
+                   if selector in ("th", "td", "td.text", "table"))
+    page = _parse(written.page)
+    for name in page.tables:  # every table is the only thing in a scrolling box
+        assert (f'<div class="scroll" role="region" tabindex="0" aria-label="{name}">\n'
+                f'<table id="{name}">') in text, name
+    assert "final_<wbr>fitness_<wbr>mean" in text  # a long header breaks at its underscores
+    assert page.tables["summary"][0][0] == "experiment"  # and still reads as its name
+
+
+def test_figures_are_shown_at_their_size_so_their_text_reads_alike(written: Report) -> None:
+    from PIL import Image
+
+    text = written.page.read_text(encoding="utf-8")
+    shown = 0
+    for png in (p for p in written.figures if p.suffix == ".png"):
+        with Image.open(png) as image:
+            width, height = image.size
+        tag = next(line for line in text.splitlines() if f'src="{png.name}"' in line)
+        assert f'width="{round(width * 96 / 150)}" height="{round(height * 96 / 150)}"' in tag
+        shown += 1
+    assert shown >= 6
+
+
+def test_the_pooled_table_shows_no_p_values(written: Report) -> None:
+    page = _parse(written.page)
+    header = page.tables["tests_pooled"][0]
+    assert not {"p_value", "p_min", "p_holm", "u_statistic"} & set(header)
+    assert {"p_value", "p_holm"} <= set(page.tables["tests_per_run"][0])
+    text = written.page.read_text(encoding="utf-8")
+    assert text.index('id="tests_per_run"') < text.index('id="tests_pooled"')
+    assert "its p-values are left out of this page" in " ".join(" ".join(page.text).split())
 
 
 def test_the_settings_are_every_stored_config_key(written: Report, results: Path) -> None:

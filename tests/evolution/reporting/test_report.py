@@ -221,6 +221,24 @@ def test_curve_tests_compare_runs_at_equal_births(
         _holm([float(r["p_value"]) for r in pair]))
 
 
+def test_curve_tests_pair_like_with_like(written: tuple[Path, dict[str, str]]) -> None:
+    """Offline experiments with offline ones only: online scenario 3 is in no pair."""
+    out, _ = written
+    pairs = {(r["experiment_a"], r["experiment_b"]) for r in _rows(out / "curve_tests.csv")}
+    assert pairs == {("scenario1", "baseline_b")}
+
+
+def test_pooled_p_values_are_only_in_their_csv(written: tuple[Path, dict[str, str]]) -> None:
+    out, _ = written
+    text = (out / "summary.md").read_text()
+    per_run, pooled = text.index("## Primary tests"), text.index("## Descriptive only")
+    assert per_run < pooled  # the real tests lead
+    header = next(line for line in text[pooled:].splitlines() if line.startswith("| sample"))
+    assert "p_value" not in header and "p_holm" not in header and "a12" in header
+    assert "p-values are left out of this page and of summary.md" in text[pooled:]
+    assert "p_value" in _rows(out / "tests_pooled_descriptive.csv")[0]
+
+
 def test_markdown_summary_holds_both_tables(written: tuple[Path, dict[str, str]]) -> None:
     out, _ = written
     text = (out / "summary.md").read_text()
