@@ -50,8 +50,10 @@ print(f"inborn fitness {result.inborn_fitness:.3f} m, with the policy {result.be
 # which must observe the hinges as in training (proprioception=True).
 agent = result.policy
 env = revolve_env.population_env(max_births=1, insertion_time=0.5, fitness_window=2.5,
-                                 proprioception=True, control_period=learner.control_period)
-# At the origin, heading 0: where the learner evaluated it, so the fitness is the learner's.
+                                 proprioception=True, control_period=learner.control_period,
+                                 reset_noise_scale=0.0)
+# At the origin, heading 0, hinges at rest (no start noise): where the learner evaluated it, so
+# the fitness is the learner's.
 observations, infos = env.reset(seed=0, options={"robots": [
     {"robot": robot, "position": (0.0, 0.0), "yaw": 0.0, "controlled_by": "agent"}]})
 agent.reset()
