@@ -29,7 +29,10 @@ ENGINES: tuple[str, ...] = tuple(_REGISTRY)
 #: made with another revision is not continued: its remaining births would live in other
 #: physics). MuJoCo 2: the discrete integrator with islands off and one spec per robot
 #: (revision 1, with ``implicitfast``, made every result stored before revision numbers).
-PHYSICS_REVISIONS: dict[str, int] = {"pybullet": 1, "mujoco": 2}
+#: pybullet 2: each link keeps its own inertia, servo and sensors in a robot whose links pybullet
+#: renumbers (a touch sensor anywhere but last; revision 1 drove a welded touch half instead of
+#: the servo's hinge, see :func:`~revolve_env.world.pybullet_backend.pybullet_link_order`).
+PHYSICS_REVISIONS: dict[str, int] = {"pybullet": 2, "mujoco": 2}
 
 
 class EngineUnavailableError(ImportError):
