@@ -3,7 +3,7 @@
 Prints, for pybullet and MuJoCo (``evaluate``: 3 s insertion + 12 s, fitness ``v + 5 s`` in
 metres):
 
-1. The rocking robot (``--case``, default ``../shared/cases/rocking_robot.json`` when it exists;
+1. The rocking robot (``--case``, default ``shared/cases/rocking_robot.json`` beside the checkout;
    evaluate seed 1) and the examples spider, gecko and snake (seed 0): fitness, the core's path
    from poses at every control period (60 Hz) and at 5 Hz (every 12th pose, the paper's pose
    rate), its displacement, and the fitness the 5 Hz path gives.
@@ -45,7 +45,9 @@ STILL = 0.01
 """Fitness below which a robot hardly moves (metres over 12 s)."""
 EVERY = 12
 """Poses kept for the 5 Hz figures: every 12th control period of 1/60 s."""
-_CASE = Path(__file__).resolve().parents[2] / "shared" / "cases" / "rocking_robot.json"
+# The project's shared cases beside the checkout (a checkout, or a worktree one level deeper).
+_CASES = [p / "shared" / "cases" / "rocking_robot.json" for p in Path(__file__).resolve().parents]
+_CASE = next((case for case in _CASES if case.exists()), None)
 
 
 def figures(r: EvaluationResult) -> dict[str, float]:
@@ -90,11 +92,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robots", type=int, default=200)
     parser.add_argument("--seed", type=int, default=2)
-    parser.add_argument("--case", type=Path, default=_CASE if _CASE.exists() else None)
+    parser.add_argument("--case", type=Path, default=_CASE)
     parser.add_argument("--ceiling", action="store_true",
                         help="also each engine against itself, dropped 0.1 mm higher")
     args = parser.parse_args()
     walkers(args.case)
+    if args.robots < 2:
+        return
     rng = np.random.default_rng(args.seed)
     config = EvolutionConfig()
     robots = [random_robot(rng, config) for _ in range(args.robots)]
