@@ -87,9 +87,11 @@ class Engine:
 
 
 TABLE: tuple[Engine, ...] = (
-    # pybullet 1: the first revision.
+    # pybullet 2: each link keeps its own inertia, servo and sensors in a robot whose links
+    # pybullet renumbers (a touch sensor anywhere but last; revision 1 drove a welded touch half
+    # instead of the servo's hinge: pybullet_backend.pybullet_link_order).
     Engine("pybullet", "revolve_env.world.pybullet_backend", "PybulletBackend", None,
-           package="pybullet", pip="pybullet", extra=None, revision=1, gui=True,
+           package="pybullet", pip="pybullet", extra=None, revision=2, gui=True,
            exact_restore=False),
     # MuJoCo 2: the discrete integrator with islands off and one spec per robot (revision 1,
     # with ``implicitfast``, made every result stored before revision numbers).

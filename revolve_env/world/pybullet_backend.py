@@ -5,7 +5,9 @@ call; it never touches pybullet's implicit client 0. Each robot becomes one mult
 directly (no URDF) from a :class:`~revolve_env.world.model.RobotModel`: one link per rigid body,
 compound box collision shapes, exact masses, centres of mass and principal inertias, and revolute
 joints (no limits) at the hinge anchors. Hinges are driven with pybullet's velocity motors (a
-constraint that reaches the commanded speed within the torque limit).
+constraint that reaches the commanded speed within the torque limit). pybullet numbers a
+multibody's links depth first whatever order they are given in, so they are given in that order
+(:func:`pybullet_link_order`) and each robot keeps its model-link -> pybullet-link table.
 
 pybullet has no batched calls: :meth:`PybulletBackend.read` and
 :meth:`PybulletBackend.set_joint_velocities` loop over the bodies inside the backend, three engine
@@ -43,7 +45,7 @@ from revolve_env.world.camera import FOV_DEG
 from revolve_env.world.config import WorldConfig
 from revolve_env.world.model import LinkModel, PlacedModel, RobotModel
 
-__all__ = ["PybulletBackend"]
+__all__ = ["PybulletBackend", "pybullet_link_order"]
 
 
 def _import_pybullet() -> Any:
@@ -117,7 +119,29 @@ class _Body:
     position: tuple[float, float, float]  # as placed: root link frame, metres
     yaw: float  # radians
     active_joints: list[int]  # pybullet joint indices of the active hinges, output order
-    all_joints: list[int]  # every hinge (joint j = link j + 1 of the model)
+    all_joints: list[int]  # pybullet joint of every hinge, in model link order
+    links: NDArray[np.intp]  # pybullet link index of each model link (-1: the base)
+
+
+def pybullet_link_order(model: RobotModel) -> NDArray[np.intp]:
+    """The model's links after the root in the order pybullet numbers a multibody's links.
+
+    ``createMultiBody`` renumbers the links it is given depth first from the base (children in
+    the order given), whatever order they came in: a robot whose touch-sensor halves (appended
+    after every rigid body by :func:`~revolve_env.world.model.build_model`) hang below another
+    link would otherwise have its inertias, servos, joint readings and sensors on the wrong links.
+    Handing the links over in this order makes pybullet's numbering the order itself.
+    """
+    children: list[list[int]] = [[] for _ in model.links]
+    for i, lk in enumerate(model.links[1:], start=1):
+        children[lk.parent].append(i)
+    order: list[int] = []
+    stack = list(reversed(children[0]))
+    while stack:
+        i = stack.pop()
+        order.append(i)
+        stack.extend(reversed(children[i]))
+    return np.array(order, dtype=np.intp)
 
 
 class PybulletBackend:
@@ -225,9 +249,12 @@ class PybulletBackend:
 
     def add(self, model: RobotModel, position: tuple[float, float, float], yaw: float) -> int:
         cid = self._cid
+        order = pybullet_link_order(model)  # pybullet link k is model link order[k]
+        links = np.full(len(model.links), -1, dtype=np.intp)
+        links[order] = np.arange(len(order))
         shapes = [self._shapes(link) for link in model.links]
         root = model.links[0]
-        others = model.links[1:]
+        others = [model.links[i] for i in order.tolist()]
         base_rot = np.array([[math.cos(yaw), -math.sin(yaw), 0], [math.sin(yaw), math.cos(yaw), 0],
                              [0, 0, 1.0]])
         body = pb.createMultiBody(
@@ -239,19 +266,20 @@ class PybulletBackend:
             baseInertialFramePosition=root.com.tolist(),
             baseInertialFrameOrientation=matrix_to_quat(root.inertia_axes),
             linkMasses=[lk.mass for lk in others],
-            linkCollisionShapeIndices=[collision for collision, _ in shapes[1:]],
-            linkVisualShapeIndices=[visual for _, visual in shapes[1:]],
+            linkCollisionShapeIndices=[shapes[i][0] for i in order.tolist()],
+            linkVisualShapeIndices=[shapes[i][1] for i in order.tolist()],
             linkPositions=[(lk.origin - model.links[lk.parent].origin).tolist() for lk in others],
             linkOrientations=[(0.0, 0.0, 0.0, 1.0)] * len(others),
             linkInertialFramePositions=[lk.com.tolist() for lk in others],
             linkInertialFrameOrientations=[matrix_to_quat(lk.inertia_axes) for lk in others],
-            linkParentIndices=[lk.parent for lk in others],  # 0 = base, k = link k-1 = body k
+            # 0 = base, k = pybullet link k - 1
+            linkParentIndices=[int(links[lk.parent]) + 1 for lk in others],
             linkJointTypes=[pb.JOINT_FIXED if lk.fixed else pb.JOINT_REVOLUTE for lk in others],
             linkJointAxis=[lk.joint_axis.tolist() for lk in others],
             physicsClientId=cid,
         )
         for i, lk in enumerate(model.links):
-            link = i - 1
+            link = int(links[i])
             pb.changeDynamics(
                 body, link, lateralFriction=_ROBOT_FRICTION, restitution=0.0,
                 localInertiaDiagonal=lk.inertia_diagonal.tolist(), physicsClientId=cid,
@@ -259,9 +287,9 @@ class PybulletBackend:
             for shape, color in enumerate(lk.box_colors):  # each box in its part's colour
                 pb.changeVisualShape(body, link, shapeIndex=shape, rgbaColor=(*color, 1.0),
                                      physicsClientId=cid)
-        # The hinges: joints 0..n-1 (the welded touch halves come after them), so a joint index
-        # is also its position in the robot's joint states.
-        all_joints = [i for i, lk in enumerate(others) if not lk.fixed]
+        # The hinges in model link order (the order of the robot's joint states); a joint's
+        # index is its link's.
+        all_joints = [int(links[i]) for i, lk in enumerate(model.links) if i and not lk.fixed]
         if all_joints:
             # Free every joint first (pybullet motorizes joints by default); servos are re-driven
             # every control period.
@@ -273,8 +301,8 @@ class PybulletBackend:
         self._next_key += 1
         self._links = []
         self._bodies[key] = _Body(body=body, model=model, position=position, yaw=yaw,
-                                  active_joints=[i - 1 for i in model.active_links],
-                                  all_joints=all_joints)
+                                  active_joints=[int(links[i]) for i in model.active_links],
+                                  all_joints=all_joints, links=links)
         return key
 
     def remove(self, key: int) -> None:
@@ -358,9 +386,9 @@ class PybulletBackend:
     # -- sensors --------------------------------------------------------------------------------
     def link_index(self, key: int, links: NDArray[np.intp]) -> NDArray[np.intp]:
         """Rows of a table of (multibody, pybullet link) pairs, emptied by every change."""
-        body = self._bodies[key].body
+        b = self._bodies[key]
         start = len(self._links)
-        self._links += [(body, int(link) - 1) for link in links]
+        self._links += [(b.body, int(b.links[link])) for link in links]
         return np.arange(start, len(self._links), dtype=np.intp)
 
     def link_poses(self, ids: NDArray[np.intp]) -> tuple[NDArray[np.float64],

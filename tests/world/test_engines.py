@@ -23,7 +23,7 @@ def test_names_and_revisions_are_read_off_the_one_table() -> None:
     names = [e.name for e in engines.TABLE]
     assert engines.ENGINES == revolve_env.ENGINES == tuple(names) == ("pybullet", "mujoco")
     assert len(set(names)) == len(names)
-    assert engines.PHYSICS_REVISIONS == revolve_env.PHYSICS_REVISIONS == {"pybullet": 1,
+    assert engines.PHYSICS_REVISIONS == revolve_env.PHYSICS_REVISIONS == {"pybullet": 2,
                                                                             "mujoco": 2}
     assert engines.capable("gui") == ("pybullet", "mujoco")
     assert engines.capable("exact_restore") == ("mujoco",)

@@ -7,12 +7,13 @@ import math
 import numpy as np
 import pybullet as pb
 import pytest
-from world_robots import _in, core, every_part, lone_core, snake, spider
+from world_robots import _in, brick, core, every_part, hinge, lone_core, snake, spider
 
 from revolve_env.body.geometry import assemble
 from revolve_env.body.parts import PART_SPECS, SERVO
 from revolve_env.body.robot import Layer, Node, PartType, Robot
 from revolve_env.world import World, WorldConfig, build_model
+from revolve_env.world.pybullet_backend import PybulletBackend, pybullet_link_order
 
 
 def test_every_part_builds_with_its_joints_and_mass() -> None:
@@ -86,6 +87,49 @@ def test_servo_reaches_target_within_speed_limit() -> None:
         world.set_targets(h, np.full(8, -3.0))  # clipped to -1 = -45 degrees
         world.step(60)
         np.testing.assert_allclose(world.joint_angles(h), -math.radians(45), atol=math.radians(1))
+
+
+def _touch_before_hinge() -> Robot:
+    # A touch sensor below a passive hinge, then an active hinge: the model lists the touch
+    # halves last, while pybullet numbers a multibody's links depth first (halves before hinge).
+    touch = Node(PartType.TOUCH_SENSOR, neurons=_in("touch", 2))
+    passive = Node(PartType.PASSIVE_HINGE, children=((1, brick(((1, touch),))),))
+    return Robot(core(((0, passive), (1, hinge("drive", 0, brick())))))
+
+
+@pytest.mark.parametrize("engine", ["pybullet", "mujoco"])
+def test_the_servo_drives_its_own_hinge_whatever_the_link_order(engine: str) -> None:
+    # Before PHYSICS_REVISIONS["pybullet"] 2 the pybullet servo drove a welded touch half here
+    # and the hinge stayed at 0 (and every link past the halves had another link's inertia).
+    robot = _touch_before_hinge()
+    model = build_model(robot)
+    assert [model.links[i].fixed for i in range(1, len(model.links))] == [False, False, True, True]
+    with World(WorldConfig(engine=engine)) as world:
+        h = world.add_robot(robot)
+        world.step(30)
+        world.set_targets(h, np.array([1.0]))
+        world.step(60)
+        np.testing.assert_allclose(world.joint_angles(h), [math.radians(45)],
+                                   atol=math.radians(1))
+
+
+def test_pybullet_links_carry_their_own_mass_and_inertia() -> None:
+    robot = _touch_before_hinge()
+    model = build_model(robot)
+    order = pybullet_link_order(model)
+    assert order.tolist() == [1, 3, 4, 2]  # depth first: the halves hang below link 1
+    with World() as world:
+        world.add_robot(robot)
+        backend = world.backend
+        assert isinstance(backend, PybulletBackend)
+        body, cid = backend.body_id(0), backend.client_id
+        for k, i in enumerate(order.tolist()):
+            mass, _, inertia = pb.getDynamicsInfo(body, k, physicsClientId=cid)[:3]
+            assert mass == pytest.approx(model.links[i].mass)
+            np.testing.assert_allclose(inertia, model.links[i].inertia_diagonal, rtol=1e-9)
+            parent = pb.getJointInfo(body, k, physicsClientId=cid)[16]
+            assert parent == (-1 if model.links[i].parent == 0
+                              else order.tolist().index(model.links[i].parent))
 
 
 def test_bad_targets_are_rejected() -> None:
