@@ -26,7 +26,14 @@ from typing import Any
 
 from evolution.cli.options import parse_set
 from evolution.cli.progress import ProgressDisplay, duration, metres
-from evolution.cli.robots import EXIT_INTERRUPTED, CliError, non_negative_int, positive_int, workers
+from evolution.cli.robots import (
+    EXIT_INTERRUPTED,
+    CliError,
+    non_negative_int,
+    positive_int,
+    trust_argument,
+    workers,
+)
 from evolution.evaluation import Evaluator
 from evolution.experiments import ProgressEvent
 from evolution.experiments.estimate import RunWork, StudyEstimate, calibrate_all, estimate
@@ -39,6 +46,7 @@ from evolution.experiments.study import (
     study_evaluator,
 )
 from evolution.reporting import report
+from revolve_env.tasks import TASKS
 
 __all__ = ["StudyDisplay", "add_study"]
 
@@ -75,8 +83,12 @@ def _say(text: str) -> None:
     print(text, flush=True)
 
 
-def _again(args: argparse.Namespace) -> str:
-    """The command that continues this study (same settings, same way of running)."""
+def _again(args: argparse.Namespace, plan: StudyPlan) -> str:
+    """The command that continues this study (same settings, same way of running).
+
+    With ``--trust-task-code`` when an experiment is scored by a task class of the user's own:
+    continuing imports it from the stored settings, which needs the user's word.
+    """
     words = ["revolve", "study", "--out", args.out, "--runs", str(args.runs), "--births",
              str(args.births), "--seed", str(args.seed)]
     for item in args.set or []:
@@ -91,6 +103,10 @@ def _again(args: argparse.Namespace) -> str:
         words += ["--ray-address", args.ray_address]
     if args.no_estimate:
         words += ["--no-estimate"]
+    if args.trust_task_code or any(e.config.task is not None
+                                   and e.config.task.get("name") not in TASKS
+                                   for e in plan.experiments):
+        words += ["--trust-task-code"]
     return shlex.join(words)
 
 
@@ -131,7 +147,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
         with closing(study_evaluator(args.evaluator, args.workers, args.ray_address)) as used:
             _estimate([RunWork(c.name, c) for c in configs for _ in range(c.runs)], used.workers)
         return 0
-    plan = prepare_study(args.out, **settings)
+    plan = prepare_study(args.out, **settings, trust_task_code=args.trust_task_code)
     where = "Ray" if args.evaluator == "ray" else f"{args.workers or 'all'} core(s)"
     _say(f"study in {plan.out_dir}: {len(plan.experiments)} experiment(s), {plan.pending} "
          f"unfinished run(s) on {where}")
@@ -156,7 +172,7 @@ def _run(args: argparse.Namespace, plan: StudyPlan, evaluator: Evaluator | None,
     except KeyboardInterrupt:
         display.close()
         print(f"revolve study: interrupted; finished work is saved in {plan.out_dir}; continue "
-              f"with: {_again(args)}", file=sys.stderr)
+              f"with: {_again(args, plan)}", file=sys.stderr)
         return EXIT_INTERRUPTED
     display.close()
     for experiment in summary.experiments:
@@ -211,6 +227,7 @@ def add_study(sub: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--ray-address", metavar="ADDRESS",
                    help="an existing Ray cluster, e.g. auto or HOST:PORT (default: start a "
                         "local instance)")
+    trust_argument(p, pickled=False)
     when = p.add_mutually_exclusive_group()
     when.add_argument("--estimate-only", action="store_true",
                       help="calibrate, print the study's estimated time and exit, writing "
