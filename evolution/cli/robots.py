@@ -105,17 +105,18 @@ def non_negative_seconds(text: str) -> float:
     return float(number(float, 0.0, strict=False, high=MAX_SECONDS)(text))
 
 
-def trust_argument(parser: argparse.ArgumentParser) -> None:
+def trust_argument(parser: argparse.ArgumentParser, pickled: bool = True) -> None:
     """The flags that let a results folder's contents run code, each off by default.
 
-    ``--trust-pickled-policies`` loads SB3 policies that older versions saved as pickles;
-    ``--trust-task-code`` imports the module of a task class of the user's own that the stored
-    config names.
+    ``--trust-pickled-policies`` (unless ``pickled`` is false: a command that loads no policy)
+    loads SB3 policies that older versions saved as pickles; ``--trust-task-code`` imports the
+    module of a task class of the user's own that the stored config names.
     """
-    parser.add_argument("--trust-pickled-policies", action="store_true",
-                        help="also load SB3 policies saved as pickles by older versions of "
-                             "revolve-env; unpickling can run any code the file holds, so use "
-                             "it only for a results folder whose author you trust")
+    if pickled:
+        parser.add_argument("--trust-pickled-policies", action="store_true",
+                            help="also load SB3 policies saved as pickles by older versions of "
+                                 "revolve-env; unpickling can run any code the file holds, so "
+                                 "use it only for a results folder whose author you trust")
     parser.add_argument("--trust-task-code", action="store_true",
                         help="import the module of a task class of your own that the stored "
                              "[task] names (package.module:Class, from your Python path); its "

@@ -32,6 +32,7 @@ from evolution.cli.robots import (
     CliError,
     non_negative_int,
     positive_int,
+    trust_argument,
     workers,
     writable_folder,
 )
@@ -48,6 +49,7 @@ from evolution.experiments.study import (
     study_evaluator,
 )
 from evolution.reporting import report
+from revolve_env.tasks import TASKS
 
 __all__ = ["StudyDisplay", "add_study"]
 
@@ -96,8 +98,12 @@ def _say(text: str) -> None:
     print(text, flush=True)
 
 
-def _again(args: argparse.Namespace) -> str:
-    """The command that continues this study (same settings, same way of running)."""
+def _again(args: argparse.Namespace, plan: StudyPlan) -> str:
+    """The command that continues this study (same settings, same way of running).
+
+    With ``--trust-task-code`` when an experiment is scored by a task class of the user's own:
+    continuing imports it from the stored settings, which needs the user's word.
+    """
     words = ["revolve", "study", "--out", args.out, "--runs", str(args.runs), "--births",
              str(args.births), "--seed", str(args.seed)]
     for item in args.set or []:
@@ -114,6 +120,10 @@ def _again(args: argparse.Namespace) -> str:
         words += ["--no-estimate"]
     if args.tensorboard:
         words += ["--tensorboard", args.tensorboard]
+    if args.trust_task_code or any(e.config.task is not None
+                                   and e.config.task.get("name") not in TASKS
+                                   for e in plan.experiments):
+        words += ["--trust-task-code"]
     return shlex.join(words)
 
 
@@ -157,7 +167,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
     if args.tensorboard:  # a missing extra or a file in the way, refused before any work
         writable_folder(Path(args.tensorboard), "--tensorboard")
         TensorBoardLogger(args.tensorboard).close()
-    plan = prepare_study(args.out, **settings)
+    plan = prepare_study(args.out, **settings, trust_task_code=args.trust_task_code)
     if args.tensorboard:
         for experiment in plan.experiments:
             writable_folder(Path(args.tensorboard) / experiment.name, "--tensorboard")
@@ -186,7 +196,7 @@ def _run(args: argparse.Namespace, plan: StudyPlan, evaluator: Evaluator | None,
     except KeyboardInterrupt:
         display.close()
         print(f"revolve study: interrupted; finished work is saved in {plan.out_dir}; continue "
-              f"with: {_again(args)}", file=sys.stderr)
+              f"with: {_again(args, plan)}", file=sys.stderr)
         return EXIT_INTERRUPTED
     display.close()
     for experiment in summary.experiments:
@@ -243,6 +253,7 @@ def add_study(sub: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--ray-address", metavar="ADDRESS",
                    help="an existing Ray cluster, e.g. auto or HOST:PORT (default: start a "
                         "local instance)")
+    trust_argument(p, pickled=False)
     when = p.add_mutually_exclusive_group()
     when.add_argument("--estimate-only", action="store_true",
                       help="calibrate, print the study's estimated time and exit, writing "

@@ -58,12 +58,14 @@ from evolution.cli.robots import (
     robot_file,
     seconds,
     stored_robot,
+    trust_argument,
 )
 from evolution.evaluation import evaluation_seed
 from evolution.experiments import DB_NAME, Evolution, ExperimentConfig, Store
 from evolution.experiments.integrity import verify
 from evolution.experiments.online_world import PopulationWorld
 from evolution.experiments.records import FitnessSample, RobotRecord
+from evolution.experiments.results_folder import check_task_code
 from evolution.experiments.run import ReplayError, run_seed, world_seed
 from revolve_env.body.robot import PartType, Robot
 from revolve_env.body.serialize import from_json
@@ -500,6 +502,8 @@ def _watch_results(args: argparse.Namespace, folder: Path) -> int:
         if config.mode != "online":
             raise CliError(f"{config.name} is an offline experiment (robots evaluated alone): "
                            "watch one of its robots with `revolve show --db DIR --robot ID`")
+        # The replay scores with the stored task: a class it names is imported only if trusted.
+        check_task_code(db, config, args.trust_task_code)
         if args.record is None and not has_display():
             raise _no_display("an online run")
         stored_time = next(r.sim_time for r in store.runs() if r.run_id == args.run)
@@ -596,6 +600,7 @@ def add_watch(sub: Any) -> None:
                         "folder")
     p.add_argument("--run", type=non_negative_int, default=0, help="run of the results")
     p.add_argument("--record", metavar="OUT", help="write a video (.mp4 or .gif), no window")
+    trust_argument(p, pickled=False)
     _timing_arguments(p, "a robot: evaluation time after insertion (default 12); results: stop "
                          "the replay at this simulated time (default: the run's end), seconds",
                       positive_float)

@@ -14,7 +14,7 @@ from evolution.experiments.config import ConfigError, ExperimentConfig, as_confi
 from evolution.experiments.integrity import check_writable, verify
 from evolution.experiments.loop import infancy_for
 from evolution.experiments.records import RunRecord
-from evolution.experiments.results_folder import refuse_pickled
+from evolution.experiments.results_folder import check_task_code, refuse_pickled
 from evolution.experiments.run import (
     ProgressEvent,
     RunJob,
@@ -186,41 +186,23 @@ def check_resumable(db_path: Path, trust_pickled_policies: bool = False,
 
     Raises:
         StoreError: missing, corrupt, newer, damaged or (with work left) read-only database,
-            or an unfinished online run that would load a pickled policy (not trusted).
+            an unfinished online run that would load a pickled policy (not trusted), or a
+            stored task class of the user's own that continuing would import (not trusted:
+            :func:`~evolution.experiments.results_folder.check_task_code`).
     """
     with Store.open(db_path) as store:
         config = verify(store, resumable=True)
         runs = store.runs()
+        # Continuing builds the stored task (resume does, through its Training Center, even
+        # with no work left): a class it names is imported only when trusted.
+        check_task_code(db_path, config, trust_task_code)
         if work_left(config, runs):
             check_physics(store, config)
-            check_task_code(db_path, config, trust_task_code)
             check_writable(store)
             if config.mode == "online":  # offline runs never reload a policy
                 refuse_pickled(store, {r.run_id for r in runs if r.status != "finished"},
                                trust_pickled_policies)
     return config
-
-
-def check_task_code(db_path: Path, config: ExperimentConfig, trust: bool) -> None:
-    """Refuse to import the module of a task class a stored configuration names, unless trusted.
-
-    A results folder holds no code, but its ``[task]`` may name a class of the user's own by
-    dotted path; running it imports that module from this machine's Python path, which runs the
-    module's code (as unpickling would): only for a folder whose author the user trusts.
-
-    Raises:
-        StoreError: the task is a class of the user's own and ``trust`` is false (one line
-            naming it and the way to allow it).
-    """
-    try:
-        config.fitness_task(allow_import=trust)
-    except ConfigError as error:
-        if trust:
-            raise
-        raise StoreError(
-            f"{db_path}: {error}; to run it, revolve imports the module it names from your "
-            "Python path: pass --trust-task-code (Python: trust_task_code=True) for a results "
-            "folder whose author you trust") from None
 
 
 def check_physics(store: Store, config: ExperimentConfig) -> None:

@@ -106,7 +106,9 @@ def left_out_note(root: str | os.PathLike[str], left_out: Sequence[ResultSet],
 def _study_folder(folder: Path) -> Path | None:
     """The nearest folder at or above ``folder`` holding a study's settings file."""
     for candidate in (folder, *folder.parents):
-        if (candidate / STUDY_FILE).is_file():
+        # Whatever its kind: a study's settings file that is not a regular file is refused when
+        # read (results_folder.read_settings), never passed over.
+        if os.path.lexists(candidate / STUDY_FILE):
             return candidate
     return None
 

@@ -1,9 +1,25 @@
-"""Files a results folder holds beside its database, and how they are found: inside it only.
+"""Files a results folder holds, and how they are read: inside it, regular, bounded, inert.
 
-A results folder is something people share, so nothing in it may reach outside it or run code
-when it is opened. Every file the database refers to (a trained SB3 policy, an online snapshot)
-is found by :func:`inside`: a relative path without ``..``, resolved (symbolic links followed)
-to a place inside the folder, or a one-line :class:`~evolution.experiments.store.StoreError`.
+A results folder is something people share, so nothing in it may reach outside it, run code or
+hang a command when it is opened. This module is the one home of that rule:
+
+* every file the database refers to (a trained SB3 policy, an online snapshot) is found by
+  :func:`inside`: a relative path without ``..`` whose parts are no symbolic links (a link is
+  refused, never followed), resolved to a place inside the folder;
+* every file a command reads from a folder (the database and SQLite's ``-wal``, ``-shm`` and
+  ``-journal`` files beside it, snapshots, policies, a study's settings) is first checked by
+  :func:`check_regular` or read by :func:`read_file`: a regular file (a FIFO, a device or a
+  symbolic link in its place is refused: opening a FIFO would wait for a writer forever) no
+  larger than its bound (:data:`MAX_DATABASE_BYTES`, :data:`MAX_SNAPSHOT_BYTES`,
+  :data:`MAX_SETTINGS_BYTES`; a policy: :data:`evolution.learning.policy_file.MAX_BYTES`),
+  checked before a byte is parsed;
+* a folder a command writes into inside a results folder (``report/``) may hold no symbolic
+  link (:func:`output_folder`): writing through one would reach outside;
+* no name a folder stores is imported unless the user trusts it (:func:`check_task_code`), nor
+  is a pickled policy loaded (:func:`refuse_pickled`).
+
+Each refusal is a one-line :class:`~evolution.experiments.store.StoreError` naming the file and
+the problem.
 
 A learning record's ``policy`` column holds a :class:`PolicyReference` as JSON:
 ``{"file": "policies/run<r>_robot<id>.safetensors", "digest": ..., "sha256": ...}`` (the
@@ -15,20 +31,207 @@ policies load only when the user trusts them (``trust_pickled``).
 from __future__ import annotations
 
 import json
+import os
 import re
-from collections.abc import Collection
+import stat
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
-from typing import Any
+from typing import TYPE_CHECKING, Any, Protocol
 
-from evolution.experiments.errors import StoreError
-from evolution.experiments.store import Store
-from revolve_env.body.robot import Robot
+from evolution.experiments.errors import ConfigError, StoreError
 
-__all__ = ["PolicyReference", "inside", "load_policy", "policy_path", "refuse_pickled",
-           "save_policy"]
+if TYPE_CHECKING:
+    from evolution.experiments.config import ExperimentConfig
+    from revolve_env.body.robot import Robot
+
+__all__ = ["MAX_DATABASE_BYTES", "MAX_SETTINGS_BYTES", "MAX_SNAPSHOT_BYTES", "SQLITE_SIDECARS",
+           "PolicyReference", "check_database", "check_regular", "check_task_code", "inside",
+           "load_policy", "output_folder", "policy_path", "read_file", "read_settings",
+           "refuse_pickled", "save_policy"]
 
 _HEX = re.compile(r"[0-9a-f]{64}")
+
+MAX_DATABASE_BYTES = 16 * 2**30
+"""The largest results database (and SQLite file beside it) a command opens. Bytes.
+
+A study of the paper's size is a few megabytes; a long online run stays well under a gigabyte.
+"""
+
+MAX_SNAPSHOT_BYTES = 512 * 2**20
+"""The largest online snapshot file read (one world's state and its loop's: far less). Bytes."""
+
+MAX_SETTINGS_BYTES = 2**20
+"""The largest settings file read (a study's ``study.json``). Bytes."""
+
+SQLITE_SIDECARS = ("-wal", "-shm", "-journal")
+"""Suffixes of the files SQLite keeps beside a database, which it opens by itself."""
+
+_READ_FLAGS = (os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
+               | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0))
+"""Open without following a final symbolic link and without waiting on a FIFO's writer."""
+
+
+class _Queries(Protocol):
+    """What :func:`refuse_pickled` needs of a :class:`~evolution.experiments.store.Store`."""
+
+    path: Path
+
+    def query(self, sql: str, params: Sequence[Any] = ...) -> list[tuple[Any, ...]]: ...
+
+
+def _kind(mode: int) -> str:
+    """What a file that is not a regular one is, for messages."""
+    for test, name in ((stat.S_ISLNK, "a symbolic link"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+                       (stat.S_ISDIR, "a folder"), (stat.S_ISSOCK, "a socket"),
+                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device")):
+        if test(mode):
+            return name
+    return "not a regular file"
+
+
+def _check_stat(path: Path, what: str, st: os.stat_result, max_bytes: int) -> None:
+    if not stat.S_ISREG(st.st_mode):
+        raise StoreError(f"the {what} {path} is {_kind(st.st_mode)}, not a regular file; a "
+                         "results folder's files are read only as regular files inside it")
+    if st.st_size > max_bytes:
+        raise StoreError(f"the {what} {path} is {st.st_size} bytes, larger than the "
+                         f"{max_bytes} bytes a {what} may be; refused unread")
+
+
+def check_regular(path: Path, what: str, max_bytes: int) -> None:
+    """Refuse ``path`` unless it is a regular file (not a symbolic link) of at most ``max_bytes``.
+
+    For files another library opens by itself (SQLite): the check is on the directory entry
+    (``lstat``), before anything opens it.
+
+    Raises:
+        StoreError: missing, a symbolic link, a FIFO or other non-regular file, or too large
+            (one line naming the file).
+    """
+    try:
+        st = os.lstat(path)
+    except OSError as error:
+        raise StoreError(f"cannot read the {what} {path}: {error.strerror or error}") from None
+    _check_stat(path, what, st, max_bytes)
+
+
+def check_database(path: Path) -> None:
+    """Refuse a results database, or a SQLite file beside it, that is not regular and bounded.
+
+    SQLite opens ``<db>-wal``, ``<db>-shm`` and ``<db>-journal`` itself when they exist; a FIFO
+    in the place of any of them would hang it, a symbolic link lead elsewhere.
+
+    Raises:
+        StoreError: as :func:`check_regular`, for the database or one of those files.
+    """
+    check_regular(path, "results database", MAX_DATABASE_BYTES)
+    for suffix in SQLITE_SIDECARS:
+        sidecar = Path(f"{path}{suffix}")
+        if os.path.lexists(sidecar):
+            check_regular(sidecar, "SQLite file", MAX_DATABASE_BYTES)
+
+
+def read_file(folder: Path, relative: str, what: str, max_bytes: int) -> bytes:
+    """The bytes of ``folder / relative``: a regular file inside it, at most ``max_bytes``.
+
+    The file is opened without following a symbolic link and without waiting (a FIFO opens at
+    once and is then refused), its kind and size are checked on the open file before a byte is
+    read, and no more than ``max_bytes`` are read.
+
+    Raises:
+        StoreError: as :func:`inside`, or missing or unreadable, or not a regular file, or
+            larger than ``max_bytes`` (one line naming the file).
+    """
+    path = inside(folder, relative, what)
+    try:
+        fd = os.open(path, _READ_FLAGS)
+    except OSError as error:
+        if os.path.islink(path):
+            raise StoreError(f"the {what} {path} is a symbolic link, not a regular file; a "
+                             "results folder's files are read only as regular files inside "
+                             "it") from None
+        raise StoreError(f"cannot read the {what} {path}: {error.strerror or error}") from None
+    try:
+        _check_stat(path, what, os.fstat(fd), max_bytes)
+        chunks, left = [], max_bytes + 1
+        while left > 0:
+            chunk = os.read(fd, min(left, 2**24))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            left -= len(chunk)
+    except OSError as error:
+        raise StoreError(f"cannot read the {what} {path}: {error.strerror or error}") from None
+    finally:
+        os.close(fd)
+    blob = b"".join(chunks)
+    if len(blob) > max_bytes:  # it grew after the check
+        raise StoreError(f"the {what} {path} is larger than the {max_bytes} bytes a {what} may "
+                         "be; refused")
+    return blob
+
+
+def output_folder(folder: Path, relative: str) -> Path:
+    """``folder / relative``, a folder that a command writes into inside a results folder.
+
+    A received folder may already hold it (a report of its author's): writing through a
+    symbolic link in it (``report/summary.md`` linked to a file of the user's, opened to append)
+    would reach outside, so any link in it, or a non-folder in its place, is refused.
+
+    Raises:
+        StoreError: as :func:`inside`, or a symbolic link (or a non-folder) in its place or
+            below it (one line naming it).
+    """
+    path = inside(folder, relative, "output folder")
+    if not os.path.lexists(path):
+        return path
+    if not stat.S_ISDIR(os.lstat(path).st_mode):
+        raise StoreError(f"the output folder {path} is {_kind(os.lstat(path).st_mode)}, not a "
+                         "folder; remove it or write elsewhere")
+    for parent, dirs, files in os.walk(path):
+        for name in (*dirs, *files):
+            entry = Path(parent) / name
+            if os.path.islink(entry):
+                raise StoreError(f"the output folder {path} holds the symbolic link {entry}, "
+                                 "through which writing could reach outside the results "
+                                 "folder; remove it or write elsewhere")
+    return path
+
+
+def read_settings(folder: Path, relative: str) -> Any:
+    """The JSON a settings file of the folder holds (a study's ``study.json``).
+
+    Raises:
+        StoreError: as :func:`read_file` (bound :data:`MAX_SETTINGS_BYTES`), or not UTF-8 JSON.
+    """
+    blob = read_file(folder, relative, "settings file", MAX_SETTINGS_BYTES)
+    try:
+        return json.loads(blob.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError, RecursionError) as error:
+        raise StoreError(f"the settings file {folder / relative} is not JSON ({error})") from None
+
+
+def check_task_code(db_path: Path, config: ExperimentConfig, trust: bool) -> None:
+    """Refuse to import the module of a task class a stored configuration names, unless trusted.
+
+    A results folder holds no code, but its ``[task]`` may name a class of the user's own by
+    dotted path; running it imports that module from this machine's Python path, which runs the
+    module's code (as unpickling would): only for a folder whose author the user trusts.
+
+    Raises:
+        StoreError: the task is a class of the user's own and ``trust`` is false (one line
+            naming it and the way to allow it).
+    """
+    try:
+        config.fitness_task(allow_import=trust)
+    except ConfigError as error:
+        if trust:
+            raise
+        raise StoreError(
+            f"{db_path}: {error}; to run it, revolve imports the module it names from your "
+            "Python path: pass --trust-task-code (Python: trust_task_code=True) for a results "
+            "folder whose author you trust") from None
 
 
 def inside(folder: Path, relative: str, what: str = "file") -> Path:
@@ -40,14 +243,22 @@ def inside(folder: Path, relative: str, what: str = "file") -> Path:
         what: What the path is, for the message.
 
     Raises:
-        StoreError: an absolute path, a ``..`` part, a backslash or control character, or a
-            path whose resolved place (symbolic links followed) is outside ``folder``.
+        StoreError: an absolute path, a ``..`` part, a backslash or control character, a part
+            that is a symbolic link (refused, not followed: it could lead outside the folder),
+            or a path whose resolved place is outside ``folder``.
     """
     parts = PurePosixPath(relative).parts
     if (not relative or relative.startswith("/") or "\\" in relative or ".." in parts
             or not relative.isprintable()):
         raise StoreError(f"the {what} {relative!r} is not a path inside the results folder")
     path = folder / relative
+    step = folder
+    for part in parts:
+        step = step / part
+        if step.is_symlink():
+            raise StoreError(f"the {what} {relative!r} goes through the symbolic link {step}, "
+                             "which could lead outside the results folder; refused, not "
+                             "followed")
     try:
         resolved = path.resolve()
         root = folder.resolve()
@@ -115,7 +326,7 @@ class PolicyReference:
         return inside(folder, self.file, "policy file")
 
 
-def refuse_pickled(store: Store, run_ids: Collection[int], trust_pickled: bool) -> None:
+def refuse_pickled(store: _Queries, run_ids: Collection[int], trust_pickled: bool) -> None:
     """Refuse, before anything runs, pickled policies that runs ``run_ids`` would load.
 
     Raises:
@@ -165,12 +376,15 @@ def load_policy(folder: Path, run_id: int, robot: Robot, reference: str,
             the folder, a missing, damaged or foreign file, or an older pickled policy without
             ``trust_pickled``.
     """
-    from evolution.learning.policy_file import PolicyFileError
-    from evolution.learning.policy_file import load_policy as read
+    from evolution.learning.policy_file import MAX_BYTES, PolicyFileError, policy_from_bytes
 
     try:
         ref = PolicyReference.parse(reference)
-        path = ref.check(folder)
-        return read(path, robot, ref.digest, sha256=ref.sha256, trust_pickled=trust_pickled)
+        name = str(ref.check(folder))
+        # Refused before it is read: a pickled policy not trusted (policy_from_bytes says so).
+        blob = b"" if ref.pickled and not trust_pickled else read_file(
+            folder, ref.file, "policy file", MAX_BYTES)
+        return policy_from_bytes(name, blob, robot, ref.digest, sha256=ref.sha256,
+                                 trust_pickled=trust_pickled)
     except (StoreError, PolicyFileError) as error:
         raise StoreError(f"run {run_id}: {error}") from None

@@ -11,7 +11,9 @@ newer file that no checkpoint references: the next commit point prunes it.
 The format is a pickle of plain data only (dicts, lists, numbers, strings, NumPy arrays), read
 back with an unpickler that refuses any other class: a damaged or foreign file is a
 :class:`SnapshotError`, never code run. The file must lie inside the results folder (a symbolic
-link leading out of it is refused, :func:`~evolution.experiments.results_folder.inside`).
+link is refused, not followed), and is read only as a regular file of at most
+:data:`~evolution.experiments.results_folder.MAX_SNAPSHOT_BYTES`, checked before it is read
+(:func:`~evolution.experiments.results_folder.read_file`).
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from evolution.experiments.errors import StoreError
-from evolution.experiments.results_folder import inside
+from evolution.experiments.results_folder import MAX_SNAPSHOT_BYTES, inside, read_file
 
 __all__ = ["FORMAT", "SnapshotError", "prune", "read", "reference", "snapshot_path", "write"]
 
@@ -78,7 +80,8 @@ def write(path: Path, data: dict[str, Any]) -> str:
     path.parent.mkdir(parents=True, exist_ok=True)
     temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
-        with open(temporary, "wb") as f:
+        temporary.unlink(missing_ok=True)  # a link planted there is replaced, never followed
+        with open(temporary, "xb") as f:
             f.write(blob)
         os.replace(temporary, path)
     finally:
@@ -105,9 +108,10 @@ def read(db_path: str | Path, run_id: int, ref: object, births: int) -> dict[str
         raise SnapshotError(f"the checkpoint at {births} births references {ref['file']!r}, "
                             f"not {expected.name!r}")
     try:
-        blob = expected.read_bytes()
-    except OSError as e:
-        raise SnapshotError(f"cannot read {expected}: {e.strerror or e}") from e
+        blob = read_file(expected.parent.parent, f"{expected.parent.name}/{expected.name}",
+                         "snapshot file", MAX_SNAPSHOT_BYTES)
+    except StoreError as e:  # missing, not a regular file, too large: replay instead
+        raise SnapshotError(str(e)) from None
     if hashlib.sha256(blob).hexdigest() != ref["sha256"]:
         raise SnapshotError(f"{expected} does not match its checkpoint (SHA-256 differs)")
     try:

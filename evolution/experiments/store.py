@@ -59,6 +59,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sqlite3
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -84,6 +85,7 @@ from evolution.experiments.records import (
     RobotRecord,
     RunRecord,
 )
+from evolution.experiments.results_folder import check_database
 from evolution.lifecycle import Stage, Transition
 
 __all__ = [
@@ -131,10 +133,14 @@ class Store:
     @staticmethod
     def _connect(path: Path) -> sqlite3.Connection:
         db = sqlite3.connect(path, timeout=60.0, isolation_level=None, check_same_thread=False)
-        db.execute("PRAGMA busy_timeout = 60000")
-        # WAL + NORMAL: a commit survives a killed process (not necessarily a power cut), and
-        # commits do not wait for a disk flush.
-        db.execute("PRAGMA synchronous = NORMAL")
+        try:
+            db.execute("PRAGMA busy_timeout = 60000")
+            # WAL + NORMAL: a commit survives a killed process (not necessarily a power cut),
+            # and commits do not wait for a disk flush.
+            db.execute("PRAGMA synchronous = NORMAL")
+        except BaseException:
+            db.close()  # never left to the garbage collector (Python 3.13 warns)
+            raise
         return db
 
     @classmethod
@@ -183,7 +189,13 @@ class Store:
         """Whether ``path`` is a SQLite database without any table (or an empty file).
 
         A run killed before its database's first transaction leaves one: it holds nothing.
+        A file that is not a regular, bounded one (:func:`~evolution.experiments.results_folder.
+        check_database`) is not empty: it is not opened (a FIFO would hang SQLite).
         """
+        try:
+            check_database(Path(path))
+        except StoreError:
+            return False
         try:
             db = sqlite3.connect(path, timeout=60.0)
             try:
@@ -197,25 +209,38 @@ class Store:
     def open(cls, path: str | Path) -> Store:
         """Open an existing database, checking that it is one of ours and not newer.
 
+        The file and SQLite's files beside it are checked first: regular files (not symbolic
+        links, FIFOs or devices) of a bounded size
+        (:func:`~evolution.experiments.results_folder.check_database`).
+
         Raises:
-            StoreError: missing file, not a SQLite database, corrupt, not a results database, or
-                a schema newer than this package understands.
+            StoreError: missing file, not a regular file or too large, not a SQLite database,
+                corrupt, not a results database, or a schema newer than this package
+                understands.
         """
         path = Path(path)
-        if not path.is_file():
+        if not os.path.lexists(path):
             raise StoreError(f"no results database at {path}")
+        check_database(path)
+        # Every way out but success closes the connection: one left to the garbage collector
+        # is an unclosed database (a ResourceWarning from Python 3.13).
         try:
             db = cls._connect(path)
-            check = db.execute("PRAGMA quick_check").fetchone()
         except sqlite3.DatabaseError as error:
             raise StoreError(
                 f"{path} is not a readable SQLite database ({error}); corrupt?"
             ) from error
         try:
+            check = db.execute("PRAGMA quick_check").fetchone()
             _check_database(db, path, check)
         except _ReadOnly:
             db = _upgraded_copy(db, path)
-        except StoreError:
+        except sqlite3.DatabaseError as error:
+            db.close()
+            raise StoreError(
+                f"{path} is not a readable SQLite database ({error}); corrupt?"
+            ) from error
+        except BaseException:
             db.close()
             raise
         return cls(db, path)
@@ -621,6 +646,9 @@ def _upgraded_copy(db: sqlite3.Connection, path: Path) -> sqlite3.Connection:
     copy = sqlite3.connect(":memory:", isolation_level=None, check_same_thread=False)
     try:
         db.backup(copy)
+    except BaseException:
+        copy.close()
+        raise
     finally:
         db.close()
     try:

@@ -53,6 +53,8 @@ from evolution.experiments.api import (
 )
 from evolution.experiments.config import ConfigError, ExperimentConfig, check_name, load_config
 from evolution.experiments.folders import STUDY_FILE
+from evolution.experiments.integrity import verify
+from evolution.experiments.results_folder import inside, read_settings
 from evolution.experiments.run import ProgressEvent, RunJob, RunSummary, WorldFactory, check_infancy
 from evolution.experiments.store import DB_NAME, Store, StoreError
 from evolution.experiments.store_observer import execute_run
@@ -192,6 +194,7 @@ def study(
     ray_address: str | None = None,
     progress: StudyProgress | None = None,
     world_factory: WorldFactory | None = None,
+    trust_task_code: bool = False,
 ) -> StudySummary:
     """Run (or continue) the paper's study into ``out_dir`` (see the module docs).
 
@@ -210,6 +213,10 @@ def study(
         progress: Called with ``(experiment, event)`` after every commit point of every run
             (raising from it stops the runs after that commit point; a second call continues).
         world_factory: Makes the online world of a run (default: the population environment).
+        trust_task_code: Continue an experiment already in ``out_dir`` whose stored ``[task]``
+            names a class of the user's own (its module is imported, which runs its code: only
+            for a folder whose author you trust). A new experiment needs no trust: its settings
+            are the caller's.
 
     Returns:
         What this call ran, per experiment.
@@ -217,13 +224,14 @@ def study(
     Raises:
         ConfigError: an unknown experiment, a bad override or setting.
         StoreError: ``out_dir`` holds a study or an experiment with other settings, or a
-            damaged database.
+            damaged database, or one whose stored task class is not trusted.
         KeyboardInterrupt: Ctrl-C; what was committed stays, the same call continues.
     """
     kind = evaluator if isinstance(evaluator, str) else "local"
     plan = prepare_study(out_dir, runs=runs, births=births, experiments=experiments,
                          overrides=overrides, seed=seed, evaluator=kind, workers=workers,
-                         ray_address=ray_address, world_factory=world_factory)
+                         ray_address=ray_address, world_factory=world_factory,
+                         trust_task_code=trust_task_code)
     return run_study(plan, progress, None if isinstance(evaluator, str) else evaluator)
 
 
@@ -261,24 +269,27 @@ def prepare_study(
     workers: int = 0,
     ray_address: str | None = None,
     world_factory: WorldFactory | None = None,
+    trust_task_code: bool = False,
 ) -> StudyPlan:
     """Check the study's settings against ``out_dir``, create what is missing, list what is left.
 
-    Every setting and every existing database is checked before anything is written. Arguments
-    as for :func:`study`.
+    Every setting and every existing database is checked before anything is written; the
+    settings are compared as stored, without importing anything they name. Arguments as for
+    :func:`study`.
 
     Raises:
         ConfigError: an unknown experiment, a bad override or setting.
         StoreError: ``out_dir`` holds a study or an experiment with other settings, or a
-            damaged or read-only database.
+            damaged or read-only database, or one whose stored task class is a class of the
+            user's own and ``trust_task_code`` is false.
     """
     out = Path(out_dir)
     settings = _settings(runs, births, seed, overrides)
     execution = {"evaluator": evaluator, "workers": workers, "ray_address": ray_address}
     configs = _configs(experiments, settings, execution)
     names = _check_study_file(out, settings, [c.name for c in configs])
-    existing = {c.name: _check_existing(out / c.name, c) for c in configs
-                if (out / c.name / DB_NAME).exists()
+    existing = {c.name: _check_existing(out, c, trust_task_code) for c in configs
+                if os.path.lexists(out / c.name / DB_NAME)
                 and not Store.is_empty(out / c.name / DB_NAME)}  # an empty one is replaced
     out.mkdir(parents=True, exist_ok=True)
     _write_json(out / STUDY_FILE, {**settings, "experiments": names})
@@ -402,10 +413,10 @@ def _check_study_file(out: Path, settings: Mapping[str, Any], names: list[str]) 
             ``study.json``.
     """
     path = out / STUDY_FILE
-    if not path.exists():
+    if not os.path.lexists(path):
         return names
     try:
-        stored = json.loads(path.read_text(encoding="utf-8"))
+        stored = read_settings(out, STUDY_FILE)
         known = [check_name(n, "experiment name") for n in stored["experiments"]]
         differ = [f"{k}: {stored[k]!r} stored, {settings[k]!r} now" for k in _STUDY_KEYS
                   if stored[k] != settings[k]]
@@ -421,14 +432,21 @@ def _check_study_file(out: Path, settings: Mapping[str, Any], names: list[str]) 
     return known + [n for n in names if n not in known]
 
 
-def _check_existing(folder: Path, config: ExperimentConfig) -> ExperimentConfig:
+def _check_existing(out: Path, config: ExperimentConfig, trust_task_code: bool
+                    ) -> ExperimentConfig:
     """The stored configuration of an experiment already in the study, if it is this one.
 
+    The settings are compared as stored (a task class of the user's own by its name, nothing
+    imported); only then is the database checked for continuing, which imports such a class
+    only when trusted.
+
     Raises:
-        StoreError: a damaged or read-only database, or one of other settings (named).
+        StoreError: a damaged or read-only database, one of other settings (named), a folder
+            that is a symbolic link, or a stored task class of the user's own not trusted.
     """
-    # The study's own settings name the task (compared below): importing it is the user's choice.
-    stored = check_resumable(folder / DB_NAME, trust_task_code=True)
+    folder = inside(out, config.name, "experiment folder")
+    with Store.open(folder / DB_NAME) as store:
+        stored = verify(store)
     how = {k: getattr(config, k) for k in _EXECUTION_KEYS}
     differ = config_differences(stored.replace(**how), config)
     if differ:
@@ -436,7 +454,7 @@ def _check_existing(folder: Path, config: ExperimentConfig) -> ExperimentConfig:
             f"{folder} holds results of {stored.name!r} with other settings "
             f"({'; '.join(differ[:4])}{'; ...' if len(differ) > 4 else ''}); refusing to "
             "change them: give the settings it was made with, or choose another folder")
-    return stored
+    return check_resumable(folder / DB_NAME, trust_task_code=trust_task_code)
 
 
 def _flat_differences(stored: Mapping[str, Any], wanted: Mapping[str, Any]) -> list[str]:
@@ -456,5 +474,6 @@ def _shown(data: Mapping[str, Any], key: str) -> str:
 def _write_json(path: Path, data: Mapping[str, Any]) -> None:
     """Write JSON atomically (a killed call leaves the old file or the new one)."""
     tmp = path.with_name(path.name + ".tmp")
+    tmp.unlink(missing_ok=True)  # a link planted there is replaced, never followed
     tmp.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n", encoding="utf-8")
     tmp.replace(path)

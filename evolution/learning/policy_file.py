@@ -35,6 +35,7 @@ import json
 import os
 import pickle
 import re
+import stat
 import sys
 from collections.abc import Mapping
 from pathlib import Path
@@ -57,6 +58,7 @@ __all__ = [
     "PolicyFileError",
     "load_policy",
     "policy_digest",
+    "policy_from_bytes",
     "refused_pickle",
     "save_policy",
 ]
@@ -201,7 +203,8 @@ def save_policy(agent: PolicyAgent, path: str | os.PathLike[str]) -> tuple[str, 
     target.parent.mkdir(parents=True, exist_ok=True)
     temporary = target.with_name(f".{target.name}.{os.getpid()}.tmp")
     try:
-        with open(temporary, "wb") as f:
+        temporary.unlink(missing_ok=True)  # a link planted there is replaced, never followed
+        with open(temporary, "xb") as f:
             f.write(blob)
             f.flush()
             os.fsync(f.fileno())
@@ -233,16 +236,49 @@ def load_policy(path: str | os.PathLike[str], robot: Robot, digest: str | None =
             another body or network, or parameters that differ from ``digest``.
     """
     name = os.fspath(path)
+    blob = b""
+    if not (Path(name).suffix == PICKLED_SUFFIX and not trust_pickled):  # refused unread
+        blob = _read_bounded(name)
+    return policy_from_bytes(name, blob, robot, digest, sha256=sha256,
+                             trust_pickled=trust_pickled)
+
+
+def _read_bounded(name: str) -> bytes:
+    """At most :data:`MAX_BYTES` + 1 bytes of a regular file (a FIFO is refused, not waited on)."""
+    try:
+        fd = os.open(name, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0)
+                     | getattr(os, "O_BINARY", 0))
+    except OSError as error:
+        raise PolicyFileError(f"policy file {name}: {error.strerror or error}") from error
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise PolicyFileError(f"policy file {name} is not a regular file")
+        if st.st_size > MAX_BYTES:
+            raise PolicyFileError(f"policy file {name} is larger than {MAX_BYTES} bytes")
+        with os.fdopen(os.dup(fd), "rb") as f:
+            return f.read(MAX_BYTES + 1)
+    except OSError as error:
+        raise PolicyFileError(f"policy file {name}: {error.strerror or error}") from error
+    finally:
+        os.close(fd)
+
+
+def policy_from_bytes(name: str, blob: bytes, robot: Robot, digest: str | None = None, *,
+                      sha256: str | None = None, trust_pickled: bool = False) -> PolicyAgent:
+    """The :class:`PolicyAgent` held in ``blob``, the bytes of policy file ``name``.
+
+    As :func:`load_policy`, for bytes already read (the results folder reads them:
+    :func:`evolution.experiments.results_folder.load_policy`).
+
+    Raises:
+        PolicyFileError: as :func:`load_policy`.
+    """
     suffix = Path(name).suffix
     if suffix not in (SUFFIX, PICKLED_SUFFIX):
         raise PolicyFileError(f"policy file {name} is not a {SUFFIX} file")
     if suffix == PICKLED_SUFFIX and not trust_pickled:
         raise PolicyFileError(refused_pickle(name))
-    try:
-        with open(name, "rb") as f:
-            blob = f.read(MAX_BYTES + 1)
-    except OSError as error:
-        raise PolicyFileError(f"policy file {name}: {error.strerror or error}") from error
     if len(blob) > MAX_BYTES:
         raise PolicyFileError(f"policy file {name} is larger than {MAX_BYTES} bytes")
     if sha256 is not None and hashlib.sha256(blob).hexdigest() != sha256:

@@ -66,6 +66,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from evolution.experiments.folders import ResultSet
+from evolution.experiments.results_folder import output_folder
 from evolution.reporting.data import ExperimentData, load_included
 from evolution.reporting.figures import FIGURES, write_figures
 from evolution.reporting.optimism import with_optimism
@@ -135,8 +136,9 @@ def report(
     included = load_included(path, brain_aware, every_set)
     experiments = list(included.experiments)
     root = Path(path)
-    out_dir = Path(out) if out is not None else (
-        root / REPORT_DIR if root.is_dir() else root.parent / REPORT_DIR)
+    # The default is inside the results folder: no link in it may lead the writing elsewhere.
+    out_dir = Path(out) if out is not None else output_folder(
+        root if root.is_dir() else root.parent, REPORT_DIR)
     out_dir.mkdir(parents=True, exist_ok=True)
     figures = write_figures(experiments, out_dir, formats)
     assert len(figures) >= len(FIGURES) * len(formats)

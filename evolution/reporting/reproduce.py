@@ -25,6 +25,7 @@ from evolution.experiments.config import ConfigError, load_config
 from evolution.experiments.folders import STUDY_FILE
 from evolution.experiments.reevaluate import reevaluation_conditions
 from evolution.experiments.registry import shipped_configs
+from evolution.experiments.results_folder import read_settings
 from evolution.experiments.store import DB_NAME, Store
 from evolution.reporting.data import ExperimentData, Included
 
@@ -72,7 +73,7 @@ def _sets(changes: Mapping[str, Any]) -> list[str]:
 
 
 def _study_command(folder: Path) -> Command:
-    settings = json.loads((folder / STUDY_FILE).read_text(encoding="utf-8"))
+    settings = read_settings(folder, STUDY_FILE)
     words = ["revolve", "study", "--out", str(folder), "--runs", str(settings["runs"]),
              "--births", str(settings["births"]), "--seed", str(settings["seed"])]
     words += _sets(flat_keys(settings.get("overrides", {})))

@@ -85,11 +85,15 @@ def test_inside_refuses_what_leads_out_of_the_folder(tmp_path: Path, relative: s
     assert "\n" not in str(error.value) and "policy file" in str(error.value)
 
 
-def test_inside_accepts_paths_and_links_within_the_folder(tmp_path: Path) -> None:
+def test_inside_accepts_paths_within_the_folder_and_refuses_links_even_within(
+        tmp_path: Path) -> None:
+    """A symbolic link is never followed, wherever it leads (issue 31): what a link points to
+    can change after the check, and a received folder has no reason to hold one."""
     (tmp_path / "policies").mkdir()
     (tmp_path / "mine").symlink_to(tmp_path / "policies")
     assert inside(tmp_path, "policies/p.safetensors") == tmp_path / "policies/p.safetensors"
-    assert inside(tmp_path, "mine/p.safetensors") == tmp_path / "mine/p.safetensors"
+    with pytest.raises(StoreError, match="goes through the symbolic link .*mine"):
+        inside(tmp_path, "mine/p.safetensors")
 
 
 @pytest.mark.parametrize("text", ["[]", "{}", "x", '{"file": 1, "digest": "x"}',

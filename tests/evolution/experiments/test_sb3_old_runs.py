@@ -4,8 +4,8 @@ Schema version 5 stored SB3 learning tables without ``normalize`` and ``settings
 dbfb7d7 such a table meant raw observations and rewards and SB3's own PPO defaults. Opened now, a
 stored table gains ``normalize = false`` and ``settings = "sb3-defaults"``
 (:data:`~evolution.experiments.records.SB3_OF_OLD_RUNS`), and the learner built from it trains
-to exactly the numbers the old code gave, so a resumed run's remaining infants learn as they
-would have in an uninterrupted run.
+to the numbers the old code gave (as floating point allows across machines), so a resumed run's
+remaining infants learn as they would have in an uninterrupted run.
 """
 
 from __future__ import annotations
@@ -83,10 +83,14 @@ def test_a_stored_sb3_table_trains_to_the_old_codes_numbers(tmp_path: Path, acti
                                   np.random.default_rng(2018))
     old = OLD_CODE[action]
     assert result.policy is not None and result.policy.normalization is None
-    assert list(result.fitness) == old["fitness"]
-    assert result.inborn_fitness == old["inborn"]
-    assert result.best_fitness == old["learned"]
-    assert policy_digest(result.policy) == old["digest"]
+    # Recorded on another machine: the same numbers as floating point allows (another CPU or
+    # BLAS build may round the last digits of a matrix product differently), so neither bit
+    # for bit nor the parameters' digest, which any last-digit difference changes.
+    assert list(result.fitness) == pytest.approx(old["fitness"], rel=1e-6)
+    assert result.inborn_fitness == pytest.approx(old["inborn"], rel=1e-6)
+    assert result.best_fitness == pytest.approx(old["learned"], rel=1e-6, abs=1e-9)
+    if list(result.fitness) == old["fitness"]:  # this machine rounds as the recording one did
+        assert policy_digest(result.policy) == old["digest"]
 
 
 @pytest.mark.parametrize(("stored", "expected"), [

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import sqlite3
@@ -56,7 +57,8 @@ def test_schema_and_meta(store: Store) -> None:
     assert meta["package_version"]
     assert store.config == {"name": "test", "births": 3}
     assert store.seed == 5
-    mode = sqlite3.connect(store.path).execute("PRAGMA journal_mode").fetchone()[0]
+    with contextlib.closing(sqlite3.connect(store.path)) as con:
+        mode = con.execute("PRAGMA journal_mode").fetchone()[0]
     assert mode == "wal"
 
 
@@ -118,7 +120,8 @@ def test_open_errors_name_the_problem(tmp_path: Path) -> None:
     with pytest.raises(StoreError, match="not a readable SQLite database"):
         Store.open(garbage)
     other = tmp_path / "other.sqlite"
-    sqlite3.connect(other).execute("CREATE TABLE t (x)").connection.commit()
+    with contextlib.closing(sqlite3.connect(other)) as con:
+        con.execute("CREATE TABLE t (x)").connection.commit()
     with pytest.raises(StoreError, match="not a revolve-env results database"):
         Store.open(other)
     broken = tmp_path / "broken.sqlite"
