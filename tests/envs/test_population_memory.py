@@ -72,3 +72,36 @@ def test_after_many_births_and_deaths_only_the_living_robots_are_held(engine: st
     with pytest.raises(KeyError, match=f"'{gone}' is dead"):
         env.action_mask(gone)
     env.close()
+
+
+def test_a_snapshot_from_before_the_births_were_kept_restores_and_releases_its_dead() -> None:
+    def make() -> PopulationEnv:
+        return PopulationEnv(max_births=60, initial_robots=[snake(2)], lifecycle=_churn,
+                             birth_radius=3.0, engine="mujoco")
+
+    env = make()
+    env.reset(seed=0)
+    for _ in range(12):
+        env.step({})
+    snapshot = env.snapshot()
+    # Older snapshots kept the masks of every robot born in the episode and no "born".
+    old = dict(snapshot)
+    del old["born"]
+    masks = dict(old["masks"])
+    some = next(iter(masks.values()))
+    dead = [agent_name(r) for r in range(env.births) if r not in env.robot_ids]
+    masks.update({a: some for a in dead})
+    old["masks"] = masks
+    again = make()
+    again.reset(seed=1)
+    again.restore(old)
+    with pytest.raises(KeyError, match=f"'{dead[0]}' is dead"):
+        again.observe(dead[0])
+    for _ in range(3):
+        expected, got = env.step({}), again.step({})
+        assert got[4].keys() == expected[4].keys()
+        for agent, info in expected[4].items():
+            assert got[4][agent]["fitness"] == info["fitness"]
+    assert not set(dead) & set(again._spaces.masks)  # released at the first step
+    env.close()
+    again.close()
