@@ -105,3 +105,9 @@ def test_a_snapshot_from_before_the_births_were_kept_restores_and_releases_its_d
     assert not set(dead) & set(again._spaces.masks)  # released at the first step
     env.close()
     again.close()
+
+
+@pytest.mark.parametrize("bad", [-1, 2.5, True])
+def test_a_bad_trajectory_length_is_refused_by_name(bad: object) -> None:
+    with pytest.raises(ValueError, match="trajectory_length must be an integer >= 0 or None"):
+        PopulationEnv(trajectory_length=bad)  # type: ignore[arg-type]
