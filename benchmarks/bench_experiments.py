@@ -14,11 +14,12 @@ offline experiments keep all cores busy with evaluations and online runs go side
 per core.
 
 With ``--workers 1`` it also prints, per experiment, the calibration's estimate of the CPU per
-birth (:func:`evolution.experiments.estimate.calibrate`, what ``revolve study`` prints before it
-starts) beside the measured one, and projects the paper's study from the measured runs onto 2
-cores and a 64-core Ray cluster (:func:`evolution.experiments.estimate.estimate`: a run is the
-unit of parallelism, one run per core, online runs first; an experiment not measured takes the
-cost of a measured one of its mode). The measured run's own length matters: evolved robots grow,
+birth (:func:`evolution.experiments.estimate.calibrate`, what ``revolve study`` prints before
+it starts: robots alive and robot-seconds per CPU second) beside the measured one, and projects
+the paper's study from the measured runs onto 2 cores and a 64-core Ray cluster
+(:func:`evolution.experiments.estimate.estimate`: a run is the unit of parallelism, one run per
+core, online runs first; an experiment not measured takes the cost of a measured one of its
+mode). The measured run's own length matters: evolved robots grow,
 so a run of 300 births is cheaper per birth than one of 3000.
 """
 
@@ -107,37 +108,41 @@ def main() -> None:
         _project(measured)
 
 
-def _measured_cost(config: ExperimentConfig, cpu: float) -> BirthCost:
-    """The CPU per birth of a whole measured run, in the calibration's terms.
+def _measured_cost(config: ExperimentConfig, cpu: float, alive: float) -> BirthCost:
+    """A whole measured run in the calibration's terms: robot-seconds per birth and per CPU-s.
 
-    Online: per conception interval (the initial robots are born together at time 0).
+    Online: per conception interval, at the run's mean robots alive (the initial robots are
+    born together at time 0).
     """
     births = config.births
+    per_birth = config.seconds_per_evaluation
     if config.mode == "online":
         births = max(1, config.births - config.population_size)
-    return BirthCost(config.mode, config.world.engine, cpu / births,
-                     f"a measured run of {config.births} births")
+        per_birth = alive * config.conception_interval
+    return BirthCost(config.mode, config.world.engine, births * per_birth / cpu, per_birth,
+                     f"a measured run of {config.births} births",
+                     alive if config.mode == "online" else 0.0)
 
 
 def _project(measured: dict[str, tuple[ExperimentConfig, float, float]]) -> None:
     """Calibration against measurement, and the paper's study projected from the measurement.
 
-    Online, the calibration runs twice: at the world size it assumes, and at the mean size the
-    measured run had (which tells the size's share of the error from the robots').
+    The calibration's robots alive (online: measured at the run's start) and robot-seconds per
+    CPU second beside the measured run's; their ratio of CPU per birth says how far off the
+    study's estimate is.
     """
-    print(f"\n{'experiment':<12} {'measured ms/birth':>18} {'robots alive':>13} "
-          f"{'calibrated ms/birth':>20} {'at robots':>10} {'calibrated/measured':>20}")
+    print(f"\n{'experiment':<12} {'measured ms/birth':>18} {'alive':>6} {'robot-s/CPU-s':>14} "
+          f"{'calibrated ms/birth':>20} {'alive':>6} {'robot-s/CPU-s':>14} "
+          f"{'calibrated/measured':>20}")
     costs: dict[str, BirthCost] = {}
     for name, (config, cpu, alive) in measured.items():
-        costs[name] = _measured_cost(config, cpu)
-        sizes: list[int | None] = [None]
-        if config.mode == "online":
-            sizes.append(max(1, round(alive)))
-        for size in sizes:
-            guess = calibrate(config, robots=size)
-            print(f"{name:<12} {1e3 * costs[name].cpu_per_birth:>18.0f} {alive:>13.1f} "
-                  f"{1e3 * guess.cpu_per_birth:>20.0f} {guess.world_size or '-':>10} "
-                  f"{guess.cpu_per_birth / costs[name].cpu_per_birth:>20.2f}")
+        costs[name] = cost = _measured_cost(config, cpu, alive)
+        guess = calibrate(config)
+        alive_then = f"{cost.alive:.1f}" if cost.alive else "-"
+        print(f"{name:<12} {1e3 * cost.cpu_per_birth:>18.0f} {alive_then:>6} "
+              f"{cost.rate:>14.0f} {1e3 * guess.cpu_per_birth:>20.0f} "
+              f"{f'{guess.alive:.1f}' if guess.alive else '-':>6} {guess.rate:>14.0f} "
+              f"{guess.cpu_per_birth / cost.cpu_per_birth:>20.2f}")
     by_mode = {cost.mode: cost for cost in costs.values()}
     work, study_costs = [], {}
     for name in EXPERIMENTS:

@@ -140,8 +140,8 @@ def _describe(plan: StudyPlan) -> None:
 def _estimate(work: list[RunWork], workers: int) -> StudyEstimate:
     """Calibrate every experiment of ``work`` and print the study's estimated time."""
     configs = list({w.experiment: w.config for w in work}.values())
-    _say(f"calibrating {len(configs)} experiment(s) on this machine (a few seconds of CPU; "
-         "--no-estimate skips it)...")
+    _say(f"calibrating {len(configs)} experiment(s) on this machine (robot-seconds per CPU "
+         "second: a few seconds of CPU; --no-estimate skips it)...")
     costs, cpu = calibrate_all(configs)
     result = estimate(work, costs, workers, cpu)
     _say("estimated time:")

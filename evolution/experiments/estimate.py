@@ -1,19 +1,28 @@
-"""How long a study will take, from a short measured calibration on this machine.
+"""How long a study will take: the robot-seconds it simulates at this machine's measured rate.
 
-:func:`calibrate` measures the CPU time one birth of an experiment costs, in a few seconds:
+A study's cost is the simulated time of its robots: *robot-seconds*, one robot simulated for
+one second. Each experiment's are set by its config (:func:`run_robot_seconds`):
+
+* offline: every birth is one evaluation of ``insertion + evaluation_time`` seconds;
+* online: the world lives one ``conception_interval`` per birth after the initial robots, with
+  the robots alive in it: their mean number is measured (below), not assumed.
+
+:func:`calibrate` measures, in a few CPU seconds, how many robot-seconds this machine simulates
+per CPU second for an experiment, everything a birth costs included (building, the Training
+Center, the online world's per-period work):
 
 * offline: :func:`~evolution.evaluation.evaluate_tasks` of a few random robots of the
   experiment's settings (engine, timing, conditions, Training Center), as a run evaluates its
-  children; one birth is one evaluation;
-* online: one world (:class:`~evolution.experiments.online_world.PopulationWorld`) of a
-  typical number of random robots stepped for a few simulated seconds; one birth is one
-  conception interval of that world.
+  children;
+* online: the experiment itself: the start of its run 0 (its own seed, initial robots and
+  survivor selection in the population env) for a few conception intervals after the first
+  selection; the robots alive over those intervals are the world's measured size.
 
-:func:`estimate` turns the costs into a study's CPU time and its wall time on ``workers`` run
-slots (a run is the unit of parallelism: one run on one worker, online runs first, as
-:func:`~evolution.experiments.study.run_study` orders them). What the calibration cannot know
-is stated by :data:`ASSUMPTIONS`: random robots are smaller than evolved ones grow, and the
-online world's size is assumed. Nothing here writes a file.
+:func:`estimate` divides the robot-seconds by the rate: each experiment's CPU time, and the
+study's wall time on ``workers`` run slots (a run is the unit of parallelism: one run on one
+worker, online runs first, as :func:`~evolution.experiments.study.run_study` orders them). What
+the calibration cannot know is stated by :data:`ASSUMPTIONS`: the robots it measures are those
+of a run's first generations, and evolved robots grow. Nothing here writes a file.
 
 Example::
 
@@ -38,6 +47,7 @@ import numpy as np
 from evolution.evaluation import evaluate_tasks
 from evolution.experiments.config import ExperimentConfig
 from evolution.experiments.offline import evaluation_tasks
+from evolution.experiments.run import ProgressEvent
 from evolution.random_robot import random_robot
 
 __all__ = [
@@ -50,38 +60,48 @@ __all__ = [
     "calibrate_all",
     "calibration_key",
     "estimate",
+    "online_rate",
     "run_cpu_seconds",
-    "typical_world_size",
+    "run_robot_seconds",
 ]
 
-ASSUMPTIONS = ("assumes evolved robots cost what random ones do (they grow: expect more), an "
-               "online world of the size shown throughout, one run per worker, nothing else "
-               "on the cores")
+ASSUMPTIONS = ("assumes the robots of a run's first generations (evolved robots grow: expect "
+               "more), an online world of the size measured at its start, one run per worker, "
+               "nothing else on the cores")
 """What the estimate takes for granted, in one line."""
 
 _OFFLINE_ROBOTS = 4
 """Random robots evaluated by an offline calibration (a few CPU seconds on pybullet)."""
-_ONLINE_SECONDS = 3.0
-"""Simulated seconds an online calibration steps its world. Seconds."""
+_ONLINE_INTERVALS = 3
+"""Conception intervals an online calibration measures, after the first survivor selection."""
 
 
 @dataclass(frozen=True, slots=True)
 class BirthCost:
-    """What one birth of an experiment costs, as measured by :func:`calibrate`.
+    """What one birth of an experiment simulates, and this machine's measured rate.
 
     Attributes:
         mode: ``"offline"`` or ``"online"``.
         engine: The physics engine.
-        cpu_per_birth: CPU time of one birth. Seconds.
+        rate: Robot-seconds simulated per CPU second, everything a birth costs included.
+            Robot-seconds per second.
+        robot_seconds: Robot-seconds one birth simulates: offline, one evaluation; online, the
+            robots alive for one conception interval. Robot-seconds.
         sample: What was measured, in words (e.g. ``4 random robots x 15 s``).
-        world_size: Online: robots in the calibration world (0 offline).
+        alive: Online: the mean number of robots alive measured (0 offline). Robots.
     """
 
     mode: str
     engine: str
-    cpu_per_birth: float
+    rate: float
+    robot_seconds: float
     sample: str
-    world_size: int = 0
+    alive: float = 0.0
+
+    @property
+    def cpu_per_birth(self) -> float:
+        """CPU time of one birth. Seconds."""
+        return self.robot_seconds / self.rate if self.rate > 0 else math.inf
 
 
 @dataclass(frozen=True, slots=True)
@@ -108,6 +128,7 @@ class ExperimentEstimate:
         cost: Its calibrated birth cost.
         runs: Runs left to do.
         births: Births left, all its runs together.
+        robot_seconds: Robot-seconds left to simulate, all its runs together.
         cpu_seconds: CPU time left, all its runs together. Seconds.
     """
 
@@ -115,6 +136,7 @@ class ExperimentEstimate:
     cost: BirthCost
     runs: int
     births: int
+    robot_seconds: float
     cpu_seconds: float
 
 
@@ -147,53 +169,49 @@ class StudyEstimate:
         """The estimate in words: one line per experiment, the total, the assumptions."""
         out = []
         for e in self.experiments:
-            size = f", world of {e.cost.world_size} robots" if e.cost.mode == "online" else ""
-            out.append(f"  {e.name}: {1e3 * e.cost.cpu_per_birth:.0f} ms CPU per birth "
-                       f"({e.cost.mode}, {e.cost.engine}{size}; from {e.cost.sample}), "
-                       f"{e.runs} run(s), {e.births} births: {e.cpu_seconds / 3600:.2f} CPU-h")
-        out.append(f"  total {self.cpu_seconds / 3600:.2f} CPU-h: about "
-                   f"{_hours(self.wall_seconds)} on {self.workers} worker(s) (calibration took "
-                   f"{self.calibration_cpu:.1f} s CPU)")
+            c = e.cost
+            per_birth = (f"{c.alive:.1f} robots alive x {c.robot_seconds / c.alive:g} s"
+                         if c.mode == "online" and c.alive > 0 else f"{c.robot_seconds:g} s")
+            out.append(f"  {e.name}: {e.runs} run(s), {e.births} births, "
+                       f"{_robot_seconds(e.robot_seconds)} ({c.mode}, {c.engine}: {per_birth} "
+                       f"per birth) at {c.rate:.0f} robot-s per CPU-s (from {c.sample}), "
+                       f"{1e3 * c.cpu_per_birth:.0f} ms CPU per birth: "
+                       f"{e.cpu_seconds / 3600:.2f} CPU-h")
+        out.append(f"  total {_robot_seconds(sum(e.robot_seconds for e in self.experiments))}, "
+                   f"{self.cpu_seconds / 3600:.2f} CPU-h: about {_hours(self.wall_seconds)} on "
+                   f"{self.workers} worker(s) (calibration took {self.calibration_cpu:.1f} s CPU)")
         out.append(f"  (an estimate: it {ASSUMPTIONS})")
         return out
 
 
-def typical_world_size(config: ExperimentConfig) -> int:
-    """Robots an online world holds on average, as the calibration assumes.
-
-    Halfway between ``min_alive`` (after a cull) and ``max_alive`` (when the cull comes): the
-    world grows by one robot a conception interval between culls.
-    """
-    return max(1, round((config.min_alive + config.max_alive) / 2))
-
-
 def calibration_key(config: ExperimentConfig) -> tuple[object, ...]:
     """What a birth's cost depends on: experiments equal here share one calibration."""
-    online = ((config.conception_interval, typical_world_size(config), config.birth_radius)
+    online = ((config.conception_interval, config.population_size, config.min_alive,
+               config.max_alive, config.death_threshold, config.cull_fraction,
+               config.survivor_selection, config.new_robots, config.tournament_size,
+               config.birth_radius, config.birth_clearance, config.fertile_age, config.seed)
               if config.mode == "online" else ())
-    return (config.mode, config.world.engine, config.insertion, config.evaluation_time,
-            config.evaluation, config.evolution, repr(config.learning), *online)
+    return (config.mode, config.world, config.insertion, config.evaluation_time,
+            config.evaluation, config.evolution, repr(config.learning), repr(config.task),
+            *online)
 
 
 def calibrate(config: ExperimentConfig, *, seed: int = 0, robots: int | None = None,
-              seconds: float = _ONLINE_SECONDS) -> BirthCost:
-    """Measure the CPU time of one birth of ``config`` on this machine.
+              intervals: int = _ONLINE_INTERVALS) -> BirthCost:
+    """Measure the robot-seconds ``config`` simulates per CPU second on this machine.
 
     Args:
         config: The experiment.
-        seed: Seeds the random robots (and the online world). The cost hardly depends on it.
-        robots: Offline: robots evaluated (default 4). Online: robots in the world (default
-            :func:`typical_world_size`).
-        seconds: Online: simulated time stepped. Seconds.
+        seed: Offline: seeds the random robots. (Online the run's own seed is used.)
+        robots: Offline: robots evaluated (default 4).
+        intervals: Online: conception intervals measured after the first survivor selection.
 
     Returns:
-        The cost of one birth: offline, the CPU time of one evaluation; online, the CPU time of
-        one conception interval of the world.
+        The measured rate and what one birth simulates (online: at the robots alive measured).
     """
-    rng = np.random.default_rng(seed)
     if config.mode == "online":
-        size = robots or typical_world_size(config)
-        return _calibrate_online(config, rng, size, seconds)
+        return _calibrate_online(config, intervals)
+    rng = np.random.default_rng(seed)
     return _calibrate_offline(config, rng, robots or _OFFLINE_ROBOTS)
 
 
@@ -208,28 +226,76 @@ def _calibrate_offline(config: ExperimentConfig, rng: np.random.Generator,
     start = time.process_time()
     evaluate_tasks(tasks[1:])
     cpu = time.process_time() - start
-    return BirthCost("offline", config.world.engine, cpu / count,
-                     f"{count} random robots x {config.seconds_per_evaluation:g} s")
+    seconds = config.seconds_per_evaluation
+    return BirthCost("offline", config.world.engine, count * seconds / max(cpu, 1e-9), seconds,
+                     f"{count} random robots x {seconds:g} s")
 
 
-def _calibrate_online(config: ExperimentConfig, rng: np.random.Generator, size: int,
-                      seconds: float) -> BirthCost:
+def online_rate(events: Sequence[ProgressEvent], cpu: Sequence[float], skip: int = 1
+                ) -> tuple[float, float, float]:
+    """Robots alive and robot-seconds per CPU second of an online run's commit points.
+
+    Between two commit points the world lives from the first one's simulated time to the
+    second's with the robots alive at the first (a blow-up in between is not counted).
+
+    Args:
+        events: The run's progress events, one per commit point, in order.
+        cpu: The process's CPU time at each of them. Seconds.
+        skip: Intervals left out at the start (the initial robots' first one: no survivor
+            selection has happened yet).
+
+    Returns:
+        ``(alive, rate, robot_seconds)``: the time-weighted mean number of robots alive
+        (robots), robot-seconds per CPU second, and the robot-seconds measured.
+
+    Raises:
+        ValueError: no simulated time or no CPU time past the skipped intervals.
+    """
+    robot_seconds = seconds = spent = 0.0
+    for k in range(skip, len(events) - 1):
+        dt = events[k + 1].sim_time - events[k].sim_time
+        robot_seconds += events[k].population_size * dt
+        seconds += dt
+        spent += cpu[k + 1] - cpu[k]
+    if seconds <= 0 or spent <= 0:
+        raise ValueError(f"no simulated or CPU time measured in {len(events)} commit points "
+                         f"after {skip} interval(s)")
+    return robot_seconds / seconds, robot_seconds / spent, robot_seconds
+
+
+def _calibrate_online(config: ExperimentConfig, intervals: int) -> BirthCost:
     # Imported here: the online world loads the physics engine.
+    from evolution.experiments.loop import Evolution, ProgressObserver
     from evolution.experiments.online_world import PopulationWorld
+    from evolution.experiments.run import run_seed, world_seed
 
-    world = PopulationWorld(config.replace(births=max(config.births, size)),
-                            int(rng.integers(2**31)))
-    for robot_id in range(size):
-        world.add(random_robot(rng, config.evolution), robot_id)
-    world.advance_to(world.time + 0.1)  # the first steps compile and cache: not per birth
-    begin = world.time
-    start = time.process_time()
-    world.advance_to(begin + seconds)
-    cpu = time.process_time() - start
-    per_second = cpu / max(world.time - begin, 1e-9)
-    return BirthCost("online", config.world.engine, per_second * config.conception_interval,
-                     f"{size} random robots x {seconds:g} s, scaled to "
-                     f"{config.conception_interval:g} s per birth", size)
+    # The start of the experiment's run 0, not written anywhere: its initial robots, the first
+    # conception interval (skipped: no selection yet), then ``intervals`` more, a commit each.
+    short = config.replace(checkpoint_interval=1, max_sim_time=None)
+    events: list[ProgressEvent] = []
+    cpu: list[float] = []
+
+    def seen(event: ProgressEvent) -> None:
+        if not event.finished:
+            events.append(event)
+            cpu.append(time.process_time())
+
+    world = PopulationWorld(short, world_seed(run_seed(short.seed, 0)))
+    try:
+        with Evolution(short, world=world, observers=[ProgressObserver(seen)]) as evolution:
+            evolution.start()
+            while not evolution.done and len(events) < intervals + 2:
+                evolution.step()
+    finally:
+        world.close()
+    if len(events) < 2:  # the initial robots are every birth: no interval to simulate
+        return BirthCost("online", config.world.engine, math.inf, 0.0, "no conception interval",
+                         float(config.population_size))
+    skip = 1 if len(events) > 2 else 0
+    alive, rate, measured = online_rate(events, cpu, skip)
+    return BirthCost("online", config.world.engine, rate, alive * config.conception_interval,
+                     f"{measured:.0f} robot-s of the run's start, {len(events) - 1 - skip} "
+                     "conception interval(s) after its first", alive)
 
 
 def calibrate_all(configs: Sequence[ExperimentConfig], *, seed: int = 0
@@ -251,17 +317,23 @@ def calibrate_all(configs: Sequence[ExperimentConfig], *, seed: int = 0
     return costs, time.process_time() - start
 
 
-def run_cpu_seconds(work: RunWork, cost: BirthCost) -> float:
-    """CPU time left of one run. Seconds.
+def run_robot_seconds(work: RunWork, cost: BirthCost) -> float:
+    """Robot-seconds left to simulate in one run.
 
     Offline: one evaluation per birth left. Online: the initial robots are born together at
-    time 0; every later birth takes one conception interval of the world.
+    time 0; every later birth takes one conception interval of the world, with ``cost.alive``
+    robots in it.
     """
     left = max(0, work.config.births - work.done)
     if cost.mode == "online":
         first = max(work.done, work.config.population_size)
         left = max(0, work.config.births - first)
-    return left * cost.cpu_per_birth
+    return left * cost.robot_seconds
+
+
+def run_cpu_seconds(work: RunWork, cost: BirthCost) -> float:
+    """CPU time left of one run: its robot-seconds at the measured rate. Seconds."""
+    return run_robot_seconds(work, cost) / cost.rate if cost.rate > 0 else math.inf
 
 
 def estimate(work: Sequence[RunWork], costs: Mapping[str, BirthCost], workers: int,
@@ -286,6 +358,7 @@ def estimate(work: Sequence[RunWork], costs: Mapping[str, BirthCost], workers: i
         ExperimentEstimate(
             name, costs[name], sum(w.experiment == name for w, _ in per_run),
             sum(max(0, w.config.births - w.done) for w, _ in per_run if w.experiment == name),
+            sum(run_robot_seconds(w, costs[name]) for w, _ in per_run if w.experiment == name),
             sum(s for w, s in per_run if w.experiment == name))
         for name in names)
     return StudyEstimate(experiments, max(1, workers), max(free), calibration_cpu)
@@ -296,3 +369,8 @@ def _hours(seconds: float) -> str:
         return "?"
     minutes = round(seconds / 60)
     return f"{minutes // 60} h {minutes % 60:02d} min" if minutes >= 60 else f"{minutes} min"
+
+
+def _robot_seconds(value: float) -> str:
+    """Robot-seconds in words: ``1.35e6 robot-s (375 robot-h)``."""
+    return f"{value:.3g} robot-s ({value / 3600:.3g} robot-h)"

@@ -51,7 +51,9 @@ class PopulationWorld:
         from revolve_env.envs.population import PopulationEnv
 
         # The run's own robots only (no default initial robots); the loop never adds more
-        # robots than ``config.births``.
+        # robots than ``config.births``. No trajectories: the loop reads none, and a robot's
+        # whole-life trajectory grows with its age (an elite living 1000 births of 15 s held
+        # 21 MB, and every snapshot file pickled it).
         self._env: PopulationEnv = PopulationEnv(
             max_births=max(config.births, 1), initial_robots=(), insertion_time=config.insertion,
             maturity_age=config.fertile_age, fitness_window=config.evaluation_time,
@@ -59,7 +61,7 @@ class PopulationWorld:
             limits=config.evolution.limits, engine=config.world.engine,
             conditions=config.evaluation, task=config.fitness_task(),
             terrain=config.world.terrain_spec,
-            proprioception=policies_observe_hinges(config.learning))
+            proprioception=policies_observe_hinges(config.learning), trajectory_length=0)
         self._seed = seed
         self._env.reset(seed=seed)
         self._policies: dict[int, Any] = {}  # robot id -> PolicyAgent of agent-controlled robots

@@ -5,6 +5,10 @@ body's own (exact) or the uniform ones sized by the limits, whose values are pad
 which entries are the robot's. The layout and bounds are documented on
 :class:`revolve_env.envs.population.PopulationEnv` (Spaces); values are in the sensors' units,
 hinge angles in radians and velocities in radians per second.
+
+A dead agent's exact spaces and masks are released (:meth:`AgentSpaces.release`) once the step
+that reported its death is over, so a long episode keeps those of the living robots only; which
+agents were born is one byte per agent of the pool, made with it.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from numpy.typing import NDArray
 from revolve_env.body.validate import Limits
 from revolve_env.envs.members import Member
 from revolve_env.envs.observations import proprio_bounds, uniform_sensor_bounds
+from revolve_env.status import robot_id
 from revolve_env.world import WorldConfig
 
 __all__ = ["AgentSpaces", "Masks", "SpaceMode"]
@@ -51,14 +56,33 @@ class AgentSpaces:
         self.act_spaces: dict[str, spaces.Box] = {}
         # Uniform spaces handed out, for the env's lifetime (they fit any body).
         self.uniform_spaces: dict[str, tuple[spaces.Box, spaces.Box]] = {}
-        # Masks (observation, action) of every robot born in this episode, alive or dead.
+        # Masks (observation, action) of the robots born in this episode and not yet released.
         self.masks: dict[str, Masks] = {}
+        self.born = bytearray(max_births)  # 1 for every agent born in this episode
 
     def reset(self) -> None:
         """Forget the episode's exact spaces and masks (the uniform spaces stay)."""
         self.obs_spaces = {}
         self.act_spaces = {}
         self.masks = {}
+        self.born = bytearray(self.max_births)
+
+    def release(self, agents: list[str]) -> None:
+        """Forget the exact spaces and masks of dead agents whose death was reported.
+
+        Their uniform spaces, if any were handed out, stay for the env's lifetime (a wrapper may
+        hold them, and the name returns after a reset).
+        """
+        for agent in agents:
+            self.obs_spaces.pop(agent, None)
+            self.act_spaces.pop(agent, None)
+            self.masks.pop(agent, None)
+
+    def was_born(self, agent: str) -> bool:
+        """Whether ``agent`` was born in this episode, alive or dead (False: not of the pool)."""
+        if agent not in self._possible:
+            return False
+        return bool(self.born[robot_id(agent)])
 
     def observation_space(self, agent: str) -> spaces.Box:
         """The agent's exact observation space, else its uniform one (KeyError: unknown)."""
@@ -71,11 +95,18 @@ class AgentSpaces:
         return space if space is not None else self.uniform(agent)[1]
 
     def uniform(self, agent: str) -> tuple[spaces.Box, spaces.Box]:
-        """The agent's uniform spaces, made on first request and kept for the env's lifetime."""
+        """The agent's uniform spaces, made on first request and kept for the env's lifetime.
+
+        KeyError for an agent not of the pool, and for a dead agent whose exact spaces were
+        released (it never had uniform ones: handing some out now would change its space).
+        """
         pair = self.uniform_spaces.get(agent)
         if pair is None:
             if agent not in self._possible:
                 raise KeyError(self.unknown(agent))
+            if self.mode == "exact" and self.was_born(agent):
+                raise KeyError(f"agent {agent!r} is dead: its spaces were released at the step "
+                               "after the one that reported its death")
             pair = (spaces.Box(self.u_low, self.u_high, dtype=np.float64),
                     spaces.Box(-1.0, 1.0, (self.u_outputs,), dtype=np.float32))
             self.uniform_spaces[agent] = pair
@@ -89,8 +120,10 @@ class AgentSpaces:
             raise KeyError(f"{what}: {self.unknown(agent)}") from None
 
     def unknown(self, agent: str) -> str:
-        """Why ``agent`` has no masks: not yet born, or not one of the pool."""
-        if agent in self.possible_agents:
+        """Why ``agent`` has no masks: released, not yet born, or not one of the pool."""
+        if self.was_born(agent):
+            return f"agent {agent!r} is dead (its spaces and masks are released)"
+        if agent in self._possible:
             return f"agent {agent!r} has not been born in this episode"
         return f"unknown agent {agent!r} (ids are robot_0 .. robot_{self.max_births - 1})"
 
@@ -105,6 +138,7 @@ class AgentSpaces:
     def register(self, agent: str, sensor_low: NDArray[np.float64],
                  sensor_high: NDArray[np.float64], n_outputs: int, padded: bool) -> None:
         """Give a newborn its exact spaces (unless padded) and its read-only masks."""
+        self.born[robot_id(agent)] = 1
         low, high = sensor_low, sensor_high
         if padded:
             ones = np.ones(2 * n_outputs) if self.proprioception else None
@@ -153,18 +187,35 @@ class AgentSpaces:
 
     # -- snapshots -------------------------------------------------------------------------------
     def snapshot(self) -> dict[str, Any]:
-        """The masks, exact spaces and uniform agents, as plain data."""
+        """The masks, exact spaces, uniform agents and births, as plain data."""
         return {
             "masks": {a: (o.copy(), act.copy()) for a, (o, act) in self.masks.items()},
             "spaces": {a: (self.obs_spaces[a].low, self.obs_spaces[a].high,
                            int(self.act_spaces[a].shape[0])) for a in self.obs_spaces},
             "uniform": sorted(self.uniform_spaces),
+            "born": bytes(self.born),
         }
 
     def restore(self, masks: dict[str, Masks],
                 exact: dict[str, tuple[NDArray[np.float64], NDArray[np.float64], int]],
-                uniform: list[str]) -> None:
-        """Take back what :meth:`snapshot` gave (already read into arrays)."""
+                uniform: list[str], born: bytes | None = None) -> None:
+        """Take back what :meth:`snapshot` gave (already read into arrays).
+
+        ``born`` None (a snapshot from before it was kept): every agent with masks, as those
+        snapshots kept the masks of every robot born.
+        """
+        if born is None:
+            self.born = bytearray(self.max_births)
+            for agent in masks:
+                n = robot_id(agent)
+                if n >= self.max_births:
+                    raise ValueError(f"the snapshot's agent {agent!r} is not of the pool")
+                self.born[n] = 1
+        elif len(born) != self.max_births:
+            raise ValueError(f"the snapshot's births are for {len(born)} agents, not "
+                             f"max_births={self.max_births}")
+        else:
+            self.born = bytearray(born)
         for mask in masks.values():
             mask[0].flags.writeable = False
             mask[1].flags.writeable = False

@@ -182,9 +182,18 @@ def _warnings_as_errors() -> Iterator[None]:
 
 
 def _check_spaces(env: PopulationEnv) -> None:
-    """Every agent of possible_agents has spaces, the same objects on every call."""
+    """Every agent of possible_agents has spaces, the same objects on every call.
+
+    Except a dead agent once its spaces are released (the step after the one that reported its
+    death): a KeyError naming it dead.
+    """
     for agent in env.possible_agents:
-        obs_space, act_space = env.observation_space(agent), env.action_space(agent)
+        try:
+            obs_space, act_space = env.observation_space(agent), env.action_space(agent)
+        except KeyError as e:
+            if agent in env.agents or "is dead" not in str(e):
+                raise
+            continue
         if not (env.observation_space(agent) is obs_space and env.action_space(agent) is act_space):
             raise AssertionError(f"{agent}: the spaces are not the same object on every call")
 

@@ -53,16 +53,17 @@ class Living:
     """The per-step state of every living robot (see the module doc). Rows: birth order."""
 
     def __init__(self, fitness_window: float, trajectory_stride: int, clock: LifeClock,
-                 spaces: AgentSpaces, task: Task) -> None:
+                 spaces: AgentSpaces, task: Task, trajectory_length: int | None = None) -> None:
         self.fitness_window = fitness_window
         self.stride = trajectory_stride
+        self.trajectory_length = trajectory_length  # samples kept per robot (None: all)
         self.clock = clock
         self.spaces = spaces
         self.task = task
         self.members: list[Member] = []
         self.windows = self._windows()
         self.signal: SignalReader | None = None  # the task's signal, for the rows now
-        self.trajectories = TrajectoryStore()
+        self.trajectories = TrajectoryStore(length=self.trajectory_length)
         self.ages = np.zeros(0, dtype=np.int64)  # control periods since birth
         # The task's fitness and the terms of every window (metres), the last step's rewards.
         self.f, self.v, self.s = np.zeros(0), np.zeros(0), np.zeros(0)
@@ -123,7 +124,7 @@ class Living:
         self.members = []
         self.windows = self._windows()
         self.signal = None
-        self.trajectories = TrajectoryStore()
+        self.trajectories = TrajectoryStore(length=self.trajectory_length)
         self.ages = np.zeros(0, dtype=np.int64)
         self.f, self.v, self.s = np.zeros(0), np.zeros(0), np.zeros(0)
         self.rewards = np.zeros(0)

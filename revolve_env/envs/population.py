@@ -66,7 +66,10 @@ drives them; one missing from ``actions`` keeps its previous targets (0 at birth
 ## Spaces: exact or uniform
 Every agent of ``possible_agents`` has an observation and an action space at any time, born or
 not, and ``observation_space(agent)`` / ``action_space(agent)`` return the same object on every
-call.
+call, until it is dead: its exact spaces and masks are released when the step after the one
+that reported its death starts (or at the next step, for a robot removed before any step
+reported it), and asking for them then is a KeyError naming it dead; so a long episode holds
+the spaces of its living robots only. Uniform spaces, once handed out, stay.
 
 * ``space_mode="uniform"``: every agent has spaces of the same shape, sized by ``limits``
   (Table 1: 10 inputs, 10 outputs; hidden neurons are not observed), created on first request
@@ -131,6 +134,8 @@ each a ``Robot`` or a mapping with keys ``robot`` and optional ``position``, ``c
 | birth_clearance     | 0.02     | gap kept between footprints at birth. Metres                |
 | max_placement_tries | 200      | random draws in the birth disc before placing outside it    |
 | trajectory_stride   | 1        | control periods between trajectory samples                  |
+| trajectory_length   | None     | samples of its trajectory kept per robot, its latest (0:    |
+|                     |          | none); None: its whole life (memory grows with its age)     |
 | max_cycles          | None     | truncate every robot after this many steps (None: never)    |
 | max_steps           | None     | deprecated name of ``max_cycles``                           |
 | control_period      | None     | time per env step. Seconds (a multiple of the timestep);    |
@@ -258,7 +263,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     | fitness_s      | straight horizontal displacement over the window. Metres              |
     | position       | core centre ``(x, y, z)``. Metres (a copy)                            |
     | trajectory     | ``(T, 3)`` read-only core positions, one per ``trajectory_stride``     |
-    |                | control periods since birth (birth position first). Metres            |
+    |                | control periods since birth (birth position first; the latest         |
+    |                | ``trajectory_length`` only, if set). Metres                           |
     | controlled_by  | ``"brain"`` or ``"agent"``                                            |
     | blow_up        | reason string, or None                                                |
     | death          | None while alive; ``"removed"`` or ``"blow_up"`` in the last report   |
@@ -291,6 +297,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         birth_clearance: float = 0.02,
         max_placement_tries: int = 200,
         trajectory_stride: int = 1,
+        trajectory_length: int | None = None,
         max_cycles: int | None = None,
         max_steps: int | None = None,
         control_period: float | None = None,
@@ -323,6 +330,11 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self.insertion_time, self.maturity_age = float(insertion_time), float(maturity_age)
         self.birth_radius, self.birth_clearance = float(birth_radius), float(birth_clearance)
         self.max_placement_tries, self.trajectory_stride = max_placement_tries, trajectory_stride
+        if trajectory_length is not None and (isinstance(trajectory_length, bool) or not (
+                isinstance(trajectory_length, int) and trajectory_length >= 0)):
+            raise ValueError(f"trajectory_length must be an integer >= 0 or None, got "
+                             f"{trajectory_length!r}")
+        self.trajectory_length = trajectory_length
         self.fitness_window, self.max_cycles = float(fitness_window), max_cycles
         self.limits = limits
         self.space_mode: SpaceMode = space_mode
@@ -334,7 +346,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self._spaces = AgentSpaces(max_births, space_mode, self.proprioception, limits, config)
         self.possible_agents: list[str] = self._spaces.possible_agents
         clock = LifeClock.of(config.control_period, self.insertion_time, self.maturity_age)
-        living = Living(self.fitness_window, trajectory_stride, clock, self._spaces, self.task)
+        living = Living(self.fitness_window, trajectory_stride, clock, self._spaces, self.task,
+                        trajectory_length)
         self._roster = Roster(config, clock, living, self._spaces, conditions.actuator_noise,
                               conditions.sensor_noise)
         self._statuses: dict[int, RobotStatus] = {}
@@ -356,7 +369,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     def observation_mask(self, agent: str) -> NDArray[np.bool_]:
         """Which entries of the agent's observations carry its values (True, all for exact ones).
 
-        Read-only, from its birth to ``reset``; KeyError naming an agent not yet born.
+        Read-only, from its birth until its spaces are released (module doc, Spaces);
+        KeyError naming an agent not yet born, or released.
         """
         return self._spaces.mask(agent, "observation_mask")[0]
 
@@ -473,6 +487,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             raise RuntimeError(f"the episode ended after max_cycles={self.max_cycles} steps (every "
                                "agent truncated): call reset()")
         checked = roster.checked_actions(actions)
+        roster.release_reported()  # the agents the last step reported dead: no longer asked for
         last = self.max_cycles is not None and roster.steps + 1 >= self.max_cycles
         if self.lifecycle is not None and not last:
             self.lifecycle(self, roster.steps + 1)
@@ -591,6 +606,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         member = self._member(robot, "remove_robot")
         announced = member.agent in self._roster.announced
         self._roster.drop(member, "removed" if announced else None)
+        if not announced:  # never reported: its spaces go at the next step
+            self._roster.reported.append(member.agent)
 
 
 def population_env(**kwargs: Any) -> PopulationEnv:

@@ -107,6 +107,7 @@ class Restored:
     births: int
     steps: int
     uniform: list[str]
+    born: bytes | None = None  # which agents were born (None: a snapshot from before it)
 
 
 def read_snapshot(snapshot: dict[str, Any], config: WorldConfig, clock: LifeClock) -> Restored:
@@ -137,6 +138,9 @@ def read_snapshot(snapshot: dict[str, Any], config: WorldConfig, clock: LifeCloc
                             int(n)) for a, (low, high, n) in snapshot["spaces"].items()}
         births, steps = int(snapshot["births"]), int(snapshot["steps"])
         uniform = [str(a) for a in snapshot["uniform"]]
+        born = snapshot.get("born")
+        if born is not None and not isinstance(born, bytes):
+            raise TypeError(f"the snapshot's births are {type(born).__name__}, not bytes")
     except BaseException as e:
         world.close()
         if isinstance(e, (SnapshotMismatchError, NotImplementedError)):
@@ -145,4 +149,4 @@ def read_snapshot(snapshot: dict[str, Any], config: WorldConfig, clock: LifeCloc
             raise SnapshotMismatchError(f"damaged population snapshot: {e!r}") from e
         raise
     return Restored(world, brain, members, rows, dead, rng, noise, masks, spaces_, births, steps,
-                    uniform)
+                    uniform, born)

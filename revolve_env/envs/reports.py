@@ -65,6 +65,7 @@ def report_step(roster: Roster, masks: dict[str, Masks], truncate: bool
         truncations[agent] = False
         infos[agent] = status_info(status, masks[agent])
         statuses[member.robot_id] = status
+    reported = [member.agent for member, _ in roster.dead]
     roster.dead = []
     deaths = roster.sense()
     agents = roster.agents
@@ -81,4 +82,5 @@ def report_step(roster: Roster, masks: dict[str, Masks], truncate: bool
     for member in reversed(gone):
         roster.drop(member)
     roster.announced = list(roster.agents)
+    roster.reported += reported + [m.agent for m in gone]
     return (obs, rewards, terminations, truncations, infos), statuses

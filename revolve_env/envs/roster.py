@@ -68,6 +68,8 @@ class Roster:
         # only there, so a robot added or removed between two steps enters or leaves at the next.
         self.announced: list[str] = []
         self.dead: list[tuple[Member, Death]] = []  # left since the last step, to report
+        # Agents whose death the last step reported: their spaces go at the next step.
+        self.reported: list[str] = []
         self.births = 0  # robots born in this episode
         self.next_id = 0  # the id of the next robot born without one
         self.steps = 0  # control periods since reset
@@ -91,6 +93,7 @@ class Roster:
 
     def _forget(self) -> None:
         self.members, self.agents, self.dead, self.announced = {}, [], [], []
+        self.reported = []
         self.living.clear()
         self.births = self.next_id = self.steps = 0
 
@@ -121,7 +124,7 @@ class Roster:
         if member is not None:
             return member
         agent = agent_name(rid)
-        if agent in self.spaces.masks:  # born in this episode
+        if self.spaces.was_born(agent):
             raise KeyError(f"{what}: agent {agent!r} is dead (removed or blown up)")
         raise KeyError(f"{what}: {self.spaces.unknown(agent)}")
 
@@ -147,6 +150,16 @@ class Roster:
             if member.controlled_by == "agent":
                 checked.append((member, a[:member.n_outputs] if member.padded else a))
         return checked
+
+    def release_reported(self) -> None:
+        """Forget the spaces and masks of the agents whose death the last step reported.
+
+        Called once the next step's actions are checked: until then a caller may still ask for
+        the spaces of every agent of the last step's dicts.
+        """
+        if self.reported:
+            self.spaces.release(self.reported)
+            self.reported = []
 
     # -- births and deaths ------------------------------------------------------------------
     def occupied(self) -> tuple[list[Disc], list[str]]:
@@ -307,8 +320,13 @@ class Roster:
         # A snapshot from before `announced` existed: every robot it holds was announced.
         self.announced = [str(a) for a in snapshot.get(
             "announced", [m.agent for m, _ in restored.dead] + self.agents)]
-        self.spaces.restore(restored.masks, restored.spaces, restored.uniform)
         try:
+            self.spaces.restore(restored.masks, restored.spaces, restored.uniform,
+                                restored.born)
+            # Snapshots keep the spaces of agents reported dead by their last step (older ones:
+            # of every agent born); the next step releases them.
+            keep = set(self.agents) | {m.agent for m, _ in self.dead}
+            self.reported = [a for a in self.spaces.masks if a not in keep]
             self.living.restore(restored.members, restored.rows, restored.world)
         except (KeyError, TypeError, ValueError) as e:
             self.close()

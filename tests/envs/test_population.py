@@ -81,9 +81,14 @@ def test_spaces_are_cached_per_agent_and_follow_the_body() -> None:
     assert env.action_space(a).shape == (3,)
     assert env.action_space(b).shape == (len(gecko().neurons_of(Layer.OUTPUT)),)
     space = env.action_space(a)
-    env.remove_robot(a)
     env.step({})
-    assert env.action_space(a) is space  # a dead agent keeps its space for the episode
+    env.remove_robot(a)
+    *_, infos = env.step({})
+    assert infos[a]["death"] == "removed"
+    assert env.action_space(a) is space  # a dead agent keeps its space while it is reported
+    env.step({})
+    with pytest.raises(KeyError, match="'robot_0' is dead"):  # then it is released
+        env.action_space(a)
     # PettingZoo's contract: an agent not yet born has spaces too (uniform, its body is unknown).
     assert env.observation_space("robot_7") is env.observation_space("robot_7")
     with pytest.raises(KeyError, match="unknown agent 'robot_7000'"):

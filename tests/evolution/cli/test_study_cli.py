@@ -121,12 +121,17 @@ def test_estimate_only_prints_the_estimate_and_writes_nothing(
     per_experiment = lines[start + 1:start + 6]
     for name, line in zip(PAPER_EXPERIMENTS, per_experiment, strict=True):
         assert line.startswith(f"  {name}: ") and "30 run(s), 90000 births" in line, line
-    assert "(online, mujoco, world of 16 robots;" in per_experiment[2]
+    # offline: 30 x 3000 evaluations of 0.5 + 1 s, the robot-seconds each experiment simulates
+    assert ("90000 births, 1.35e+05 robot-s (37.5 robot-h) (offline, mujoco: 1.5 s per birth)"
+            in per_experiment[0])
+    # online: the robots alive measured at the run's start (min_alive 2 here), not assumed
+    alive = float(per_experiment[2].split("(online, mujoco: ")[1].split(" robots alive x 1 s")[0])
+    assert 2 <= alive <= 30
     hours = [float(line.split(": ")[-1].removesuffix(" CPU-h")) for line in per_experiment]
     total = lines[start + 6]
     assert total.startswith("  total ") and "on 2 worker(s)" in total
-    assert float(total.split()[1]) == pytest.approx(sum(hours), abs=0.03)
-    assert lines[start + 7].startswith("  (an estimate: it assumes evolved robots cost")
+    assert float(total.split("), ")[1].split()[0]) == pytest.approx(sum(hours), abs=0.03)
+    assert lines[start + 7].startswith("  (an estimate: it assumes the robots of a run's first")
 
 
 @pytest.mark.parametrize("argv, message", [
