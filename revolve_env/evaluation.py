@@ -26,7 +26,9 @@ from revolve_env.conditions import (
     with_noise_shortcuts,
 )
 from revolve_env.fitness import trajectory_window
-from revolve_env.tasks import Task, make_task, score
+from revolve_env.fitness.sampling import pose_stride, shaking
+from revolve_env.fitness.terms import pose_path_lengths
+from revolve_env.tasks import Task, TaskError, make_task, pose_rate, score
 from revolve_env.terrain import Terrain
 from revolve_env.world import World, WorldConfig
 from revolve_env.world.signals import SignalReader, signal_reader
@@ -53,11 +55,16 @@ class EvaluationResult:
     Attributes:
         fitness: The task's fitness over the evaluation (0 if the simulation blew up); the
             default task's ``v + 5 s`` in metres.
-        v: Horizontal path length of the core over the evaluation. Metres.
-        s: Horizontal distance between the core's first and last positions. Metres.
+        v: Horizontal path length of the core over the evaluation, from its poses at the
+            task's pose rate (:mod:`revolve_env.fitness.sampling`). Metres.
+        s: Horizontal distance between the core's first and last poses. Metres.
         trajectory: Core positions at every control period of the evaluation, first row at the
             end of insertion; shape (T, 3), read-only. Metres.
         blow_up: Why the simulation blew up, or None.
+        shaking: The path summed at every control period over ``v``, over the same span
+            (:func:`~revolve_env.fitness.sampling.shaking`): 1 at a pose rate of every control
+            period or for a smooth walker, more for a core that trembles or rocks between pose
+            samples (after a blow-up: over the path before it). Dimensionless.
     """
 
     fitness: float
@@ -65,6 +72,7 @@ class EvaluationResult:
     s: float
     trajectory: NDArray[np.float64] = field(repr=False, compare=False)
     blow_up: str | None = None
+    shaking: float = 1.0
 
 
 def evaluate(
@@ -198,6 +206,10 @@ def evaluate_many(
     evaluation_ticks = round(seconds / dt)
     if evaluation_ticks < 1:
         raise ValueError(f"seconds ({seconds}) must cover at least one control period ({dt} s)")
+    try:
+        stride = pose_stride(pose_rate(scored), dt)
+    except ValueError as error:
+        raise TaskError(f"task {scored.name!r}: {error}") from None
     if not robots:
         return []
     rngs = [np.random.default_rng(seed) for seed in seeds]
@@ -205,16 +217,19 @@ def evaluate_many(
     with World(cfg, isolated=True) as world:
         paths = _rollout(world, robots, starts, insertion_ticks, evaluation_ticks, rngs,
                          conditions.sensor_noise, conditions.actuator_noise, scored.signal)
-    window = trajectory_window([p for p, _, _ in paths],
-                               None if scored.signal is None else [g for _, g, _ in paths])
+    trajectories = [p for p, _, _ in paths]
+    window = trajectory_window(trajectories,
+                               None if scored.signal is None else [g for _, g, _ in paths],
+                               stride, dt)
     fitness = score(scored, window).tolist()
+    shakes = shaking(*pose_path_lengths(trajectories, stride)).tolist()
     results = []
     for i, (path, _, reason) in enumerate(paths):
         if reason is not None:
-            results.append(EvaluationResult(0.0, 0.0, 0.0, path, reason))
+            results.append(EvaluationResult(0.0, 0.0, 0.0, path, reason, shakes[i]))
         else:
             results.append(EvaluationResult(fitness[i], float(window.v[i]), float(window.s[i]),
-                                            path, None))
+                                            path, None, shakes[i]))
     return results
 
 

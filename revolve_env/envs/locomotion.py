@@ -30,13 +30,14 @@ from revolve_env.conditions import EvaluationConditions, with_noise_shortcuts
 from revolve_env.envs.observations import hinge_values, proprio_bounds, saturated_sensor_bounds
 from revolve_env.evaluation import start_generator
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
+from revolve_env.fitness.sampling import pose_due, pose_stride
 from revolve_env.registration import (
     DEFAULT_EVALUATION_TIME,
     DEFAULT_INSERTION_TIME,
     DEFAULT_ROBOT,
     episode_steps,
 )
-from revolve_env.tasks import BaseTask, Task, make_task, score
+from revolve_env.tasks import BaseTask, Task, TaskError, make_task, pose_rate, score
 from revolve_env.terrain import Terrain
 from revolve_env.world import World, WorldConfig
 from revolve_env.world.signals import SignalReader, signal_reader
@@ -272,6 +273,10 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self._brain: BatchController | None = None
         self._brain_in = np.zeros(self._n_inputs)
         self._brain_out = np.zeros(self._n_outputs)
+        try:  # control periods between two pose samples of the fitness
+            self._pose_stride = pose_stride(pose_rate(self.task), dt)
+        except ValueError as error:
+            raise TaskError(f"task {self.task.name!r}: {error}") from None
         self._fitness = SlidingWindowFitness(self.fitness_window,
                                              signal=self.task.signal is not None)
         self._signal: SignalReader | None = None
@@ -329,7 +334,11 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
 
         self._blow_up = world.blow_up(self._handle)
         if self._step_count >= self._insertion_steps and self._blow_up is None:
-            self._fitness.add(world.time, world.states.core_pos[0], self._signal_now())
+            age = np.array([self._step_count - self._insertion_steps])
+            if pose_due(age, self._pose_stride)[0] or not len(self._fitness):
+                self._fitness.add(world.time, world.states.core_pos[0], self._signal_now())
+            else:  # between pose samples the robot holds its last one: no reward
+                self._fitness.add(world.time, *self._fitness.last())
         reward = self._get_reward()
         terminated = self._blow_up is not None
         truncated = not terminated and self._step_count >= self._total_steps

@@ -128,7 +128,7 @@ def test_every_task_scores_alike_in_evaluate_and_the_gym_env(task: Any) -> None:
 def test_a_users_task_is_stored_and_made_again_by_its_dotted_path() -> None:
     task = Sideways(scale=3.0)
     data = task.to_dict()
-    assert data == {"name": "user_tasks:Sideways", "scale": 3.0}
+    assert data == {"name": "user_tasks:Sideways", "scale": 3.0, "pose_rate": "every-period"}
     assert task_from_dict(data) == task
     assert make_task("user_tasks:Sideways") == Sideways()
     for name in TASKS:  # every shipped task by its name, its defaults, round trip
@@ -224,7 +224,8 @@ def test_a_name_read_from_someone_elses_results_resolves_without_importing_their
         task_from_dict(stored, allow_import=False)
     assert task_from_dict({"name": "locomotion", "s_weight": 4}, allow_import=False) == \
         Locomotion(4.0)
-    assert Locomotion(4).to_dict() == {"name": "locomotion", "s_weight": 4.0}  # plain floats
+    assert Locomotion(4).to_dict() == {"name": "locomotion", "s_weight": 4.0,  # plain floats
+                                       "pose_rate": "every-period"}
 
 
 def test_a_fitness_of_the_wrong_shape_is_refused_naming_the_task() -> None:
