@@ -73,6 +73,7 @@ from evolution.experiments.folders import left_out_note
 from evolution.experiments.store import package_version
 from evolution.random_robot import RandomRobotError
 from evolution.reporting import report
+from evolution.reporting.tables import shaking_line, shaking_rows
 from revolve_env.body.examples import spider
 from revolve_env.body.export import bill_of_materials, to_sdf, to_urdf
 from revolve_env.body.validate import RobotError
@@ -222,6 +223,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
     note = left_out_note(args.dir, result.left_out, "revolve report")
     if note:
         _say(note)
+    for row in shaking_rows(result.experiments):
+        _say(shaking_line(row))
     for path in (*result.figures, *result.tables):
         _say(str(path))
     _say(f"open in a browser: {result.page}")

@@ -223,6 +223,7 @@ def test_bad_arguments(results: Path, tmp_path: Path) -> None:
 def _as_version_3(db: Path) -> None:
     con = sqlite3.connect(db)
     con.execute("DROP TABLE reevaluations")
+    con.execute("ALTER TABLE fitness DROP COLUMN shaking")  # added by schema 7
     config = json.loads(con.execute("SELECT value FROM meta WHERE key = 'config'").fetchone()[0])
     config.pop("evaluation", None)
     config["engine"] = config.pop("mode")  # what schema 3 called it
@@ -241,7 +242,7 @@ def test_version_3_run_is_upgraded_and_keeps_every_row(study: Path, tmp_path: Pa
     _as_version_3(db)
     before = dump_results(db)
     with Store.open(db) as store:
-        assert store.meta()["schema_version"] == "6"
+        assert store.meta()["schema_version"] == "7"
         assert store.config["evaluation"]["heading"] == 0.0  # an offline run: heading 0
         assert store.config["mode"] == "offline" and "engine" not in store.config
     assert dump_results(db) == before
