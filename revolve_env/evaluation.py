@@ -253,7 +253,8 @@ def _rollout(
         simulation stayed sane).
     """
     n = len(robots)
-    brain = BatchController(world.config.control_period)
+    brain = BatchController(world.config.brain_dt)
+    think_every = world.config.brain_stride  # control periods per brain step
     nets = [brain.add(robot) for robot in robots]
     handles = [world.add_robot(robot, start.position, start.yaw)
                for robot, start in zip(robots, starts, strict=True)]
@@ -281,22 +282,26 @@ def _rollout(
             if reader is not None:
                 signals[0, columns] = reader.read(world)
             recorded = 1
-        inputs = world.sensor_values()
+        think = tick % think_every == 0  # the brain steps; its targets hold in between
         if noisy:
-            inputs, targets = _noisy_step(world, brain, inputs, outputs, columns, rngs, bounds,
-                                          sensor_noise, actuator_noise)
+            inputs, targets = _noisy_step(world, brain, world.sensor_values(), outputs, columns,
+                                          rngs, bounds, sensor_noise, actuator_noise, think)
         else:
-            brain.step(inputs, outputs)
+            if think:
+                brain.step(world.sensor_values(), outputs)
             targets = outputs
         world.set_all_targets(targets)
         world.step(1)
         if world.any_blown_up:
             left = columns
+            held = {i: outputs[brain.output_slice(nets[i])].copy() for i in left.tolist()}
             columns = _drop_blown(world, brain, handles, nets, columns, reasons)
             rows[np.setdiff1d(left, columns)] = recorded
             if not columns.size:
                 break
             outputs = np.zeros(brain.n_outputs)
+            for i in columns.tolist():  # the others' targets hold until their brains step
+                outputs[brain.output_slice(nets[i])] = held[i]
             every = False
             reader = signal_reader(signal, [robots[i] for i in columns.tolist()], world)
         if tick >= insertion_ticks:
@@ -322,16 +327,21 @@ def _noisy_step(
     outputs: NDArray[np.float64], columns: NDArray[np.intp],
     rngs: Sequence[np.random.Generator],
     bounds: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]]], sensor_noise: float,
-    actuator_noise: float,
+    actuator_noise: float, think: bool = True,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Sensor noise, the controller and actuator noise, robot by robot's own generator."""
+    """Sensor noise, the controller and actuator noise, robot by robot's own generator.
+
+    Without ``think`` (a control period between two brain steps) no sensor is read: only the
+    actuator noise is drawn, on the held outputs.
+    """
     noisy_in = np.empty_like(inputs)
     ins, outs = world.input_offsets, world.output_offsets
-    for row, i in enumerate(columns.tolist()):
-        low, high = bounds[i]
-        noisy_in[ins[row]:ins[row + 1]] = add_sensor_noise(inputs[ins[row]:ins[row + 1]],
-                                                           sensor_noise, rngs[i], low, high)
-    brain.step(noisy_in, outputs)
+    if think:
+        for row, i in enumerate(columns.tolist()):
+            low, high = bounds[i]
+            noisy_in[ins[row]:ins[row + 1]] = add_sensor_noise(inputs[ins[row]:ins[row + 1]],
+                                                               sensor_noise, rngs[i], low, high)
+        brain.step(noisy_in, outputs)
     if actuator_noise <= 0:
         return noisy_in, outputs
     targets = outputs.copy()

@@ -302,7 +302,8 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
                                       else self.np_random)
         self._handle = self._world.add_robot(self.robot, start.position, start.yaw)
         if self.controller == "brain":
-            self._brain = BatchController(self.config.control_period)
+            self._brain = BatchController(self.config.brain_dt)
+            self._brain_out[:] = 0.0
             self._brain.add(self.robot)
         self._signal = signal_reader(self.task.signal, [self.robot], self._world)
         self._fitness.reset()
@@ -382,8 +383,9 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         action = np.minimum(np.maximum(action, -1.0), 1.0)
         if self._brain is None:
             return action
-        self._brain_in[:] = self._obs[: self._n_inputs]  # RoboGen's sensors only
-        self._brain.step(self._brain_in, self._brain_out)
+        if self._step_count % self.config.brain_stride == 0:  # else its targets hold
+            self._brain_in[:] = self._obs[: self._n_inputs]  # RoboGen's sensors only
+            self._brain.step(self._brain_in, self._brain_out)
         if self.action_mode == "targets":
             return self._brain_out.copy()
         n = self._n_outputs
