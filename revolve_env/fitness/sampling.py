@@ -3,15 +3,16 @@
 The paper's system sent robot poses 5 times per simulated second (Revolve's
 ``--pose-update-frequency 5``) and computed the path ``v`` and the displacement ``s`` over the
 window from those poses. Here the pose rate is a setting of the task
-(:attr:`revolve_env.tasks.BaseTask.pose_rate`): a number of samples per second, or
-:data:`EVERY_PERIOD` (a sample every control period, 60 Hz with the default timing: how the
-fitness was computed before the setting existed).
+(:attr:`revolve_env.tasks.BaseTask.pose_rate`): a number of samples per second (default 5 Hz,
+the paper's), or :data:`EVERY_PERIOD` (a sample every control period, 60 Hz with the default
+timing: how the fitness was computed before the setting existed).
 
 The rule, in one place for every driver (:func:`revolve_env.evaluate`, the envs, the online
 world): a robot's pose is sampled every :func:`pose_stride` control periods, counted from the end
 of its insertion (its first sample); :func:`pose_due` says which ages are due. Between two pose
 samples the fitness windows hold the last sampled pose (and signal), so the fitness, and the
-reward that is its change, move only at pose samples.
+reward that is its change, move only at pose samples; a sliding window starts at the pose held
+at its start (the last pose sample at or before it).
 
 The shaking measure (:func:`shaking`) is the path of the core summed at every control period
 over the path summed at the pose rate, over the same span: 1 for a robot that moves smoothly,
@@ -32,8 +33,11 @@ __all__ = ["DEFAULT_POSE_RATE", "EVERY_PERIOD", "check_pose_rate", "pose_due", "
 EVERY_PERIOD = "every-period"
 """The pose rate that samples the core every control period (the fitness before pose rates)."""
 
-DEFAULT_POSE_RATE: float | str = EVERY_PERIOD
-"""The pose rate of a task that does not say: samples per second (Hz), or :data:`EVERY_PERIOD`."""
+DEFAULT_POSE_RATE: float | str = 5.0
+"""The pose rate of a task that does not say: the paper's 5 Hz (samples per second).
+
+Results made before pose rates sampled every control period; their stored configs say so
+(:data:`evolution.experiments.records.POSE_RATE_OF_OLD_CONFIGS`)."""
 
 
 def check_pose_rate(value: object) -> float | str:
