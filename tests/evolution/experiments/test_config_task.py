@@ -90,7 +90,8 @@ def test_reading_a_stored_class_of_ones_own_imports_nothing() -> None:
     assert "experiment_tasks" not in sys.modules  # a report or show would not run its code
     with pytest.raises(ConfigError, match="is a class of your own"):
         config.fitness_task(allow_import=False)
-    assert config.fitness_task().to_dict() == {"name": "experiment_tasks:Forward", "scale": 1.0}
+    assert config.fitness_task().to_dict() == {"name": "experiment_tasks:Forward", "scale": 1.0,
+                                               "pose_rate": 5.0}
 
 
 # -- runs --------------------------------------------------------------------------------------
