@@ -26,7 +26,9 @@ from revolve_env.conditions import (
     with_noise_shortcuts,
 )
 from revolve_env.fitness import trajectory_window
-from revolve_env.tasks import Task, make_task, score
+from revolve_env.fitness.sampling import pose_stride, shaking
+from revolve_env.fitness.terms import pose_path_lengths
+from revolve_env.tasks import Task, TaskError, make_task, pose_rate, score
 from revolve_env.terrain import Terrain
 from revolve_env.world import World, WorldConfig, with_engine
 from revolve_env.world.signals import SignalReader, signal_reader
@@ -53,11 +55,16 @@ class EvaluationResult:
     Attributes:
         fitness: The task's fitness over the evaluation (0 if the simulation blew up); the
             default task's ``v + 5 s`` in metres.
-        v: Horizontal path length of the core over the evaluation. Metres.
-        s: Horizontal distance between the core's first and last positions. Metres.
+        v: Horizontal path length of the core over the evaluation, from its poses at the
+            task's pose rate (:mod:`revolve_env.fitness.sampling`). Metres.
+        s: Horizontal distance between the core's first and last poses. Metres.
         trajectory: Core positions at every control period of the evaluation, first row at the
             end of insertion; shape (T, 3), read-only. Metres.
         blow_up: Why the simulation blew up, or None.
+        shaking: The path summed at every control period over ``v``, over the same span
+            (:func:`~revolve_env.fitness.sampling.shaking`): 1 at a pose rate of every control
+            period or for a smooth walker, more for a core that trembles or rocks between pose
+            samples (after a blow-up: over the path before it). Dimensionless.
     """
 
     fitness: float
@@ -65,6 +72,7 @@ class EvaluationResult:
     s: float
     trajectory: NDArray[np.float64] = field(repr=False, compare=False)
     blow_up: str | None = None
+    shaking: float = 1.0
 
 
 def evaluate(
@@ -198,6 +206,10 @@ def evaluate_many(
     evaluation_ticks = round(seconds / dt)
     if evaluation_ticks < 1:
         raise ValueError(f"seconds ({seconds}) must cover at least one control period ({dt} s)")
+    try:
+        stride = pose_stride(pose_rate(scored), dt)
+    except ValueError as error:
+        raise TaskError(f"task {scored.name!r}: {error}") from None
     if not robots:
         return []
     rngs = [np.random.default_rng(seed) for seed in seeds]
@@ -210,16 +222,19 @@ def evaluate_many(
         paths = _rollout(world, robots, starts, insertion_ticks, evaluation_ticks, rngs,
                          conditions.sensor_noise, conditions.actuator_noise, scored.signal,
                          joints)
-    window = trajectory_window([p for p, _, _ in paths],
-                               None if scored.signal is None else [g for _, g, _ in paths])
+    trajectories = [p for p, _, _ in paths]
+    window = trajectory_window(trajectories,
+                               None if scored.signal is None else [g for _, g, _ in paths],
+                               stride, dt)
     fitness = score(scored, window).tolist()
+    shakes = shaking(*pose_path_lengths(trajectories, stride)).tolist()
     results = []
     for i, (path, _, reason) in enumerate(paths):
         if reason is not None:
-            results.append(EvaluationResult(0.0, 0.0, 0.0, path, reason))
+            results.append(EvaluationResult(0.0, 0.0, 0.0, path, reason, shakes[i]))
         else:
             results.append(EvaluationResult(fitness[i], float(window.v[i]), float(window.s[i]),
-                                            path, None))
+                                            path, None, shakes[i]))
     return results
 
 
@@ -246,7 +261,8 @@ def _rollout(
         simulation stayed sane).
     """
     n = len(robots)
-    brain = BatchController(world.config.control_period)
+    brain = BatchController(world.config.brain_dt)
+    think_every = world.config.brain_stride  # control periods per brain step
     nets = [brain.add(robot) for robot in robots]
     handles = [world.add_robot(robot, start.position, start.yaw)
                for robot, start in zip(robots, starts, strict=True)]
@@ -277,22 +293,26 @@ def _rollout(
             if reader is not None:
                 signals[0, columns] = reader.read(world)
             recorded = 1
-        inputs = world.sensor_values()
+        think = tick % think_every == 0  # the brain steps; its targets hold in between
         if noisy:
-            inputs, targets = _noisy_step(world, brain, inputs, outputs, columns, rngs, bounds,
-                                          sensor_noise, actuator_noise)
+            inputs, targets = _noisy_step(world, brain, world.sensor_values(), outputs, columns,
+                                          rngs, bounds, sensor_noise, actuator_noise, think)
         else:
-            brain.step(inputs, outputs)
+            if think:
+                brain.step(world.sensor_values(), outputs)
             targets = outputs
         world.set_all_targets(targets)
         world.step(1)
         if world.any_blown_up:
             left = columns
+            held = {i: outputs[brain.output_slice(nets[i])].copy() for i in left.tolist()}
             columns = _drop_blown(world, brain, handles, nets, columns, reasons)
             rows[np.setdiff1d(left, columns)] = recorded
             if not columns.size:
                 break
             outputs = np.zeros(brain.n_outputs)
+            for i in columns.tolist():  # the others' targets hold until their brains step
+                outputs[brain.output_slice(nets[i])] = held[i]
             every = False
             reader = signal_reader(signal, [robots[i] for i in columns.tolist()], world)
         if tick >= insertion_ticks:
@@ -318,16 +338,21 @@ def _noisy_step(
     outputs: NDArray[np.float64], columns: NDArray[np.intp],
     rngs: Sequence[np.random.Generator],
     bounds: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]]], sensor_noise: float,
-    actuator_noise: float,
+    actuator_noise: float, think: bool = True,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Sensor noise, the controller and actuator noise, robot by robot's own generator."""
+    """Sensor noise, the controller and actuator noise, robot by robot's own generator.
+
+    Without ``think`` (a control period between two brain steps) no sensor is read: only the
+    actuator noise is drawn, on the held outputs.
+    """
     noisy_in = np.empty_like(inputs)
     ins, outs = world.input_offsets, world.output_offsets
-    for row, i in enumerate(columns.tolist()):
-        low, high = bounds[i]
-        noisy_in[ins[row]:ins[row + 1]] = add_sensor_noise(inputs[ins[row]:ins[row + 1]],
-                                                           sensor_noise, rngs[i], low, high)
-    brain.step(noisy_in, outputs)
+    if think:
+        for row, i in enumerate(columns.tolist()):
+            low, high = bounds[i]
+            noisy_in[ins[row]:ins[row + 1]] = add_sensor_noise(inputs[ins[row]:ins[row + 1]],
+                                                               sensor_noise, rngs[i], low, high)
+        brain.step(noisy_in, outputs)
     if actuator_noise <= 0:
         return noisy_in, outputs
     targets = outputs.copy()

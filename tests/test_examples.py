@@ -173,7 +173,7 @@ def test_custom_fitness() -> None:
     # The task class is the env's reward: the episode's return is its fitness.
     ret, fitness = numbers(rf"with ForwardDistance: return {NUMBER} m, fitness {NUMBER} m", out)
     assert ret == fitness
-    assert "stored as {'name': '__main__:ForwardDistance', 'weight': 2.0}" in out
+    assert "stored as {'name': '__main__:ForwardDistance', 'pose_rate': 5.0, 'weight': 2.0}" in out
 
 
 def test_multi_agent_shared_policy() -> None:

@@ -198,6 +198,7 @@ def _cmd_resume(args: argparse.Namespace) -> int:
 def _cmd_report(args: argparse.Namespace) -> int:
     from evolution.experiments.folders import left_out_note
     from evolution.reporting import report
+    from evolution.reporting.tables import shaking_line, shaking_rows
 
     formats = tuple(f.strip() for f in args.formats.split(",") if f.strip())
     if not formats or any(f not in FIGURE_FORMATS for f in formats):
@@ -213,6 +214,9 @@ def _cmd_report(args: argparse.Namespace) -> int:
     note = left_out_note(args.dir, result.left_out, "revolve report")
     if note:
         _say(note)
+    if not args.quiet:  # the shaking of each experiment's robots (docs/experiments.md)
+        for row in shaking_rows(result.experiments):
+            _say(shaking_line(row))
     _say(f"open in a browser: {result.page}")
     return 0
 

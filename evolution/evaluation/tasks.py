@@ -109,6 +109,8 @@ class EvalOutcome:
             when the evaluation failed.
         v: Path length over the window. Metres.
         s: Straight-line displacement over the window. Metres.
+        shaking: The path at every control period over ``v``
+            (:attr:`revolve_env.EvaluationResult.shaking`); ``None`` when not measured.
         failure: ``None``, or why the robot was lost (e.g. ``"blow-up: ..."``).
         learner_failure: ``None``, or why the infancy hook failed (the robot was then evaluated
             with its inherited brain).
@@ -125,6 +127,7 @@ class EvalOutcome:
     learner_failure: str | None = None
     learned: Robot | None = None
     learning: LearningSummary | None = None
+    shaking: float | None = None
 
 
 EvaluateFunction = Callable[[EvalTask], EvalOutcome]
@@ -170,7 +173,8 @@ def evaluate_robot(task: EvalTask) -> EvalOutcome:
 def _outcome(result: EvaluationResult) -> EvalOutcome:
     if result.blow_up is not None:
         return EvalOutcome(None, failure=f"blow-up: {result.blow_up}")
-    return EvalOutcome(float(result.fitness), float(result.v), float(result.s))
+    return EvalOutcome(float(result.fitness), float(result.v), float(result.s),
+                       shaking=float(result.shaking))
 
 
 def evaluate_robots(tasks: Sequence[EvalTask]) -> list[EvalOutcome]:

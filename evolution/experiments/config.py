@@ -50,6 +50,17 @@ online, and what infants learn (the paper's ``f = v + 5 s``, ``locomotion``, wit
     name = "directed-locomotion"   # a shipped task, or "package.module:ClassName" of your own
     heading = 1.57                 # its parameters, radians here
 
+Every task takes ``pose_rate``, how often the core's pose is sampled for the fitness (samples
+per second, or ``"every-period"``: :mod:`revolve_env.fitness.sampling`), and ``locomotion`` the
+paper's instability guard ``limit`` (metres per second over the window: 1.0 zeroes ``f >= 12
+m`` over 12 s)::
+
+    [task]
+    name = "locomotion"
+    pose_rate = 5                  # Hz, the paper's; "every-period" samples each control period
+    limit = 1.0                    # the paper's --fitness-limit; off without it
+
+(on the command line ``--set task.name=locomotion --set task.pose_rate=60``).
 It is stored with the results, so ``resume`` and ``reevaluate`` score with the same task. A
 class of your own is imported (from your Python path: a results folder carries no code) when a
 run starts; resuming or re-evaluating a stored one imports it only when the user trusts the folder
@@ -75,7 +86,16 @@ from evolution.experiments.errors import ConfigError
 from evolution.experiments.registry import read_toml, shipped_config, shipped_configs
 from evolution.learning import TrainingCenter, training_center_from_dict
 from revolve_env.conditions import MAX_RADIUS, EvaluationConditions
-from revolve_env.tasks import TASKS, Locomotion, Task, TaskError, check_task_name, task_from_dict
+from revolve_env.fitness.sampling import pose_stride
+from revolve_env.tasks import (
+    TASKS,
+    Locomotion,
+    Task,
+    TaskError,
+    check_task_name,
+    pose_rate,
+    task_from_dict,
+)
 from revolve_env.terrain import (
     Flat,
     Heightfield,
@@ -362,7 +382,12 @@ class ExperimentConfig:
             # A shipped task is built (its parameters checked) now; a class of the user's own
             # only when a run uses it (fitness_task): reading a stored config imports nothing.
             if self.task.get("name") in TASKS or not isinstance(self.task.get("name"), str):
-                self.fitness_task(allow_import=False)
+                task = self.fitness_task(allow_import=False)
+                period = revolve_env.WorldConfig().with_engine(self.world.engine).control_period
+                try:
+                    pose_stride(pose_rate(task), period)
+                except (TaskError, ValueError) as error:
+                    raise ConfigError(f"task: {error}") from None
             else:
                 try:
                     check_task_name(self.task["name"])

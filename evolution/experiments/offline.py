@@ -215,7 +215,7 @@ class OfflineMode:
         life.advance_to_age(config.fertile_age)
         member.fitness = float(outcome.fitness)
         state.batch.fitness.append(FitnessSample(member.robot_id, end, member.fitness,
-                                                 outcome.v, outcome.s))
+                                                 outcome.v, outcome.s, outcome.shaking))
         state.batch.fitness_updates.append((member.robot_id, member.fitness))
 
     def select(self, pool: list[Member]) -> list[Member]:

@@ -25,9 +25,11 @@ __all__ = [
     "LEARNING_TABLE",
     "MODE_OF_OLD_CONFIGS",
     "MIGRATIONS",
+    "POSE_RATE_OF_OLD_CONFIGS",
     "SCHEMA",
     "SCHEMA_V1",
     "SCHEMA_VERSION",
+    "SHAKING_COLUMN",
     "TABLES",
     "Batch",
     "Checkpoint",
@@ -44,7 +46,7 @@ __all__ = [
     "RunRecord",
 ]
 
-SCHEMA_VERSION = 6
+SCHEMA_VERSION = 7
 """Version of the database layout; a database with a newer one is refused, an older one is
 upgraded when opened (see the module docstring)."""
 
@@ -225,7 +227,30 @@ resumed run's remaining infants learn to the numbers of an uninterrupted run. A 
 is kept. Written out literally on purpose: a migration must not change when the code's defaults
 do, and this statement is the one home of that rule."""
 
-SCHEMA = SCHEMA_V1 + LEARNING_TABLE + POLICY_COLUMN + REEVALUATIONS_TABLE
+SHAKING_COLUMN = """
+ALTER TABLE fitness ADD COLUMN shaking REAL;
+"""
+"""Schema version 7: each fitness sample's shaking measure (:attr:`FitnessSample.shaking`);
+NULL in samples stored before it."""
+
+POSE_RATE_OF_OLD_CONFIGS = """
+UPDATE meta SET value = json_set(value, '$.task', json(
+    '{"name": "locomotion", "pose_rate": "every-period"}'))
+WHERE key = 'config' AND json_valid(value) AND json_type(value) = 'object'
+    AND (json_type(value, '$.task') IS NULL OR json_type(value, '$.task') = 'null');
+UPDATE meta SET value = json_set(value, '$.task.pose_rate', 'every-period')
+WHERE key = 'config' AND json_valid(value) AND json_type(value) = 'object'
+    AND json_type(value, '$.task') = 'object' AND json_type(value, '$.task.pose_rate') IS NULL;
+"""
+"""Schema version 7: the pose rate the fitness of a stored run was computed at. Before pose rates
+(:mod:`revolve_env.fitness.sampling`) the core was sampled every control period, so a stored
+config without one gets ``pose_rate = "every-period"`` in its task table (a config without a
+task table gets the paper's ``locomotion`` task, its default then, with it): a resumed run
+scores its remaining births as it scored the first ones. A pose rate already there is kept.
+Written out literally on purpose: a migration must not change when the code's defaults do, and
+this statement is the one home of that rule."""
+
+SCHEMA = SCHEMA_V1 + LEARNING_TABLE + POLICY_COLUMN + REEVALUATIONS_TABLE + SHAKING_COLUMN
 """The current layout (version :data:`SCHEMA_VERSION`)."""
 
 TABLES = frozenset(re.findall(r"CREATE TABLE (\w+)", SCHEMA))
@@ -233,7 +258,8 @@ TABLES = frozenset(re.findall(r"CREATE TABLE (\w+)", SCHEMA))
 
 MIGRATIONS: dict[int, str] = {1: LEARNING_TABLE, 2: POLICY_COLUMN,
                                3: REEVALUATIONS_TABLE + CONDITIONS_OF_OLD_RUNS,
-                               4: MODE_OF_OLD_CONFIGS, 5: SB3_OF_OLD_RUNS}
+                               4: MODE_OF_OLD_CONFIGS, 5: SB3_OF_OLD_RUNS,
+                               6: SHAKING_COLUMN + POSE_RATE_OF_OLD_CONFIGS}
 """For each old version, the statements that bring it to the next one."""
 
 
@@ -293,8 +319,13 @@ class FitnessSample:
         robot_id: The robot.
         time: Simulated time. Seconds.
         fitness: ``v + 5 s`` over the preceding window. Metres.
-        v: Path length over the window. Metres. ``None`` when unknown.
+        v: Path length over the window (at the task's pose rate). Metres. ``None`` when
+            unknown.
         s: Straight-line displacement over the window. Metres. ``None`` when unknown.
+        shaking: The path at every control period over ``v``, over the same span
+            (:func:`revolve_env.fitness.sampling.shaking`; 1 at a pose rate of every control
+            period). Dimensionless. ``None`` when unknown (online samples, samples stored
+            before schema 7).
     """
 
     robot_id: int
@@ -302,6 +333,7 @@ class FitnessSample:
     fitness: float
     v: float | None = None
     s: float | None = None
+    shaking: float | None = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -16,7 +16,8 @@ meta        key/value: ``schema_version``, ``package_version``, ``config`` (JSON
 runs        one row per run: seed, status, births, simulated time, generation
 checkpoints the latest commit point of each run: rng state and engine state (JSON)
 robots      genome (robot JSON), parents, origin, conception/birth/death time, cause, fitness
-fitness     fitness samples over simulated time (offline: one per evaluation)
+fitness     fitness samples over simulated time (offline: one per evaluation), with ``v``,
+            ``s`` and the shaking measure (offline; NULL online and before schema 7)
 transitions every lifecycle transition with its simulated time
 population  population snapshots: the members and their fitness after each commit point
 diversity   population diversity over births
@@ -38,7 +39,9 @@ with it (``"learned"``), so a resumed run continues with the same genomes.
 Schema versions: 1 had no ``learning`` table; 2 had no ``learning.policy`` column (the reference
 to a saved SB3 policy in ``<results>/policies/``); 3 had no ``reevaluations`` table, and its
 stored configs no ``evaluation`` table; 4 named the stored config's offline/online switch
-``engine``; 5 stored SB3 learning tables without ``normalize`` and ``settings``. An older database
+``engine``; 5 stored SB3 learning tables without ``normalize`` and ``settings``; 6 had no
+``fitness.shaking`` column and computed the fitness from the core's position at every control
+period without saying so in its config. An older database
 is upgraded in place when opened, in one transaction (the empty ``learning`` and
 ``reevaluations`` tables and the ``policy`` column, NULL in old rows, are added; a stored config
 without ``evaluation`` gains the conditions its runs lived under,
@@ -46,9 +49,12 @@ without ``evaluation`` gains the conditions its runs lived under,
 heading online, no noise; its ``engine`` key becomes ``mode``,
 :data:`~evolution.experiments.records.MODE_OF_OLD_CONFIGS`; an SB3 learning table gains
 ``normalize = false`` and ``settings = "sb3-defaults"``, how its learner trained then,
-:data:`~evolution.experiments.records.SB3_OF_OLD_RUNS`; the version is set to 6; nothing else
-changes); a database newer than this package is refused. An old database that cannot be written
-is upgraded in a read-only copy in memory instead: readers (``report``, ``show``) read it,
+:data:`~evolution.experiments.records.SB3_OF_OLD_RUNS`; the ``shaking`` column is added, NULL in
+old rows, and the stored task gains ``pose_rate = "every-period"``, the sampling its fitness was
+computed at, :data:`~evolution.experiments.records.POSE_RATE_OF_OLD_CONFIGS`; the version is set
+to 7; nothing else changes); a database newer than this package is refused. An old database that
+cannot be written is upgraded in a read-only copy in memory instead: readers (``report``,
+``show``) read it,
 ``resume`` refuses it as it refuses any read-only database.
 
 The query functions at the bottom (``fitness_over_births``, ``final_population``, ...) are what
@@ -342,9 +348,10 @@ class Store:
                 [(t, cause, _nullable(f), run_id, rid) for rid, t, cause, f in batch.deaths],
             )
             db.executemany(
-                "INSERT INTO fitness (run_id, robot_id, time, fitness, v, s) "
-                "VALUES (?, ?, ?, ?, ?, ?)",
-                [(run_id, s.robot_id, s.time, s.fitness, s.v, s.s) for s in batch.fitness],
+                "INSERT INTO fitness (run_id, robot_id, time, fitness, v, s, shaking) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?)",
+                [(run_id, s.robot_id, s.time, s.fitness, s.v, s.s, s.shaking)
+                 for s in batch.fitness],
             )
             db.executemany(
                 "INSERT INTO transitions (run_id, robot_id, source, target, time, note) "
@@ -473,7 +480,7 @@ class Store:
 
     def fitness_samples(self, run_id: int, robot_id: int | None = None) -> list[FitnessSample]:
         """Fitness samples of a run (of one robot if given), in time order."""
-        query = "SELECT robot_id, time, fitness, v, s FROM fitness WHERE run_id = ?"
+        query = "SELECT robot_id, time, fitness, v, s, shaking FROM fitness WHERE run_id = ?"
         args: tuple[int, ...] = (run_id,)
         if robot_id is not None:
             query += " AND robot_id = ?"

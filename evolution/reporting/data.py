@@ -134,6 +134,10 @@ class RunData:
         commit_births: The engine's births at each commit point (parallel to ``fitness``).
         at: Populations at engine births below ``engine_births`` that a report compares
             (filled by :func:`load_included`; see :meth:`population_at`).
+        shaking: Every robot's shaking measure (its last fitness sample that has one: the
+            path at every control period over the path at the pose rate,
+            :func:`revolve_env.fitness.sampling.shaking`); robots without one left out.
+        shaking_fitness: Those robots' fitness (same order). Metres.
 
     ``births``, ``fitness.births`` and ``diversity_births`` count births as the module
     docstring defines them (failed births left out).
@@ -157,6 +161,8 @@ class RunData:
     engine_births: int = 0
     commit_births: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
     at: Mapping[int, PopulationAt] = field(default_factory=dict)
+    shaking: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    shaking_fitness: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
 
     @property
     def lost_robots(self) -> int:
@@ -275,6 +281,13 @@ class ExperimentData:
         return self.config.get("learning") is not None or any(
             r.inborn_fitness.size or r.learner_failures for r in self.runs)
 
+    def shaking(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Every measured robot's shaking and fitness, all runs pooled (:attr:`RunData.shaking`)."""
+        shaking = [r.shaking for r in self.runs]
+        fitness = [r.shaking_fitness for r in self.runs]
+        return (np.concatenate(shaking) if shaking else np.zeros(0),
+                np.concatenate(fitness) if fitness else np.zeros(0))
+
     def learning_fitness(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Inborn and learned fitness of every infant of every run, pooled and paired. Metres."""
         inborn = [r.inborn_fitness for r in self.runs]
@@ -347,6 +360,11 @@ def _load_run(store: Store, record: RunRecord, brain_aware: bool) -> RunData | N
              and math.isfinite(x.inborn_fitness) and math.isfinite(x.learned_fitness)]
     brain, final_brain = (_brain_diversity(store, run_id, engine_births) if brain_aware
                           else (np.zeros(0), math.nan))
+    last: dict[int, tuple[float, float]] = {}  # robot -> its last (shaking, fitness)
+    for sample in store.fitness_samples(run_id):
+        if sample.shaking is not None and not math.isnan(sample.shaking):
+            last[sample.robot_id] = (sample.shaking, sample.fitness)
+    shaking = np.array(list(last.values()), dtype=float).reshape(-1, 2)
     return RunData(
         run_id, record.status, int(births_axis(np.array([record.births]), failed)[0]),
         replace(series, births=births_axis(series.births, failed)),
@@ -358,6 +376,7 @@ def _load_run(store: Store, record: RunRecord, brain_aware: bool) -> RunData | N
         np.array([b for _, b in pairs], dtype=float),
         len(store.failures(run_id, "learner")),
         failed, lost, brain, final_brain, record.births, series.births,
+        shaking=shaking[:, 0].copy(), shaking_fitness=shaking[:, 1].copy(),
     )
 
 

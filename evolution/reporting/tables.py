@@ -37,6 +37,7 @@ __all__ = [
     "MANN_WHITNEY_COLUMNS",
     "POOLED_SAMPLES",
     "POOLED_SHOWN_COLUMNS",
+    "SHAKING_COLUMNS",
     "SUMMARY_COLUMNS",
     "TESTED_SAMPLES",
     "compared_births",
@@ -49,6 +50,8 @@ __all__ = [
     "markdown",
     "markdown_table",
     "sections",
+    "shaking_line",
+    "shaking_rows",
     "summary_columns",
     "summary_rows",
     "write_csv",
@@ -197,6 +200,59 @@ CURVE_COLUMNS = ("experiment_a", "experiment_b", "point", "births", "n_a", "n_b"
 """Columns of ``curve_tests.csv``: per-run population mean fitness at equal births (engine
 births), ``p_holm`` Holm-Bonferroni over the births of one pair; ``point`` indexes
 :data:`CURVE_FRACTIONS`."""
+
+
+SHAKING_COLUMNS = ("experiment", "pose_rate", "robots_measured", "shaking_median",
+                   "shaking_p90", "fittest_robots", "fittest_shaking_median",
+                   "share_shaking_over_2")
+"""Columns of the report's shaking table (:func:`shaking_rows`)."""
+
+FITTEST_SHARE = 0.1
+"""The share of measured robots (the fittest) whose shaking the table shows apart."""
+
+
+def _pose_rate(e: ExperimentData) -> str:
+    task = e.config.get("task")
+    rate = task.get("pose_rate") if isinstance(task, dict) else None
+    return "default" if rate is None else str(rate)
+
+
+def shaking_rows(experiments: Sequence[ExperimentData]) -> list[dict[str, Cell]]:
+    """One row per experiment with measured robots: does evolution pay for shaking?
+
+    The shaking measure of a robot is the path of its core summed at every control period over
+    the path at its task's pose rate, over the same span (1: smooth; 2: half the path is motion
+    between pose samples). ``fittest_*`` are the measured robots in the top
+    :data:`FITTEST_SHARE` by fitness (at least one); ``share_shaking_over_2`` the share of all
+    measured robots above 2. Offline evaluations are measured; online samples are not.
+    """
+    rows: list[dict[str, Cell]] = []
+    for e in experiments:
+        shaking, fitness = e.shaking()
+        if not shaking.size:
+            continue
+        k = max(1, int(round(FITTEST_SHARE * shaking.size)))
+        fittest = shaking[np.argsort(-fitness, kind="stable")[:k]]
+        rows.append({
+            "experiment": e.label,
+            "pose_rate": _pose_rate(e),
+            "robots_measured": int(shaking.size),
+            "shaking_median": float(np.median(shaking)),
+            "shaking_p90": float(np.percentile(shaking, 90)),
+            "fittest_robots": k,
+            "fittest_shaking_median": float(np.median(fittest)),
+            "share_shaking_over_2": float(np.mean(shaking > 2.0)),
+        })
+    return rows
+
+
+def shaking_line(row: Mapping[str, Cell]) -> str:
+    """One row of :func:`shaking_rows` as a sentence (what ``revolve report`` prints)."""
+    return (f"{row['experiment']}: shaking (path every control period / at pose rate "
+            f"{row['pose_rate']}) median {_cell(row['shaking_median'])} over "
+            f"{row['robots_measured']} robots, {_cell(row['fittest_shaking_median'])} among the "
+            f"{row['fittest_robots']} fittest; {_cell(row['share_shaking_over_2'])} of robots "
+            "above 2")
 
 
 def compared_births(a: ExperimentData, b: ExperimentData) -> int:
@@ -485,7 +541,17 @@ def sections(included: Included, tables: Mapping[str, list[dict[str, Cell]]]
                  "`curve_tests.csv`.",),
                 CURVE_SUMMARY_COLUMNS, tuple(curve_summary_rows(tables["curve"])),
                 "(no pair to compare)", "curve_summary"),
-        Section("Descriptive only: pooled populations (no p-values shown)",
+        Section("Shaking: is evolution paid for vibration?",
+                ("The shaking measure of a robot (offline evaluations) is the path of its core "
+                 "summed at every control period over the path summed at its task's pose rate "
+                 "(`pose_rate`; `every-period` gives 1, stored runs made before pose rates "
+                 "have it): 1 for a smooth walker, 2 when half its path is motion between "
+                 "pose samples (tremor, rocking in place). Fittest: the 10 % fittest measured "
+                 "robots. A fittest median well above the median says that the fitness pays "
+                 "for shaking (docs/experiments.md).",),
+                SHAKING_COLUMNS, tuple(tables["shaking"]), "(no robot with a shaking measure)",
+                "shaking"),
+                Section("Descriptive only: pooled populations (no p-values shown)",
                 ("Robots of one run share their ancestry and world, so they are not "
                  "independent samples: a test on them counts every robot as a sample and gives "
                  "p-values far smaller than the data support. The tests of this report are the "
@@ -516,7 +582,8 @@ def write_tables(included: Included, out_dir: Path) -> tuple[tuple[Path, ...], l
     """Write the files of :data:`TABLE_FILES` into ``out_dir``; the paths and the sections."""
     experiments = included.experiments
     tables = {"summary": summary_rows(experiments), "per_run": mann_whitney_rows(experiments),
-              "pooled": pooled_rows(experiments), "curve": curve_rows(experiments)}
+              "pooled": pooled_rows(experiments), "curve": curve_rows(experiments),
+              "shaking": shaking_rows(experiments)}
     paths = tuple(out_dir / name for name in TABLE_FILES)
     write_csv(paths[0], summary_columns(experiments), tables["summary"])
     write_csv(paths[1], MANN_WHITNEY_COLUMNS, tables["per_run"])

@@ -24,8 +24,9 @@ from revolve_env.envs.members import Final, LifeClock, Member
 from revolve_env.envs.observations import hinge_values
 from revolve_env.envs.trajectories import TrajectoryStore
 from revolve_env.fitness import FitnessWindows, Window
+from revolve_env.fitness.sampling import pose_due, pose_stride
 from revolve_env.status import Death, RobotStatus
-from revolve_env.tasks import Task, score
+from revolve_env.tasks import Task, TaskError, pose_rate, score
 from revolve_env.world import World
 from revolve_env.world.signals import SignalReader, signal_reader
 
@@ -60,6 +61,10 @@ class Living:
         self.clock = clock
         self.spaces = spaces
         self.task = task
+        try:  # control periods between two pose samples of the fitness
+            self.pose_stride = pose_stride(pose_rate(task), clock.dt)
+        except ValueError as error:
+            raise TaskError(f"task {task.name!r}: {error}") from None
         self.members: list[Member] = []
         self.windows = self._windows()
         self.signal: SignalReader | None = None  # the task's signal, for the rows now
@@ -242,7 +247,17 @@ class Living:
         window: Window | None = None
         if sampling.any():
             signal = None if self.signal is None else self.signal.read(world)
-            self.windows.push(time, self.position, sampling, signal)
+            pose = self.position
+            if self.pose_stride > 1:  # between pose samples a robot holds its last one
+                posing = pose_due(self.ages - self.clock.insertion_steps, self.pose_stride)
+                if not posing[sampling].all():
+                    held = sampling & ~posing & (self.ages > self.clock.insertion_steps)
+                    last, last_signal = self.windows.last()
+                    pose = self.position[:, :2].copy()
+                    pose[held] = last[held]
+                    if signal is not None and last_signal is not None:
+                        signal = np.where(held, last_signal, signal)
+            self.windows.push(time, pose, sampling, signal)
             window = self.windows.current()
             self.f, self.v, self.s = score(self.task, window), window.v, window.s
         if blown is not None:

@@ -37,7 +37,8 @@ from revolve_env.episode_length import (
 )
 from revolve_env.evaluation import start_generator
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
-from revolve_env.tasks import BaseTask, Task, make_task, score
+from revolve_env.fitness.sampling import pose_due, pose_stride
+from revolve_env.tasks import BaseTask, Task, TaskError, make_task, pose_rate, score
 from revolve_env.terrain import Terrain
 from revolve_env.world import World, WorldConfig, with_engine
 from revolve_env.world.signals import SignalReader, signal_reader
@@ -299,6 +300,10 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self._brain: BatchController | None = None
         self._brain_in = np.zeros(self._n_inputs)
         self._brain_out = np.zeros(self._n_outputs)
+        try:  # control periods between two pose samples of the fitness
+            self._pose_stride = pose_stride(pose_rate(self.task), dt)
+        except ValueError as error:
+            raise TaskError(f"task {self.task.name!r}: {error}") from None
         self._fitness = SlidingWindowFitness(self.fitness_window,
                                              signal=self.task.signal is not None)
         self._signal: SignalReader | None = None
@@ -329,7 +334,8 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         if joints is not None:
             self._world.set_hinge_state(self._handle, *joints)
         if self.controller == "brain":
-            self._brain = BatchController(self.config.control_period)
+            self._brain = BatchController(self.config.brain_dt)
+            self._brain_out[:] = 0.0
             self._brain.add(self.robot)
         self._signal = signal_reader(self.task.signal, [self.robot], self._world)
         self._fitness.reset()
@@ -361,7 +367,11 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
 
         self._blow_up = world.blow_up(self._handle)
         if self._step_count >= self._insertion_steps and self._blow_up is None:
-            self._fitness.add(world.time, world.states.core_pos[0], self._signal_now())
+            age = np.array([self._step_count - self._insertion_steps])
+            if pose_due(age, self._pose_stride)[0] or not len(self._fitness):
+                self._fitness.add(world.time, world.states.core_pos[0], self._signal_now())
+            else:  # between pose samples the robot holds its last one: no reward
+                self._fitness.add(world.time, *self._fitness.last())
         reward = self._get_reward()
         terminated = self._blow_up is not None
         truncated = not terminated and self._step_count >= self._total_steps
@@ -407,8 +417,9 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         action = np.minimum(np.maximum(action, -1.0), 1.0)
         if self._brain is None:
             return action
-        self._brain_in[:] = self._obs[: self._n_inputs]  # RoboGen's sensors only
-        self._brain.step(self._brain_in, self._brain_out)
+        if self._step_count % self.config.brain_stride == 0:  # else its targets hold
+            self._brain_in[:] = self._obs[: self._n_inputs]  # RoboGen's sensors only
+            self._brain.step(self._brain_in, self._brain_out)
         if self.action_mode == "targets":
             return self._brain_out.copy()
         n = self._n_outputs

@@ -345,6 +345,11 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
                                  conditions, limits, config.terrain)
         self._spaces = AgentSpaces(max_births, space_mode, self.proprioception, limits, config)
         self.possible_agents: list[str] = self._spaces.possible_agents
+        if config.brain_stride != 1:
+            raise ValueError(f"brain_period ({config.brain_period} s) other than the control "
+                             "period is not supported in the population env (a brain robot's "
+                             "held targets would not survive births, deaths and snapshots); "
+                             "use it with evaluate or the single-robot env")
         clock = LifeClock.of(config.control_period, self.insertion_time, self.maturity_age)
         living = Living(self.fitness_window, trajectory_stride, clock, self._spaces, self.task,
                         trajectory_length)

@@ -6,7 +6,10 @@ env and evolution (Revolve paper, section 4): over the last ``window`` seconds (
 * ``v`` is the length of the path travelled by the core in the horizontal plane (metres),
 * ``s`` is the straight horizontal distance between the core's positions at the start and the end
   of the window (metres),
-* ``f = v + s_weight * s`` with ``s_weight = 5``.
+* ``f = v + s_weight * s`` with ``s_weight = 5``,
+
+both from the core's pose sampled at the task's pose rate (5 Hz by default, the paper's; or every
+control period): :mod:`revolve_env.fitness.sampling` holds that rule and the shaking measure.
 
 :func:`fitness_terms` works on a whole trajectory, :func:`window_fitness` on the last ``window``
 seconds of a time-stamped one. Online, :class:`FitnessWindows` keeps the windows of many robots

@@ -22,6 +22,7 @@ __all__ = [
     "Window",
     "fitness_terms",
     "hypot",
+    "pose_path_lengths",
     "trajectory_window",
     "window_fitness",
 ]
@@ -65,6 +66,8 @@ class Window(NamedTuple):
         signal_start: (n,) the task's signal (:attr:`revolve_env.tasks.Task.signal`) at the
             first sample; None for a task without one.
         signal_end: (n,) the signal at the last sample; None likewise.
+        duration: (n,) time from the first to the last sample (0 below two samples); None
+            where the maker of the window does not know the sample times. Seconds.
     """
 
     start: NDArray[np.float64]
@@ -74,6 +77,7 @@ class Window(NamedTuple):
     samples: NDArray[np.int64]
     signal_start: NDArray[np.float64] | None = None
     signal_end: NDArray[np.float64] | None = None
+    duration: NDArray[np.float64] | None = None
 
 
 def _horizontal(positions: ArrayLike) -> NDArray[np.float64]:
@@ -129,34 +133,63 @@ def window_fitness(
 
 
 def trajectory_window(paths: Sequence[NDArray[np.float64]],
-                      signals: Sequence[NDArray[np.float64]] | None = None) -> Window:
-    """The window of each robot's whole trajectory (an evaluation: every sample counts).
+                      signals: Sequence[NDArray[np.float64]] | None = None, stride: int = 1,
+                      period: float | None = None) -> Window:
+    """The window of each robot's whole trajectory (an evaluation: every pose sample counts).
 
-    ``v`` and ``s`` are :func:`fitness_terms`' to the bit, so that ``v + 5 s`` is its fitness.
+    The pose samples are the rows ``0, stride, 2 stride, ...`` of each path
+    (:mod:`revolve_env.fitness.sampling`: a path has a row per control period from the end of
+    insertion); ``v`` and ``s`` are :func:`fitness_terms`' over them to the bit, so that
+    ``v + 5 s`` is its fitness (with ``stride=1``: over every row, as before pose rates).
 
     Args:
-        paths: One (T, 2) or (T, 3) array of core positions per robot (T may differ, 0 or 1
-            included: zeros). Metres.
+        paths: One (T, 2) or (T, 3) array of core positions per robot, a row per control period
+            (T may differ, 0 or 1 included: zeros). Metres.
         signals: One (T,) array of the task's signal per robot, sampled with the positions;
             None for a task without a signal.
+        stride: Rows between two pose samples (:func:`~revolve_env.fitness.sampling.pose_stride`).
+        period: Time between two rows (the control period), which gives the window's
+            ``duration``; None: no duration. Seconds.
     """
     n = len(paths)
     start, end = np.zeros((n, 2)), np.zeros((n, 2))
     v, s = np.zeros(n), np.zeros(n)
-    samples = np.array([len(p) for p in paths], dtype=np.int64)
+    samples = np.array([(len(p) + stride - 1) // stride for p in paths], dtype=np.int64)
     sig_start = sig_end = None
     if signals is not None:
         sig_start, sig_end = np.zeros(n), np.zeros(n)
     for i, path in enumerate(paths):
-        if len(path) < 2:
+        if samples[i] < 2:
             continue
-        terms = fitness_terms(path)
-        start[i], end[i] = path[0, :2], path[-1, :2]
+        poses = path if stride == 1 else path[::stride]
+        terms = fitness_terms(poses)
+        start[i], end[i] = poses[0, :2], poses[-1, :2]
         v[i], s[i] = terms.v, terms.s
         if signals is not None:
             assert sig_start is not None and sig_end is not None
-            sig_start[i], sig_end[i] = signals[i][0], signals[i][-1]
-    return Window(start, end, v, s, samples, sig_start, sig_end)
+            sig_start[i], sig_end[i] = signals[i][0], signals[i][(samples[i] - 1) * stride]
+    duration = None
+    if period is not None:
+        duration = np.where(samples < 2, 0.0, (samples - 1) * stride * period)
+    return Window(start, end, v, s, samples, sig_start, sig_end, duration)
+
+
+def pose_path_lengths(paths: Sequence[NDArray[np.float64]], stride: int
+                      ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Each path's length at every row and at its pose samples, over the same span. Metres.
+
+    The span is from the first to the last pose sample (rows ``0`` to ``(k - 1) stride``): what
+    :func:`~revolve_env.fitness.sampling.shaking` compares.
+    """
+    fine, coarse = np.zeros(len(paths)), np.zeros(len(paths))
+    for i, path in enumerate(paths):
+        k = (len(path) + stride - 1) // stride
+        if k < 2:
+            continue
+        span = path[:(k - 1) * stride + 1]
+        fine[i] = fitness_terms(span).v
+        coarse[i] = fine[i] if stride == 1 else fitness_terms(span[::stride]).v
+    return fine, coarse
 
 
 def hypot(dx: NDArray[np.float64], dy: NDArray[np.float64]) -> NDArray[np.float64]:

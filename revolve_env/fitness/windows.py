@@ -224,6 +224,17 @@ class FitnessWindows:
             v[~some] = 0.0
         return first, last, v, count
 
+    def last(self) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+        """Every robot's latest sample: (x, y) (n, 2) and its signal (n,) (None without one).
+
+        What a robot holds between two pose samples (:mod:`revolve_env.fitness.sampling`);
+        rows of robots with no sample are zeros.
+        """
+        _, lc, cols, _, some = self._rows()
+        xy = np.where(some[:, None], self._xy[lc, cols], 0.0)
+        sig = None if self._sig is None else np.where(some, self._sig[lc, cols], 0.0)
+        return xy, sig
+
     def current(self) -> Window:
         """Every robot's window now, as arrays (zeros but ``samples`` below two samples)."""
         fc, lc, cols, count, some = self._rows()
@@ -233,12 +244,13 @@ class FitnessWindows:
         sig_first = sig_last = None
         if self._sig is not None:
             sig_first, sig_last = self._sig[fc, cols], self._sig[lc, cols]
+        duration = self._t[lc] - self._t[fc]
         few = count < 2
         if few.any():
-            for a in (first, last, v, s, sig_first, sig_last):
+            for a in (first, last, v, s, sig_first, sig_last, duration):
                 if a is not None:
                     a[few] = 0.0
-        return Window(first, last, v, s, count, sig_first, sig_last)
+        return Window(first, last, v, s, count, sig_first, sig_last, duration)
 
     def terms(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """Every robot's ``(f, v, s)`` over its window (zeros below two samples). Metres."""
@@ -446,6 +458,19 @@ class SlidingWindowFitness:
         window._n = n
         return window
 
+    def last(self) -> tuple[NDArray[np.float64], float | None]:
+        """The latest sample's (x, y) (a copy) and signal (None without one or any sample).
+
+        What the robot holds between two pose samples (:mod:`revolve_env.fitness.sampling`).
+
+        Raises:
+            ValueError: the window has no sample.
+        """
+        if not self._n:
+            raise ValueError("the window has no sample yet")
+        i = (self._start + self._n - 1) % len(self._t)
+        return self._xy[i].copy(), None if self._sig is None else float(self._sig[i])
+
     def samples(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Times (T,) and horizontal positions (T, 2) in the window, oldest first (copies)."""
         idx = (self._start + np.arange(self._n)) % len(self._t)
@@ -458,7 +483,7 @@ class SlidingWindowFitness:
             signal = self._sig is not None
             return Window(np.zeros((1, 2)), np.zeros((1, 2)), np.zeros(1), np.zeros(1),
                           np.array([n], dtype=np.int64), np.zeros(1) if signal else None,
-                          np.zeros(1) if signal else None)
+                          np.zeros(1) if signal else None, np.zeros(1))
         first = self._start
         last = (self._start + n - 1) % len(self._t)
         xy = self._xy
@@ -468,7 +493,8 @@ class SlidingWindowFitness:
         return Window(xy[first:first + 1].copy(), xy[last:last + 1].copy(), np.array([v]),
                       np.array([s]), np.array([n], dtype=np.int64),
                       None if sig is None else sig[first:first + 1].copy(),
-                      None if sig is None else sig[last:last + 1].copy())
+                      None if sig is None else sig[last:last + 1].copy(),
+                      np.array([self._t[last] - self._t[first]]))
 
     def terms(self) -> FitnessTerms:
         """Fitness and its terms over the current window."""

@@ -32,16 +32,17 @@ Signals: a task that needs more than the core's path names one of :data:`SIGNALS
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.fitness import Window
+from revolve_env.fitness.sampling import DEFAULT_POSE_RATE, check_pose_rate
 
-__all__ = ["SIGNALS", "BaseTask", "Task", "TaskError", "check", "check_class", "score",
-           "task_name"]
+__all__ = ["SIGNALS", "BaseTask", "Task", "TaskError", "check", "check_class", "pose_rate",
+           "score", "task_name"]
 
 SIGNALS: tuple[str, ...] = ("light",)
 """Signals a task may ask the world to sample with every fitness sample (see the module doc)."""
@@ -80,6 +81,12 @@ class BaseTask:
     Subclass it as a frozen dataclass whose fields are the task's parameters and define
     :meth:`fitness`; set ``signal`` (a class variable) to one of :data:`SIGNALS` to get that
     signal at both ends of every window.
+
+    Attributes:
+        pose_rate: How often the core's pose (and the signal) is sampled for the window:
+            samples per second (Hz; the paper's system: 5), or ``"every-period"``, a sample
+            every control period (:mod:`revolve_env.fitness.sampling`). Keyword only, so that a
+            subclass's own fields keep their order. Stored with the task (:meth:`to_dict`).
     """
 
     signal: ClassVar[str | None] = None
@@ -87,6 +94,13 @@ class BaseTask:
     #: the class that owns it; any other class, a subclass of a shipped one included, is stored
     #: under its dotted path.
     registered: ClassVar[str | None] = None
+    pose_rate: float | str = field(default=DEFAULT_POSE_RATE, kw_only=True)
+
+    def __post_init__(self) -> None:
+        try:
+            object.__setattr__(self, "pose_rate", check_pose_rate(self.pose_rate))
+        except ValueError as error:
+            raise TaskError(str(error)) from None
 
     @property
     def name(self) -> str:
@@ -136,11 +150,27 @@ def check(task: object) -> Task:
     data = task.to_dict()
     if not isinstance(data, dict) or not isinstance(data.get("name"), str):
         raise TaskError(f"task {label!r}: to_dict() must give a dict with a 'name' string")
+    pose_rate(task)
     try:
         hash(task)
     except TypeError:
         raise TaskError(f"task {label!r} must be hashable (a frozen dataclass)") from None
     return task
+
+
+def pose_rate(task: Task) -> float | str:
+    """The pose rate ``task`` is scored at (:attr:`BaseTask.pose_rate`), checked.
+
+    A task of the protocol's without one: the default,
+    :data:`~revolve_env.fitness.sampling.DEFAULT_POSE_RATE`.
+
+    Raises:
+        TaskError: the task's pose rate is not one (one line).
+    """
+    try:
+        return check_pose_rate(getattr(task, "pose_rate", DEFAULT_POSE_RATE))
+    except ValueError as error:
+        raise TaskError(f"task {task.name!r}: {error}") from None
 
 
 def score(task: Task, window: Window) -> NDArray[np.float64]:

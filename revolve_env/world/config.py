@@ -11,7 +11,22 @@ from typing import Any
 from revolve_env.body.parts import SERVO
 from revolve_env.terrain import Flat, Terrain, TerrainError, make_terrain
 
-__all__ = ["TerrainError", "WorldConfig"]
+__all__ = ["TIMINGS", "TerrainError", "WorldConfig"]
+
+#: Named timings: preset -> (``timestep``, ``control_period``, ``brain_period``), seconds.
+#: ``"default"`` (also ``"revolve-env-2025"``): physics at 1/240 s, servo law, sensors and
+#: brains every 1/60 s. ``"revolve2018"``: the paper's system's published defaults (Revolve's
+#: ``--controller-update-rate 8``, ``--sensor-update-rate 8``, ``--pose-update-frequency 5``,
+#: ``--world-step-size 0.003``): brains (and the sensor values they read) at 8 Hz; physics at
+#: 1/320 s, the step nearest 3 ms that whole control periods are made of; the servo law at
+#: 1/40 s (Gazebo's servo ran every physics step; 40 Hz is the slowest rate of which both the
+#: 8 Hz brain and the 5 Hz poses are whole multiples). Poses at 5 Hz are the task's setting
+#: (:attr:`revolve_env.tasks.BaseTask.pose_rate`).
+TIMINGS: dict[str, tuple[float, float, float]] = {
+    "default": (1.0 / 240.0, 1.0 / 60.0, 1.0 / 60.0),
+    "revolve-env-2025": (1.0 / 240.0, 1.0 / 60.0, 1.0 / 60.0),
+    "revolve2018": (1.0 / 320.0, 1.0 / 40.0, 1.0 / 8.0),
+}
 
 
 @dataclass(frozen=True, slots=True)
@@ -31,7 +46,11 @@ class WorldConfig:
             registry (:mod:`revolve_env.world.engines`) where a world or an env is made; this
             record is pure data and knows no engine.
         timestep: Physics step. Seconds.
-        control_period: Control step; a whole multiple of ``timestep``. Seconds.
+        control_period: Control step (the servo law, sensor readings, blow-up checks); a whole
+            multiple of ``timestep``. Seconds.
+        brain_period: How often a robot's brain steps (reading its sensors then): a whole
+            multiple of ``control_period``, whose servo targets hold in between; None: every
+            control period. :data:`TIMINGS` names sets of the three. Seconds.
         gravity: Magnitude of gravity, pointing down (-z). Metres per second squared.
         friction: Coulomb friction coefficient between robots and the ground (and between robots).
         light_position: Position of the point light that light sensors see. Metres.
@@ -75,6 +94,7 @@ class WorldConfig:
     max_angular_speed: float = 200.0
     solver_iterations: int = 20
     terrain: Terrain = field(default_factory=Flat)
+    brain_period: float | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.terrain, Terrain):  # a name or a table: read it (or refuse it)
@@ -90,6 +110,12 @@ class WorldConfig:
                 f"control_period ({self.control_period} s) must be a positive whole multiple of "
                 f"timestep ({self.timestep} s)"
             )
+        if self.brain_period is not None:
+            ratio = self.brain_period / self.control_period
+            if (not (self.brain_period > 0 and math.isfinite(ratio))
+                    or abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1):
+                raise ValueError(f"brain_period ({self.brain_period} s) must be a positive whole "
+                                 f"multiple of control_period ({self.control_period} s)")
         for name in ("gravity", "friction", "light_range", "servo_gain", "max_torque",
                      "max_velocity", "range_deg", "max_linear_speed", "max_angular_speed"):
             value = getattr(self, name)
@@ -115,6 +141,32 @@ class WorldConfig:
         if terrain is None:
             return self
         return dataclasses.replace(self, terrain=make_terrain(terrain))
+
+    def with_timing(self, timing: str | None) -> WorldConfig:
+        """This config with the physics step, control and brain periods of ``timing``.
+
+        A name of :data:`TIMINGS`; None keeps this config's own.
+
+        Raises:
+            ValueError: an unknown name (one line listing the known ones).
+        """
+        if timing is None:
+            return self
+        if timing not in TIMINGS:
+            raise ValueError(f"unknown timing {timing!r}: choose one of {', '.join(TIMINGS)}")
+        timestep, control, brain = TIMINGS[timing]
+        return dataclasses.replace(self, timestep=timestep, control_period=control,
+                                   brain_period=None if brain == control else brain)
+
+    @property
+    def brain_dt(self) -> float:
+        """The brain's period (``brain_period``, else ``control_period``). Seconds."""
+        return self.control_period if self.brain_period is None else self.brain_period
+
+    @property
+    def brain_stride(self) -> int:
+        """Control periods per brain step (1: every control period)."""
+        return 1 if self.brain_period is None else round(self.brain_period / self.control_period)
 
     @property
     def substeps(self) -> int:

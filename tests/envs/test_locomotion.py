@@ -77,7 +77,8 @@ def test_return_is_the_fitness_and_episode_truncates_on_time() -> None:
     assert rewards[:29] == [0.0] * 29  # nothing is scored while the robot settles
     assert sum(rewards) == pytest.approx(info["fitness"])
     assert info["fitness"] > 0.0
-    expected = window_fitness(times, positions, window=12.0)
+    # poses at 5 Hz (the default): every 12th control period from the end of insertion
+    expected = window_fitness(times[::12], positions[::12], window=12.0)
     assert info["fitness"] == pytest.approx(expected.fitness)
     assert info["fitness"] == pytest.approx(info["fitness_v"] + 5 * info["fitness_s"])
     with pytest.raises(RuntimeError, match="reset"):

@@ -223,11 +223,12 @@ def test_age_insertion_maturity_fitness_and_reward() -> None:
         assert info["is_mature"] == (step >= 60)
         if step < 30:
             assert rewards[a] == 0.0 and info["fitness"] == 0.0
-    # rewards sum to the current fitness, which is v + 5 s over the last 0.5 s of trajectory
+    # rewards sum to the current fitness, which is v + 5 s over the last 0.5 s of poses: at 5 Hz
+    # (the default) ages 30, 42, ..., 90, the window starting at the pose held at age 60 (54's)
     assert total == pytest.approx(info["fitness"])
     traj = info["trajectory"]
     assert traj.shape == (91, 3) and not traj.flags.writeable
-    window = traj[-31:, :2]
+    window = traj[[54, 66, 78, 90], :2]
     v = np.sum(np.linalg.norm(np.diff(window, axis=0), axis=1))
     s = np.linalg.norm(window[-1] - window[0])
     assert info["fitness"] == pytest.approx(v + 5 * s)

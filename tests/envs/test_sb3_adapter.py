@@ -19,6 +19,8 @@ def _vec(n_slots: int = 3, **kwargs: object) -> PopulationVecEnv:
     defaults: dict[str, object] = {
         "space_mode": "uniform", "proprioception": True, "max_births": 12, "birth_radius": 3.0,
         "insertion_time": 0.05,
+        # rewards at every step: a late-born agent lives too few steps for two 5 Hz poses
+        "task": {"name": "locomotion", "pose_rate": "every-period"},
         "lifecycle": BirthsAndDeaths(birth_every=6, death_every=9,
                                      newborns=((gecko(), "agent"), (snake(3), "brain"))),
     }

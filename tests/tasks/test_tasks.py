@@ -47,10 +47,11 @@ def test_the_default_task_is_the_papers_fitness_to_the_bit(engine: str) -> None:
     plain = evaluate(robot, engine=engine, **SHORT)
     for task in ("locomotion", Locomotion(), {"name": "locomotion", "s_weight": 5.0}):
         assert _same(evaluate(robot, engine=engine, task=task, **SHORT), plain)
-    terms = fitness_terms(plain.trajectory)
+    poses = plain.trajectory[::12]  # the default pose rate: 5 Hz, every 12th control period
+    terms = fitness_terms(poses)
     assert (plain.fitness, plain.v, plain.s) == (terms.fitness, terms.v, terms.s)
     heavier = evaluate(robot, engine=engine, task=Locomotion(s_weight=10.0), **SHORT)
-    assert heavier.fitness == fitness_terms(plain.trajectory, 10.0).fitness
+    assert heavier.fitness == fitness_terms(poses, 10.0).fitness
 
 
 def test_directed_locomotion_is_the_displacement_along_its_heading() -> None:
@@ -130,7 +131,7 @@ def test_every_task_scores_alike_in_evaluate_and_the_gym_env(task: Any) -> None:
 def test_a_users_task_is_stored_and_made_again_by_its_dotted_path() -> None:
     task = Sideways(scale=3.0)
     data = task.to_dict()
-    assert data == {"name": "user_tasks:Sideways", "scale": 3.0}
+    assert data == {"name": "user_tasks:Sideways", "scale": 3.0, "pose_rate": 5.0}
     assert task_from_dict(data) == task
     assert make_task("user_tasks:Sideways") == Sideways()
     for name in TASKS:  # every shipped task by its name, its defaults, round trip
@@ -143,8 +144,9 @@ def test_a_users_task_is_stored_and_made_again_by_its_dotted_path() -> None:
 
 
 def test_a_users_task_in_the_population_env_scores_every_robot() -> None:
-    """Fitness window longer than the episode: the window is every sample since insertion,
-    so each robot's fitness is its sideways distance since then (from its trajectory)."""
+    """Fitness window longer than the episode: the window is every pose since insertion, so
+    each robot's fitness is its sideways distance from then to its last pose (at 5 Hz, the
+    default: every 12th control period)."""
     env = PopulationEnv(initial_robots=[example("spider"), example("gecko")],
                         insertion_time=0.25, fitness_window=10.0, task=Sideways(2.0))
     env.reset(seed=1)
@@ -156,7 +158,8 @@ def test_a_users_task_in_the_population_env_scores_every_robot() -> None:
     insertion = round(0.25 / env.config.control_period)
     for agent, info in infos.items():
         path = info["trajectory"]
-        expected = 2.0 * abs(path[-1, 1] - path[insertion, 1])
+        last = insertion + (len(path) - 1 - insertion) // 12 * 12
+        expected = 2.0 * abs(path[last, 1] - path[insertion, 1])
         assert info["fitness"] == pytest.approx(expected, abs=1e-12)
         assert totals[agent] == pytest.approx(info["fitness"], abs=1e-12)
     env.close()
@@ -166,7 +169,7 @@ def test_a_tasks_own_reward_is_the_reward_of_both_envs() -> None:
     env = PopulationEnv(initial_robots=[example("snake")], insertion_time=0.25,
                         task=AliveBonus())
     env.reset(seed=0)
-    for _ in range(20):
+    for _ in range(30):  # two poses at 5 Hz after the 15 periods of insertion: ages 15 and 27
         _, rewards, _, _, infos = env.step({})
         assert list(rewards.values()) == [1.0]
     assert infos["robot_0"]["fitness"] > 0  # the fitness stays the task's
@@ -229,7 +232,8 @@ def test_a_name_read_from_someone_elses_results_resolves_without_importing_their
         task_from_dict(stored, allow_import=False)
     assert task_from_dict({"name": "locomotion", "s_weight": 4}, allow_import=False) == \
         Locomotion(4.0)
-    assert Locomotion(4).to_dict() == {"name": "locomotion", "s_weight": 4.0}  # plain floats
+    assert Locomotion(4).to_dict() == {"name": "locomotion", "s_weight": 4.0,  # plain floats
+                                       "pose_rate": 5.0}
 
 
 def test_a_fitness_of_the_wrong_shape_is_refused_naming_the_task() -> None:

@@ -190,11 +190,11 @@ def test_corrupt_and_newer_databases(capsys: pytest.CaptureFixture[str], tmp_pat
     with Store.create(newer / DB_NAME, preset("quick", runs=1).to_dict(), 0):
         pass
     con = sqlite3.connect(newer / DB_NAME)
-    con.execute("UPDATE meta SET value = '7' WHERE key = 'schema_version'")
+    con.execute("UPDATE meta SET value = '99' WHERE key = 'schema_version'")
     con.commit()
     con.close()
     for command in ("resume", "report"):
-        assert "schema version 7, newer" in _error(capsys, [command, str(newer)])
+        assert "schema version 99, newer" in _error(capsys, [command, str(newer)])
     assert "corrupt" in _error(capsys, ["show", "--db", str(corrupt), "--best"])
     incomplete = tmp_path / "incomplete"
     with Store.create(incomplete / DB_NAME, preset("quick", runs=1).to_dict(), 0):

@@ -61,6 +61,14 @@ def test_the_table_round_trips_and_merges_as_a_table(tmp_path: Path) -> None:
     assert over.evaluation == DEFAULT_EVALUATION
 
 
+def test_the_pose_rate_and_limit_from_the_command_line() -> None:
+    over = load_config("quick", {"task": {"name": "locomotion", "pose_rate": 10, "limit": 1.0}})
+    assert over.fitness_task() == Locomotion(pose_rate=10.0, limit=1.0)
+    every = load_config("quick", {"task": {"name": "locomotion", "pose_rate": "every-period"}})
+    assert every.fitness_task().to_dict()["pose_rate"] == "every-period"
+    assert load_config("quick").fitness_task() == Locomotion(pose_rate=5.0)
+
+
 @pytest.mark.parametrize("table, message", [
     ({"name": "swimming"}, "^task: unknown task 'swimming': use one of locomotion"),
     ({"heading": 1.0}, "^task: a task table needs a 'name'"),
@@ -71,6 +79,12 @@ def test_the_table_round_trips_and_merges_as_a_table(tmp_path: Path) -> None:
     ({"name": 3}, "^task: a task name must be a string"),
     ("locomotion", "^task must be a table with a name"),
     ({"name": "no such module:Task"}, "^task: unknown task 'no such module:Task'"),
+    ({"name": "locomotion", "pose_rate": 7}, "^task: pose_rate 7 Hz does not fit the control "
+                                             "period"),
+    ({"name": "locomotion", "pose_rate": 0}, "^task: task 'locomotion': pose_rate must be a "
+                                             "positive number"),
+    ({"name": "locomotion", "limit": 0}, "^task: task 'locomotion': limit must be a positive "
+                                         "speed"),
 ])
 def test_a_bad_table_is_refused_in_one_line(table: Any, message: str) -> None:
     with pytest.raises(ConfigError, match=message):
@@ -90,7 +104,8 @@ def test_reading_a_stored_class_of_ones_own_imports_nothing() -> None:
     assert "experiment_tasks" not in sys.modules  # a report or show would not run its code
     with pytest.raises(ConfigError, match="is a class of your own"):
         config.fitness_task(allow_import=False)
-    assert config.fitness_task().to_dict() == {"name": "experiment_tasks:Forward", "scale": 1.0}
+    assert config.fitness_task().to_dict() == {"name": "experiment_tasks:Forward", "scale": 1.0,
+                                               "pose_rate": 5.0}
 
 
 # -- runs --------------------------------------------------------------------------------------

@@ -223,8 +223,10 @@ def test_bad_arguments(results: Path, tmp_path: Path) -> None:
 def _as_version_3(db: Path) -> None:
     con = sqlite3.connect(db)
     con.execute("DROP TABLE reevaluations")
+    con.execute("ALTER TABLE fitness DROP COLUMN shaking")  # added by schema 7
     config = json.loads(con.execute("SELECT value FROM meta WHERE key = 'config'").fetchone()[0])
     config.pop("evaluation", None)
+    config.pop("task", None)  # schema 3 had none (its fitness sampled every control period)
     config["engine"] = config.pop("mode")  # what schema 3 called it
     con.execute("UPDATE meta SET value = ? WHERE key = 'config'", (json.dumps(config),))
     con.execute("UPDATE meta SET value = '3' WHERE key = 'schema_version'")
@@ -241,10 +243,14 @@ def test_version_3_run_is_upgraded_and_keeps_every_row(study: Path, tmp_path: Pa
     _as_version_3(db)
     before = dump_results(db)
     with Store.open(db) as store:
-        assert store.meta()["schema_version"] == "6"
+        assert store.meta()["schema_version"] == "7"
         assert store.config["evaluation"]["heading"] == 0.0  # an offline run: heading 0
         assert store.config["mode"] == "offline" and "engine" not in store.config
-    assert dump_results(db) == before
+        assert store.config["task"] == {"name": "locomotion", "pose_rate": "every-period"}
+    after = dump_results(db)
+    assert all(row[-1] is None for row in after["fitness"])  # schema 7's shaking, not measured
+    after["fitness"] = [row[:-1] for row in after["fitness"]]
+    assert after == before
 
 
 @pytest.mark.skipif(not CONFIG_HAS_CONDITIONS,
@@ -254,7 +260,10 @@ def test_version_3_run_resumes_and_reevaluates_after_the_upgrade(tmp_path: Path)
     the conditions it lived (heading 0), and can then be reevaluated."""
     # What a v3 database holds: a run under heading 0 (offline before conditions), its config
     # without the evaluation table.
-    lived = ExperimentConfig.from_dict({**CONFIG.to_dict(), "evaluation": {"heading": 0.0}})
+    # Its fitness sampled the core every control period (before pose rates, schema 7).
+    lived = ExperimentConfig.from_dict({**CONFIG.to_dict(), "evaluation": {"heading": 0.0},
+                                        "task": {"name": "locomotion",
+                                                 "pose_rate": "every-period"}})
     killed = tmp_path / "killed" / "quick"
     with pytest.raises(Kill):
         run(lived, killed, kill_after(11))
@@ -262,7 +271,14 @@ def test_version_3_run_resumes_and_reevaluates_after_the_upgrade(tmp_path: Path)
     resume(killed)
     whole = tmp_path / "whole" / "quick"
     run(lived, whole)
-    assert dump_results(killed / DB_NAME) == dump_results(whole / DB_NAME)
+    resumed, uninterrupted = dump_results(killed / DB_NAME), dump_results(whole / DB_NAME)
+    # schema 7's shaking measure: not in a v3 database's rows, 1 for every resumed evaluation
+    # (poses every control period); the rest to the bit
+    shaking = [row[-1] for row in resumed["fitness"]]
+    assert None in shaking and set(shaking) == {None, 1.0}
+    for dump in (resumed, uninterrupted):
+        dump["fitness"] = [row[:-1] for row in dump["fitness"]]
+    assert resumed == uninterrupted
     assert reevaluate(killed, k=1, workers=1).added > 0
 
 

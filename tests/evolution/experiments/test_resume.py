@@ -91,6 +91,7 @@ def _as_version_4(db: Path) -> None:
     config["engine"] = config.pop("mode")
     con.execute("UPDATE meta SET value = ? WHERE key = 'config'",
                 (json.dumps(config, sort_keys=True),))
+    con.execute("ALTER TABLE fitness DROP COLUMN shaking")  # added by schema 7
     con.execute("UPDATE meta SET value = '4' WHERE key = 'schema_version'")
     con.commit()
     con.close()

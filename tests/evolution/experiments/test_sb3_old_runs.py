@@ -65,6 +65,7 @@ def _version_5_store(path: Path, learning: dict[str, Any] | None) -> None:
         config["learning"] = learning
     Store.create(path, config, 0).close()
     db = sqlite3.connect(path)
+    db.execute("ALTER TABLE fitness DROP COLUMN shaking")  # added by schema 7
     db.execute("UPDATE meta SET value = '5' WHERE key = 'schema_version'")
     db.commit()
     db.close()
@@ -110,7 +111,7 @@ def test_version_5_upgrade_pins_only_old_sb3_tables(
     path = tmp_path / "results.sqlite"
     _version_5_store(path, stored)
     with Store.open(path) as store:
-        assert store.meta()["schema_version"] == "6"
+        assert store.meta()["schema_version"] == "7"
         assert store.config.get("learning") == expected
         config = store.config
     with Store.open(path) as store:  # opening again changes nothing more

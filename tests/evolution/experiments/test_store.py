@@ -173,11 +173,12 @@ def test_version_1_database_is_upgraded_in_place(tmp_path: Path) -> None:
     db = sqlite3.connect(path)
     db.execute("DROP TABLE learning")
     db.execute("DROP TABLE reevaluations")
+    db.execute("ALTER TABLE fitness DROP COLUMN shaking")  # added by schema 7
     db.execute("UPDATE meta SET value = '1' WHERE key = 'schema_version'")
     db.commit()
     db.close()
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == str(SCHEMA_VERSION) == "6"
+        assert s.meta()["schema_version"] == str(SCHEMA_VERSION) == "7"
         assert s.learning(0) == [] and [r.robot_id for r in s.robots(0)] == [0]
         assert set(s.table_counts()) == TABLES
 
@@ -196,11 +197,12 @@ def test_version_2_database_gains_the_policy_column(tmp_path: Path) -> None:
                "inborn_fitness REAL, learned_fitness REAL, evaluations INTEGER, sim_seconds REAL, "
                "failures INTEGER NOT NULL DEFAULT 0, PRIMARY KEY (run_id, robot_id))")
     db.execute("INSERT INTO learning VALUES (0, 0, 0.0, 'darwinian', NULL, 0.5, 0.75, 3, 21.0, 0)")
+    db.execute("ALTER TABLE fitness DROP COLUMN shaking")  # added by schema 7
     db.execute("UPDATE meta SET value = '2' WHERE key = 'schema_version'")
     db.commit()
     db.close()
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == "6"
+        assert s.meta()["schema_version"] == "7"
         assert s.learning(0) == [LearningRecord(0, 0.0, "darwinian", None, 0.5, 0.75, 3, 21.0)]
 
 
@@ -217,10 +219,15 @@ def test_run_seed_conflict(store: Store) -> None:
         store.add_run(0, 99)
 
 
+OLD_TASK = {"name": "locomotion", "pose_rate": "every-period"}
+"""The task a config stored before schema 7 without one gains: the fitness it was scored with."""
+
+
 def _make_version_3(path: Path, config: dict[str, object]) -> None:
     """Turn a fresh database into one written by schema version 3 (no reevaluations)."""
     db = sqlite3.connect(path)
     db.execute("DROP TABLE reevaluations")
+    db.execute("ALTER TABLE fitness DROP COLUMN shaking")  # added by schema 7
     db.execute("UPDATE meta SET value = '3' WHERE key = 'schema_version'")
     db.execute("UPDATE meta SET value = ? WHERE key = 'config'", (json.dumps(config),))
     db.commit()
@@ -228,9 +235,18 @@ def _make_version_3(path: Path, config: dict[str, object]) -> None:
 
 
 def _dump(path: Path, tables: list[str]) -> dict[str, list[tuple[object, ...]]]:
+    """Every row of ``tables``, without the columns that upgrades add (NULL in old rows)."""
     db = sqlite3.connect(path)
     try:
-        return {t: db.execute(f"SELECT * FROM {t} ORDER BY rowid").fetchall() for t in tables}
+        out = {}
+        for t in tables:
+            columns = [c[1] for c in db.execute(f"PRAGMA table_info({t})")]
+            if "shaking" in columns:  # schema 7's
+                assert db.execute(f"SELECT count(*) FROM {t} WHERE shaking IS NOT NULL"
+                                  ).fetchone() == (0,)
+            keep = ", ".join(c for c in columns if c != "shaking")
+            out[t] = db.execute(f"SELECT {keep} FROM {t} ORDER BY rowid").fetchall()
+        return out
     finally:
         db.close()
 
@@ -255,10 +271,10 @@ def test_version_3_database_is_upgraded_in_place(
     before = _dump(path, old_tables)
     renamed = {("mode" if k == "engine" else k): v for k, v in config.items()}
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == "6"
+        assert s.meta()["schema_version"] == "7"
         assert s.config == {**renamed, "evaluation": {
             "heading": heading, "position_jitter": 0.0, "sensor_noise": 0.0,
-            "actuator_noise": 0.0}}
+            "actuator_noise": 0.0}, "task": OLD_TASK}
         assert s.reevaluations() == [] and set(s.table_counts()) == TABLES
     assert _dump(path, old_tables) == before
     with Store.open(path) as s:  # opening again changes nothing more
@@ -278,16 +294,17 @@ def test_version_4_database_names_its_mode(tmp_path: Path, mode: str | None) -> 
         s.add_run(0, 7)
         s.commit(0, Batch(robots=[_robot(0, 0.0)], population=[(0, 1.0)]), _checkpoint(1, 15.0))
     db = sqlite3.connect(path)
+    db.execute("ALTER TABLE fitness DROP COLUMN shaking")  # added by schema 7
     db.execute("UPDATE meta SET value = '4' WHERE key = 'schema_version'")
     db.commit()
     db.close()
     tables = sorted(TABLES - {"meta"})
     before = _dump(path, tables)
-    expected = {k: v for k, v in config.items() if k != "engine"}
+    expected = {k: v for k, v in config.items() if k != "engine"} | {"task": OLD_TASK}
     if mode is not None:
         expected["mode"] = mode
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == "6" and s.config == expected
+        assert s.meta()["schema_version"] == "7" and s.config == expected
         assert ExperimentConfig.from_dict({**s.config, "births": 15}).mode == (mode or "offline")
     assert _dump(path, tables) == before
     with Store.open(path) as s:  # opening again changes nothing more
@@ -346,3 +363,41 @@ def test_upgrade_pins_the_learning_conditions_of_old_runs(tmp_path: Path) -> Non
     center = fresh.training_center()
     learner = center.learner if center is not None else None
     assert learner.evaluation.conditions.random_heading  # type: ignore[union-attr]
+
+
+@pytest.mark.parametrize(("task", "expected"), [
+    (None, OLD_TASK),
+    ({"name": "directed-locomotion", "heading": 1.0},
+     {"name": "directed-locomotion", "heading": 1.0, "pose_rate": "every-period"}),
+    # a pose rate already there is kept (a table written by hand for the new code)
+    ({"name": "locomotion", "pose_rate": 5}, {"name": "locomotion", "pose_rate": 5}),
+])
+def test_version_6_database_keeps_the_pose_rate_it_was_scored_at(
+        tmp_path: Path, task: dict[str, object] | None, expected: dict[str, object]) -> None:
+    """Before schema 7 the fitness sampled the core every control period: an old stored config
+    says so after the upgrade, so its runs resume to their own numbers, and its old fitness
+    samples read back with no shaking measure."""
+    path = tmp_path / "results.sqlite"
+    config: dict[str, object] = {"name": "old", "births": 3}
+    if task is not None:
+        config["task"] = task
+    with Store.create(path, config, 0) as s:
+        s.add_run(0, 7)
+        s.commit(0, Batch(robots=[_robot(0, 0.0)],
+                          fitness=[FitnessSample(0, 15.0, 1.0, 0.5, 0.1, 1.25)]),
+                 _checkpoint(1, 15.0))
+    db = sqlite3.connect(path)
+    db.execute("ALTER TABLE fitness DROP COLUMN shaking")
+    db.execute("UPDATE meta SET value = '6' WHERE key = 'schema_version'")
+    db.commit()
+    db.close()
+    with Store.open(path) as s:
+        assert s.meta()["schema_version"] == "7" and s.config["task"] == expected
+        assert s.fitness_samples(0) == [FitnessSample(0, 15.0, 1.0, 0.5, 0.1, None)]
+        fitness_task = ExperimentConfig.from_dict({**s.config, "births": 15}).fitness_task()
+        assert fitness_task.to_dict()["pose_rate"] == expected["pose_rate"]
+        s.commit(0, Batch(fitness=[FitnessSample(1, 30.0, 2.0, 1.0, 0.2, 1.5)]),
+                 _checkpoint(2, 30.0))
+        assert s.fitness_samples(0, 1) == [FitnessSample(1, 30.0, 2.0, 1.0, 0.2, 1.5)]
+    with Store.open(path) as s:  # opening again changes nothing more
+        assert s.config["task"] == expected
