@@ -47,6 +47,7 @@ from revolve_env.registration import (
     LOCOMOTION_ID,
     LOCOMOTION_V1_ID,
 )
+from revolve_env.tasks import Locomotion
 
 if TYPE_CHECKING:
     from stable_baselines3 import PPO
@@ -54,6 +55,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "INSTALL_HINT",
+    "TRAINING_TASK",
     "ObservationNormalization",
     "VecEnvConfig",
     "make_ppo",
@@ -66,6 +68,12 @@ INSTALL_HINT = "stable-baselines3 is needed: pip install 'revolve-env[learn]'"
 """What to install for this module (the message of its ImportError)."""
 
 _EPISODE_KEYS = ("insertion_time", "evaluation_time", "fitness_window")
+
+TRAINING_TASK = Locomotion(pose_rate="every-period")
+"""The task :func:`make_vec_env` trains on unless given one: the paper's ``f = v + 5 s`` with
+the core's pose sampled every control period, so that PPO's reward (the fitness gain of each
+step) is dense; the README's PPO figures were measured so. :func:`policy_fitness` scores with
+the training env's task."""
 
 
 def _sb3() -> Any:
@@ -201,7 +209,9 @@ def make_vec_env(robot: Robot | str | os.PathLike[str] = "spider",
         seed: Seed of the first env's first reset (env ``i``: ``seed + i``).
         env_id: The Gymnasium id (``Locomotion-v1``; ``Locomotion-v0`` observes the sensors
             only).
-        **env_kwargs: More :class:`~revolve_env.envs.LocomotionEnv` keywords: ``action``
+        **env_kwargs: More :class:`~revolve_env.envs.LocomotionEnv` keywords: ``task``
+            (default :data:`TRAINING_TASK`: the fitness gain every control period as the
+            reward; at the paper's 5 Hz pose rate the reward is 0 on 11 steps of 12), ``action``
             (``"targets"`` or ``"modulate"``, which runs the robot's own network under the
             policy), ``engine``, ``conditions``, ``control_period``, ...; the episode's times are
             ``config``'s.
@@ -224,7 +234,7 @@ def make_vec_env(robot: Robot | str | os.PathLike[str] = "spider",
                          "(insertion_time, evaluation_time; the fitness window is the latter)")
     kwargs = {"robot": resolve_robot(robot)[0], "insertion_time": config.insertion_time,
               "evaluation_time": config.evaluation_time,
-              "fitness_window": config.evaluation_time, **env_kwargs}
+              "fitness_window": config.evaluation_time, "task": TRAINING_TASK, **env_kwargs}
     _Maker(env_id, kwargs)().close()  # bad keywords fail here, in one line, not in a worker
     makers: list[Callable[[], gym.Env[Any, Any]]] = [
         _Maker(env_id, kwargs) for _ in range(config.n_envs)]

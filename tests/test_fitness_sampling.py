@@ -115,7 +115,7 @@ def test_evaluate_at_a_pose_rate() -> None:
 def test_the_env_rewards_only_at_pose_samples_and_sums_to_evaluate() -> None:
     task = Locomotion(pose_rate=10)
     env = gym.make("revolve_env/Locomotion-v1", robot=gecko(), controller="brain", task=task,
-                   insertion_time=0.5, evaluation_time=2.0)
+                   insertion_time=0.5, evaluation_time=2.0, reset_noise_scale=0.0)
     env.reset(seed=0)
     rewards = []
     done = False

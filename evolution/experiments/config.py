@@ -383,7 +383,6 @@ class ExperimentConfig:
             # only when a run uses it (fitness_task): reading a stored config imports nothing.
             if self.task.get("name") in TASKS or not isinstance(self.task.get("name"), str):
                 task = self.fitness_task(allow_import=False)
-                period = revolve_env.WorldConfig().with_engine(self.world.engine).control_period
                 try:
                     pose_stride(pose_rate(task), period)
                 except (TaskError, ValueError) as error:

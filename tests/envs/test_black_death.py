@@ -34,7 +34,8 @@ def _actions(env: BlackDeath, value: float = 0.5) -> dict[str, np.ndarray]:
 
 
 def test_every_slot_is_reported_every_step_through_births_and_deaths_inside_steps() -> None:
-    env = BlackDeath(_env())
+    # Rewards every control period (the default 5 Hz pose rate rewards every 12th step only).
+    env = BlackDeath(_env(task={"name": "locomotion", "pose_rate": "every-period"}))
     assert env.possible_agents == [f"robot_{k}" for k in range(6)]
     obs, infos = env.reset(seed=0)
     assert env.agents == env.possible_agents and set(obs) == set(infos) == set(env.agents)

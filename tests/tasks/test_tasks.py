@@ -139,7 +139,7 @@ def test_a_users_task_is_stored_and_made_again_by_its_dotted_path() -> None:
         assert shipped.name == name and task_from_dict(shipped.to_dict()) == shipped
     assert task_class("directed-locomotion") is DirectedLocomotion
     mine = Straighter()  # a subclass of a shipped task is the user's: its own dotted path
-    assert mine.to_dict() == {"name": "user_tasks:Straighter", "s_weight": 10.0}
+    assert mine.to_dict() == {"name": "user_tasks:Straighter", "s_weight": 10.0, "pose_rate": 5.0}
     assert task_from_dict(mine.to_dict()) == mine and Locomotion().name == "locomotion"
 
 

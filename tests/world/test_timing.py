@@ -41,7 +41,8 @@ def test_the_spider_walks_with_the_papers_timing(engine: str) -> None:
 def test_brains_step_every_brain_period_and_their_targets_hold() -> None:
     # the hinge targets the brain writes change only at brain steps: every 5th control period
     env = gym.make("revolve_env/Locomotion-v1", robot=gecko(), controller="brain",
-                   world_config=PAPER, insertion_time=0.0, evaluation_time=1.0)
+                   world_config=PAPER, insertion_time=0.0, evaluation_time=1.0,
+                   reset_noise_scale=0.0)  # evaluate's start: hinges at rest
     env.reset(seed=0)
     unwrapped = env.unwrapped
     targets = []
@@ -54,7 +55,8 @@ def test_brains_step_every_brain_period_and_their_targets_hold() -> None:
     # the env and evaluate drive the robot alike
     single = evaluate(gecko(), config=PAPER, insertion=0.0, seconds=1.0)
     env = gym.make("revolve_env/Locomotion-v1", robot=gecko(), controller="brain",
-                   world_config=PAPER, insertion_time=0.0, evaluation_time=1.0)
+                   world_config=PAPER, insertion_time=0.0, evaluation_time=1.0,
+                   reset_noise_scale=0.0)  # evaluate's start: hinges at rest
     env.reset(seed=0)
     done = False
     while not done:

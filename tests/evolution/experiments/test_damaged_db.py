@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import importlib
 import os
 import shutil
 import sqlite3
@@ -281,6 +282,10 @@ def test_a_read_only_database_is_refused_by_resume_and_read_by_the_others(
         # cannot read root's site-packages).
         warm = _commands(shutil.copytree(folder, base / "warm"), base / "warm")
         assert main(warm["report"]) == 0 and main(warm["show"]) == 0
+        # The command line imports each command's modules when the command runs: resume's too.
+        for module in ("evolution.cli.progress", "evolution.experiments.api",
+                       "evolution.experiments.callbacks"):
+            importlib.import_module(module)
         with _read_only(folder), _without_root():
             line = _one_line_error(capsys, commands["resume"])
             assert "cannot be written" in line

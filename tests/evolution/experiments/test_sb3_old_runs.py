@@ -22,6 +22,7 @@ from evolution.experiments.store import Store
 from evolution.learning import training_center_from_dict
 from evolution.learning.policy_file import policy_digest
 from revolve_env.body.examples import EXAMPLES
+from revolve_env.tasks import make_task
 
 pytest.importorskip("stable_baselines3")
 
@@ -77,9 +78,13 @@ def test_a_stored_sb3_table_trains_to_the_old_codes_numbers(tmp_path: Path, acti
     _version_5_store(path, {**OLD_TABLE, "action": action})
     with Store.open(path) as store:
         table = store.config["learning"]
+        task = store.config["task"]
     assert table == {**OLD_TABLE, "action": action, "normalize": False,
                      "settings": "sb3-defaults"}
-    center = training_center_from_dict(table)
+    # The task an old run was scored with (schema 7): poses every control period, as the
+    # experiment hands it to its learner (ExperimentConfig.fitness_task).
+    assert task["pose_rate"] == "every-period"
+    center = training_center_from_dict(table, task=make_task(task))
     result = center.learner.learn(EXAMPLES["gecko"](), table["budget"],
                                   np.random.default_rng(2018))
     old = OLD_CODE[action]
