@@ -28,7 +28,9 @@ def _config(**kwargs: Any) -> dict[str, Any]:
 
 
 def test_it_steps_through_a_birth_and_a_death_with_every_space_declared() -> None:
-    env = PopulationMultiAgentEnv(_config(max_cycles=14))
+    # Rewards every control period (at the default 5 Hz pose rate only every 12th step pays).
+    env = PopulationMultiAgentEnv(_config(max_cycles=14, task={"name": "locomotion",
+                                                               "pose_rate": "every-period"}))
     # Every possible agent is declared before any birth: RLlib's stock ParallelPettingZooEnv
     # knows only reset's agents and fails at the first birth.
     assert set(env.observation_spaces) == set(env.action_spaces) == {
