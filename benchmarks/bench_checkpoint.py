@@ -42,8 +42,8 @@ from typing import Any
 from evolution import experiments
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import ExperimentConfig, ProgressEvent, load_config
-from evolution.experiments.store import Store
-from evolution.experiments.store_observer import StoreObserver
+from evolution.experiments.store.database import Store
+from evolution.experiments.store.observer import StoreObserver
 
 TABLES = ("runs", "checkpoints", "robots", "fitness", "transitions", "population", "diversity",
           "failures", "learning")

@@ -14,10 +14,10 @@ offline experiments keep all cores busy with evaluations and online runs go side
 per core.
 
 With ``--workers 1`` it also prints, per experiment, the calibration's estimate of the CPU per
-birth (:func:`evolution.experiments.estimate.calibrate`, what ``revolve study`` prints before
+birth (:func:`evolution.experiments.app.estimate.calibrate`, what ``revolve study`` prints before
 it starts: robots alive and robot-seconds per CPU second) beside the measured one, and projects
 the paper's study from the measured runs onto 2 cores and a 64-core Ray cluster
-(:func:`evolution.experiments.estimate.estimate`: a run is the unit of parallelism, one run per
+(:func:`evolution.experiments.app.estimate.estimate`: a run is the unit of parallelism, one run per
 core, online runs first; an experiment not measured takes the cost of a measured one of its
 mode). The measured run's own length matters: evolved robots grow,
 so a run of 300 births is cheaper per birth than one of 3000.
@@ -37,7 +37,7 @@ from typing import Any
 from evolution import experiments
 from evolution.evaluation import EvalOutcome, EvalTask, LocalEvaluator, evaluate_task
 from evolution.experiments import ExperimentConfig, preset
-from evolution.experiments.estimate import (
+from evolution.experiments.app.estimate import (
     BirthCost,
     RunWork,
     calibrate,

@@ -50,7 +50,7 @@ from typing import Any
 from evolution import experiments
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import ExperimentConfig, ProgressEvent, load_config
-from evolution.experiments.store import DB_NAME, Store
+from evolution.experiments.store.database import DB_NAME, Store
 
 
 @dataclass(frozen=True)

@@ -9,8 +9,8 @@ overwritten: running into a directory that holds results is an error (use ``revo
 Errors in the input (unknown scenario or config key, out-of-range value, a directory holding
 other results, a corrupt, damaged, newer or (for ``resume``) read-only database, a bad robot
 file) print one line to stderr and exit with status 2; ``resume``, ``report`` and ``show --db``
-check a database (:func:`evolution.experiments.integrity.verify`) before using it, so a refused
-one is left exactly as it was. Any other error is a bug: its traceback is shown with a line
+check a database (:func:`evolution.experiments.store.integrity.verify`) before using it, so a
+refused one is left exactly as it was. Any other error is a bug: its traceback is shown with a line
 saying so (status 1).
 Ctrl-C stops after the last commit point (status 130); ``revolve resume`` continues from there.
 
@@ -47,7 +47,7 @@ from evolution.cli.robots import (
 
 if TYPE_CHECKING:
     from evolution.experiments import ExperimentConfig, ExperimentSummary
-    from evolution.experiments.callbacks import TensorBoardLogger
+    from evolution.experiments.app.callbacks import TensorBoardLogger
 
 __all__ = ["CliError", "build_parser", "main"]
 
@@ -89,7 +89,7 @@ def _print_runs(summary: ExperimentSummary) -> None:
 def _cmd_run(args: argparse.Namespace) -> int:
     from evolution.cli.progress import ProgressDisplay
     from evolution.experiments import load_config, run
-    from evolution.experiments.callbacks import combine
+    from evolution.experiments.app.callbacks import combine
 
     overrides = _parse_set(args.set or [])
     for key in ("runs", "births", "seed", "workers", "name"):
@@ -128,7 +128,7 @@ def _tensorboard(args: argparse.Namespace, name: str) -> list[TensorBoardLogger]
     """
     if not args.tensorboard:
         return []
-    from evolution.experiments.callbacks import TensorBoardLogger
+    from evolution.experiments.app.callbacks import TensorBoardLogger
 
     folder = Path(args.tensorboard) / name
     writable_folder(folder, "--tensorboard")
@@ -151,8 +151,8 @@ def _experiment_dirs(root: Path) -> list[Path]:
 def _cmd_resume(args: argparse.Namespace) -> int:
     from evolution.cli.progress import ProgressDisplay
     from evolution.experiments import DB_NAME, Store, resume
-    from evolution.experiments.api import check_resumable, work_left
-    from evolution.experiments.callbacks import combine
+    from evolution.experiments.app.api import check_resumable, work_left
+    from evolution.experiments.app.callbacks import combine
 
     if args.tensorboard:
         writable_folder(Path(args.tensorboard), "--tensorboard")
@@ -196,7 +196,7 @@ def _cmd_resume(args: argparse.Namespace) -> int:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from evolution.experiments.folders import left_out_note
+    from evolution.experiments.store.folders import left_out_note
     from evolution.reporting import report
     from evolution.reporting.tables import shaking_line, shaking_rows
 
@@ -409,7 +409,8 @@ class _Version(argparse.Action):
 
     def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
                  values: Any, option_string: str | None = None) -> NoReturn:
-        # As evolution.experiments.store.package_version, without importing the experiments.
+        # As evolution.experiments.store.database.package_version, without importing the
+        # experiments.
         from importlib.metadata import PackageNotFoundError, version
 
         try:
@@ -565,15 +566,15 @@ def _add_demo(sub: _Subparsers) -> None:
 
 
 INPUT_ERRORS: tuple[tuple[str, str], ...] = (
-    ("evolution.experiments.errors", "ConfigError"),
-    ("evolution.experiments.errors", "StoreError"),
+    ("evolution.experiments.loop.errors", "ConfigError"),
+    ("evolution.experiments.loop.errors", "StoreError"),
     ("revolve_env.body.errors", "RobotError"),
     ("evolution.random_robot", "RandomRobotError"),
     # an optional extra, named with its pip command
-    ("evolution.experiments.callbacks", "TensorBoardUnavailableError"),
+    ("evolution.experiments.app.callbacks", "TensorBoardUnavailableError"),
 )
 """Bad input besides :class:`CliError` and :class:`OSError`, as (defining module, class):
-reported on one line (exit status 2). :class:`~evolution.experiments.run.ReplayError` is a
+reported on one line (exit status 2). :class:`~evolution.experiments.loop.run.ReplayError` is a
 ``StoreError`` but means a bug (a non-deterministic simulation), so it is not among them."""
 
 
@@ -610,7 +611,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("revolve: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except Exception as error:  # noqa: BLE001 - sorted below; a bug shows its traceback
-        replay = _loaded("evolution.experiments.run", "ReplayError")
+        replay = _loaded("evolution.experiments.loop.run", "ReplayError")
         if replay is not None and isinstance(error, replay):
             return _bug(args.command)
         if isinstance(error, input_errors()):

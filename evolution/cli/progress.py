@@ -127,7 +127,7 @@ class ProgressDisplay(EventObserver):
     """Progress of one or several experiments' runs (see the module doc).
 
     A progress callback of :func:`evolution.run` (or of a study, :meth:`feed`), and an
-    observer of a loop stepped in Python (:class:`~evolution.experiments.loop.Evolution`).
+    observer of a loop stepped in Python (:class:`~evolution.experiments.loop.evolve.Evolution`).
 
     Args:
         targets: Births at which each run stops, by run id (more with :meth:`add_runs`).
@@ -183,7 +183,7 @@ class ProgressDisplay(EventObserver):
             done: Births already committed by each run, by run id.
             label: Label of these runs.
             weight: What one of their births costs, in any unit all runs share (e.g. CPU
-                seconds per birth from :func:`evolution.experiments.estimate.calibrate`): the
+                seconds per birth from :func:`evolution.experiments.app.estimate.calibrate`): the
                 ETA weighs births by it.
         """
         if not (math.isfinite(weight) and weight > 0):

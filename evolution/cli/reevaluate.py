@@ -1,6 +1,6 @@
 """``revolve reevaluate RESULTS``: stored robots evaluated again, and the optimism table.
 
-A thin layer over :func:`evolution.experiments.reevaluate.reevaluate` (what is evaluated, with
+A thin layer over :func:`evolution.experiments.app.reevaluate.reevaluate` (what is evaluated, with
 which seeds and conditions, how rows are keyed) and :mod:`evolution.reporting.optimism` (what the
 table means). Progress is a count of evaluations on stderr (a tqdm bar on a terminal, log lines
 otherwise, nothing with ``--quiet``); at the end the optimism table of
@@ -27,8 +27,8 @@ from evolution.cli.robots import (
     trust_argument,
     workers,
 )
-from evolution.experiments.folders import left_out_note
-from evolution.experiments.reevaluate import MAX_K, reevaluate
+from evolution.experiments.app.reevaluate import MAX_K, reevaluate
+from evolution.experiments.store.folders import left_out_note
 from evolution.reporting import find_experiments
 from evolution.reporting.optimism import EXPLANATION, markdown, optimism_rows, read_reevaluations
 

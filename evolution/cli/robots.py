@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from evolution.experiments import ExperimentConfig
-    from evolution.experiments.records import LearningRecord, RobotRecord
+    from evolution.experiments.loop.records import LearningRecord, RobotRecord
     from revolve_env.body.robot import Robot
 
 __all__ = [
@@ -86,21 +86,21 @@ non_negative_float = number(float, 0.0, strict=False)
 
 def workers(text: str) -> int:
     """Worker processes (0: all cores), at most the experiments' ``MAX_WORKERS``."""
-    from evolution.experiments.config import MAX_WORKERS
+    from evolution.experiments.loop.config import MAX_WORKERS
 
     return int(number(int, 0, strict=False, high=MAX_WORKERS)(text))
 
 
 def seconds(text: str) -> float:
-    """A simulated duration, at most :data:`~evolution.experiments.config.MAX_SECONDS`."""
-    from evolution.experiments.config import MAX_SECONDS
+    """A simulated duration, at most :data:`~evolution.experiments.loop.config.MAX_SECONDS`."""
+    from evolution.experiments.loop.config import MAX_SECONDS
 
     return float(number(float, 0.0, strict=True, high=MAX_SECONDS)(text))
 
 
 def non_negative_seconds(text: str) -> float:
     """A simulated duration that may be 0, at most ``MAX_SECONDS``."""
-    from evolution.experiments.config import MAX_SECONDS
+    from evolution.experiments.loop.config import MAX_SECONDS
 
     return float(number(float, 0.0, strict=False, high=MAX_SECONDS)(text))
 
@@ -195,7 +195,7 @@ def stored_robot(args: argparse.Namespace) -> StoredRobot:
     if (args.robot_id is None) == (not args.best):
         raise CliError("with --db, give --robot ID or --best")
     from evolution.experiments import DB_NAME, Store, StoreError
-    from evolution.experiments.integrity import verify
+    from evolution.experiments.store.integrity import verify
 
     run = 0 if args.run is None else args.run
     db = Path(args.db)

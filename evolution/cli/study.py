@@ -1,7 +1,7 @@
 """``revolve study``: the paper's five experiments in one folder, then their figures and tables.
 
 ``revolve study --runs 3 --births 60`` runs scenario1, scenario2, scenario3, baseline_a and
-baseline_b (:func:`evolution.experiments.study.study`: all their runs as jobs of one evaluator,
+baseline_b (:func:`evolution.experiments.app.study.study`: all their runs as jobs of one evaluator,
 two at once on two cores) into ``--out`` (``OUT/<name>/results.sqlite`` each, the settings in
 ``OUT/study.json``), then writes the report (``OUT/report/``: the paper's figures and the
 tables) and prints where it is. The same command again continues an interrupted study (Ctrl-C,
@@ -38,9 +38,9 @@ from evolution.cli.robots import (
 )
 from evolution.evaluation import Evaluator
 from evolution.experiments import ProgressEvent
-from evolution.experiments.callbacks import TensorBoardLogger
-from evolution.experiments.estimate import RunWork, StudyEstimate, calibrate_all, estimate
-from evolution.experiments.study import (
+from evolution.experiments.app.callbacks import TensorBoardLogger
+from evolution.experiments.app.estimate import RunWork, StudyEstimate, calibrate_all, estimate
+from evolution.experiments.app.study import (
     PAPER_EXPERIMENTS,
     StudyPlan,
     prepare_study,

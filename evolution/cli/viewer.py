@@ -62,11 +62,11 @@ from evolution.cli.robots import (
 )
 from evolution.evaluation import evaluation_seed
 from evolution.experiments import DB_NAME, Evolution, ExperimentConfig, Store
-from evolution.experiments.integrity import verify
-from evolution.experiments.online_world import PopulationWorld
-from evolution.experiments.records import FitnessSample, RobotRecord
-from evolution.experiments.results_folder import check_task_code
-from evolution.experiments.run import ReplayError, run_seed, world_seed
+from evolution.experiments.loop.online_world import PopulationWorld
+from evolution.experiments.loop.records import FitnessSample, RobotRecord
+from evolution.experiments.loop.run import ReplayError, run_seed, world_seed
+from evolution.experiments.store.integrity import verify
+from evolution.experiments.store.results_folder import check_task_code
 from revolve_env.body.robot import PartType, Robot
 from revolve_env.body.serialize import from_json
 from revolve_env.cameras import CAMERAS, MAX_SIZE, check_size
@@ -341,7 +341,7 @@ class RecordingWorld(PopulationWorld):
 
     Args:
         config: The experiment.
-        seed: The world's seed (:func:`evolution.experiments.run.world_seed`).
+        seed: The world's seed (:func:`evolution.experiments.loop.run.world_seed`).
         every: Control periods between frames.
         sink: Called with each frame.
         size: Frame width and height. Pixels.
@@ -403,7 +403,7 @@ def replay_online(config: ExperimentConfig, run_id: int, stored: Store | None, e
                   sink: FrameSink, size: tuple[int, int] = (480, 360)) -> int:
     """Replay run ``run_id`` of an online experiment, sending a frame every ``every`` steps.
 
-    The run is stepped again from its seed (the loop, :class:`~evolution.experiments.loop.
+    The run is stepped again from its seed (the loop, :class:`~evolution.experiments.loop.evolve.
     Evolution`, in a recording world; nothing is written), exactly as ``resume`` replays it;
     with ``stored`` the replayed robots and fitness samples are checked against the stored ones.
 

@@ -21,10 +21,10 @@ A cluster without a shared filesystem. Under Ray the driver (the process that ca
 ``run``/``resume``, e.g. ``revolve run``) alone touches the results folder: a run task
 gets its job's :meth:`RemoteJob.for_remote_worker` copy, whose store is a Ray actor on the
 driver's node owning the SQLite database, the online snapshots and the SB3 policies
-(:mod:`evolution.experiments.remote_store`); the task sends its commit points there and reads
+(:mod:`evolution.experiments.store.remote`); the task sends its commit points there and reads
 what a resume needs from there. Its progress events go to another actor on the driver's node,
 from which :meth:`RayEvaluator.run_jobs` hands them to ``on_event`` as they come. Results are
-the local ones, row for row (``tests/evolution/experiments/test_ray_cluster.py`` checks it on
+the local ones, row for row (``tests/evolution/experiments/store/test_ray_cluster.py`` checks it on
 a two-node cluster). To run on machines A (head, results) and B, C, ...::
 
     A$ ray start --head --port 6379
@@ -319,7 +319,7 @@ class RayEvaluator:
     evaluates its robots inside its task; tasks spread over the nodes). A run task never opens
     the database: a job that is a :class:`RemoteJob` (an experiment run) goes out as its
     :meth:`~RemoteJob.for_remote_worker` copy, whose store is an actor on the driver's node
-    owning the SQLite file (:mod:`evolution.experiments.remote_store`), so a multi-node
+    owning the SQLite file (:mod:`evolution.experiments.store.remote`), so a multi-node
     cluster needs nothing shared: no results folder on a shared filesystem. Progress events
     go to an actor on the driver's node too, and reach ``on_event`` while the runs go on.
 
@@ -435,7 +435,7 @@ class RayEvaluator:
 
 def make_evaluator(kind: str, workers: int = 0, address: str | None = None,
                    function: EvaluateFunction = evaluate_task) -> LocalEvaluator | RayEvaluator:
-    """The evaluator an :class:`~evolution.experiments.config.ExperimentConfig` asks for."""
+    """The evaluator an :class:`~evolution.experiments.loop.config.ExperimentConfig` asks for."""
     if kind == "local":
         return LocalEvaluator(workers or None, function=function)
     if kind == "ray":

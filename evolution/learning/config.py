@@ -1,7 +1,7 @@
 """Learning settings in experiment configs: the ``[learning]`` table.
 
 An experiment config with learning is an ordinary experiment TOML (see
-:class:`~evolution.experiments.config.ExperimentConfig`) plus a ``[learning]`` table::
+:class:`~evolution.experiments.loop.config.ExperimentConfig`) plus a ``[learning]`` table::
 
     [learning]
     learner     = "cma-es"       # "cma-es", "random-search" or "sb3"
@@ -26,8 +26,8 @@ An experiment config with learning is an ordinary experiment TOML (see
 Results stored before the learner trained on normalised envs with the benchmark's settings (schema
 version 5 and older) had neither ``normalize`` nor ``settings``: the store's upgrade writes
 ``normalize = false`` and ``settings = "sb3-defaults"`` into their ``sb3`` tables
-(:data:`~evolution.experiments.records.SB3_OF_OLD_RUNS`), with which the learner trains exactly as
-it did then, so that such a run resumes to the numbers it would have had uninterrupted.
+(:data:`~evolution.experiments.loop.records.SB3_OF_OLD_RUNS`), with which the learner trains
+exactly as it did then, so that such a run resumes to the numbers it would have had uninterrupted.
 
 A ``budget`` too small for one learning step is refused here (a ``ValueError``; in an experiment
 config a one-line ``ConfigError``): CMA-ES needs the inborn evaluation and one generation
@@ -35,12 +35,12 @@ config a one-line ``ConfigError``): CMA-ES needs the inborn evaluation and one g
 candidate, SB3 its two evaluations and one rollout (``n_steps * n_envs`` steps; off-policy:
 ``learning_starts`` and one ``train_freq``). Each learner's ``min_budget`` gives the figure.
 With ``learner = "sb3"`` the run saves every trained policy in ``<results>/policies/`` and the
-policy drives the robot (see :mod:`evolution.experiments.loop`).
+policy drives the robot (see :mod:`evolution.experiments.loop.evolve`).
 
-:class:`~evolution.experiments.config.ExperimentConfig` keeps the table (``config.learning``): it is
-stored with the results, :func:`evolution.run` builds the Training Center from it, and
-:func:`evolution.resume` (``revolve resume``) rebuilds the same one. ``revolve run FILE.toml`` and
-the shipped ``scenario1_learning`` / ``scenario3_learning`` configs go this way.
+:class:`~evolution.experiments.loop.config.ExperimentConfig` keeps the table
+(``config.learning``): it is stored with the results, :func:`evolution.run` builds the Training
+Center from it, and :func:`evolution.resume` (``revolve resume``) rebuilds the same one. ``revolve
+run FILE.toml`` and the shipped ``scenario1_learning`` / ``scenario3_learning`` configs go this way.
 :meth:`ExperimentConfig.training_center` gives the center of a config (for inspection, or to
 pass as ``infancy=``: the same center is accepted); :func:`training_center_from_dict` builds the
 center from the table alone.

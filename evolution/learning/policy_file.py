@@ -269,7 +269,7 @@ def policy_from_bytes(name: str, blob: bytes, robot: Robot, digest: str | None =
     """The :class:`PolicyAgent` held in ``blob``, the bytes of policy file ``name``.
 
     As :func:`load_policy`, for bytes already read (the results folder reads them:
-    :func:`evolution.experiments.results_folder.load_policy`).
+    :func:`evolution.experiments.store.results_folder.load_policy`).
 
     Raises:
         PolicyFileError: as :func:`load_policy`.

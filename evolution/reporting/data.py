@@ -19,7 +19,7 @@ equal *engine* births (:attr:`RunData.engine_births`, :meth:`ExperimentData.popu
 each run's population at the last commit point at or before them.
 
 Which experiments: :func:`load_included` takes one set of experiments below a folder (a study,
-or the experiments outside any study; :mod:`evolution.experiments.folders`) and says what it
+or the experiments outside any study; :mod:`evolution.experiments.store.folders`) and says what it
 left out.
 """
 
@@ -36,10 +36,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evolution.diversity import brain_aware_diversity, diversity
-from evolution.experiments.folders import ResultSet, select_results
-from evolution.experiments.integrity import verify
-from evolution.experiments.records import PopulationSnapshot
-from evolution.experiments.store import DB_NAME, FitnessSeries, RunRecord, Store
+from evolution.experiments.loop.records import PopulationSnapshot
+from evolution.experiments.store.database import DB_NAME, FitnessSeries, RunRecord, Store
+from evolution.experiments.store.folders import ResultSet, select_results
+from evolution.experiments.store.integrity import verify
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import from_json
 
@@ -419,7 +419,7 @@ class Included:
         root: The folder (or database) given.
         experiments: The experiments, in report order (:func:`find_experiments`).
         left_out: Sets of experiments below ``root`` not included
-            (:func:`evolution.experiments.folders.select_results`).
+            (:func:`evolution.experiments.store.folders.select_results`).
     """
 
     root: Path
@@ -446,7 +446,7 @@ def load_included(root: str | os.PathLike[str], brain_aware: bool = False,
                   every_set: bool = False) -> Included:
     """Every experiment of one set at or below ``root``, ready to compare like with like.
 
-    The set is :func:`evolution.experiments.folders.select_results`'s (every set with
+    The set is :func:`evolution.experiments.store.folders.select_results`'s (every set with
     ``every_set``). Labels are the experiments' names; where two databases share a name, their
     paths relative to ``root`` are used instead. Each run's population is read at every engine
     births a pair of experiments is compared at (the fewest either reached), so

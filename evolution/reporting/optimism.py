@@ -1,7 +1,7 @@
 """How optimistic is a single evaluation? The reevaluations of stored robots, summarised.
 
 A run selects robots on one evaluation each; ``revolve reevaluate``
-(:mod:`evolution.experiments.reevaluate`) evaluates the robots it kept ``K`` times more under
+(:mod:`evolution.experiments.app.reevaluate`) evaluates the robots it kept ``K`` times more under
 fresh conditions. For every experiment and every reevaluation *setting* (which robots, the
 conditions, the window, alone or in a shared world) this module computes:
 
@@ -36,8 +36,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import bootstrap, spearmanr
 
-from evolution.experiments.records import ReevaluationRecord
-from evolution.experiments.store import DB_NAME, Store
+from evolution.experiments.loop.records import ReevaluationRecord
+from evolution.experiments.store.database import DB_NAME, Store
 from evolution.reporting.data import ExperimentData
 from evolution.reporting.figures import save_figure
 from evolution.reporting.style import colors, legend_below, styled

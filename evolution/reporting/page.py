@@ -17,8 +17,8 @@ import struct
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from evolution.experiments.api import flat_keys
-from evolution.experiments.store import DB_NAME, Store, package_version
+from evolution.experiments.app.api import flat_keys
+from evolution.experiments.store.database import DB_NAME, Store, package_version
 from evolution.reporting.data import Included
 from evolution.reporting.figures import FIGURE_DPI
 from evolution.reporting.reproduce import Command

@@ -1,8 +1,8 @@
 """Reports over results directories: the paper's figures, a summary table, significance tests.
 
 ``report(path)`` finds every experiment below ``path`` (a directory holding ``results.sqlite``,
-as written by :func:`evolution.experiments.api.run`; ``revolve run`` writes ``OUT/<name>/``),
-reads them through :class:`~evolution.experiments.store.Store`, and writes into
+as written by :func:`evolution.experiments.app.api.run`; ``revolve run`` writes ``OUT/<name>/``),
+reads them through :class:`~evolution.experiments.store.database.Store`, and writes into
 ``path/report/`` (or ``out``):
 
 ====================================== ============================================================
@@ -42,7 +42,7 @@ file                                    content
 ====================================== ============================================================
 
 Which experiments: one set below ``path``, a study or the experiments outside any study
-(:mod:`evolution.experiments.folders`); the report says what it left out, and ``every_set``
+(:mod:`evolution.experiments.store.folders`); the report says what it left out, and ``every_set``
 compares every set. Like with like: every pair is compared at the most births both reached
 (:mod:`evolution.reporting.tables`), and robots lost to blow-ups are counted apart, never as
 0 m. Births are counted the same way in every experiment and figure: failed births (robots lost
@@ -65,8 +65,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from evolution.experiments.folders import ResultSet
-from evolution.experiments.results_folder import output_folder
+from evolution.experiments.store.folders import ResultSet
+from evolution.experiments.store.results_folder import output_folder
 from evolution.reporting.data import ExperimentData, load_included
 from evolution.reporting.figures import FIGURES, write_figures
 from evolution.reporting.optimism import with_optimism
@@ -120,7 +120,7 @@ def report(
             every diversity point and of the compared ones (slower: their genomes are decoded).
         every_set: Compare every set of experiments below ``path`` (studies and lone
             experiments together), not only the one
-            :func:`~evolution.experiments.folders.select_results` takes.
+            :func:`~evolution.experiments.store.folders.select_results` takes.
 
     Returns:
         What was written.

@@ -20,13 +20,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from evolution.experiments.api import flat_keys
-from evolution.experiments.config import ConfigError, load_config
-from evolution.experiments.folders import STUDY_FILE
-from evolution.experiments.reevaluate import reevaluation_conditions
-from evolution.experiments.registry import shipped_configs
-from evolution.experiments.results_folder import read_settings
-from evolution.experiments.store import DB_NAME, Store
+from evolution.experiments.app.api import flat_keys
+from evolution.experiments.app.reevaluate import reevaluation_conditions
+from evolution.experiments.loop.config import ConfigError, load_config
+from evolution.experiments.loop.registry import shipped_configs
+from evolution.experiments.store.database import DB_NAME, Store
+from evolution.experiments.store.folders import STUDY_FILE
+from evolution.experiments.store.results_folder import read_settings
 from evolution.reporting.data import ExperimentData, Included
 
 __all__ = ["EXECUTION_KEYS", "Command", "commands", "set_value"]

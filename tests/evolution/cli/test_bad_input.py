@@ -23,8 +23,10 @@ from hypothesis import strategies as st
 from evolution import experiments
 from evolution.cli import main
 from evolution.evaluation import LocalEvaluator
-from evolution.experiments import api, loop, preset
-from evolution.experiments.store import DB_NAME, Store
+from evolution.experiments import preset
+from evolution.experiments.app import api
+from evolution.experiments.loop import evolve as loop
+from evolution.experiments.store.database import DB_NAME, Store
 
 SERIAL = LocalEvaluator(workers=1, function=fake_evaluate)
 
@@ -40,7 +42,7 @@ def _ran(*args: object, **kwargs: object) -> Any:
 @pytest.fixture
 def nothing_runs(monkeypatch: pytest.MonkeyPatch) -> None:
     """Every way a command starts to simulate raises :class:`Ran`."""
-    import evolution.experiments.reevaluate as reevaluate_module
+    import evolution.experiments.app.reevaluate as reevaluate_module
     import revolve_env.envs.recording
 
     monkeypatch.setattr(api, "_execute", _ran)
@@ -256,7 +258,7 @@ def test_a_database_without_tables_names_the_command_that_fixes_it(
 
 def test_a_study_replaces_a_database_without_tables(tmp_path: Path,
                                                    fake_physics: None) -> None:
-    from evolution.experiments.study import study
+    from evolution.experiments.app.study import study
 
     _empty_database(tmp_path / "study" / "baseline_a", wal=False)
     study(tmp_path / "study", runs=1, births=15, experiments=("baseline_a",),

@@ -22,12 +22,12 @@ from evolution.evaluation import LocalEvaluator, evaluate_task
 from evolution.experiments import (
     ConfigError,
     ExperimentConfig,
-    api,
     preset,
     shipped_configs,
 )
 from evolution.experiments import load_config as resolve_config
-from evolution.experiments.store import DB_NAME, Store
+from evolution.experiments.app import api
+from evolution.experiments.store.database import DB_NAME, Store
 
 SUBCOMMANDS = ("run", "resume", "report", "show", "export", "demo")
 SMALL = ["--set", "evolution.initial_parts_mean=5", "--set", "evolution.initial_parts_sd=2",

@@ -17,7 +17,8 @@ from experiment_fakes import fake_evaluate
 from evolution.cli import main
 from evolution.cli.progress import ProgressDisplay, cli_logging
 from evolution.evaluation import LocalEvaluator
-from evolution.experiments import ProgressEvent, api
+from evolution.experiments import ProgressEvent
+from evolution.experiments.app import api
 
 NAN = math.nan
 
@@ -151,7 +152,7 @@ def test_quiet_shows_nothing_but_warnings_and_errors() -> None:
         display(_event(0, 50))
         display(_event(0, 100, finished=True))
         display.close()
-        logging.getLogger("evolution.experiments.online").warning("cannot write the snapshot")
+        logging.getLogger("evolution.experiments.loop.online").warning("cannot write the snapshot")
         logging.getLogger("evolution.cli.progress").info("not shown")
     assert bars.getvalue() == "" and not display.bars
     assert stream.getvalue() == "warning: cannot write the snapshot\n"

@@ -72,7 +72,7 @@ def test_a_command_loads_what_it_uses() -> None:
 
 
 def test_the_version_is_the_packages(capsys: pytest.CaptureFixture[str]) -> None:
-    from evolution.experiments.store import package_version
+    from evolution.experiments.store.database import package_version
 
     with pytest.raises(SystemExit) as exit_info:
         main(["--version"])

@@ -15,10 +15,10 @@ from experiment_fakes import CtrlCEvaluator, dump_results, fake_evaluate, fake_w
 
 from evolution.cli import main
 from evolution.evaluation import LocalEvaluator
-from evolution.experiments import loop
-from evolution.experiments import study as study_module
-from evolution.experiments.store import DB_NAME, Store
-from evolution.experiments.study import PAPER_EXPERIMENTS
+from evolution.experiments.app import study as study_module
+from evolution.experiments.app.study import PAPER_EXPERIMENTS
+from evolution.experiments.loop import evolve as loop
+from evolution.experiments.store.database import DB_NAME, Store
 
 TINY = ["--set", "population_size=4", "--set", "offspring_size=4", "--set", "insertion=0.5",
         "--set", "evaluation_time=1", "--set", "fertile_age=1.5", "--set",

@@ -18,7 +18,7 @@ from evolution.cli.robots import stored_robot
 from evolution.cli.viewer import _plan, fitness_reasons, replay_online
 from evolution.evaluation import evaluation_seed
 from evolution.experiments import DB_NAME, ExperimentConfig, ReplayError, Store
-from evolution.experiments.records import LearningRecord
+from evolution.experiments.loop.records import LearningRecord
 from revolve_env.body.robot import Activation, Layer, Neuron, Node, PartType, Robot
 from revolve_env.body.serialize import to_json
 from revolve_env.conditions import EvaluationConditions

@@ -281,7 +281,7 @@ def _engine_evaluate(task: EvalTask) -> EvalOutcome:
 
 def test_a_raising_learner_is_recorded_in_the_store_and_the_run_goes_on(tmp_path) -> None:
     from evolution.experiments import ExperimentConfig, run
-    from evolution.experiments.store import Store
+    from evolution.experiments.store.database import Store
 
     config = ExperimentConfig(name="learning-fails", population_size=3, offspring_size=3,
                               births=6, evaluation_time=1.0, insertion=0.0, fertile_age=1.0,

@@ -18,7 +18,7 @@ from experiment_fakes import fake_evaluate
 from evolution import experiments
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import ConfigError, ExperimentConfig, preset
-from evolution.experiments.store import DB_NAME, Store
+from evolution.experiments.store.database import DB_NAME, Store
 from evolution.learning import (
     CMAESLearner,
     RandomSearchLearner,

@@ -17,7 +17,7 @@ from experiment_fakes import fake_evaluate_with_losses, fake_world, small
 from evolution.diversity import brain_aware_diversity, diversity
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import preset, run
-from evolution.experiments.store import DB_NAME, Store
+from evolution.experiments.store.database import DB_NAME, Store
 from evolution.reporting import find_experiments, report
 from evolution.reporting.data import LABELS, ExperimentData, births_axis, common_births
 from evolution.reporting.figures import (

@@ -24,7 +24,7 @@ from scipy.stats import mannwhitneyu
 
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import preset, run
-from evolution.experiments.store import DB_NAME, Store
+from evolution.experiments.store.database import DB_NAME, Store
 from evolution.reporting import Report, find_experiments, load_included, report
 from evolution.reporting.figures import fitness_over_births
 from evolution.reporting.stats import CURVE_FRACTIONS

@@ -24,7 +24,7 @@ from experiment_fakes import (
 
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import preset, resume, run
-from evolution.experiments.store import DB_NAME, Store
+from evolution.experiments.store.database import DB_NAME, Store
 from evolution.reporting import find_experiments, load_included, report
 from evolution.reporting.tables import write_tables
 

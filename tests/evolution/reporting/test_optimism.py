@@ -14,8 +14,8 @@ from experiment_fakes import fake_evaluate, small
 
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import preset, run
-from evolution.experiments.reevaluate import reevaluate
-from evolution.experiments.store import ReevaluationRecord
+from evolution.experiments.app.reevaluate import reevaluate
+from evolution.experiments.store.database import ReevaluationRecord
 from evolution.reporting import report
 from evolution.reporting.optimism import OPTIMISM_COLUMNS, bootstrap_ci, optimism_rows
 

@@ -21,9 +21,9 @@ from evolution.cli.commands import build_parser
 from evolution.cli.options import parse_set
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import ExperimentConfig, load_config, preset, run
-from evolution.experiments.api import flat_keys
-from evolution.experiments.reevaluate import reevaluate
-from evolution.experiments.store import DB_NAME, Store
+from evolution.experiments.app.api import flat_keys
+from evolution.experiments.app.reevaluate import reevaluate
+from evolution.experiments.store.database import DB_NAME, Store
 from evolution.reporting import Report, report
 from evolution.reporting.optimism import MARKDOWN_COLUMNS
 from evolution.reporting.page import SETTINGS_TABLE
@@ -264,7 +264,7 @@ def test_the_commands_reproduce_the_stored_settings(written: Report, results: Pa
 
 
 def test_a_study_is_reproduced_by_its_study_command(tmp_path: Path) -> None:
-    from evolution.experiments.study import study
+    from evolution.experiments.app.study import study
 
     tiny = {"population_size": 4, "offspring_size": 4, "insertion": 0.5,
             "evaluation_time": 1.0, "fertile_age": 1.5, "diversity_interval": 4,

@@ -27,7 +27,7 @@ from scipy.stats import mannwhitneyu
 
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import ProgressEvent, preset, run
-from evolution.experiments.store import DB_NAME, Store, StoreError
+from evolution.experiments.store.database import DB_NAME, Store, StoreError
 from evolution.learning import CandidateEvaluation, RandomSearchLearner, TrainingCenter
 from evolution.reporting import find_experiments, report, step_on_grid
 from evolution.reporting.stats import holm as _holm

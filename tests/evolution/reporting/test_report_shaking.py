@@ -13,7 +13,7 @@ from evolution.cli.commands import main
 from evolution.evaluation import LocalEvaluator
 from evolution.evaluation.tasks import EvalOutcome, EvalTask
 from evolution.experiments import preset, run
-from evolution.experiments.store import DB_NAME, Store
+from evolution.experiments.store.database import DB_NAME, Store
 from evolution.reporting import report
 from evolution.reporting.data import load_experiment
 from evolution.reporting.tables import SHAKING_COLUMNS, shaking_line, shaking_rows

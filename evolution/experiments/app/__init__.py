@@ -1,0 +1,1 @@
+"""The experiment application: whole experiments run and resumed, the study, re-evaluations."""

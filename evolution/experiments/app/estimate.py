@@ -1,0 +1,376 @@
+"""How long a study will take: the robot-seconds it simulates at this machine's measured rate.
+
+A study's cost is the simulated time of its robots: *robot-seconds*, one robot simulated for
+one second. Each experiment's are set by its config (:func:`run_robot_seconds`):
+
+* offline: every birth is one evaluation of ``insertion + evaluation_time`` seconds;
+* online: the world lives one ``conception_interval`` per birth after the initial robots, with
+  the robots alive in it: their mean number is measured (below), not assumed.
+
+:func:`calibrate` measures, in a few CPU seconds, how many robot-seconds this machine simulates
+per CPU second for an experiment, everything a birth costs included (building, the Training
+Center, the online world's per-period work):
+
+* offline: :func:`~evolution.evaluation.evaluate_tasks` of a few random robots of the
+  experiment's settings (engine, timing, conditions, Training Center), as a run evaluates its
+  children;
+* online: the experiment itself: the start of its run 0 (its own seed, initial robots and
+  survivor selection in the population env) for a few conception intervals after the first
+  selection; the robots alive over those intervals are the world's measured size.
+
+:func:`estimate` divides the robot-seconds by the rate: each experiment's CPU time, and the
+study's wall time on ``workers`` run slots (a run is the unit of parallelism: one run on one
+worker, online runs first, as :func:`~evolution.experiments.app.study.run_study` orders them). What
+the calibration cannot know is stated by :data:`ASSUMPTIONS`: the robots it measures are those
+of a run's first generations, and evolved robots grow. Nothing here writes a file.
+
+Example::
+
+    from evolution.experiments import load_config
+    from evolution.experiments.app.estimate import calibrate, estimate, RunWork
+
+    config = load_config("scenario1", {"world": {"engine": "mujoco"}})
+    cost = calibrate(config)
+    print(estimate([RunWork("scenario1", config, 3000)] * 30, {"scenario1": cost}, workers=2))
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from evolution.evaluation import evaluate_tasks
+from evolution.experiments.loop.config import ExperimentConfig
+from evolution.experiments.loop.offline import evaluation_tasks
+from evolution.experiments.loop.run import ProgressEvent
+from evolution.random_robot import random_robot
+
+__all__ = [
+    "ASSUMPTIONS",
+    "BirthCost",
+    "ExperimentEstimate",
+    "RunWork",
+    "StudyEstimate",
+    "calibrate",
+    "calibrate_all",
+    "calibration_key",
+    "estimate",
+    "online_rate",
+    "run_cpu_seconds",
+    "run_robot_seconds",
+]
+
+ASSUMPTIONS = ("assumes the robots of a run's first generations (evolved robots grow: expect "
+               "more), an online world of the size measured at its start, one run per worker, "
+               "nothing else on the cores")
+"""What the estimate takes for granted, in one line."""
+
+_OFFLINE_ROBOTS = 4
+"""Random robots evaluated by an offline calibration (a few CPU seconds on pybullet)."""
+_ONLINE_INTERVALS = 3
+"""Conception intervals an online calibration measures, after the first survivor selection."""
+
+
+@dataclass(frozen=True, slots=True)
+class BirthCost:
+    """What one birth of an experiment simulates, and this machine's measured rate.
+
+    Attributes:
+        mode: ``"offline"`` or ``"online"``.
+        engine: The physics engine.
+        rate: Robot-seconds simulated per CPU second, everything a birth costs included.
+            Robot-seconds per second.
+        robot_seconds: Robot-seconds one birth simulates: offline, one evaluation; online, the
+            robots alive for one conception interval. Robot-seconds.
+        sample: What was measured, in words (e.g. ``4 random robots x 15 s``).
+        alive: Online: the mean number of robots alive measured (0 offline). Robots.
+    """
+
+    mode: str
+    engine: str
+    rate: float
+    robot_seconds: float
+    sample: str
+    alive: float = 0.0
+
+    @property
+    def cpu_per_birth(self) -> float:
+        """CPU time of one birth. Seconds."""
+        return self.robot_seconds / self.rate if self.rate > 0 else math.inf
+
+
+@dataclass(frozen=True, slots=True)
+class RunWork:
+    """One run still to do: its experiment and the births it has already committed.
+
+    Attributes:
+        experiment: The experiment's name.
+        config: The experiment's configuration.
+        done: Births already committed (a resumed run). Births.
+    """
+
+    experiment: str
+    config: ExperimentConfig
+    done: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class ExperimentEstimate:
+    """One experiment's share of a study.
+
+    Attributes:
+        name: The experiment.
+        cost: Its calibrated birth cost.
+        runs: Runs left to do.
+        births: Births left, all its runs together.
+        robot_seconds: Robot-seconds left to simulate, all its runs together.
+        cpu_seconds: CPU time left, all its runs together. Seconds.
+    """
+
+    name: str
+    cost: BirthCost
+    runs: int
+    births: int
+    robot_seconds: float
+    cpu_seconds: float
+
+
+@dataclass(frozen=True, slots=True)
+class StudyEstimate:
+    """A study's estimated CPU time and wall time.
+
+    Attributes:
+        experiments: One estimate per experiment, in the order given.
+        workers: Runs at once (worker processes, or the Ray cluster's CPUs).
+        wall_seconds: Wall time on ``workers`` (runs scheduled as the study does). Seconds.
+        calibration_cpu: CPU time the calibration itself took. Seconds.
+    """
+
+    experiments: tuple[ExperimentEstimate, ...]
+    workers: int
+    wall_seconds: float
+    calibration_cpu: float = 0.0
+
+    @property
+    def cpu_seconds(self) -> float:
+        """CPU time of the whole study. Seconds."""
+        return sum(e.cpu_seconds for e in self.experiments)
+
+    def weights(self) -> dict[str, float]:
+        """CPU time of one birth of each experiment (the progress display weighs births so)."""
+        return {e.name: e.cost.cpu_per_birth for e in self.experiments}
+
+    def lines(self) -> list[str]:
+        """The estimate in words: one line per experiment, the total, the assumptions."""
+        out = []
+        for e in self.experiments:
+            c = e.cost
+            per_birth = (f"{c.alive:.1f} robots alive x {c.robot_seconds / c.alive:g} s"
+                         if c.mode == "online" and c.alive > 0 else f"{c.robot_seconds:g} s")
+            out.append(f"  {e.name}: {e.runs} run(s), {e.births} births, "
+                       f"{_robot_seconds(e.robot_seconds)} ({c.mode}, {c.engine}: {per_birth} "
+                       f"per birth) at {c.rate:.0f} robot-s per CPU-s (from {c.sample}), "
+                       f"{1e3 * c.cpu_per_birth:.0f} ms CPU per birth: "
+                       f"{e.cpu_seconds / 3600:.2f} CPU-h")
+        out.append(f"  total {_robot_seconds(sum(e.robot_seconds for e in self.experiments))}, "
+                   f"{self.cpu_seconds / 3600:.2f} CPU-h: about {_hours(self.wall_seconds)} on "
+                   f"{self.workers} worker(s) (calibration took {self.calibration_cpu:.1f} s CPU)")
+        out.append(f"  (an estimate: it {ASSUMPTIONS})")
+        return out
+
+
+def calibration_key(config: ExperimentConfig) -> tuple[object, ...]:
+    """What a birth's cost depends on: experiments equal here share one calibration."""
+    online = ((config.conception_interval, config.population_size, config.min_alive,
+               config.max_alive, config.death_threshold, config.cull_fraction,
+               config.survivor_selection, config.new_robots, config.tournament_size,
+               config.birth_radius, config.birth_clearance, config.fertile_age, config.seed)
+              if config.mode == "online" else ())
+    return (config.mode, config.world, config.insertion, config.evaluation_time,
+            config.evaluation, config.evolution, repr(config.learning), repr(config.task),
+            *online)
+
+
+def calibrate(config: ExperimentConfig, *, seed: int = 0, robots: int | None = None,
+              intervals: int = _ONLINE_INTERVALS) -> BirthCost:
+    """Measure the robot-seconds ``config`` simulates per CPU second on this machine.
+
+    Args:
+        config: The experiment.
+        seed: Offline: seeds the random robots. (Online the run's own seed is used.)
+        robots: Offline: robots evaluated (default 4).
+        intervals: Online: conception intervals measured after the first survivor selection.
+
+    Returns:
+        The measured rate and what one birth simulates (online: at the robots alive measured).
+    """
+    if config.mode == "online":
+        return _calibrate_online(config, intervals)
+    rng = np.random.default_rng(seed)
+    return _calibrate_offline(config, rng, robots or _OFFLINE_ROBOTS)
+
+
+def _calibrate_offline(config: ExperimentConfig, rng: np.random.Generator,
+                       count: int) -> BirthCost:
+    tasks = evaluation_tasks(config, [(i, random_robot(rng, config.evolution),
+                                       int(rng.integers(2**31))) for i in range(count + 1)],
+                             config.training_center())
+    # The first evaluation loads the engine and its caches: a cost a run pays once, not per birth.
+    evaluate_tasks([replace(tasks[0], insertion=0.0, seconds=config.evaluation_time / 10,
+                            infancy=None)])
+    start = time.process_time()
+    evaluate_tasks(tasks[1:])
+    cpu = time.process_time() - start
+    seconds = config.seconds_per_evaluation
+    return BirthCost("offline", config.world.engine, count * seconds / max(cpu, 1e-9), seconds,
+                     f"{count} random robots x {seconds:g} s")
+
+
+def online_rate(events: Sequence[ProgressEvent], cpu: Sequence[float], skip: int = 1
+                ) -> tuple[float, float, float]:
+    """Robots alive and robot-seconds per CPU second of an online run's commit points.
+
+    Between two commit points the world lives from the first one's simulated time to the
+    second's with the robots alive at the first (a blow-up in between is not counted).
+
+    Args:
+        events: The run's progress events, one per commit point, in order.
+        cpu: The process's CPU time at each of them. Seconds.
+        skip: Intervals left out at the start (the initial robots' first one: no survivor
+            selection has happened yet).
+
+    Returns:
+        ``(alive, rate, robot_seconds)``: the time-weighted mean number of robots alive
+        (robots), robot-seconds per CPU second, and the robot-seconds measured.
+
+    Raises:
+        ValueError: no simulated time or no CPU time past the skipped intervals.
+    """
+    robot_seconds = seconds = spent = 0.0
+    for k in range(skip, len(events) - 1):
+        dt = events[k + 1].sim_time - events[k].sim_time
+        robot_seconds += events[k].population_size * dt
+        seconds += dt
+        spent += cpu[k + 1] - cpu[k]
+    if seconds <= 0 or spent <= 0:
+        raise ValueError(f"no simulated or CPU time measured in {len(events)} commit points "
+                         f"after {skip} interval(s)")
+    return robot_seconds / seconds, robot_seconds / spent, robot_seconds
+
+
+def _calibrate_online(config: ExperimentConfig, intervals: int) -> BirthCost:
+    # Imported here: the online world loads the physics engine.
+    from evolution.experiments.loop.evolve import Evolution, ProgressObserver
+    from evolution.experiments.loop.online_world import PopulationWorld
+    from evolution.experiments.loop.run import run_seed, world_seed
+
+    # The start of the experiment's run 0, not written anywhere: its initial robots, the first
+    # conception interval (skipped: no selection yet), then ``intervals`` more, a commit each.
+    short = config.replace(checkpoint_interval=1, max_sim_time=None)
+    events: list[ProgressEvent] = []
+    cpu: list[float] = []
+
+    def seen(event: ProgressEvent) -> None:
+        if not event.finished:
+            events.append(event)
+            cpu.append(time.process_time())
+
+    world = PopulationWorld(short, world_seed(run_seed(short.seed, 0)))
+    try:
+        with Evolution(short, world=world, observers=[ProgressObserver(seen)]) as evolution:
+            evolution.start()
+            while not evolution.done and len(events) < intervals + 2:
+                evolution.step()
+    finally:
+        world.close()
+    if len(events) < 2:  # the initial robots are every birth: no interval to simulate
+        return BirthCost("online", config.world.engine, math.inf, 0.0, "no conception interval",
+                         float(config.population_size))
+    skip = 1 if len(events) > 2 else 0
+    alive, rate, measured = online_rate(events, cpu, skip)
+    return BirthCost("online", config.world.engine, rate, alive * config.conception_interval,
+                     f"{measured:.0f} robot-s of the run's start, {len(events) - 1 - skip} "
+                     "conception interval(s) after its first", alive)
+
+
+def calibrate_all(configs: Sequence[ExperimentConfig], *, seed: int = 0
+                  ) -> tuple[dict[str, BirthCost], float]:
+    """:func:`calibrate` each experiment, once per :func:`calibration_key`.
+
+    Returns:
+        The birth cost of each experiment by name, and the CPU time the calibration took
+        (seconds).
+    """
+    start = time.process_time()
+    measured: dict[tuple[object, ...], BirthCost] = {}
+    costs = {}
+    for config in configs:
+        key = calibration_key(config)
+        if key not in measured:
+            measured[key] = calibrate(config, seed=seed)
+        costs[config.name] = measured[key]
+    return costs, time.process_time() - start
+
+
+def run_robot_seconds(work: RunWork, cost: BirthCost) -> float:
+    """Robot-seconds left to simulate in one run.
+
+    Offline: one evaluation per birth left. Online: the initial robots are born together at
+    time 0; every later birth takes one conception interval of the world, with ``cost.alive``
+    robots in it.
+    """
+    left = max(0, work.config.births - work.done)
+    if cost.mode == "online":
+        first = max(work.done, work.config.population_size)
+        left = max(0, work.config.births - first)
+    return left * cost.robot_seconds
+
+
+def run_cpu_seconds(work: RunWork, cost: BirthCost) -> float:
+    """CPU time left of one run: its robot-seconds at the measured rate. Seconds."""
+    return run_robot_seconds(work, cost) / cost.rate if cost.rate > 0 else math.inf
+
+
+def estimate(work: Sequence[RunWork], costs: Mapping[str, BirthCost], workers: int,
+             calibration_cpu: float = 0.0) -> StudyEstimate:
+    """The CPU time and wall time of the runs in ``work`` on ``workers`` run slots.
+
+    Runs are scheduled as :func:`~evolution.experiments.app.study.run_study` does: online runs
+    first, each on the first worker that is free; the wall time is when the last one ends.
+
+    Args:
+        work: The runs left to do.
+        costs: The calibrated birth cost of each experiment, by name.
+        workers: Runs at once.
+        calibration_cpu: CPU time the calibration took (reported). Seconds.
+    """
+    names = list(dict.fromkeys(w.experiment for w in work))
+    per_run = [(w, run_cpu_seconds(w, costs[w.experiment])) for w in work]
+    free = [0.0] * max(1, workers)
+    for _, seconds in sorted(per_run, key=lambda p: p[0].config.mode != "online"):
+        heapq.heapreplace(free, free[0] + seconds)
+    experiments = tuple(
+        ExperimentEstimate(
+            name, costs[name], sum(w.experiment == name for w, _ in per_run),
+            sum(max(0, w.config.births - w.done) for w, _ in per_run if w.experiment == name),
+            sum(run_robot_seconds(w, costs[name]) for w, _ in per_run if w.experiment == name),
+            sum(s for w, s in per_run if w.experiment == name))
+        for name in names)
+    return StudyEstimate(experiments, max(1, workers), max(free), calibration_cpu)
+
+
+def _hours(seconds: float) -> str:
+    if not math.isfinite(seconds):
+        return "?"
+    minutes = round(seconds / 60)
+    return f"{minutes // 60} h {minutes % 60:02d} min" if minutes >= 60 else f"{minutes} min"
+
+
+def _robot_seconds(value: float) -> str:
+    """Robot-seconds in words: ``1.35e6 robot-s (375 robot-h)``."""
+    return f"{value:.3g} robot-s ({value / 3600:.3g} robot-h)"

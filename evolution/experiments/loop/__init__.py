@@ -1,0 +1,1 @@
+"""The evolution loop: a scenario's runs stepped birth by birth, offline or online, to observers."""

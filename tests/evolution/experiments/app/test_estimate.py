@@ -1,0 +1,130 @@
+"""The study's time estimate: the robot-seconds each experiment simulates (offline: births x
+evaluated seconds; online: robots alive measured x simulated time) over the measured robot-seconds
+per CPU second; runs scheduled as the study runs them (one run per worker, online first); the
+CPU left of resumed runs; and a calibration that measures the real physics."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from evolution.experiments.app import estimate as estimate_module
+from evolution.experiments.app.estimate import (
+    BirthCost,
+    RunWork,
+    calibrate,
+    calibrate_all,
+    estimate,
+    online_rate,
+    run_cpu_seconds,
+    run_robot_seconds,
+)
+from evolution.experiments.loop.config import ExperimentConfig, load_config
+from evolution.experiments.loop.run import ProgressEvent
+
+# 15 robot-s per birth at 15 robot-s per CPU-s: 1 s per birth; online 10 robots alive x 15 s,
+# 150 robot-s per birth at 18.75 robot-s per CPU-s: 8 s per birth.
+OFFLINE = BirthCost("offline", "mujoco", 15.0, 15.0, "given")
+ONLINE = BirthCost("online", "mujoco", 18.75, 150.0, "given", 10.0)
+
+
+def _configs(births: int = 115) -> tuple[RunWork, RunWork]:
+    online = load_config("scenario3", {"births": births})  # 15 initial robots
+    offline = load_config("scenario1", {"births": births - 15})
+    return RunWork("scenario3", online), RunWork("scenario1", offline)
+
+
+def test_offline_runs_simulate_one_evaluation_per_birth() -> None:
+    _, offline = _configs()
+    assert run_robot_seconds(offline, OFFLINE) == 100 * 15.0
+    assert run_cpu_seconds(offline, OFFLINE) == 100 * 15.0 / 15.0
+    assert run_robot_seconds(RunWork("scenario1", offline.config, done=60), OFFLINE) == 40 * 15.0
+    assert run_cpu_seconds(RunWork("scenario1", offline.config, done=100), OFFLINE) == 0.0
+
+
+def test_online_runs_simulate_the_robots_alive_for_a_conception_interval_per_birth() -> None:
+    online, _ = _configs()
+    # after the 15 initial robots, born together at time 0: 100 intervals of 10 robots x 15 s
+    assert run_robot_seconds(online, ONLINE) == 100 * 10 * 15.0
+    assert run_cpu_seconds(online, ONLINE) == 100 * 8.0
+    assert run_cpu_seconds(RunWork("scenario3", online.config, done=50), ONLINE) == 65 * 8.0
+    assert run_cpu_seconds(RunWork("scenario3", online.config, done=5), ONLINE) == 100 * 8.0
+    assert ONLINE.cpu_per_birth == 8.0 and OFFLINE.cpu_per_birth == 1.0
+
+
+def _event(births: int, sim_time: float, alive: int) -> ProgressEvent:
+    return ProgressEvent(0, births, 100, sim_time, 1.0, 0.5, alive, 1.0, 1.0)
+
+
+def test_the_online_rate_weighs_each_interval_by_its_robots_alive() -> None:
+    # Commit points: 15 initial robots at 0 s; then intervals of 15 s with 9, 9 and 12 alive
+    # (the first, 15 robots, is skipped: no selection yet), CPU 2, 2 and 4 s.
+    events = [_event(15, 0.0, 15), _event(16, 15.0, 9), _event(17, 30.0, 9),
+              _event(18, 45.0, 12), _event(19, 60.0, 10)]
+    cpu = [0.0, 10.0, 12.0, 14.0, 18.0]
+    alive, rate, robot_seconds = online_rate(events, cpu)
+    assert robot_seconds == (9 + 9 + 12) * 15.0
+    assert alive == pytest.approx(10.0) and rate == pytest.approx(450.0 / 8.0)
+    assert online_rate(events, cpu, skip=0)[0] == pytest.approx((15 + 9 + 9 + 12) / 4)
+    with pytest.raises(ValueError, match="no simulated or CPU time"):
+        online_rate(events[:2], cpu[:2])
+
+
+def test_runs_are_scheduled_one_per_worker_online_first() -> None:
+    online, offline = _configs()
+    work = [offline] * 8 + [online] * 2  # given offline first: the study starts online runs first
+    costs = {"scenario3": ONLINE, "scenario1": OFFLINE}
+    # 3 workers: two online runs of 800 s on two of them, the eight offline runs on the third.
+    three = estimate(work, costs, workers=3)
+    assert three.wall_seconds == 800.0 and three.cpu_seconds == 2 * 800 + 8 * 100
+    # 2 workers: 800 s of online each, then four offline runs each.
+    assert estimate(work, costs, workers=2).wall_seconds == 1200.0
+    # Offline first would have been 1200 s on 3 workers: the order is the study's.
+    assert estimate(work, costs, workers=64).wall_seconds == 800.0
+    assert [(e.name, e.runs, e.births, e.robot_seconds) for e in three.experiments] == [
+        ("scenario1", 8, 800, 8 * 100 * 15.0), ("scenario3", 2, 230, 2 * 100 * 150.0)]
+    assert three.weights() == {"scenario1": 1.0, "scenario3": 8.0}
+    lines = three.lines()
+    assert lines[0] == ("  scenario1: 8 run(s), 800 births, 1.2e+04 robot-s (3.33 robot-h) "
+                        "(offline, mujoco: 15 s per birth) at 15 robot-s per CPU-s (from given), "
+                        "1000 ms CPU per birth: 0.22 CPU-h")
+    assert lines[1] == ("  scenario3: 2 run(s), 230 births, 3e+04 robot-s (8.33 robot-h) "
+                        "(online, mujoco: 10.0 robots alive x 15 s per birth) at 19 robot-s per "
+                        "CPU-s (from given), 8000 ms CPU per birth: 0.44 CPU-h")
+    assert lines[2].startswith("  total 4.2e+04 robot-s (11.7 robot-h), 0.67 CPU-h: about "
+                               "13 min on 3 worker(s)")
+    assert lines[3].startswith("  (an estimate: it assumes the robots of a run's first")
+
+
+def test_experiments_of_equal_settings_share_one_calibration(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    calls: list[str] = []
+
+    def fake(config: ExperimentConfig, *, seed: int = 0) -> BirthCost:
+        calls.append(config.name)
+        return OFFLINE
+
+    monkeypatch.setattr(estimate_module, "calibrate", fake)
+    configs = [load_config(n) for n in ("scenario1", "baseline_a", "baseline_b", "scenario3")]
+    costs, cpu = calibrate_all(configs)
+    assert calls == ["scenario1", "scenario3"]  # the baselines evaluate as scenario 1 does
+    assert set(costs) == {"scenario1", "baseline_a", "baseline_b", "scenario3"} and cpu >= 0
+
+
+TINY = {"world": {"engine": "mujoco"}, "insertion": 0.5, "evaluation_time": 1.0,
+        "fertile_age": 1.0, "conception_interval": 1.0, "population_size": 4, "min_alive": 2,
+        "evolution": {"max_parts": 8, "initial_parts_mean": 5.0, "initial_parts_sd": 1.0}}
+
+
+def test_calibration_measures_the_physics() -> None:
+    offline = calibrate(load_config("scenario1", TINY), robots=2)
+    assert (offline.mode, offline.engine, offline.alive) == ("offline", "mujoco", 0.0)
+    assert offline.sample == "2 random robots x 1.5 s" and offline.robot_seconds == 1.5
+    assert math.isfinite(offline.rate) and offline.rate > 0
+    online = calibrate(load_config("scenario3", TINY), intervals=2)
+    # the run's own start: its robots alive after its first selection, not an assumed number
+    assert online.mode == "online" and 2 <= online.alive <= 30
+    assert online.robot_seconds == pytest.approx(online.alive * 1.0)
+    assert online.sample.endswith("2 conception interval(s) after its first")
+    assert math.isfinite(online.rate) and online.rate > 0
