@@ -44,9 +44,9 @@ from evolution.experiments.app.estimate import (
     estimate,
     run_cpu_seconds,
 )
+from evolution.experiments.loop.registry import PAPER_SCENARIOS
 from revolve_env.body.serialize import to_json
 
-EXPERIMENTS = ("scenario1", "scenario2", "scenario3", "baseline_a", "baseline_b")
 STUDY_RUNS, STUDY_BIRTHS = 30, 3000
 
 
@@ -60,7 +60,7 @@ def main() -> None:
     parser.add_argument("--births", type=int, default=45)
     parser.add_argument("--workers", type=int, default=0, help="0: all cores")
     parser.add_argument("--engine-only", action="store_true")
-    parser.add_argument("--only", nargs="*", default=list(EXPERIMENTS))
+    parser.add_argument("--only", nargs="*", default=list(PAPER_SCENARIOS))
     parser.add_argument("--physics", choices=("pybullet", "mujoco"), default=None,
                         help="the physics engine (default: each config's)")
     args = parser.parse_args()
@@ -145,7 +145,7 @@ def _project(measured: dict[str, tuple[ExperimentConfig, float, float]]) -> None
               f"{guess.cpu_per_birth / cost.cpu_per_birth:>20.2f}")
     by_mode = {cost.mode: cost for cost in costs.values()}
     work, study_costs = [], {}
-    for name in EXPERIMENTS:
+    for name in PAPER_SCENARIOS:
         config = preset(name, births=STUDY_BIRTHS, runs=STUDY_RUNS)
         cost = costs.get(name, by_mode.get(config.mode))
         if cost is None:

@@ -15,7 +15,7 @@ evolutionary library      ``evolution`` itself: config, random robots, operators
                           diversity, lifecycle; it may import only the description layer
 evaluation                ``evolution.evaluation``
 learning                  ``evolution.learning``
-experiments               ``evolution.experiments``
+experiments               ``evolution.experiments``, in three rooms of its own order (below)
 reporting                 ``evolution.reporting``
 command line              ``evolution.cli``
 ======================== =================================================================
@@ -27,6 +27,12 @@ and any string that is a dotted path of a project module (``"revolve_env.world.m
 One by-name edge is not held to the layers: a package's ``__init__`` serving names of its own
 submodules lazily (a PEP 562 ``__getattr__`` table) imports them only when a user asks for such
 a name, never when it is imported itself; it still counts for circles.
+
+Inside ``evolution.experiments`` the rooms run one way too, bottom up: the loop
+(``evolution.experiments.loop``: the run, which takes the store as an observer and reads it through
+a protocol of its own), the store (``evolution.experiments.store``), the application
+(``evolution.experiments.app`` and the package itself, which re-exports the public names). The loop
+imports nothing of the store, by statement or by name.
 """
 
 from __future__ import annotations
@@ -59,6 +65,14 @@ LAYERS: tuple[tuple[str, int], ...] = (
     ("evolution.cli", 10),
 )
 LIBRARY = 5
+ROOMS: tuple[tuple[str, int], ...] = (
+    ("evolution.experiments", 2),
+    ("evolution.experiments.app", 2),
+    ("evolution.experiments.store", 1),
+    ("evolution.experiments.loop", 0),
+)
+"""The rooms of the experiments, bottom up (the longest matching prefix wins)."""
+LOOP, STORE = "evolution.experiments.loop", "evolution.experiments.store"
 """The pure evolutionary library may import only the description layer, not the physics."""
 
 
@@ -90,6 +104,19 @@ def layer(module: str) -> int:
             best, rank = len(prefix), value
     assert rank >= 0, f"{module} is in no layer"
     return rank
+
+
+def room(module: str) -> int | None:
+    """The room of an experiments module (``None`` outside ``evolution.experiments``)."""
+    best, rank = -1, None
+    for prefix, value in ROOMS:
+        if (module == prefix or module.startswith(prefix + ".")) and len(prefix) > best:
+            best, rank = len(prefix), value
+    return rank
+
+
+def _inside(module: str, package: str) -> bool:
+    return module == package or module.startswith(package + ".")
 
 
 def _parse(path: Path) -> ast.Module:
@@ -182,6 +209,44 @@ def test_imports_run_down_the_layers(module: str) -> None:
     if own == LIBRARY:
         physics = sorted(name for name in GRAPH[module] if 0 < layer(name) < LIBRARY)
         assert not physics, f"the pure library module {module} imports {', '.join(physics)}"
+
+
+EXPERIMENTS = sorted(m for m in MODULES if room(m) is not None)
+
+
+@pytest.mark.parametrize("module", EXPERIMENTS)
+def test_the_experiment_rooms_run_one_way(module: str) -> None:
+    own = room(module)
+    assert own is not None
+    up = sorted(name for name in GRAPH[module]
+                if (other := room(name)) is not None and other > own
+                and not _lazy_export(module, name))
+    assert not up, f"{module} (room {own}) imports a room above it: {', '.join(up)}"
+
+
+def test_the_loop_imports_nothing_of_the_store() -> None:
+    """By statement or by name: the loop reads its store through its own protocol only."""
+    loop = [m for m in MODULES if _inside(m, LOOP)]
+    assert len(loop) > 5 and "evolution.experiments.loop.evolve" in loop
+    found = sorted(f"{m} -> {name}" for m in loop for name in GRAPH[m]
+                   if _inside(name, STORE) or room(name) == 2)
+    assert not found, "the loop imports the store or the application: " + ", ".join(found)
+
+
+def test_a_by_name_import_of_the_store_from_the_loop_is_seen(tmp_path: Path) -> None:
+    """The check above can fail: a loop module that names the store to import it."""
+    fake = tmp_path / "fake.py"
+    fake.write_text("import importlib\n"
+                    "def load():\n"
+                    "    return importlib.import_module('evolution.experiments.store.database')\n"
+                    "OBSERVER = 'evolution.experiments.store.observer:StoreObserver'\n")
+    modules = {**MODULES, "evolution.experiments.loop.fake": fake}
+    assert imports_by_name("evolution.experiments.loop.fake", modules) == {
+        "evolution.experiments.store.database", "evolution.experiments.store.observer"}
+    assert room("evolution.experiments.loop.fake") == 0
+    assert room("evolution.experiments.store.database") == 1
+    assert room("evolution.experiments") == room("evolution.experiments.app.api") == 2
+    assert room("evolution.reporting.data") is None
 
 
 def _cycle(edges: dict[str, set[str]] | None = None) -> list[str] | None:

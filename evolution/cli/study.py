@@ -41,13 +41,13 @@ from evolution.experiments import ProgressEvent
 from evolution.experiments.app.callbacks import TensorBoardLogger
 from evolution.experiments.app.estimate import RunWork, StudyEstimate, calibrate_all, estimate
 from evolution.experiments.app.study import (
-    PAPER_EXPERIMENTS,
     StudyPlan,
     prepare_study,
     run_study,
     study_configs,
     study_evaluator,
 )
+from evolution.experiments.loop.registry import PAPER_SCENARIOS
 from evolution.reporting import report
 from revolve_env.tasks import TASKS
 
@@ -154,7 +154,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
     if args.ray_address and args.evaluator != "ray":
         raise CliError("--ray-address needs --evaluator ray")
     overrides = parse_set(args.set or [])
-    experiments = tuple(args.only) if args.only else PAPER_EXPERIMENTS
+    experiments = tuple(args.only) if args.only else PAPER_SCENARIOS
     settings: dict[str, Any] = {
         "runs": args.runs, "births": args.births, "experiments": experiments,
         "overrides": overrides, "seed": args.seed, "evaluator": args.evaluator,
@@ -243,7 +243,7 @@ def add_study(sub: argparse._SubParsersAction[Any]) -> None:
                         "world.engine=mujoco or --set evaluation_time=6 (repeatable)")
     p.add_argument("--only", nargs="+", metavar="NAME",
                    help="run only these experiments (shipped names or TOML paths; default: "
-                        f"{' '.join(PAPER_EXPERIMENTS)}); a later call may add the others")
+                        f"{' '.join(PAPER_SCENARIOS)}); a later call may add the others")
     p.add_argument("--workers", type=workers, default=0,
                    help="runs at once: worker processes, 0: all cores (Ray: CPUs of a local "
                         "instance)")

@@ -26,7 +26,7 @@ An experiment config with learning is an ordinary experiment TOML (see
 Results stored before the learner trained on normalised envs with the benchmark's settings (schema
 version 5 and older) had neither ``normalize`` nor ``settings``: the store's upgrade writes
 ``normalize = false`` and ``settings = "sb3-defaults"`` into their ``sb3`` tables
-(:data:`~evolution.experiments.loop.records.SB3_OF_OLD_RUNS`), with which the learner trains
+(:data:`~evolution.experiments.store.schema.SB3_OF_OLD_RUNS`), with which the learner trains
 exactly as it did then, so that such a run resumes to the numbers it would have had uninterrupted.
 
 A ``budget`` too small for one learning step is refused here (a ``ValueError``; in an experiment

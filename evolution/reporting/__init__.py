@@ -12,10 +12,10 @@ U, A12 and its exact interval, Holm), :mod:`~evolution.reporting.style` and
 
 from __future__ import annotations
 
+from evolution.experiments.loop.registry import PAPER_SCENARIOS
 from evolution.reporting.data import (
     FAILED_BIRTH_KINDS,
     LABELS,
-    PAPER_ORDER,
     ExperimentData,
     Included,
     PopulationAt,
@@ -42,7 +42,7 @@ __all__ = [
     "FAILED_BIRTH_KINDS",
     "LABELS",
     "LEARNING_COLUMNS",
-    "PAPER_ORDER",
+    "PAPER_SCENARIOS",
     "REPORT_DIR",
     "TESTED_SAMPLES",
     "ExperimentData",

@@ -36,17 +36,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evolution.diversity import brain_aware_diversity, diversity
-from evolution.experiments.loop.records import PopulationSnapshot
+from evolution.experiments.loop.registry import PAPER_SCENARIOS
 from evolution.experiments.store.database import DB_NAME, FitnessSeries, RunRecord, Store
 from evolution.experiments.store.folders import ResultSet, select_results
 from evolution.experiments.store.integrity import verify
+from evolution.experiments.store.schema import PopulationSnapshot
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import from_json
 
 __all__ = [
     "FAILED_BIRTH_KINDS",
     "LABELS",
-    "PAPER_ORDER",
     "ExperimentData",
     "Included",
     "PopulationAt",
@@ -59,9 +59,6 @@ __all__ = [
     "runs_on_grid",
     "step_on_grid",
 ]
-
-PAPER_ORDER = ("scenario1", "scenario2", "scenario3", "baseline_a", "baseline_b")
-"""Experiments named like this are listed in this order, the others after them by name."""
 
 LABELS: dict[str, str] = {
     "scenario1": "Scenario 1 (15+15)",
@@ -407,7 +404,7 @@ def load_experiment(path: str | os.PathLike[str], label: str | None = None,
 
 def _order_key(experiment: ExperimentData) -> tuple[int, str]:
     name = experiment.name
-    rank = PAPER_ORDER.index(name) if name in PAPER_ORDER else len(PAPER_ORDER)
+    rank = PAPER_SCENARIOS.index(name) if name in PAPER_SCENARIOS else len(PAPER_SCENARIOS)
     return rank, experiment.label
 
 

@@ -36,8 +36,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.stats import bootstrap, spearmanr
 
-from evolution.experiments.loop.records import ReevaluationRecord
 from evolution.experiments.store.database import DB_NAME, Store
+from evolution.experiments.store.schema import ReevaluationRecord
 from evolution.reporting.data import ExperimentData
 from evolution.reporting.figures import save_figure
 from evolution.reporting.style import colors, legend_below, styled

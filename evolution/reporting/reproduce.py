@@ -23,7 +23,7 @@ from typing import Any
 from evolution.experiments.app.api import flat_keys
 from evolution.experiments.app.reevaluate import reevaluation_conditions
 from evolution.experiments.loop.config import ConfigError, load_config
-from evolution.experiments.loop.registry import shipped_configs
+from evolution.experiments.loop.registry import PAPER_SCENARIOS, shipped_configs
 from evolution.experiments.store.database import DB_NAME, Store
 from evolution.experiments.store.folders import STUDY_FILE
 from evolution.experiments.store.results_folder import read_settings
@@ -33,9 +33,6 @@ __all__ = ["EXECUTION_KEYS", "Command", "commands", "set_value"]
 
 EXECUTION_KEYS = frozenset({"workers", "evaluator", "ray_address"})
 """Config keys that say how runs execute, not what they compute: never part of a command."""
-
-_PAPER = ("scenario1", "scenario2", "scenario3", "baseline_a", "baseline_b")
-"""``revolve study``'s default experiments (``--only`` names others)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -77,8 +74,8 @@ def _study_command(folder: Path) -> Command:
     words = ["revolve", "study", "--out", str(folder), "--runs", str(settings["runs"]),
              "--births", str(settings["births"]), "--seed", str(settings["seed"])]
     words += _sets(flat_keys(settings.get("overrides", {})))
-    names = list(settings.get("experiments", _PAPER))
-    if names != list(_PAPER):
+    names = list(settings.get("experiments", PAPER_SCENARIOS))
+    if names != list(PAPER_SCENARIOS):
         words += ["--only", *names]
     return Command(shlex.join(words), f"the study in {folder} ({len(names)} experiments)")
 

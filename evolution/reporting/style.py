@@ -27,7 +27,8 @@ from typing import TYPE_CHECKING, ParamSpec
 import numpy as np
 from numpy.typing import NDArray
 
-from evolution.reporting.data import PAPER_ORDER, ExperimentData
+from evolution.experiments.loop.registry import PAPER_SCENARIOS
+from evolution.reporting.data import ExperimentData
 
 if TYPE_CHECKING:
     from matplotlib.artist import Artist
@@ -116,7 +117,7 @@ def colors(experiments: Sequence[ExperimentData]) -> dict[str, str]:
     out: dict[str, str] = {}
     others = 0
     for e in experiments:
-        if e.name in PAPER_ORDER and PAPER_COLORS[e.name] not in out.values():
+        if e.name in PAPER_SCENARIOS and PAPER_COLORS[e.name] not in out.values():
             out[e.label] = PAPER_COLORS[e.name]
         else:
             out[e.label] = OTHER_COLORS[others % len(OTHER_COLORS)]

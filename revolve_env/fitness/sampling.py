@@ -37,7 +37,7 @@ DEFAULT_POSE_RATE: float | str = 5.0
 """The pose rate of a task that does not say: the paper's 5 Hz (samples per second).
 
 Results made before pose rates sampled every control period; their stored configs say so
-(:data:`evolution.experiments.loop.records.POSE_RATE_OF_OLD_CONFIGS`)."""
+(:data:`evolution.experiments.store.schema.POSE_RATE_OF_OLD_CONFIGS`)."""
 
 
 def check_pose_rate(value: object) -> float | str:

@@ -12,10 +12,8 @@ import revolve_env
 from evolution.evaluation import Evaluator, make_evaluator
 from evolution.experiments.loop.config import ConfigError, ExperimentConfig, as_config
 from evolution.experiments.loop.evolve import infancy_for
-from evolution.experiments.loop.records import RunRecord
 from evolution.experiments.loop.run import (
     ProgressEvent,
-    RunJob,
     RunSummary,
     WorldFactory,
     check_infancy,
@@ -23,8 +21,9 @@ from evolution.experiments.loop.run import (
 )
 from evolution.experiments.store.database import DB_NAME, Store, StoreError
 from evolution.experiments.store.integrity import check_writable, verify
-from evolution.experiments.store.observer import execute_run
+from evolution.experiments.store.observer import RunJob, execute_run
 from evolution.experiments.store.results_folder import check_task_code, refuse_pickled
+from evolution.experiments.store.schema import RunRecord
 from evolution.lifecycle import InfancyHook
 
 __all__ = [

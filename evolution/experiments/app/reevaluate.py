@@ -3,7 +3,7 @@
 A run ranks each robot by one evaluation (offline) or one sliding window in a crowded world
 (online). :func:`reevaluate` takes the robots a run kept and evaluates each of them ``k`` times
 more under fresh conditions, writing every result into the experiment's own database (the
-``reevaluations`` table, :class:`~evolution.experiments.loop.records.ReevaluationRecord`);
+``reevaluations`` table, :class:`~evolution.experiments.store.schema.ReevaluationRecord`);
 :mod:`evolution.reporting.optimism` turns them into the optimism table and figure.
 
 Which robots (``which``)
@@ -60,11 +60,11 @@ import revolve_env
 from evolution.evaluation import EvalOutcome, EvalTask, Evaluator, make_evaluator
 from evolution.experiments.app.api import check_task_code
 from evolution.experiments.loop.config import MAX_SECONDS
-from evolution.experiments.loop.records import ReevaluationRecord
 from evolution.experiments.store import results_folder
 from evolution.experiments.store.database import Store, StoreError
 from evolution.experiments.store.folders import ResultSet, select_results
 from evolution.experiments.store.integrity import check_writable, verify
+from evolution.experiments.store.schema import ReevaluationRecord
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import from_json
 from revolve_env.conditions import RANDOM_HEADING, EvaluationConditions

@@ -53,9 +53,9 @@ from evolution.experiments.app.api import (
     pending_jobs,
 )
 from evolution.experiments.loop.config import ConfigError, ExperimentConfig, check_name, load_config
+from evolution.experiments.loop.registry import PAPER_SCENARIOS
 from evolution.experiments.loop.run import (
     ProgressEvent,
-    RunJob,
     RunSummary,
     WorldFactory,
     check_infancy,
@@ -63,11 +63,10 @@ from evolution.experiments.loop.run import (
 from evolution.experiments.store.database import DB_NAME, Store, StoreError
 from evolution.experiments.store.folders import STUDY_FILE
 from evolution.experiments.store.integrity import verify
-from evolution.experiments.store.observer import execute_run
+from evolution.experiments.store.observer import RunJob, execute_run
 from evolution.experiments.store.results_folder import inside, read_settings
 
 __all__ = [
-    "PAPER_EXPERIMENTS",
     "STUDY_FILE",
     "StudyEvent",
     "StudyExperiment",
@@ -82,9 +81,6 @@ __all__ = [
     "study_configs",
     "study_evaluator",
 ]
-
-PAPER_EXPERIMENTS = ("scenario1", "scenario2", "scenario3", "baseline_a", "baseline_b")
-"""The paper's five experiments, in its order."""
 
 
 _STUDY_KEYS = ("runs", "births", "seed")
@@ -193,7 +189,7 @@ def study(
     *,
     runs: int = 3,
     births: int = 60,
-    experiments: Sequence[str] = PAPER_EXPERIMENTS,
+    experiments: Sequence[str] = PAPER_SCENARIOS,
     overrides: Mapping[str, Any] | None = None,
     seed: int = 0,
     evaluator: str | Evaluator = "local",
@@ -246,7 +242,7 @@ def study_configs(
     *,
     runs: int = 3,
     births: int = 60,
-    experiments: Sequence[str] = PAPER_EXPERIMENTS,
+    experiments: Sequence[str] = PAPER_SCENARIOS,
     overrides: Mapping[str, Any] | None = None,
     seed: int = 0,
     evaluator: str = "local",
@@ -269,7 +265,7 @@ def prepare_study(
     *,
     runs: int = 3,
     births: int = 60,
-    experiments: Sequence[str] = PAPER_EXPERIMENTS,
+    experiments: Sequence[str] = PAPER_SCENARIOS,
     overrides: Mapping[str, Any] | None = None,
     seed: int = 0,
     evaluator: str = "local",
@@ -396,7 +392,7 @@ def _configs(experiments: Sequence[str], settings: Mapping[str, Any],
     """
     if isinstance(experiments, str) or not experiments:
         raise ConfigError("a study needs a list of one or more experiments, e.g. "
-                          f"{', '.join(PAPER_EXPERIMENTS)}")
+                          f"{', '.join(PAPER_SCENARIOS)}")
     configs: list[ExperimentConfig] = []
     for name in experiments:
         changes = {**settings["overrides"], **execution,

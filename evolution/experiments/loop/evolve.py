@@ -89,17 +89,17 @@ from evolution.experiments.loop.config import ConfigError, ExperimentConfig, as_
 from evolution.experiments.loop.offline import OfflineMode
 from evolution.experiments.loop.online import OnlineMode
 from evolution.experiments.loop.online_world import PopulationWorld
+from evolution.experiments.loop.records import Checkpoint
 from evolution.experiments.loop.run import (
     Member,
     OnlineWorld,
     ProgressEvent,
     RunSummary,
     Step,
+    StoredRun,
     world_seed,
 )
 from evolution.experiments.loop.state import RunState
-from evolution.experiments.store.database import Checkpoint
-from evolution.experiments.store.remote import RunStore
 from evolution.lifecycle import InfancyHook
 
 __all__ = ["Evolution", "EventObserver", "Observer", "ProgressObserver", "default_world",
@@ -441,7 +441,7 @@ class Evolution:
 
     # -- for the store observer ----------------------------------------------------------------
 
-    def resume_from(self, checkpoint: Checkpoint, store: RunStore,
+    def resume_from(self, checkpoint: Checkpoint, store: StoredRun,
                     trust_pickled_policies: bool = False) -> None:
         """Continue from a stored checkpoint (call from an observer's :meth:`Observer.started`).
 

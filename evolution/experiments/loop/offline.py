@@ -25,16 +25,15 @@ import numpy as np
 
 from evolution.evaluation import EvalOutcome, EvalTask, Evaluator, evaluation_seed
 from evolution.experiments.loop.config import ExperimentConfig
-from evolution.experiments.loop.run import Member, Step, decode
-from evolution.experiments.loop.state import RunState
-from evolution.experiments.store.database import (
+from evolution.experiments.loop.errors import StoreError
+from evolution.experiments.loop.records import (
     Checkpoint,
     FailureRecord,
     FitnessSample,
     RobotRecord,
-    StoreError,
 )
-from evolution.experiments.store.remote import RunStore
+from evolution.experiments.loop.run import Member, Step, StoredRun, decode
+from evolution.experiments.loop.state import RunState
 from evolution.lifecycle import InfancyHook, Lifecycle, Stage
 from evolution.selection import mu_plus_lambda, random_survivors
 from revolve_env.body.robot import Robot
@@ -72,7 +71,7 @@ class OfflineMode:
 
     # -- resume --------------------------------------------------------------------------------
 
-    def resume(self, checkpoint: Checkpoint, store: RunStore,
+    def resume(self, checkpoint: Checkpoint, store: StoredRun,
                trust_pickled_policies: bool = False) -> None:
         """Continue from a checkpoint: clock, generator and population from the store.
 

@@ -35,20 +35,20 @@ from typing import Any
 import numpy as np
 
 from evolution.evaluation import evaluation_seed, run_infancy
+from evolution.experiments.loop.errors import SnapshotError
+from evolution.experiments.loop.records import Checkpoint, FailureRecord, FitnessSample
 from evolution.experiments.loop.run import (
     Member,
     OnlineWorld,
     Replay,
     RestorableWorld,
     Step,
+    StoredRun,
     decode,
     genome,
     json_norm,
 )
 from evolution.experiments.loop.state import RunState
-from evolution.experiments.store import snapshot
-from evolution.experiments.store.database import Checkpoint, FailureRecord, FitnessSample
-from evolution.experiments.store.remote import RunStore
 from evolution.lifecycle import LearningSummary, Lifecycle, Stage, stage_of
 from evolution.selection import online_survivors
 from revolve_env.body.robot import Robot
@@ -250,7 +250,7 @@ class OnlineMode:
         }
         return {"engine": loop, "world": world.snapshot()}
 
-    def resume(self, checkpoint: Checkpoint, store: RunStore,
+    def resume(self, checkpoint: Checkpoint, store: StoredRun,
                trust_pickled_policies: bool = False) -> None:
         """Continue from a checkpoint: from its snapshot, else by replay from birth 0.
 
@@ -272,7 +272,7 @@ class OnlineMode:
         genomes = {r.robot_id: r.genome for r in store.robots(state.run_id)}
         state.replay = Replay(checkpoint, genomes, policies)
 
-    def _restore(self, checkpoint: Checkpoint, store: RunStore, trust: bool) -> bool:
+    def _restore(self, checkpoint: Checkpoint, store: StoredRun, trust: bool) -> bool:
         """Continue from the checkpoint's snapshot; False (with a logged note) to replay."""
         state = self.state
         ref = checkpoint.engine_state.get("snapshot")
@@ -294,7 +294,7 @@ class OnlineMode:
                     or loop["generation"] != checkpoint.generation
                     or loop["sim_time"] != checkpoint.sim_time
                     or json_norm(loop["rng"]) != json_norm(checkpoint.rng_state)):
-                raise snapshot.SnapshotError("the snapshot's counters or generator differ from "
+                raise SnapshotError("the snapshot's counters or generator differ from "
                                              "the checkpoint's")
             population = [
                 Member(int(e["robot_id"]), decode(e["genome"]),
@@ -313,7 +313,7 @@ class OnlineMode:
             for m in population:
                 if m.policy is not None:
                     world.drive(m.robot_id, m.policy)
-        except (snapshot.SnapshotError, KeyError, TypeError, ValueError, NotImplementedError,
+        except (SnapshotError, KeyError, TypeError, ValueError, NotImplementedError,
                 RecursionError) as e:
             _log.warning("run %d: cannot resume from the snapshot at %d births (%s); replaying "
                          "from birth 0", state.run_id, checkpoint.births, e)

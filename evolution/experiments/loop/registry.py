@@ -17,7 +17,11 @@ from typing import Any
 
 from evolution.experiments.loop.errors import ConfigError
 
-__all__ = ["learning_names", "read_toml", "shipped_config", "shipped_configs"]
+__all__ = ["PAPER_SCENARIOS", "learning_names", "read_toml", "shipped_config", "shipped_configs"]
+
+PAPER_SCENARIOS = ("scenario1", "scenario2", "scenario3", "baseline_a", "baseline_b")
+"""The paper's five experiments, in its order: what ``revolve study`` runs by default, and the
+order reports list experiments in (others after them, by name)."""
 
 
 def shipped_configs() -> dict[str, Path]:

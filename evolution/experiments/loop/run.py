@@ -14,16 +14,15 @@ share are :class:`~evolution.experiments.loop.state.RunState`'s.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Iterator, Mapping
-from contextlib import contextmanager
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
 from evolution.experiments.loop.config import ExperimentConfig
-from evolution.experiments.store.database import Batch, Checkpoint, LearningRecord, StoreError
-from evolution.experiments.store.remote import RunStore, host_store
+from evolution.experiments.loop.errors import StoreError
+from evolution.experiments.loop.records import Batch, Checkpoint, LearningRecord, RobotRecord
 from evolution.lifecycle import InfancyHook, Lifecycle
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import from_json, to_json
@@ -38,9 +37,9 @@ __all__ = [
     "ReplayError",
     "RestorableWorld",
     "RobotStatus",
-    "RunJob",
     "RunSummary",
     "Step",
+    "StoredRun",
     "WorldFactory",
     "check_infancy",
     "decode",
@@ -195,35 +194,37 @@ WorldFactory = Callable[[ExperimentConfig, int], OnlineWorld]
 """Makes the online world of a run from the config and a seed (:func:`world_seed`; picklable)."""
 
 
-@dataclass(frozen=True, slots=True)
-class RunJob:
-    """Everything a worker needs to execute (or continue) one run.
+class StoredRun(Protocol):
+    """What a resume reads of a run's stored results: the loop's one view of its store.
 
-    ``store``: where the run reads and writes its records; ``None``: it opens ``db_path``
-    itself. A job sent to another machine carries a remote one (:meth:`for_remote_worker`).
-    ``trust_pickled_policies``: a resumed run may load SB3 policies saved as pickles by older
-    versions (unpickling can run code: only for a results folder whose author is trusted).
+    The loop never writes: an observer does (the results store's
+    :class:`~evolution.experiments.store.observer.StoreObserver` hands itself as this to
+    :meth:`~evolution.experiments.loop.evolve.Evolution.resume_from`).
     """
 
-    db_path: str
-    run_id: int
-    config: ExperimentConfig
-    world_factory: WorldFactory | None = None
-    infancy: InfancyHook | None = None
-    stop_after_commits: int | None = None
-    store: RunStore | None = None
-    trust_pickled_policies: bool = False
+    def robots(self, run_id: int, ids: Sequence[int] | None = None) -> list[RobotRecord]:
+        """The robots of a run in birth order (only ``ids`` if given)."""
 
-    @contextmanager
-    def for_remote_worker(self) -> Iterator[RunJob]:
-        """This job for a Ray worker on any node: the database stays on this one.
+    def learning(self, run_id: int, ids: Sequence[int] | None = None) -> list[LearningRecord]:
+        """Infancy learning records of a run (only of ``ids`` if given), in birth order."""
 
-        Call in the Ray driver; the copy's store is a
-        :class:`~evolution.experiments.store.remote.RemoteStore` of this node's database,
-        valid until the context exits.
+    def read_snapshot(self, run_id: int, ref: object, births: int) -> dict[str, Any]:
+        """The data of a checkpoint's snapshot file.
+
+        Raises:
+            SnapshotError: missing, damaged, or not the checkpoint's.
         """
-        with host_store(self.db_path) as store:
-            yield replace(self, store=store)
+
+    def load_policy(self, run_id: int, robot: Robot, reference: str,
+                    trust_pickled: bool = False) -> Any:
+        """The SB3 policy a learning record references, checked against ``robot``.
+
+        ``trust_pickled``: also load an older pickled policy (which can run code).
+
+        Raises:
+            StoreError: one line naming the file: outside the results folder, missing, damaged,
+                of another body, not the one the store recorded, or pickled (not trusted).
+        """
 
 
 @dataclass(slots=True)

@@ -20,6 +20,13 @@ import numpy as np
 from evolution.diversity import diversity
 from evolution.evaluation import LearningSummary
 from evolution.experiments.loop.config import ExperimentConfig
+from evolution.experiments.loop.records import (
+    Batch,
+    Checkpoint,
+    FailureRecord,
+    LearningRecord,
+    RobotRecord,
+)
 from evolution.experiments.loop.run import (
     Member,
     ProgressEvent,
@@ -31,13 +38,6 @@ from evolution.experiments.loop.run import (
     genome,
     json_norm,
     run_seed,
-)
-from evolution.experiments.store.database import (
-    Batch,
-    Checkpoint,
-    FailureRecord,
-    LearningRecord,
-    RobotRecord,
 )
 from evolution.lifecycle import InfancyHook, Lifecycle, LifecycleTiming
 from evolution.operators import reproduce

@@ -45,13 +45,13 @@ period without saying so in its config. An older database
 is upgraded in place when opened, in one transaction (the empty ``learning`` and
 ``reevaluations`` tables and the ``policy`` column, NULL in old rows, are added; a stored config
 without ``evaluation`` gains the conditions its runs lived under,
-:data:`~evolution.experiments.loop.records.CONDITIONS_OF_OLD_RUNS`: heading 0 offline, a random
+:data:`~evolution.experiments.store.schema.CONDITIONS_OF_OLD_RUNS`: heading 0 offline, a random
 heading online, no noise; its ``engine`` key becomes ``mode``,
-:data:`~evolution.experiments.loop.records.MODE_OF_OLD_CONFIGS`; an SB3 learning table gains
+:data:`~evolution.experiments.store.schema.MODE_OF_OLD_CONFIGS`; an SB3 learning table gains
 ``normalize = false`` and ``settings = "sb3-defaults"``, how its learner trained then,
-:data:`~evolution.experiments.loop.records.SB3_OF_OLD_RUNS`; the ``shaking`` column is added,
+:data:`~evolution.experiments.store.schema.SB3_OF_OLD_RUNS`; the ``shaking`` column is added,
 NULL in old rows, and the stored task gains ``pose_rate = "every-period"``, the sampling its fitness
-was computed at, :data:`~evolution.experiments.loop.records.POSE_RATE_OF_OLD_CONFIGS`; the version
+was computed at, :data:`~evolution.experiments.store.schema.POSE_RATE_OF_OLD_CONFIGS`; the version
 is set to 7; nothing else changes); a database newer than this package is refused. An old database
 that cannot be written is upgraded in a read-only copy in memory instead: readers (``report``,
 ``show``) read it,
@@ -75,23 +75,25 @@ from typing import Any, Self
 import revolve_env
 from evolution.experiments.loop.errors import StoreError
 from evolution.experiments.loop.records import (
-    MIGRATIONS,
-    SCHEMA,
-    SCHEMA_VERSION,
-    TABLES,
     Batch,
     Checkpoint,
     DiversityPoint,
     FailureRecord,
     FitnessSample,
-    FitnessSeries,
     LearningRecord,
-    PopulationSnapshot,
-    ReevaluationRecord,
     RobotRecord,
-    RunRecord,
 )
 from evolution.experiments.store.results_folder import check_database
+from evolution.experiments.store.schema import (
+    MIGRATIONS,
+    SCHEMA,
+    SCHEMA_VERSION,
+    TABLES,
+    FitnessSeries,
+    PopulationSnapshot,
+    ReevaluationRecord,
+    RunRecord,
+)
 from evolution.lifecycle import Stage, Transition
 
 __all__ = [

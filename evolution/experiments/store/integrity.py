@@ -48,9 +48,9 @@ import numpy as np
 
 from evolution.experiments.loop.config import ExperimentConfig
 from evolution.experiments.loop.errors import ConfigError
-from evolution.experiments.loop.records import SCHEMA, TABLES
 from evolution.experiments.store.database import Store, StoreError
 from evolution.experiments.store.results_folder import PolicyReference, inside
+from evolution.experiments.store.schema import SCHEMA, TABLES
 from evolution.lifecycle import Stage
 
 __all__ = ["check_writable", "verify"]

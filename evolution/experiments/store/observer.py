@@ -5,34 +5,37 @@ run from its last checkpoint when the loop starts, writes each step's records an
 in one transaction (with the snapshot file an exact online resume needs, and every learned
 SB3 policy when its robot is born), and sets the run's status. So a killed run loses at most
 the work since its last commit point. :func:`execute_run` is what :func:`evolution.run`,
-``revolve run`` and ``revolve resume`` do for each run: the loop, this observer and a progress
-observer, to the end.
+``revolve run`` and ``revolve resume`` do for each run (a :class:`RunJob`, here or on a Ray
+worker): the loop, this observer and a progress observer, to the end.
 """
 
 from __future__ import annotations
 
 import contextlib
 import logging
-from collections.abc import Callable
-from dataclasses import replace
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
 from typing import Any
 
 from evolution.evaluation import Evaluator
+from evolution.experiments.loop.config import ExperimentConfig
 from evolution.experiments.loop.evolve import Evolution, Observer, ProgressObserver, Status
 from evolution.experiments.loop.run import (
     Member,
     OnlineWorld,
     ProgressEvent,
-    RunJob,
     RunSummary,
     Step,
+    WorldFactory,
     run_seed,
     world_seed,
 )
 from evolution.experiments.store import snapshot
-from evolution.experiments.store.remote import LocalRunStore, RunStore
+from evolution.experiments.store.remote import LocalRunStore, RunStore, host_store
+from evolution.lifecycle import InfancyHook
 
-__all__ = ["StoreObserver", "execute_run"]
+__all__ = ["RunJob", "StoreObserver", "execute_run"]
 
 _log = logging.getLogger(__name__)
 
@@ -102,6 +105,38 @@ class StoreObserver(Observer):
             _log.warning("run %d: cannot write the snapshot %s (%s); a resume from this "
                          "checkpoint will replay", evolution.run_id, path, e.strerror or e)
             return None
+
+
+@dataclass(frozen=True, slots=True)
+class RunJob:
+    """Everything a worker needs to execute (or continue) one run.
+
+    ``store``: where the run reads and writes its records; ``None``: it opens ``db_path``
+    itself. A job sent to another machine carries a remote one (:meth:`for_remote_worker`).
+    ``trust_pickled_policies``: a resumed run may load SB3 policies saved as pickles by older
+    versions (unpickling can run code: only for a results folder whose author is trusted).
+    """
+
+    db_path: str
+    run_id: int
+    config: ExperimentConfig
+    world_factory: WorldFactory | None = None
+    infancy: InfancyHook | None = None
+    stop_after_commits: int | None = None
+    store: RunStore | None = None
+    trust_pickled_policies: bool = False
+
+    @contextmanager
+    def for_remote_worker(self) -> Iterator[RunJob]:
+        """This job for a Ray worker on any node: the database stays on this one.
+
+        Call in the Ray driver; the copy's store is a
+        :class:`~evolution.experiments.store.remote.RemoteStore` of this node's database,
+        valid until the context exits.
+        """
+        with host_store(self.db_path) as store:
+            yield replace(self, store=store)
+
 
 
 def execute_run(job: RunJob, evaluator: Evaluator,

@@ -7,7 +7,7 @@ A run reads and writes its results through a :class:`RunStore`: its records (the
 a local worker process) that is a :class:`LocalRunStore`; where it executes as a Ray task,
 possibly on another machine, a :class:`RemoteStore`, every call of which goes to a
 :class:`StoreHost` Ray actor that the driver starts on its own node (:func:`host_store`, used
-by :meth:`~evolution.experiments.loop.run.RunJob.for_remote_worker`). The host alone opens the
+by :meth:`~evolution.experiments.store.observer.RunJob.for_remote_worker`). The host alone opens the
 SQLite file and writes the files. So a multi-node cluster needs no shared filesystem: workers
 send their commit points (robots, fitness, transitions, checkpoints), snapshots and policies
 to the driver's node and read what a resume needs from there.
@@ -25,6 +25,7 @@ from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Any, Protocol
 
+from evolution.experiments.loop.run import StoredRun
 from evolution.experiments.store import results_folder, snapshot
 from evolution.experiments.store.database import (
     Batch,
@@ -38,8 +39,12 @@ from revolve_env.body.robot import Robot
 __all__ = ["LocalRunStore", "RemoteStore", "RunStore", "StoreHost", "host_store"]
 
 
-class RunStore(Protocol):
-    """What a run reads and writes: its records (see :class:`Store`) and files beside them."""
+class RunStore(StoredRun, Protocol):
+    """What a run reads and writes: its records (see :class:`Store`) and files beside them.
+
+    What a resume reads is the loop's :class:`~evolution.experiments.loop.run.StoredRun`; the
+    store observer also writes.
+    """
 
     def set_status(self, run_id: int, status: str) -> None:
         """Set a run's status (``pending``, ``running``, ``interrupted``, ``finished``)."""
@@ -50,24 +55,11 @@ class RunStore(Protocol):
     def checkpoint(self, run_id: int) -> Checkpoint | None:
         """The latest commit point of a run, ``None`` before the first."""
 
-    def robots(self, run_id: int, ids: Sequence[int] | None = None) -> list[RobotRecord]:
-        """The robots of a run in birth order (only ``ids`` if given)."""
-
-    def learning(self, run_id: int, ids: Sequence[int] | None = None) -> list[LearningRecord]:
-        """Infancy learning records of a run (only of ``ids`` if given), in birth order."""
-
     def write_snapshot(self, run_id: int, births: int, data: dict[str, Any]) -> dict[str, Any]:
         """Write a snapshot file (:func:`snapshot.write`); the checkpoint's reference to it.
 
         Raises:
             OSError: the file cannot be written.
-        """
-
-    def read_snapshot(self, run_id: int, ref: object, births: int) -> dict[str, Any]:
-        """The data of a checkpoint's snapshot (:func:`snapshot.read`).
-
-        Raises:
-            SnapshotError: missing, damaged, or not the checkpoint's.
         """
 
     def prune_snapshots(self, run_id: int, keep: str | None) -> None:
@@ -78,17 +70,6 @@ class RunStore(Protocol):
 
         Returns:
             The learning record's reference: JSON ``{"file": ..., "digest": ..., "sha256": ...}``.
-        """
-
-    def load_policy(self, run_id: int, robot: Robot, reference: str,
-                    trust_pickled: bool = False) -> Any:
-        """The policy a learning record references, checked against ``robot``.
-
-        ``trust_pickled``: also load an older pickled policy (which can run code).
-
-        Raises:
-            StoreError: one line naming the file: outside the results folder, missing, damaged,
-                of another body, not the one the store recorded, or pickled (not trusted).
         """
 
     def close(self) -> None:

@@ -26,7 +26,7 @@ import pickle
 from pathlib import Path
 from typing import Any
 
-from evolution.experiments.loop.errors import StoreError
+from evolution.experiments.loop.errors import SnapshotError, StoreError
 from evolution.experiments.store.results_folder import MAX_SNAPSHOT_BYTES, inside, read_file
 
 __all__ = ["FORMAT", "SnapshotError", "prune", "read", "reference", "snapshot_path", "write"]
@@ -41,10 +41,6 @@ _ALLOWED = {
     ("numpy.core.multiarray", "scalar"), ("numpy._core.multiarray", "scalar"),
     ("numpy.core.numeric", "_frombuffer"), ("numpy._core.numeric", "_frombuffer"),
 }
-
-
-class SnapshotError(Exception):
-    """A snapshot file is missing, damaged, of another run or version, or cannot be read."""
 
 
 class _PlainUnpickler(pickle.Unpickler):

@@ -16,8 +16,8 @@ from experiment_fakes import CtrlCEvaluator, dump_results, fake_evaluate, fake_w
 from evolution.cli import main
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments.app import study as study_module
-from evolution.experiments.app.study import PAPER_EXPERIMENTS
 from evolution.experiments.loop import evolve as loop
+from evolution.experiments.loop.registry import PAPER_SCENARIOS
 from evolution.experiments.store.database import DB_NAME, Store
 
 TINY = ["--set", "population_size=4", "--set", "offspring_size=4", "--set", "insertion=0.5",
@@ -67,7 +67,7 @@ def test_study_then_report(fake_physics: None, tmp_path: Path,
     # The progress display labels each run with its experiment.
     assert "scenario3 run 0: finished, 16 births" in caplog.text
     assert "all runs: 160/160 births (100%), 10/10 runs finished" in caplog.text
-    for name in PAPER_EXPERIMENTS:
+    for name in PAPER_SCENARIOS:
         assert f"{name} run 1: finished, 16 births" in captured.out
         with Store.open(out / name / DB_NAME) as store:
             assert [(r.status, r.births) for r in store.runs()] == [("finished", 16)] * 2
@@ -119,7 +119,7 @@ def test_estimate_only_prints_the_estimate_and_writes_nothing(
     lines = capsys.readouterr().out.splitlines()
     start = lines.index("estimated time:")
     per_experiment = lines[start + 1:start + 6]
-    for name, line in zip(PAPER_EXPERIMENTS, per_experiment, strict=True):
+    for name, line in zip(PAPER_SCENARIOS, per_experiment, strict=True):
         assert line.startswith(f"  {name}: ") and "30 run(s), 90000 births" in line, line
     # offline: 30 x 3000 evaluations of 0.5 + 1 s, the robot-seconds each experiment simulates
     assert ("90000 births, 1.35e+05 robot-s (37.5 robot-h) (offline, mujoco: 1.5 s per birth)"
@@ -160,7 +160,7 @@ def test_study_with_real_physics(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert main(["study", "--out", str(out), "--runs", "2", "--births", "16", "--workers", "2",
                  *TINY]) == 0
     assert "report of 5 experiment(s)" in capsys.readouterr().out
-    for name in PAPER_EXPERIMENTS:
+    for name in PAPER_SCENARIOS:
         with Store.open(out / name / DB_NAME) as store:
             assert [(r.status, r.births) for r in store.runs()] == [("finished", 16)] * 2
     assert (out / "report" / "fitness_over_births.png").stat().st_size > 0
@@ -173,7 +173,7 @@ def test_study_on_ray_gives_the_local_databases(tmp_path: Path) -> None:
     assert main(["study", "--out", str(tmp_path / "ray"), "--evaluator", "ray", *common]) == 0
     assert main(["study", "--out", str(tmp_path / "local"), *common]) == 0
     tables = ("robots", "fitness", "transitions", "population", "diversity", "failures")
-    for name in PAPER_EXPERIMENTS:
+    for name in PAPER_SCENARIOS:
         assert (dump_results(tmp_path / "ray" / name / DB_NAME, tables)
                 == dump_results(tmp_path / "local" / name / DB_NAME, tables)), name
 

@@ -17,7 +17,8 @@ from experiment_fakes import Kill, dump_results, fake_evaluate, fake_world
 from evolution import experiments
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments import ConfigError, ProgressEvent, StoreError, load_config
-from evolution.experiments.app.study import PAPER_EXPERIMENTS, STUDY_FILE, study
+from evolution.experiments.app.study import STUDY_FILE, study
+from evolution.experiments.loop.registry import PAPER_SCENARIOS
 from evolution.experiments.store.database import DB_NAME, Store
 from evolution.reporting import report
 
@@ -36,7 +37,7 @@ def _study(out: Path, **kw: Any) -> experiments.study.StudySummary:
     return study(out, **settings)
 
 
-def _dumps(out: Path, names: tuple[str, ...] = PAPER_EXPERIMENTS) -> dict[str, Any]:
+def _dumps(out: Path, names: tuple[str, ...] = PAPER_SCENARIOS) -> dict[str, Any]:
     return {name: dump_results(out / name / DB_NAME) for name in names}
 
 
@@ -52,12 +53,12 @@ def test_the_study_writes_every_experiment_as_run_would(tmp_path: Path) -> None:
     out = tmp_path / "study"
     events: list[tuple[str, int]] = []
     summary = _study(out, progress=lambda name, e: events.append((name, e.run_id)))
-    assert sorted(p.name for p in out.iterdir()) == sorted([*PAPER_EXPERIMENTS, STUDY_FILE])
-    assert [e.out_dir.name for e in summary.experiments] == list(PAPER_EXPERIMENTS)
+    assert sorted(p.name for p in out.iterdir()) == sorted([*PAPER_SCENARIOS, STUDY_FILE])
+    assert [e.out_dir.name for e in summary.experiments] == list(PAPER_SCENARIOS)
     assert json.loads((out / STUDY_FILE).read_text()) == {
         "runs": 2, "births": 16, "seed": 3, "overrides": TINY,
-        "experiments": list(PAPER_EXPERIMENTS)}
-    for name in PAPER_EXPERIMENTS:
+        "experiments": list(PAPER_SCENARIOS)}
+    for name in PAPER_SCENARIOS:
         with Store.open(out / name / DB_NAME) as store:
             assert [(r.status, r.births) for r in store.runs()] == [("finished", 16)] * 2
             assert store.config["name"] == name and store.config["seed"] == 3
@@ -73,7 +74,7 @@ def test_the_study_writes_every_experiment_as_run_would(tmp_path: Path) -> None:
     assert drawn.out_dir == out / "report"
     assert all(path.stat().st_size > 0 for path in drawn.figures)
     with open(out / "report" / "summary.csv", newline="") as f:
-        assert {row["experiment"] for row in csv.DictReader(f)} == set(PAPER_EXPERIMENTS)
+        assert {row["experiment"] for row in csv.DictReader(f)} == set(PAPER_SCENARIOS)
 
 
 def test_two_workers_run_the_runs_of_every_experiment_to_the_same_databases(
@@ -83,7 +84,7 @@ def test_two_workers_run_the_runs_of_every_experiment_to_the_same_databases(
     with LocalEvaluator(workers=2, function=fake_evaluate) as pool:
         _study(tmp_path / "pool", evaluator=pool, progress=lambda name, e: events.append(name))
     assert _dumps(tmp_path / "pool") == _dumps(tmp_path / "serial")
-    assert set(events) == set(PAPER_EXPERIMENTS)  # forwarded from the workers, tagged
+    assert set(events) == set(PAPER_SCENARIOS)  # forwarded from the workers, tagged
 
 
 def test_a_killed_study_continues_to_the_uninterrupted_databases(tmp_path: Path) -> None:
@@ -134,7 +135,7 @@ def test_a_later_call_adds_experiments_and_may_change_how_runs_execute(tmp_path:
     with LocalEvaluator(workers=2, function=fake_evaluate) as pool:
         summary = _study(out, evaluator=pool)
     assert [len(e.runs) for e in summary.experiments] == [0, 2, 2, 2, 2]
-    assert json.loads((out / STUDY_FILE).read_text())["experiments"] == list(PAPER_EXPERIMENTS)
+    assert json.loads((out / STUDY_FILE).read_text())["experiments"] == list(PAPER_SCENARIOS)
     assert _dumps(out) == _dumps(_study(tmp_path / "ref").out_dir)
 
 

@@ -287,3 +287,12 @@ def test_bad_toml_names_the_file(tmp_path: Path) -> None:
     path.write_text("births = 3\n")
     with pytest.raises(ConfigError, match="bad.toml: births \\(3\\)"):
         ExperimentConfig.from_toml(path)
+
+
+def test_the_papers_scenarios_are_shipped_configs_in_the_papers_order() -> None:
+    """The one table the study, its CLI and the reports read."""
+    from evolution.experiments.loop.registry import PAPER_SCENARIOS, shipped_configs
+
+    assert PAPER_SCENARIOS == ("scenario1", "scenario2", "scenario3", "baseline_a", "baseline_b")
+    assert set(PAPER_SCENARIOS) <= set(shipped_configs())
+    assert experiments.PAPER_SCENARIOS is PAPER_SCENARIOS

@@ -3,7 +3,7 @@
 Schema version 5 stored SB3 learning tables without ``normalize`` and ``settings``; until commit
 dbfb7d7 such a table meant raw observations and rewards and SB3's own PPO defaults. Opened now, a
 stored table gains ``normalize = false`` and ``settings = "sb3-defaults"``
-(:data:`~evolution.experiments.loop.records.SB3_OF_OLD_RUNS`), and the learner built from it trains
+(:data:`~evolution.experiments.store.schema.SB3_OF_OLD_RUNS`), and the learner built from it trains
 to the numbers the old code gave (as floating point allows across machines), so a resumed run's
 remaining infants learn as they would have in an uninterrupted run.
 """
