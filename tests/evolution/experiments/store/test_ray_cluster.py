@@ -96,7 +96,11 @@ def cluster() -> Iterator[None]:
     try:
         nodes.add_node(num_cpus=1)
         here = Path(__file__).resolve()
-        path = os.pathsep.join(str(p) for p in (here.parent, here.parents[3], here.parents[4]))
+        # The test's folder, tests/ and the repository, then the driver's own path (a worktree
+        # imported ahead of an installed copy is imported by the workers too).
+        path = os.pathsep.join(filter(None, [*(str(p) for p in (here.parent, here.parents[3],
+                                                                   here.parents[4])),
+                                             os.environ.get("PYTHONPATH")]))
         ray.init(address=nodes.address, include_dashboard=False, log_to_driver=False,
                  runtime_env={
                      "env_vars": {"PYTHONPATH": path, _HOST_NODE: nodes.head_node.node_id},
