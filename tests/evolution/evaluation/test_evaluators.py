@@ -67,8 +67,9 @@ def test_ray_evaluator_on_a_local_instance(tmp_path: Path) -> None:
     config = small(preset("scenario1", births=30, runs=2))
     experiments.run(config, tmp_path / "local", evaluator=LocalEvaluator(1, fake_evaluate))
     evaluator = RayEvaluator(function=fake_evaluate, num_cpus=2,
-                             runtime_env={"env_vars": {"PYTHONPATH": os.pathsep.join(
-                                 str(p) for p in Path(__file__).parents[2:4])}})
+                             runtime_env={"env_vars": {"PYTHONPATH": os.pathsep.join(filter(
+                                 None, [*(str(p) for p in Path(__file__).parents[2:4]),
+                                        os.environ.get("PYTHONPATH")]))}})
     try:
         tasks = [EvalTask(i, _robot(i), 0.0, 1.0, i) for i in range(4)]
         assert evaluator.evaluate(tasks) == [fake_evaluate(t) for t in tasks]  # evaluations
