@@ -163,20 +163,19 @@ class Rollout:
                 outputs[now] = self.outputs[before]
             slices[net] = now
         self.outputs, self._slices = outputs, slices
-        handles = list(self._nets)
+        handles = list(self._nets)  # brain order: the order the networks were added in
         rows = world.rows(handles).tolist() if handles else []
-        order = sorted(range(len(rows)), key=rows.__getitem__)  # brain order is row order
-        rows = [rows[k] for k in order]
-        self._every = len(self._drives) == len(self._nets) == len(world.handles)
-        if self._every:
+        self._every = (len(self._drives) == len(handles) == len(world.handles)
+                       and rows == list(range(len(rows))))
+        if self._every:  # the brains' inputs and outputs are the world's, as they are
             return
+        driving = [h in self._drives for h in handles]
         self._inputs = _entries(world.input_offsets, rows)
-        driving = [handles[k] in self._drives for k in order]
-        self._targets = _entries(world.output_offsets, [r for r, d in zip(rows, driving,
-                                                                            strict=True) if d])
-        self._driving = np.concatenate(
-            [np.arange(slices[self._nets[handles[k]]].start, slices[self._nets[handles[k]]].stop)
-             for k in order if handles[k] in self._drives] or [np.zeros(0)]).astype(np.intp)
+        self._targets = _entries(world.output_offsets,
+                                 [r for r, d in zip(rows, driving, strict=True) if d])
+        self._driving = _entries(
+            np.array([0, *(s.stop for s in slices.values())], dtype=np.intp),
+            [k for k, d in enumerate(driving) if d])
 
     # -- the period ---------------------------------------------------------------------------
     @property
