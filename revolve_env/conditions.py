@@ -32,8 +32,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = ["DEFAULT_RESET_NOISE_SCALE", "IDEAL", "MAX_RADIUS", "MAX_RESET_NOISE_SCALE",
-           "RANDOM_HEADING", "EvaluationConditions", "Start", "add_sensor_noise",
-           "with_noise_shortcuts", "with_reset_noise"]
+           "RANDOM_HEADING", "EvaluationConditions", "Start", "add_actuator_noise",
+           "add_sensor_noise", "with_noise_shortcuts", "with_reset_noise"]
 
 MAX_RADIUS = 100.0
 """Largest distance a robot is placed from its nominal start: the start jitter, an experiment's
@@ -197,6 +197,19 @@ def add_sensor_noise(values: NDArray[np.float64], noise: float, rng: np.random.G
         return values
     noisy = values + rng.normal(0.0, noise, values.shape)
     return np.minimum(np.maximum(noisy, low), high)
+
+
+def add_actuator_noise(targets: NDArray[np.float64], noise: float, rng: np.random.Generator
+                       ) -> NDArray[np.float64]:
+    """Normalized hinge ``targets`` with Gaussian noise of std ``noise`` (a new array).
+
+    The other half of the noise rule (:func:`add_sensor_noise`): the world clips the noisy
+    targets to [-1, 1]. With ``noise == 0`` the targets are returned as they are and nothing is
+    drawn from ``rng``.
+    """
+    if noise <= 0:
+        return targets
+    return targets + rng.normal(0.0, noise, targets.shape)
 
 
 def with_noise_shortcuts(conditions: EvaluationConditions | None, sensor_noise: float,

@@ -14,24 +14,19 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from revolve_env.body.parts import sensor_bounds
 from revolve_env.body.robot import Layer, Robot
 from revolve_env.body.validate import Limits, validate
-from revolve_env.brain import BatchController
 from revolve_env.conditions import (
     IDEAL,
     EvaluationConditions,
-    Start,
-    add_sensor_noise,
     with_noise_shortcuts,
 )
-from revolve_env.fitness import trajectory_window
-from revolve_env.fitness.sampling import pose_stride, shaking
+from revolve_env.fitness.sampling import shaking
 from revolve_env.fitness.terms import pose_path_lengths
-from revolve_env.tasks import Task, TaskError, make_task, pose_rate, score
+from revolve_env.rollout import rollout, score_paths, task_pose_stride
+from revolve_env.tasks import Task, make_task
 from revolve_env.terrain import Terrain
 from revolve_env.world import World, WorldConfig, with_engine
-from revolve_env.world.signals import SignalReader, signal_reader
 
 __all__ = ["EvaluationResult", "evaluate", "evaluate_many", "evaluation_mjcf", "start_generator"]
 
@@ -206,10 +201,7 @@ def evaluate_many(
     evaluation_ticks = round(seconds / dt)
     if evaluation_ticks < 1:
         raise ValueError(f"seconds ({seconds}) must cover at least one control period ({dt} s)")
-    try:
-        stride = pose_stride(pose_rate(scored), dt)
-    except ValueError as error:
-        raise TaskError(f"task {scored.name!r}: {error}") from None
+    stride = task_pose_stride(scored, dt)
     if not robots:
         return []
     rngs = [np.random.default_rng(seed) for seed in seeds]
@@ -219,14 +211,11 @@ def evaluate_many(
     joints = [conditions.start_joints(g, len(robot.neurons_of(Layer.OUTPUT)))
               for g, robot in zip(gens, robots, strict=True)]
     with World(cfg, isolated=True) as world:
-        paths = _rollout(world, robots, starts, insertion_ticks, evaluation_ticks, rngs,
-                         conditions.sensor_noise, conditions.actuator_noise, scored.signal,
-                         joints)
+        paths = rollout(world, robots, starts, insertion_ticks, evaluation_ticks, rngs,
+                        conditions.sensor_noise, conditions.actuator_noise, scored.signal, joints)
     trajectories = [p for p, _, _ in paths]
-    window = trajectory_window(trajectories,
-                               None if scored.signal is None else [g for _, g, _ in paths],
-                               stride, dt)
-    fitness = score(scored, window).tolist()
+    scores, window = score_paths(scored, paths, stride, dt)
+    fitness = scores.tolist()
     shakes = shaking(*pose_path_lengths(trajectories, stride)).tolist()
     results = []
     for i, (path, _, reason) in enumerate(paths):
@@ -236,147 +225,6 @@ def evaluate_many(
             results.append(EvaluationResult(fitness[i], float(window.v[i]), float(window.s[i]),
                                             path, None, shakes[i]))
     return results
-
-
-def _rollout(
-    world: World, robots: Sequence[Robot], starts: Sequence[Start], insertion_ticks: int,
-    evaluation_ticks: int, rngs: Sequence[np.random.Generator], sensor_noise: float,
-    actuator_noise: float, signal: str | None = None,
-    joints: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]] | None] | None = None,
-) -> list[tuple[NDArray[np.float64], NDArray[np.float64], str | None]]:
-    """Drop ``robots`` into ``world`` at ``starts`` and let their own networks drive them.
-
-    ``joints``: per robot, its active hinges' start angles and speeds (None: at rest at 0).
-
-    One pass per control period over every robot: their sensor values as one array, one call of
-    the compiled controller for all networks, every target set at once. A robot whose
-    simulation blows up leaves the world and the controller at once (``world`` must keep the
-    others' physics apart from it: a world of one robot, or an isolated one); the others go on.
-    Noise draws from each robot's own generator in ``rngs``, robot by robot. A task's
-    ``signal`` (:mod:`revolve_env.world.signals`) is sampled with every core position.
-
-    Returns:
-        Per robot: the core's path over the evaluation ticks (read-only, metres), the signal at
-        the same ticks (empty without a signal) and the blow-up reason (``None`` if the
-        simulation stayed sane).
-    """
-    n = len(robots)
-    brain = BatchController(world.config.brain_dt)
-    think_every = world.config.brain_stride  # control periods per brain step
-    nets = [brain.add(robot) for robot in robots]
-    handles = [world.add_robot(robot, start.position, start.yaw)
-               for robot, start in zip(robots, starts, strict=True)]
-    for net, h in zip(nets, handles, strict=True):
-        ins, outs = brain.input_slice(net), brain.output_slice(net)
-        n_in, n_out = ins.stop - ins.start, outs.stop - outs.start
-        if world.n_inputs(h) != n_in or world.n_outputs(h) != n_out:
-            raise ValueError(
-                f"the network has {n_in} inputs / {n_out} outputs but the body has "
-                f"{world.n_inputs(h)} sensor values / {world.n_outputs(h)} active hinges")
-    for h, hinges in zip(handles, joints or [None] * n, strict=True):
-        if hinges is not None:
-            world.set_hinge_state(h, *hinges)
-    bounds = [sensor_bounds(robot) for robot in robots]
-    noisy = sensor_noise > 0 or actuator_noise > 0
-    outputs = np.zeros(brain.n_outputs)
-    trajectory = np.empty((evaluation_ticks + 1, n, 3))
-    signals = np.empty((evaluation_ticks + 1, n) if signal is not None else (0, n))
-    reader: SignalReader | None = signal_reader(signal, robots, world)
-    columns = np.arange(n)  # the robot (index into robots) of each world row
-    rows = np.zeros(n, dtype=np.intp)  # trajectory rows of each robot that left
-    recorded = 0  # trajectory rows of every robot still in the world
-    reasons: list[str | None] = [None] * n
-    every = True  # every robot still in the world: the world's rows are the columns
-    for tick in range(insertion_ticks + evaluation_ticks):
-        if tick == insertion_ticks:
-            trajectory[0, columns] = world.states.core_pos
-            if reader is not None:
-                signals[0, columns] = reader.read(world)
-            recorded = 1
-        think = tick % think_every == 0  # the brain steps; its targets hold in between
-        if noisy:
-            inputs, targets = _noisy_step(world, brain, world.sensor_values(), outputs, columns,
-                                          rngs, bounds, sensor_noise, actuator_noise, think)
-        else:
-            if think:
-                brain.step(world.sensor_values(), outputs)
-            targets = outputs
-        world.set_all_targets(targets)
-        world.step(1)
-        if world.any_blown_up:
-            left = columns
-            held = {i: outputs[brain.output_slice(nets[i])].copy() for i in left.tolist()}
-            columns = _drop_blown(world, brain, handles, nets, columns, reasons)
-            rows[np.setdiff1d(left, columns)] = recorded
-            if not columns.size:
-                break
-            outputs = np.zeros(brain.n_outputs)
-            for i in columns.tolist():  # the others' targets hold until their brains step
-                outputs[brain.output_slice(nets[i])] = held[i]
-            every = False
-            reader = signal_reader(signal, [robots[i] for i in columns.tolist()], world)
-        if tick >= insertion_ticks:
-            if every:
-                trajectory[recorded] = world.states.core_pos
-            else:
-                trajectory[recorded, columns] = world.states.core_pos
-            if reader is not None:
-                signals[recorded, columns] = reader.read(world)
-            recorded += 1
-    rows[columns] = recorded
-    out = []
-    for i in range(n):
-        path = trajectory[:rows[i], i].copy()
-        path.setflags(write=False)
-        out.append((path, signals[:rows[i], i].copy() if signal is not None else signals[:0, i],
-                    reasons[i]))
-    return out
-
-
-def _noisy_step(
-    world: World, brain: BatchController, inputs: NDArray[np.float64],
-    outputs: NDArray[np.float64], columns: NDArray[np.intp],
-    rngs: Sequence[np.random.Generator],
-    bounds: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]]], sensor_noise: float,
-    actuator_noise: float, think: bool = True,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Sensor noise, the controller and actuator noise, robot by robot's own generator.
-
-    Without ``think`` (a control period between two brain steps) no sensor is read: only the
-    actuator noise is drawn, on the held outputs.
-    """
-    noisy_in = np.empty_like(inputs)
-    ins, outs = world.input_offsets, world.output_offsets
-    if think:
-        for row, i in enumerate(columns.tolist()):
-            low, high = bounds[i]
-            noisy_in[ins[row]:ins[row + 1]] = add_sensor_noise(inputs[ins[row]:ins[row + 1]],
-                                                               sensor_noise, rngs[i], low, high)
-        brain.step(noisy_in, outputs)
-    if actuator_noise <= 0:
-        return noisy_in, outputs
-    targets = outputs.copy()
-    for row, i in enumerate(columns.tolist()):
-        part = slice(outs[row], outs[row + 1])
-        targets[part] = outputs[part] + rngs[i].normal(0.0, actuator_noise,
-                                                        outs[row + 1] - outs[row])
-    return noisy_in, targets
-
-
-def _drop_blown(world: World, brain: BatchController, handles: list[int], nets: list[int],
-                columns: NDArray[np.intp], reasons: list[str | None]) -> NDArray[np.intp]:
-    """Take the robots that blew up out of the world and the controller; the columns left."""
-    keep = []
-    for row, i in enumerate(columns.tolist()):
-        if world.blown_up[row]:
-            reasons[i] = world.blow_up(handles[i])
-        else:
-            keep.append(i)
-    for i in columns.tolist():
-        if reasons[i] is not None and i not in keep:
-            world.remove_robot(handles[i])
-            brain.remove(nets[i])
-    return np.array(keep, dtype=np.intp)
 
 
 def evaluation_mjcf(robot: Robot, seed: int = 0, *, config: WorldConfig | None = None,

@@ -120,9 +120,10 @@ def test_long_life_stays_exact() -> None:
 @given(seed=st.integers(0, 2**32 - 1), window=st.floats(0.05, 2.0), stride=st.floats(0.001, 0.5))
 def test_many_windows_at_once_equal_each_robots_own_window_bit_for_bit(
         seed: int, window: float, stride: float) -> None:
-    """FitnessWindows (one buffer, every robot at once) against one SlidingWindowFitness per
-    robot: births at other times (some at the latest sample time, as between two steps of an
-    env), deaths, long jumps that rebase the running sums, and a snapshot round trip."""
+    """FitnessWindows (one buffer, every robot at once) against one SlidingWindowFitness (a
+    buffer of one column) per robot: births at other times (some at the latest sample time, as
+    between two steps of an env), deaths, long jumps that rebase the running sums, and a
+    snapshot round trip."""
     rng = np.random.default_rng(seed)
     many = FitnessWindows(window=window, capacity=2)
     alone: list[SlidingWindowFitness] = []

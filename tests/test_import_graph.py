@@ -10,6 +10,8 @@ brain                     ``revolve_env.brain`` (and the compiled ``revolve_env.
 fitness, tasks, terrain   ``revolve_env.fitness``, ``revolve_env.tasks`` (what a robot is scored
                           on), ``revolve_env.terrain`` (the ground it walks on, pure data)
 physics world             ``revolve_env.world`` (the only code that imports a physics engine)
+rollout                   ``revolve_env.rollout`` (the one rollout every driver calls) and
+                          ``revolve_env.conditions`` (starts and the noise rule, pure data)
 env adapters              ``revolve_env.evaluation``, ``revolve_env.envs``, ``revolve_env``
 evolutionary library      ``evolution`` itself: config, random robots, operators, selection,
                           diversity, lifecycle; it may import only the description layer
@@ -54,17 +56,19 @@ LAYERS: tuple[tuple[str, int], ...] = (
     ("revolve_env.tasks", 2),
     ("revolve_env.terrain", 2),
     ("revolve_env.world", 3),
-    ("revolve_env.evaluation", 4),
-    ("revolve_env.envs", 4),
-    ("revolve_env", 4),
-    ("evolution", 5),
-    ("evolution.evaluation", 6),
-    ("evolution.learning", 7),
-    ("evolution.experiments", 8),
-    ("evolution.reporting", 9),
-    ("evolution.cli", 10),
+    ("revolve_env.conditions", 4),
+    ("revolve_env.rollout", 4),
+    ("revolve_env.evaluation", 5),
+    ("revolve_env.envs", 5),
+    ("revolve_env", 5),
+    ("evolution", 6),
+    ("evolution.evaluation", 7),
+    ("evolution.learning", 8),
+    ("evolution.experiments", 9),
+    ("evolution.reporting", 10),
+    ("evolution.cli", 11),
 )
-LIBRARY = 5
+LIBRARY = 6
 ROOMS: tuple[tuple[str, int], ...] = (
     ("evolution.experiments", 2),
     ("evolution.experiments.app", 2),

@@ -3,9 +3,9 @@
 :class:`Living` holds what changes every step for every living robot, one row per robot in birth
 order (the env's ``agents`` and the world's rows): ages, sensor values as the robots read them
 (noisy, clipped), observations in each agent's space, core positions, trajectories
-(:class:`~revolve_env.envs.trajectories.TrajectoryStore`), fitness windows
-(:class:`~revolve_env.fitness.FitnessWindows`), the task's fitness (:mod:`revolve_env.tasks`:
-one call scores every window) with its terms, and the step's rewards. :meth:`Living.sense`
+(:class:`~revolve_env.envs.trajectories.TrajectoryStore`), the task's windows and fitness
+(:class:`~revolve_env.rollout.TaskWindows`: one call scores every window) with its terms, and
+the step's rewards. :meth:`Living.sense`
 updates them all after the physics with array operations; the index arrays it uses are rebuilt
 at every birth and death (:meth:`Living.relayout`). :meth:`Living.statuses` gives every robot's
 typed :class:`~revolve_env.status.RobotStatus`. Per-robot Python is left to births, deaths,
@@ -19,14 +19,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from revolve_env.conditions import add_sensor_noise
 from revolve_env.envs.agent_spaces import AgentSpaces
 from revolve_env.envs.members import Final, LifeClock, Member
 from revolve_env.envs.observations import hinge_values
 from revolve_env.envs.trajectories import TrajectoryStore
-from revolve_env.fitness import FitnessWindows, Window
-from revolve_env.fitness.sampling import pose_due, pose_stride
+from revolve_env.fitness import Window
+from revolve_env.rollout import TaskWindows
 from revolve_env.status import Death, RobotStatus
-from revolve_env.tasks import Task, TaskError, pose_rate, score
+from revolve_env.tasks import Task
 from revolve_env.world import World
 from revolve_env.world.signals import SignalReader, signal_reader
 
@@ -61,12 +62,9 @@ class Living:
         self.clock = clock
         self.spaces = spaces
         self.task = task
-        try:  # control periods between two pose samples of the fitness
-            self.pose_stride = pose_stride(pose_rate(task), clock.dt)
-        except ValueError as error:
-            raise TaskError(f"task {task.name!r}: {error}") from None
         self.members: list[Member] = []
-        self.windows = self._windows()
+        # TaskError: a pose rate that does not fit the control period
+        self.windows = TaskWindows(task, fitness_window, clock.dt, clock.insertion_steps)
         self.signal: SignalReader | None = None  # the task's signal, for the rows now
         self.trajectories = TrajectoryStore(length=self.trajectory_length)
         self.ages = np.zeros(0, dtype=np.int64)  # control periods since birth
@@ -80,9 +78,6 @@ class Living:
 
     def __len__(self) -> int:
         return len(self.members)
-
-    def _windows(self) -> FitnessWindows:
-        return FitnessWindows(self.fitness_window, signal=self.task.signal is not None)
 
     # -- births and deaths ---------------------------------------------------------------------
     def add(self, member: Member, obs: NDArray[np.float64], position: NDArray[np.float64],
@@ -107,7 +102,7 @@ class Living:
             position=self.position[row].copy(),
             terms=(float(self.f[row]), float(self.v[row]), float(self.s[row])),
             age_steps=int(self.ages[row]), trajectory=self.trajectories.view(row).copy(),
-            trajectory_room=self.trajectories.room(row), fitness=self.windows.snapshot(row))
+            trajectory_room=self.trajectories.room(row), fitness=self.windows.ring.snapshot(row))
 
     def remove(self, row: int, world: World) -> None:
         """Forget a robot (after the world let it go)."""
@@ -127,7 +122,7 @@ class Living:
     def clear(self) -> None:
         """No robots (a reset)."""
         self.members = []
-        self.windows = self._windows()
+        self.windows.clear()
         self.signal = None
         self.trajectories = TrajectoryStore(length=self.trajectory_length)
         self.ages = np.zeros(0, dtype=np.int64)
@@ -220,10 +215,7 @@ class Living:
         values = world.sensor_values()
         position = world.states.core_pos
         if blown is None:
-            obs = values
-            if sensor_noise > 0:
-                noisy = values + noise.normal(0.0, sensor_noise, values.shape)
-                obs = np.minimum(np.maximum(noisy, self._low), self._high)
+            obs = add_sensor_noise(values, sensor_noise, noise, self._low, self._high)
             self.position = position
             due = slice(None) if self.stride == 1 else \
                 np.flatnonzero(self.ages % self.stride == 0)
@@ -232,12 +224,8 @@ class Living:
             ok = ~blown
             entries = ok[self._entry_row]
             obs = np.zeros(values.shape)
-            if sensor_noise > 0:
-                noisy = values[entries] + noise.normal(0.0, sensor_noise, int(entries.sum()))
-                obs[entries] = np.minimum(np.maximum(noisy, self._low[entries]),
-                                          self._high[entries])
-            else:
-                obs[entries] = values[entries]
+            obs[entries] = add_sensor_noise(values[entries], sensor_noise, noise,
+                                            self._low[entries], self._high[entries])
             self.position = np.where(ok[:, None], position, self.position)
             due = np.flatnonzero(ok & (self.ages % self.stride == 0))
             sampling = ok & (self.ages >= self.clock.insertion_steps)
@@ -247,19 +235,8 @@ class Living:
         window: Window | None = None
         if sampling.any():
             signal = None if self.signal is None else self.signal.read(world)
-            pose = self.position
-            if self.pose_stride > 1:  # between pose samples a robot holds its last one
-                posing = pose_due(self.ages - self.clock.insertion_steps, self.pose_stride)
-                if not posing[sampling].all():
-                    held = sampling & ~posing & (self.ages > self.clock.insertion_steps)
-                    last, last_signal = self.windows.last()
-                    pose = self.position[:, :2].copy()
-                    pose[held] = last[held]
-                    if signal is not None and last_signal is not None:
-                        signal = np.where(held, last_signal, signal)
-            self.windows.push(time, pose, sampling, signal)
-            window = self.windows.current()
-            self.f, self.v, self.s = score(self.task, window), window.v, window.s
+            window = self.windows.push(time, self.position, self.ages, sampling, signal)
+            self.f, self.v, self.s = self.windows.score(window), window.v, window.s
         if blown is not None:
             if self.f is previous:
                 self.f = previous.copy()
@@ -271,7 +248,7 @@ class Living:
                  ) -> NDArray[np.float64]:
         """Every robot's reward for the step: the task's, from its fitness after and before."""
         if window is None:
-            window = self.windows.current()
+            window = self.windows.ring.current()
         rewards = np.asarray(self.task.reward(window, self.f, previous), dtype=np.float64)
         if rewards.shape != self.f.shape:
             raise ValueError(f"task {self.task.name!r}: reward(...) must give shape "
@@ -283,7 +260,7 @@ class Living:
         sampling = np.zeros(len(self), dtype=bool)
         sampling[row] = True
         signal = None if self.signal is None else self.signal.read(world)
-        self.windows.push(time, self.position, sampling, signal)
+        self.windows.ring.push(time, self.position, sampling, signal)
 
     # -- reading -------------------------------------------------------------------------------
     def views(self) -> list[NDArray[np.float64]]:
@@ -341,7 +318,7 @@ class Living:
         self.obs = (np.concatenate([np.asarray(e["obs"], dtype=np.float64) for e in rows])
                     if rows else np.zeros(0))
         self.windows.add(k)
-        self.windows.restore([e["fitness"] for e in rows])
+        self.windows.ring.restore([e["fitness"] for e in rows])
         for e in rows:
             trajectory = np.asarray(e["trajectory"], dtype=np.float64).reshape(-1, 3)
             self.trajectories.add(trajectory, int(e["trajectory_capacity"]))

@@ -25,9 +25,13 @@ from numpy.typing import NDArray
 from revolve_env.body.examples import resolve_robot
 from revolve_env.body.robot import Layer, Robot
 from revolve_env.body.validate import Limits
-from revolve_env.brain import BatchController
 from revolve_env.cameras import Camera, check_size, make_camera
-from revolve_env.conditions import EvaluationConditions, with_noise_shortcuts, with_reset_noise
+from revolve_env.conditions import (
+    EvaluationConditions,
+    add_sensor_noise,
+    with_noise_shortcuts,
+    with_reset_noise,
+)
 from revolve_env.envs.observations import hinge_values, proprio_bounds, saturated_sensor_bounds
 from revolve_env.episode_length import (
     DEFAULT_EVALUATION_TIME,
@@ -36,9 +40,9 @@ from revolve_env.episode_length import (
     episode_steps,
 )
 from revolve_env.evaluation import start_generator
-from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, SlidingWindowFitness
-from revolve_env.fitness.sampling import pose_due, pose_stride
-from revolve_env.tasks import BaseTask, Task, TaskError, make_task, pose_rate, score
+from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, Window
+from revolve_env.rollout import Rollout, TaskWindows
+from revolve_env.tasks import BaseTask, Task, make_task
 from revolve_env.terrain import Terrain
 from revolve_env.world import World, WorldConfig, with_engine
 from revolve_env.world.signals import SignalReader, signal_reader
@@ -295,17 +299,11 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self.action_space = spaces.Box(-1.0, 1.0, (n_act,), dtype=np.float32)
 
         self._world: World | None = None
+        self._run: Rollout | None = None  # the episode's rollout (its brain, its periods)
         self._handle = -1
         self._start = np.zeros(3)
-        self._brain: BatchController | None = None
-        self._brain_in = np.zeros(self._n_inputs)
-        self._brain_out = np.zeros(self._n_outputs)
-        try:  # control periods between two pose samples of the fitness
-            self._pose_stride = pose_stride(pose_rate(self.task), dt)
-        except ValueError as error:
-            raise TaskError(f"task {self.task.name!r}: {error}") from None
-        self._fitness = SlidingWindowFitness(self.fitness_window,
-                                             signal=self.task.signal is not None)
+        # The task's window of the robot (TaskError: a pose rate that does not fit).
+        self._windows = TaskWindows(self.task, self.fitness_window, dt, self._insertion_steps)
         self._signal: SignalReader | None = None
         self._terms = FitnessTerms(0.0, 0.0, 0.0)
         self._step_count = 0
@@ -327,20 +325,23 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
             self._world.reset()
         rng = start_generator(seed) if seed is not None else self.np_random
         start = self.conditions.start(rng)
-        self._handle = self._world.add_robot(self.robot, start.position, start.yaw)
+        # The robot's own network drives it ("targets") or is modulated by the action.
+        self._run = Rollout(self._world)
+        self._handle = self._run.add(
+            self.robot, start.position, start.yaw,
+            network=self.robot if self.controller == "brain" else None,
+            drives=self.action_mode == "targets")
         if not self.camera.track:  # a fixed camera looks at where the core started
             self._start = self._world.core_position(self._handle).copy()
         joints = self.conditions.start_joints(rng, self._n_outputs)
         if joints is not None:
             self._world.set_hinge_state(self._handle, *joints)
-        if self.controller == "brain":
-            self._brain = BatchController(self.config.brain_dt)
-            self._brain_out[:] = 0.0
-            self._brain.add(self.robot)
         self._signal = signal_reader(self.task.signal, [self.robot], self._world)
-        self._fitness.reset()
+        self._windows.clear()
+        self._windows.add(1)
         if self._insertion_steps == 0:  # the evaluation starts right away, from here
-            self._fitness.add(0.0, self._world.core_position(self._handle), self._signal_now())
+            self._windows.push(0.0, self._world.core_position(self._handle).reshape(1, 3),
+                               np.zeros(1, dtype=np.int64), None, self._signal_now())
         self._terms = FitnessTerms(0.0, 0.0, 0.0)
         self._step_count = 0
         self._blow_up = None
@@ -357,22 +358,30 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
             raise RuntimeError("call reset() before step()")
         if self._blow_up is not None or self._step_count >= self._total_steps:
             raise RuntimeError("the episode is over; call reset()")
-        world = self._world
-        targets = self._targets(np.asarray(action, dtype=np.float64).reshape(-1))
-        if self.actuator_noise > 0:
-            targets = targets + self.np_random.normal(0.0, self.actuator_noise, targets.shape)
-        world.set_all_targets(targets)  # the world clips to [-1, 1]; its one robot's
-        world.step(1)
+        world, run = self._world, self._run
+        assert run is not None
+        act = self._checked(np.asarray(action, dtype=np.float64).reshape(-1))
+        # RoboGen's sensors only (not the hinges) are the brain's inputs
+        values = self._obs[: self._n_inputs] if run.thinking else None
+        if self.controller == "agent":
+            blown = run.period(None, (None, act), self.actuator_noise, self.np_random)
+        elif self.action_mode == "targets":
+            blown = run.period(values, None, self.actuator_noise, self.np_random)
+        else:  # the action scales and offsets the brain's outputs
+            n = self._n_outputs
+            if values is not None:
+                run.think(values)
+            targets = (1.0 + act[:n]) * run.outputs + act[n:]
+            blown = run.period(None, (None, targets), self.actuator_noise, self.np_random)
         self._step_count += 1
 
-        self._blow_up = world.blow_up(self._handle)
+        self._blow_up = None if blown is None else world.blow_up(self._handle)
+        window = None
         if self._step_count >= self._insertion_steps and self._blow_up is None:
-            age = np.array([self._step_count - self._insertion_steps])
-            if pose_due(age, self._pose_stride)[0] or not len(self._fitness):
-                self._fitness.add(world.time, world.states.core_pos[0], self._signal_now())
-            else:  # between pose samples the robot holds its last one: no reward
-                self._fitness.add(world.time, *self._fitness.last())
-        reward = self._get_reward()
+            # between pose samples the robot holds its last one: no reward
+            window = self._windows.push(world.time, world.states.core_pos,
+                                        np.array([self._step_count]), None, self._signal_now())
+        reward = self._get_reward(window)
         terminated = self._blow_up is not None
         truncated = not terminated and self._step_count >= self._total_steps
         self._obs = self._get_obs()
@@ -407,23 +416,21 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
                 warnings.warn(f"render_mode='human' without a window: {exc}", stacklevel=3)
         return World(self.config)
 
-    def _targets(self, action: NDArray[np.float64]) -> NDArray[np.float64]:
+    @property
+    def _brain_out(self) -> NDArray[np.float64]:
+        """The brain's outputs (held between its steps), normalized."""
+        assert self._run is not None
+        return self._run.outputs
+
+    def _checked(self, action: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The action, checked and clipped to [-1, 1]."""
         if action.shape != self.action_space.shape:
             raise ValueError(
                 f"action must have shape {self.action_space.shape}, got {action.shape}"
             )
         if not _all_finite(action):
             raise ValueError(f"action contains NaN or infinity: {action}")
-        action = np.minimum(np.maximum(action, -1.0), 1.0)
-        if self._brain is None:
-            return action
-        if self._step_count % self.config.brain_stride == 0:  # else its targets hold
-            self._brain_in[:] = self._obs[: self._n_inputs]  # RoboGen's sensors only
-            self._brain.step(self._brain_in, self._brain_out)
-        if self.action_mode == "targets":
-            return self._brain_out.copy()
-        n = self._n_outputs
-        return (1.0 + action[:n]) * self._brain_out + action[n:]
+        return np.minimum(np.maximum(action, -1.0), 1.0)
 
     def _get_obs(self) -> NDArray[np.float64]:
         assert self._world is not None
@@ -433,30 +440,29 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
             obs = np.concatenate((obs, *hinge_values(self._world)))
         if self._blow_up is not None or not _all_finite(obs):
             return np.zeros(len(self._obs_low))
-        if self.sensor_noise > 0:
-            obs += self.np_random.normal(0.0, self.sensor_noise, obs.shape)
+        obs = add_sensor_noise(obs, self.sensor_noise, self.np_random, self._obs_low,
+                               self._obs_high)
         return np.minimum(np.maximum(obs, self._obs_low, out=obs), self._obs_high, out=obs)
 
-    def _signal_now(self) -> float | None:
-        """The task's signal of the robot now (None: the task has none)."""
+    def _signal_now(self) -> NDArray[np.float64] | None:
+        """The task's signal of the robot now, shape (1,) (None: the task has none)."""
         if self._signal is None:
             return None
         assert self._world is not None
-        return float(self._signal.read(self._world)[0])
+        return self._signal.read(self._world)
 
-    def _get_reward(self) -> float:
+    def _get_reward(self, window: Window | None) -> float:
+        """The step's reward from the robot's ``window`` after it (None: not sampled)."""
         previous = self._terms.fitness
-        window = None
         if self._blow_up is not None:
             self._terms = FitnessTerms(0.0, 0.0, 0.0)
-        elif self._step_count >= self._insertion_steps:
-            window = self._fitness.current()
-            f = score(self.task, window)
+        elif window is not None:
+            f = self._windows.score(window)
             self._terms = FitnessTerms(float(f[0]), float(window.v[0]), float(window.s[0]))
         if self._gain:
             return self._terms.fitness - previous
         if window is None:
-            window = self._fitness.current()
+            window = self._windows.ring.current()
         return float(self.task.reward(window, np.array([self._terms.fitness]),
                                       np.array([previous]))[0])
 

@@ -178,7 +178,7 @@ from revolve_env.envs.births import BirthRules, initial_births, next_robot_id, p
 from revolve_env.envs.living import Living
 from revolve_env.envs.members import Controller, LifeClock, Member, sensor_bounds
 from revolve_env.envs.placement import footprint_radius
-from revolve_env.envs.reports import Dicts, report_step, status_info
+from revolve_env.envs.reports import Dicts, end_step, report_step, status_info
 from revolve_env.envs.roster import Roster
 from revolve_env.fitness import DEFAULT_WINDOW
 from revolve_env.status import RobotStatus, agent_name
@@ -424,7 +424,10 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
 
     @property
     def statuses(self) -> dict[int, RobotStatus]:
-        """The status of every robot the last ``step`` (or ``reset``) reported, by robot id."""
+        """The status of every robot the last ``step`` (or ``reset``) reported, by robot id.
+
+        After :meth:`advance`: of the robots whose life ended in it.
+        """
         return self._statuses
 
     def status(self, robot: int | str) -> RobotStatus:
@@ -485,9 +488,35 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         Every action is checked before anything changes: KeyError for an agent not alive (never
         born, removed, blown up), ValueError for a wrong shape, NaN or infinity.
         """
+        last = self._act(actions, "step")
+        dicts, self._statuses = report_step(self._roster, self._spaces.masks, last)
+        return dicts
+
+    def advance(self, actions: Mapping[str, ArrayLike]) -> dict[int, RobotStatus]:
+        """:meth:`step` without the five dicts, for a caller that reads statuses only.
+
+        The same step (the same numbers, births, deaths and snapshots after it), at less
+        cost: no observation, reward or info dict is built. The living robots' statuses stay
+        at hand (:meth:`status`, :meth:`observe` for a learner's next action).
+
+        Returns:
+            The statuses of the lives that ended, by robot id: every robot removed since the
+            last step or blown up in this one (with its ``death``), and every robot when the
+            episode is truncated (``max_cycles``). :attr:`statuses` holds them too.
+        """
+        last = self._act(actions, "advance")
+        self._statuses = end_step(self._roster, last)
+        return self._statuses
+
+    def _act(self, actions: Mapping[str, ArrayLike], what: str) -> bool:
+        """Check the actions, run the lifecycle, set the targets and step the physics.
+
+        Returns:
+            Whether this is the episode's last step (``max_cycles``: every agent truncated).
+        """
         roster = self._roster
         if roster.world is None:
-            raise RuntimeError("call reset() before step()")
+            raise RuntimeError(f"call reset() before {what}()")
         if self.max_cycles is not None and roster.steps >= self.max_cycles:
             raise RuntimeError(f"the episode ended after max_cycles={self.max_cycles} steps (every "
                                "agent truncated): call reset()")
@@ -499,8 +528,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             # Robots it removed leave with this step's death report; their actions are dropped.
             checked = [(m, a) for m, a in checked if m.robot_id in roster.members]
         roster.act(checked)
-        dicts, self._statuses = report_step(roster, self._spaces.masks, last)
-        return dicts
+        return last
 
     def render(self) -> NDArray[np.uint8] | None:
         """An RGB image ``(height, width, 3)`` of the arena from ``render_view`` (rgb_array)."""

@@ -3,7 +3,9 @@
 :func:`status_info` is the ONE place a robot's :class:`~revolve_env.status.RobotStatus` becomes
 the info dict PettingZoo users read (the keys are documented on
 :class:`~revolve_env.envs.population.PopulationEnv`, Info); :func:`report_step` senses every
-robot after the physics and fills the five dicts, with the statuses they were made from.
+robot after the physics and fills the five dicts, with the statuses they were made from;
+:func:`end_step` does the same work without the dicts, for a caller that reads statuses only
+(the evolution loop: brain-driven robots need their sensors, not dicts).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from revolve_env.envs.living import final_status
 from revolve_env.envs.roster import Roster
 from revolve_env.status import RobotStatus
 
-__all__ = ["Dicts", "report_step", "status_info"]
+__all__ = ["Dicts", "end_step", "report_step", "status_info"]
 
 Dicts = tuple[dict[str, NDArray[np.float64]], dict[str, float], dict[str, bool],
               dict[str, bool], dict[str, dict[str, Any]]]
@@ -84,3 +86,32 @@ def report_step(roster: Roster, masks: dict[str, Masks], truncate: bool
     roster.announced = list(roster.agents)
     roster.reported += reported + [m.agent for m in gone]
     return (obs, rewards, terminations, truncations, infos), statuses
+
+
+def end_step(roster: Roster, truncate: bool) -> dict[int, RobotStatus]:
+    """:func:`report_step` without the five dicts: the statuses of the lives that ended.
+
+    The same work on the robots (sensed, scored, dropped, reported dead once) as
+    :func:`report_step`; only the robots whose life ended are given a status: every robot
+    removed since the last step, every robot that blew up in this step and, with
+    ``truncate``, every living robot.
+
+    Returns:
+        Their statuses by robot id, in report order (as :func:`report_step`'s).
+    """
+    living = roster.living
+    statuses = {member.robot_id: final_status(member, roster.clock, death)
+                for member, death in roster.dead}
+    reported = [member.agent for member, _ in roster.dead]
+    roster.dead = []
+    deaths = roster.sense()
+    gone = []
+    for row, (member, death) in enumerate(zip(living.members, deaths, strict=True)):
+        if death is not None or truncate:
+            statuses[member.robot_id] = living.status(row)._replace(death=death)
+            gone.append(member)
+    for member in reversed(gone):
+        roster.drop(member)
+    roster.announced = list(roster.agents)
+    roster.reported += reported + [m.agent for m in gone]
+    return statuses

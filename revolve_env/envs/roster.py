@@ -7,9 +7,9 @@ by robot id (:mod:`revolve_env.status`) and their per-step arrays
 :meth:`Roster.admit` of a :class:`~revolve_env.envs.births.BirthPlan` decided beforehand (so
 that a birth asked for between two steps could be queued and admitted at the next one); a death
 is :meth:`Roster.drop`, which keeps the robot's last state for its final report
-(:attr:`Roster.dead`). :meth:`Roster.act` sets every hinge target and steps the world;
-:meth:`Roster.sense` reads every robot after it. World handles and controller handles stay
-here.
+(:attr:`Roster.dead`). :meth:`Roster.act` sets every hinge target and steps the world (one
+period of the world's :class:`~revolve_env.rollout.Rollout`); :meth:`Roster.sense` reads every
+robot after it. World handles and controller handles stay here.
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ from revolve_env.envs.living import Living
 from revolve_env.envs.members import Final, LifeClock, Member, noise_generator
 from revolve_env.envs.placement import Disc
 from revolve_env.envs.population_snapshot import member_snapshot, read_snapshot
+from revolve_env.rollout import Rollout
 from revolve_env.status import Death, agent_name, robot_id
 from revolve_env.world import World, WorldConfig
 from revolve_env.world.backend import SnapshotMismatchError
@@ -60,8 +61,7 @@ class Roster:
         self.spaces = spaces
         self.actuator_noise = actuator_noise
         self.sensor_noise = sensor_noise
-        self.world: World | None = None
-        self.brain: BatchController | None = None
+        self.run: Rollout | None = None  # the world, its brains, the period
         self.members: dict[int, Member] = {}  # the living robots, by robot id, in row order
         self.agents: list[str] = []  # their agent names, in row order
         # PettingZoo's agents: the living robots the last step (or reset) reported; they change
@@ -74,10 +74,16 @@ class Roster:
         self.next_id = 0  # the id of the next robot born without one
         self.steps = 0  # control periods since reset
         self.noise: np.random.Generator | None = None  # sensor and actuator noise
-        self._brain_out = np.zeros(0)
-        self._brain_rows = np.zeros(0, dtype=np.intp)  # rows of the brain robots, brain order
-        self._brain_inputs = np.zeros(0, dtype=np.intp)  # entries of the sensor values they read
-        self._brain_targets = np.zeros(0, dtype=np.intp)  # and of the flat targets they drive
+
+    @property
+    def world(self) -> World | None:
+        """The episode's world (None before a reset and after close)."""
+        return None if self.run is None else self.run.world
+
+    @property
+    def brain(self) -> BatchController | None:
+        """The compiled controller of every brain robot (None: no world)."""
+        return None if self.run is None else self.run.brain
 
     # -- episodes ---------------------------------------------------------------------------
     def reset(self, seed: int | None, reseed: bool) -> None:
@@ -86,10 +92,9 @@ class Roster:
             self.noise = noise_generator(seed)
         if self.world is not None:
             self.world.close()
-        self.world = World(self.config)
-        self.brain = BatchController(self.config.control_period)
+        # Brains step every control period (the env refuses another brain period).
+        self.run = Rollout(World(self.config), BatchController(self.config.control_period), 1)
         self._forget()
-        self._relayout_brains()
 
     def _forget(self) -> None:
         self.members, self.agents, self.dead, self.announced = {}, [], [], []
@@ -101,8 +106,7 @@ class Roster:
         """Release the world (a reset makes a new one)."""
         if self.world is not None:
             self.world.close()
-            self.world = None
-        self.brain = None
+        self.run = None
         self._forget()
 
     @property
@@ -175,17 +179,16 @@ class Roster:
 
     def admit(self, plan: BirthPlan) -> Member:
         """Build a planned newborn in the world (last row); nothing can fail on bad input here."""
-        world, brain, living = self.world, self.brain, self.living
-        assert world is not None and brain is not None and self.noise is not None
+        run, world, living = self.run, self.world, self.living
+        assert run is not None and world is not None and self.noise is not None
         n_outputs = len(plan.robot.neurons_of(Layer.OUTPUT))
         padded = self.spaces.is_padded(plan.agent)
-        handle = world.add_robot(plan.robot, plan.position, plan.yaw)
-        if plan.joints is not None:  # the start noise (one value per active hinge, finite)
-            world.set_hinge_state(handle, *plan.joints)
+        # joints: the start noise (one value per active hinge, finite)
+        handle = run.add(plan.robot, plan.position, plan.yaw, network=plan.network,
+                         joints=plan.joints)
         member = Member(
             robot_id=plan.robot_id, agent=plan.agent, robot=plan.robot,
-            controlled_by=plan.controlled_by, handle=handle,
-            brain=brain.add(plan.network) if plan.network is not None else None,
+            controlled_by=plan.controlled_by, handle=handle, brain=run.network(handle),
             birth_step=self.steps, birth_time=self.steps * self.clock.dt,
             birth_position=plan.position, born_inside=plan.inside, yaw=plan.yaw,
             radius=plan.radius, n_outputs=n_outputs, padded=padded, sensor_low=plan.sensor_low,
@@ -202,7 +205,6 @@ class Roster:
         living.trajectories.append(np.array([row]), living.position[row:row + 1])
         if self.clock.insertion_steps == 0:
             living.first_sample(row, self.time, world)
-        self._relayout_brains()
         return member
 
     def drop(self, member: Member, death: Death | None = None) -> None:
@@ -210,33 +212,16 @@ class Roster:
 
         ``death``: report it at the next step as dead of that (None: the caller reports it).
         """
-        assert self.world is not None and self.brain is not None
+        assert self.run is not None
         living = self.living
         row = self.agents.index(member.agent)
         member.final = living.final(row)
-        self.world.remove_robot(member.handle)
+        self.run.remove([member.handle])  # from the world and, with its network, the brains
         del self.members[member.robot_id]
         del self.agents[row]
-        living.remove(row, self.world)
-        if member.brain is not None:
-            self.brain.remove(member.brain)
-        self._relayout_brains()
+        living.remove(row, self.run.world)
         if death is not None:
             self.dead.append((member, death))
-
-    def _relayout_brains(self) -> None:
-        """Where every brain robot's inputs come from and its outputs go (after a change)."""
-        assert self.brain is not None
-        rows = [row for row, m in enumerate(self.living.members) if m.brain is not None]
-        self._brain_rows = np.array(rows, dtype=np.intp)
-        self._brain_inputs = self.living.brain_inputs(self._brain_rows)
-        if self.world is not None and rows:
-            offsets = self.world.output_offsets
-            self._brain_targets = np.concatenate([np.arange(offsets[r], offsets[r + 1])
-                                                  for r in rows])
-        else:
-            self._brain_targets = np.zeros(0, dtype=np.intp)
-        self._brain_out = np.zeros(self.brain.n_outputs)
 
     # -- the step ---------------------------------------------------------------------------
     def act(self, checked: list[tuple[Member, NDArray[np.float64]]]) -> None:
@@ -245,23 +230,16 @@ class Roster:
         Actuator noise draws robot after robot: the agents in the order of ``checked``, then
         the brain robots in birth order.
         """
-        world, brain, noise, sd = self.world, self.brain, self.noise, self.actuator_noise
-        assert world is not None and brain is not None and noise is not None
+        run, noise = self.run, self.noise
+        assert run is not None and noise is not None
+        learner = None
         if checked:
-            offsets = world.output_offsets
-            rows = world.rows([m.handle for m, _ in checked])
+            offsets = run.world.output_offsets
+            rows = run.world.rows([m.handle for m, _ in checked])
             index = np.concatenate([np.arange(offsets[r], offsets[r + 1]) for r in rows.tolist()])
-            values = np.concatenate([a for _, a in checked])
-            if sd > 0:
-                values = values + noise.normal(0.0, sd, values.shape)
-            world.set_target_entries(index, values)  # clips to [-1, 1]
-        if self._brain_rows.size:
-            brain.step(self.living.obs[self._brain_inputs], self._brain_out)
-            targets = self._brain_out
-            if sd > 0:
-                targets = targets + noise.normal(0.0, sd, targets.shape)
-            world.set_target_entries(self._brain_targets, targets)
-        world.step(1)
+            learner = (index, np.concatenate([a for _, a in checked]))
+        # the brains read the sensor values as the robots read them after the last step
+        run.period(self.living.obs, learner, self.actuator_noise, noise)
         self.steps += 1
 
     def sense(self) -> list[Death | None]:
@@ -272,9 +250,10 @@ class Roster:
             (its reason is in its member's ``blow_up``; the caller drops it after its report),
             else None.
         """
-        world, living = self.world, self.living
-        assert world is not None and self.noise is not None
-        blown = world.blown_up if world.any_blown_up else None
+        run, living = self.run, self.living
+        assert run is not None and self.noise is not None
+        world = run.world
+        blown = run.blown()
         living.sense(world, self.time, self.noise, self.sensor_noise, blown)
         deaths: list[Death | None] = [None] * len(living)
         if blown is not None:
@@ -309,10 +288,14 @@ class Roster:
         """
         self.close()
         restored = read_snapshot(snapshot, self.config, self.clock)
-        self.world, self.brain = restored.world, restored.brain
+        self.run = Rollout(restored.world, restored.brain, 1)
+        for m in restored.members:
+            if m.brain is not None:
+                self.run.adopt(m.handle, m.brain)
         # A snapshot from before the noise generator existed: the reset's one.
         self.noise = restored.noise if restored.noise is not None else noise_generator(seed)
         self.births, self.steps = restored.births, restored.steps
+        self.run.periods = restored.steps
         self.next_id = int(snapshot.get("next_id", restored.births))
         self.members = {m.robot_id: m for m in restored.members}
         self.agents = [m.agent for m in restored.members]
@@ -331,5 +314,5 @@ class Roster:
         except (KeyError, TypeError, ValueError) as e:
             self.close()
             raise SnapshotMismatchError(f"damaged population snapshot: {e!r}") from e
-        self._relayout_brains()
+        self.run.relayout()
         return restored.rng

@@ -14,10 +14,10 @@ control period): :mod:`revolve_env.fitness.sampling` holds that rule and the sha
 :func:`fitness_terms` works on a whole trajectory, :func:`window_fitness` on the last ``window``
 seconds of a time-stamped one. Online, :class:`FitnessWindows` keeps the windows of many robots
 in one ring buffer (times, core positions and path lengths, one column per robot) and gives
-every robot's terms at once with array operations; :class:`SlidingWindowFitness` is one
-robot's window in plain floats (cheaper for one robot, and the reference that
-``FitnessWindows`` equals bit for bit: ``tests/test_fitness.py``). All share the same
-arithmetic.
+every robot's terms at once with array operations (the one ring buffer);
+:class:`SlidingWindowFitness` is one robot's window in it, with float-valued methods. The
+formula ``v + s_weight * s`` itself is :func:`~revolve_env.fitness.terms.speed_fitness`, which
+every form calls.
 
 What a task (:mod:`revolve_env.tasks`) scores is a :class:`Window`: every robot's window as
 arrays (its ends, ``v``, ``s``, its samples and, for a task that asks for one, a signal at both

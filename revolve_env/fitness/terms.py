@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import NamedTuple, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -23,6 +23,7 @@ __all__ = [
     "fitness_terms",
     "hypot",
     "pose_path_lengths",
+    "speed_fitness",
     "trajectory_window",
     "window_fitness",
 ]
@@ -34,6 +35,21 @@ DEFAULT_S_WEIGHT = 5.0
 """Weight of the straight-line displacement ``s`` in ``f = v + 5 s``."""
 
 TIME_EPS = 1e-9  # seconds: samples this close to the window's start still belong to it
+
+
+@overload
+def speed_fitness(v: float, s: float, s_weight: float = DEFAULT_S_WEIGHT) -> float: ...
+@overload
+def speed_fitness(v: NDArray[np.float64], s: NDArray[np.float64],
+                  s_weight: float = DEFAULT_S_WEIGHT) -> NDArray[np.float64]: ...
+def speed_fitness(v: float | NDArray[np.float64], s: float | NDArray[np.float64],
+                  s_weight: float = DEFAULT_S_WEIGHT) -> float | NDArray[np.float64]:
+    """The paper's fitness ``v + s_weight * s`` (section 4), of floats or element-wise. Metres.
+
+    The formula's one home: the trajectory's terms, the windows' and the paper's task
+    (:class:`revolve_env.tasks.Locomotion`) all call it.
+    """
+    return v + s_weight * s
 
 
 @dataclass(frozen=True, slots=True)
@@ -103,7 +119,7 @@ def fitness_terms(positions: ArrayLike, s_weight: float = DEFAULT_S_WEIGHT) -> F
     steps = np.diff(xy, axis=0)
     v = float(np.sum(np.hypot(steps[:, 0], steps[:, 1])))
     s = float(math.hypot(*(xy[-1] - xy[0])))
-    return FitnessTerms(v + s_weight * s, v, s)
+    return FitnessTerms(speed_fitness(v, s, s_weight), v, s)
 
 
 def window_fitness(

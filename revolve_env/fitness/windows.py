@@ -1,7 +1,8 @@
-"""Sliding fitness windows: many robots in one ring buffer, or one robot in plain floats.
+"""Sliding fitness windows: the ring buffer of many robots, and a one-robot view of it.
 
-See :mod:`revolve_env.fitness` for the rule; both give the :class:`~revolve_env.fitness.Window`
-a task scores (:meth:`FitnessWindows.current`, :meth:`SlidingWindowFitness.current`).
+See :mod:`revolve_env.fitness` for the rule. :class:`FitnessWindows` is the one ring buffer;
+:class:`SlidingWindowFitness` is one robot's window in it, with float-valued methods. Both give
+the :class:`~revolve_env.fitness.Window` a task scores.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from revolve_env.fitness.terms import (
     FitnessTerms,
     Window,
     hypot,
+    speed_fitness,
 )
 
 __all__ = ["FitnessWindows", "SlidingWindowFitness"]
@@ -255,7 +257,7 @@ class FitnessWindows:
     def terms(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """Every robot's ``(f, v, s)`` over its window (zeros below two samples). Metres."""
         w = self.current()
-        return w.v + self.s_weight * w.s, w.v, w.s
+        return speed_fitness(w.v, w.s, self.s_weight), w.v, w.s
 
     # -- one robot's window as plain data ------------------------------------------------------
     def samples(self, col: int) -> tuple[NDArray[np.float64], NDArray[np.float64],
@@ -326,7 +328,7 @@ class FitnessWindows:
 
 
 class SlidingWindowFitness:
-    """Fitness over a sliding window of time-stamped core positions (online, ring buffer).
+    """One robot's sliding fitness window: a :class:`FitnessWindows` of one column.
 
     ``add(t, position)`` appends a sample; ``terms()`` gives the fitness over the samples with
     ``t >= t_last - window``, as :func:`window_fitness` on the same samples (to rounding: the path
@@ -347,27 +349,27 @@ class SlidingWindowFitness:
             capacity: Initial ring size (samples); it doubles when a window holds more.
             signal: Keep a signal value with every sample (:meth:`add`'s ``signal``).
         """
-        if not (window > 0 and math.isfinite(window)):
-            raise ValueError(f"window must be a positive number of seconds, got {window}")
-        if capacity < 2:
-            raise ValueError(f"capacity must be >= 2, got {capacity}")
-        self.window = float(window)
-        self.s_weight = float(s_weight)
-        self._t = np.empty(capacity)
-        self._xy = np.empty((capacity, 2))
-        self._path = np.empty(capacity)  # path length from an arbitrary origin up to each sample
-        self._sig: NDArray[np.float64] | None = np.empty(capacity) if signal else None
-        self._start = 0  # ring index of the oldest kept sample
-        self._n = 0
+        self._ring = FitnessWindows(window, s_weight, capacity, signal)
+        self._ring.add(1)
+        self._signal = signal
+
+    @property
+    def window(self) -> float:
+        """Window length. Seconds."""
+        return self._ring.window
+
+    @property
+    def s_weight(self) -> float:
+        """Weight of ``s``."""
+        return self._ring.s_weight
 
     def __len__(self) -> int:
         """Samples currently in the window."""
-        return self._n
+        return int(self._ring.ends()[3][0])
 
     def reset(self) -> None:
         """Forget every sample."""
-        self._start = 0
-        self._n = 0
+        self._ring.reset()
 
     def add(self, t: float, position: ArrayLike, signal: float | None = None) -> None:
         """Append the core's position at time ``t`` (seconds; not before the previous sample).
@@ -378,60 +380,14 @@ class SlidingWindowFitness:
         if p.shape[0] not in (2, 3) or not (math.isfinite(float(p[0]))
                                             and math.isfinite(float(p[1]))):
             raise ValueError(f"position must be 2 or 3 finite numbers, got {position!r}")
-        t = float(t)
-        if not math.isfinite(t):
-            raise ValueError(f"time must be finite, got {t}")
-        x, y = float(p[0]), float(p[1])
-        cap = len(self._t)
-        path = 0.0
-        if self._n:
-            last = (self._start + self._n - 1) % cap
-            if t < self._t[last]:
-                raise ValueError(f"time {t} s is before the previous sample")
-            step = math.hypot(x - self._xy[last, 0], y - self._xy[last, 1])
-            path = float(self._path[last]) + step
-        # Drop samples that left the window (the newest one always stays).
-        while self._n and self._t[self._start] < t - self.window - TIME_EPS:
-            self._start = (self._start + 1) % cap
-            self._n -= 1
-        if self._n == cap:
-            self._grow()
-            cap = len(self._t)
-        i = (self._start + self._n) % cap
-        self._t[i] = t
-        self._xy[i, 0] = x
-        self._xy[i, 1] = y
-        self._path[i] = path
-        if self._sig is not None:
-            if signal is None:
-                raise ValueError("this window keeps a signal: add needs one")
-            self._sig[i] = signal
-        self._n += 1
-        if path > 1e3:  # keep the running sum small so that differences stay exact to ~1e-13 m
-            self._path -= self._path[self._start]
-
-    def _grow(self) -> None:
-        idx = (self._start + np.arange(self._n)) % len(self._t)
-        t, xy, path = self._t[idx], self._xy[idx], self._path[idx]
-        cap = 2 * len(self._t)
-        self._t, self._xy, self._path = np.empty(cap), np.empty((cap, 2)), np.empty(cap)
-        self._t[: len(t)] = t
-        self._xy[: len(t)] = xy
-        self._path[: len(t)] = path
-        if self._sig is not None:
-            sig = self._sig[idx]
-            self._sig = np.empty(cap)
-            self._sig[: len(t)] = sig
-        self._start = 0
+        if self._signal and signal is None:
+            raise ValueError("this window keeps a signal: add needs one")
+        self._ring.push(t, p.reshape(1, -1), None,
+                        None if signal is None or not self._signal else np.array([signal]))
 
     def snapshot(self) -> dict[str, Any]:
         """The window's samples and settings as plain data (see :meth:`from_snapshot`)."""
-        idx = (self._start + np.arange(self._n)) % len(self._t)
-        out = {"window": self.window, "s_weight": self.s_weight, "capacity": len(self._t),
-               "t": self._t[idx], "xy": self._xy[idx], "path": self._path[idx]}
-        if self._sig is not None:
-            out["signal"] = self._sig[idx]
-        return out
+        return self._ring.snapshot(0)
 
     @classmethod
     def from_snapshot(cls, snapshot: dict[str, Any]) -> SlidingWindowFitness:
@@ -440,72 +396,38 @@ class SlidingWindowFitness:
         Raises:
             ValueError: inconsistent sample arrays.
         """
-        t = np.asarray(snapshot["t"], dtype=np.float64).reshape(-1)
-        xy = np.asarray(snapshot["xy"], dtype=np.float64).reshape(-1, 2)
-        path = np.asarray(snapshot["path"], dtype=np.float64).reshape(-1)
-        n = len(t)
-        if len(xy) != n or len(path) != n:
-            raise ValueError("a fitness window snapshot needs as many positions and path lengths "
-                             "as times")
+        n = np.asarray(snapshot["t"]).reshape(-1).shape[0]
         window = cls(float(snapshot["window"]), float(snapshot["s_weight"]),
                      max(int(snapshot["capacity"]), n, 2), signal="signal" in snapshot)
-        window._t[:n], window._xy[:n], window._path[:n] = t, xy, path
-        if window._sig is not None:
-            sig = np.asarray(snapshot["signal"], dtype=np.float64).reshape(-1)
-            if len(sig) != n:
-                raise ValueError("a fitness window snapshot needs as many signal values as times")
-            window._sig[:n] = sig
-        window._n = n
+        window._ring.restore([snapshot])
         return window
 
     def last(self) -> tuple[NDArray[np.float64], float | None]:
-        """The latest sample's (x, y) (a copy) and signal (None without one or any sample).
+        """The latest sample's (x, y) (a copy) and signal (None without one).
 
         What the robot holds between two pose samples (:mod:`revolve_env.fitness.sampling`).
 
         Raises:
             ValueError: the window has no sample.
         """
-        if not self._n:
+        if not len(self):
             raise ValueError("the window has no sample yet")
-        i = (self._start + self._n - 1) % len(self._t)
-        return self._xy[i].copy(), None if self._sig is None else float(self._sig[i])
+        xy, sig = self._ring.last()
+        return xy[0].copy(), None if sig is None else float(sig[0])
 
     def samples(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Times (T,) and horizontal positions (T, 2) in the window, oldest first (copies)."""
-        idx = (self._start + np.arange(self._n)) % len(self._t)
-        return self._t[idx], self._xy[idx]
+        t, xy, _ = self._ring.samples(0)
+        return t, xy
 
     def current(self) -> Window:
         """The window now as arrays of one robot (zeros but ``samples`` below two samples)."""
-        n = self._n
-        if n < 2:
-            signal = self._sig is not None
-            return Window(np.zeros((1, 2)), np.zeros((1, 2)), np.zeros(1), np.zeros(1),
-                          np.array([n], dtype=np.int64), np.zeros(1) if signal else None,
-                          np.zeros(1) if signal else None, np.zeros(1))
-        first = self._start
-        last = (self._start + n - 1) % len(self._t)
-        xy = self._xy
-        v = self._path[last] - self._path[first]
-        s = math.hypot(xy[last, 0] - xy[first, 0], xy[last, 1] - xy[first, 1])
-        sig = self._sig
-        return Window(xy[first:first + 1].copy(), xy[last:last + 1].copy(), np.array([v]),
-                      np.array([s]), np.array([n], dtype=np.int64),
-                      None if sig is None else sig[first:first + 1].copy(),
-                      None if sig is None else sig[last:last + 1].copy(),
-                      np.array([self._t[last] - self._t[first]]))
+        return self._ring.current()
 
     def terms(self) -> FitnessTerms:
         """Fitness and its terms over the current window."""
-        if self._n < 2:
-            return FitnessTerms(0.0, 0.0, 0.0)
-        first = self._start
-        last = (self._start + self._n - 1) % len(self._t)
-        v = float(self._path[last] - self._path[first])
-        s = math.hypot(self._xy[last, 0] - self._xy[first, 0],
-                       self._xy[last, 1] - self._xy[first, 1])
-        return FitnessTerms(v + self.s_weight * s, v, s)
+        f, v, s = self._ring.terms()
+        return FitnessTerms(float(f[0]), float(v[0]), float(s[0]))
 
     @property
     def fitness(self) -> float:

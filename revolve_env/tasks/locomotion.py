@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.fitness import DEFAULT_S_WEIGHT, Window
+from revolve_env.fitness.terms import speed_fitness
 from revolve_env.tasks.base import BaseTask
 
 __all__ = ["DirectedLocomotion", "Locomotion"]
@@ -65,7 +66,7 @@ class Locomotion(BaseTask):
 
     def fitness(self, window: Window) -> NDArray[np.float64]:
         """``v + s_weight * s`` of every robot, 0 at or above the limit. Metres."""
-        f: NDArray[np.float64] = window.v + self.s_weight * window.s
+        f = speed_fitness(window.v, window.s, self.s_weight)
         if self.limit is not None:
             if window.duration is None:
                 raise ValueError("a fitness limit needs the window's duration (Window.duration)")

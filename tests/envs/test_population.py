@@ -409,3 +409,48 @@ def test_world_config_control_period_is_kept_unless_overridden() -> None:
     assert env.config.control_period == slow.control_period
     env2 = PopulationEnv(world_config=slow, control_period=1.0 / 60.0, initial_robots=())
     assert env2.config.control_period == 1.0 / 60.0
+
+
+@pytest.mark.parametrize("max_angular_speed", [200.0, 10.0])  # 10 rad/s: all blow up at once
+def test_advance_is_step_without_the_dicts(max_angular_speed: float) -> None:
+    # Brains and a learner with noise, a removal, blow-ups: advance() leaves the env exactly
+    # where step() does and gives the statuses of the lives that ended.
+    from revolve_env.conditions import EvaluationConditions
+
+    def made() -> PopulationEnv:
+        config = replace(WorldConfig(), max_angular_speed=max_angular_speed)
+        env = small_env(conditions=EvaluationConditions(heading="random", sensor_noise=0.1,
+                                                        actuator_noise=0.2),
+                        world_config=config)
+        env.reset(seed=4)
+        env.add_robot(spider())
+        env.add_robot(gecko(), controlled_by="agent")
+        env.add_robot(snake(3))
+        return env
+
+    stepped, advanced = made(), made()
+    ended: dict[int, str | None] = {}
+    for k in range(40):
+        if k == 10 and stepped.robot_ids:
+            for env in (stepped, advanced):
+                env.remove_robot(env.robot_ids[0])
+        actions = {f"robot_{r}": np.full(stepped.action_space(f"robot_{r}").shape, 0.5)
+                   for r in stepped.robot_ids if stepped.status(r).controlled_by == "agent"}
+        stepped.step(actions)
+        got = advanced.advance(actions)
+        want = {r: s for r, s in stepped.statuses.items() if s.death is not None}
+        assert list(got) == list(want)
+        for r, s in got.items():
+            assert (s.death, s.blow_up, s.fitness, s.age) == \
+                (want[r].death, want[r].blow_up, want[r].fitness, want[r].age)
+            np.testing.assert_array_equal(s.position, want[r].position)
+            ended[r] = s.death
+        assert stepped.robot_ids == advanced.robot_ids
+        for r in stepped.robot_ids:
+            a, b = stepped.status(r), advanced.status(r)
+            assert (a.fitness, a.v, a.s, a.age) == (b.fitness, b.v, b.s, b.age)
+            np.testing.assert_array_equal(stepped.observe(r), advanced.observe(r))
+    if max_angular_speed > 100:
+        assert set(ended.values()) == {"removed"} and len(stepped.robot_ids) == 2
+    else:
+        assert set(ended.values()) == {"blow_up"} and not stepped.robot_ids

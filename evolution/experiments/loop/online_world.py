@@ -103,8 +103,8 @@ class PopulationWorld:
             # Deterministic policies on the current observations: a replay repeats the actions.
             actions = {agent_name(rid): policy.act(env.observe(rid))
                        for rid, policy in self._policies.items()}
-            env.step(actions)
-            for rid, status in env.statuses.items():
+            # advance: the step without PettingZoo's dicts (the loop reads statuses only)
+            for rid, status in env.advance(actions).items():
                 if status.death is not None and rid not in lost:
                     lost[rid] = status
                     self._policies.pop(rid, None)
