@@ -6,6 +6,7 @@ function (a submodule of the same name would replace it once imported).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -30,7 +31,7 @@ from revolve_env.fitness.sampling import pose_stride, shaking
 from revolve_env.fitness.terms import pose_path_lengths
 from revolve_env.tasks import Task, TaskError, make_task, pose_rate, score
 from revolve_env.terrain import Terrain
-from revolve_env.world import World, WorldConfig, with_engine
+from revolve_env.world import World, WorldConfig, compiled, with_engine
 from revolve_env.world.signals import SignalReader, signal_reader
 
 __all__ = ["EvaluationResult", "evaluate", "evaluate_many", "evaluation_mjcf", "start_generator"]
@@ -155,6 +156,7 @@ def evaluate_many(
     conditions: EvaluationConditions | None = None,
     task: Task | str | Mapping[str, Any] | None = None,
     terrain: Terrain | str | Mapping[str, Any] | None = None,
+    threads: int = 1,
 ) -> list[EvaluationResult]:
     """:func:`evaluate` many robots side by side: the same results, for less work per robot.
 
@@ -177,6 +179,9 @@ def evaluate_many(
             :data:`~revolve_env.conditions.IDEAL`.
         task: What every robot is scored on; default :class:`~revolve_env.tasks.Locomotion`.
         terrain: The ground (as :func:`evaluate`'s); None keeps ``config.terrain`` (flat).
+        threads: Threads of this process that step the robots (MuJoCo's compiled rollout,
+            :mod:`revolve_env.world.compiled`; elsewhere one). The results do not depend on it.
+            One by default, as processes (``--workers``) already share the cores.
 
     Returns:
         One :class:`EvaluationResult` per robot, in order.
@@ -191,6 +196,8 @@ def evaluate_many(
     """
     for robot in robots:
         validate(robot, limits)
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+        raise ValueError(f"threads must be a whole number >= 1, got {threads!r}")
     for name, value in (("seconds", seconds), ("insertion", insertion)):
         if not (math.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value}")
@@ -221,7 +228,7 @@ def evaluate_many(
     with World(cfg, isolated=True) as world:
         paths = _rollout(world, robots, starts, insertion_ticks, evaluation_ticks, rngs,
                          conditions.sensor_noise, conditions.actuator_noise, scored.signal,
-                         joints)
+                         joints, threads)
     trajectories = [p for p, _, _ in paths]
     window = trajectory_window(trajectories,
                                None if scored.signal is None else [g for _, g, _ in paths],
@@ -243,10 +250,14 @@ def _rollout(
     evaluation_ticks: int, rngs: Sequence[np.random.Generator], sensor_noise: float,
     actuator_noise: float, signal: str | None = None,
     joints: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]] | None] | None = None,
+    threads: int = 1, compile_it: bool = True,
 ) -> list[tuple[NDArray[np.float64], NDArray[np.float64], str | None]]:
     """Drop ``robots`` into ``world`` at ``starts`` and let their own networks drive them.
 
     ``joints``: per robot, its active hinges' start angles and speeds (None: at rest at 0).
+    Without noise, an isolated MuJoCo world runs in the compiled rollout to the same numbers
+    (:func:`revolve_env.world.compiled.rollout`, over ``threads`` threads) unless ``compile_it``
+    is False.
 
     One pass per control period over every robot: their sensor values as one array, one call of
     the compiled controller for all networks, every target set at once. A robot whose
@@ -260,6 +271,11 @@ def _rollout(
         the same ticks (empty without a signal) and the blow-up reason (``None`` if the
         simulation stayed sane).
     """
+    if compile_it and sensor_noise <= 0 and actuator_noise <= 0:
+        paths = compiled.rollout(world, robots, starts, insertion_ticks, evaluation_ticks, signal,
+                                 joints, threads, functools.partial(_rollout, compile_it=False))
+        if paths is not None:
+            return paths
     n = len(robots)
     brain = BatchController(world.config.brain_dt)
     think_every = world.config.brain_stride  # control periods per brain step
