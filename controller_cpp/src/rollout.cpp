@@ -115,7 +115,16 @@ inline double light_value(const double* pos, const double* M, const double* poin
     return (cos_a > 0 ? cos_a : 0.0) / spread;
 }
 
+// sensing.light_falloff: what a light sensor at ``pos`` facing the light reads.
+inline double falloff_value(const double* pos, const double* light, double light_range) {
+    double to[3];
+    for (int i = 0; i < 3; ++i) to[i] = light[i] - pos[i];
+    const double dist = std::sqrt((to[0] * to[0] + to[1] * to[1]) + to[2] * to[2]);
+    return 1.0 / (1.0 + libm_pow(dist / light_range, 2.0));
+}
+
 struct Settings {
+    bool light_signal = false;  // record the task signal "light" (signals.LightSignal)
     int insertion_ticks = 0, evaluation_ticks = 0, brain_stride = 1, substeps = 1;
     double control_period = 0, servo_k = 0, max_velocity = 0, target_scale = 0, gravity = 0;
     double inv_period = 0;  // 1.0 / control_period, as Python computes it
@@ -150,6 +159,7 @@ struct Robot {
     bool pending_record = false;  // resumed after a screen: the period's record is still due
     int status = kRunning;
     std::vector<double> path;  // recorded core positions, (rows, 3)
+    std::vector<double> signal;  // the task's signal at the same rows
     int rows = 0;
 };
 
@@ -194,6 +204,24 @@ class Rollout {
         const double* q = r.d->qpos + r.root_qpos;
         r.path.insert(r.path.end(), q, q + 3);
         ++r.rows;
+        if (s_.light_signal) r.signal.push_back(light_signal(r));
+    }
+
+    // signals.LightSignal: the brightest light sensor, else the light at the core.
+    double light_signal(const Robot& r) const {
+        const double* core = r.d->qpos + r.root_qpos;
+        if (r.lights.empty()) return falloff_value(core, s_.light, s_.light_range);
+        const double* R = r.d->xmat + 9 * r.root_body;
+        double best = 0.0;
+        bool first = true;
+        for (const Light& L : r.lights) {
+            const double* pos = L.body < 0 ? core : r.d->xpos + 3 * L.body;
+            const double* M = L.body < 0 ? R : r.d->xmat + 9 * L.body;
+            const double v = light_value(pos, M, L.point, L.facing, s_.light, s_.light_range);
+            best = first ? v : np_max(best, v);  // np.maximum.reduceat: NaN wins
+            first = false;
+        }
+        return best;
     }
 
     // The core's angular velocity in the world frame: xmat @ (body-frame qvel), summed as NumPy's
@@ -453,7 +481,7 @@ NB_MODULE(_rollout, mod) {
             "__init__",
             [](Rollout* self, int insertion_ticks, int evaluation_ticks, int brain_stride, int substeps,
                double control_period, double servo_k, double max_velocity, double target_scale, double gravity,
-               Vec<double> imu_high, Vec<double> light, double light_range) {
+               Vec<double> imu_high, Vec<double> light, double light_range, bool light_signal) {
                 if (insertion_ticks < 0 || evaluation_ticks < 1 || brain_stride < 1 || substeps < 1 ||
                     !(control_period > 0) || imu_high.shape(0) != 6 || light.shape(0) != 3) {
                     throw nb::value_error("bad rollout settings");
@@ -472,11 +500,13 @@ NB_MODULE(_rollout, mod) {
                 for (int i = 0; i < 6; ++i) s.imu_high[i] = imu_high(i);
                 for (int i = 0; i < 3; ++i) s.light[i] = light(i);
                 s.light_range = light_range;
+                s.light_signal = light_signal;
                 new (self) Rollout(s);
             },
             nb::arg("insertion_ticks"), nb::arg("evaluation_ticks"), nb::arg("brain_stride"), nb::arg("substeps"),
             nb::arg("control_period"), nb::arg("servo_k"), nb::arg("max_velocity"), nb::arg("target_scale"),
-            nb::arg("gravity"), nb::arg("imu_high"), nb::arg("light"), nb::arg("light_range"))
+            nb::arg("gravity"), nb::arg("imu_high"), nb::arg("light"), nb::arg("light_range"),
+            nb::arg("light_signal") = false)
         .def("add", &add, "Add a robot (its scene's raw mjModel*/mjData* and layout); returns its index.")
         .def(
             "run", [](Rollout& ro, int threads) {
@@ -494,6 +524,13 @@ NB_MODULE(_rollout, mod) {
                 return copy_array(r.path.data(), r.path.size(), {static_cast<std::size_t>(r.rows), 3});
             },
             nb::arg("index"), "The core's recorded positions, (rows, 3). Metres.")
+        .def(
+            "signal",
+            [](Rollout& ro, int i) {
+                Robot& r = ro.robot(i);
+                return copy_array(r.signal.data(), r.signal.size(), {r.signal.size()});
+            },
+            nb::arg("index"), "The task signal at the recorded rows (empty without one).")
         .def(
             "state",
             [](Rollout& ro, int i) {
@@ -536,6 +573,16 @@ NB_MODULE(_rollout, mod) {
             return copy_array(out.data(), out.size(), {n, 3});
         },
         nb::arg("rot"), nb::arg("w"), "einsum('nij,nj->ni', rot, w).");
+    mod.def(
+        "falloff_values",
+        [](Mat3 pos, Vec<double> light, double light_range) {
+            const std::size_t n = pos.shape(0);
+            if (light.shape(0) != 3) throw nb::value_error("light must have 3 values");
+            std::vector<double> out(n);
+            for (std::size_t k = 0; k < n; ++k) out[k] = falloff_value(pos.data() + 3 * k, light.data(), light_range);
+            return copy_array(out.data(), n, {n});
+        },
+        nb::arg("pos"), nb::arg("light"), nb::arg("light_range"), "sensing.light_falloff.");
     mod.def(
         "light_values",
         [](Mat3 pos, nb::ndarray<const double, nb::shape<-1, 3, 3>, nb::c_contig, nb::device::cpu> rot, Mat3 point,

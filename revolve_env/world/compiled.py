@@ -36,15 +36,19 @@ from revolve_env.body.robot import Robot
 from revolve_env.brain._registry import as_spec
 from revolve_env.world.backend import BodyStates
 from revolve_env.world.blowups import Screen, reason
-from revolve_env.world.sensing import IMU_HIGH, imu_readings, light_intensity
+from revolve_env.world.sensing import IMU_HIGH, imu_readings, light_falloff, light_intensity
 from revolve_env.world.world import World
 
-__all__ = ["Path", "available", "rollout"]
+__all__ = ["SIGNALS", "Path", "available", "rollout"]
 
 _log = logging.getLogger(__name__)
 
 Path = tuple[NDArray[np.float64], NDArray[np.float64], str | None]
-"""Per robot: the core's path (read-only, metres), the task signal (empty), the blow-up reason."""
+"""Per robot: the core's path (read-only, metres), the task signal at the same rows (empty
+without one) and the blow-up reason."""
+
+SIGNALS = ("light",)
+"""The task signals the compiled rollout records (:mod:`revolve_env.world.signals`)."""
 
 Rerun = Callable[..., list[Path]]
 
@@ -52,14 +56,16 @@ Rerun = Callable[..., list[Path]]
 @functools.cache
 def _extension() -> ModuleType | None:
     """The extension if it gives the NumPy rules' numbers here, else None (logged once)."""
+    # mujoco first: its libmujoco, loaded, is the one the extension links to (by its soname),
+    # wherever the mujoco package is installed.
+    from revolve_env.world.mujoco_gl import mujoco  # noqa: PLC0415 (only on MuJoCo's path)
+
     try:
         ext = importlib.import_module("revolve_env._rollout")
     except ImportError as e:
         _log.warning("revolve-env: the compiled rollout is not built (%s); evaluations on MuJoCo "
                      "use the NumPy rules", " ".join(str(e).split()))
         return None
-    from revolve_env.world.mujoco_gl import mujoco  # noqa: PLC0415 (only on MuJoCo's path)
-
     if mujoco.__version__ != ext.MUJOCO_VERSION or ext.mujoco_version() != ext.MUJOCO_HEADER:
         _log.warning("revolve-env: the compiled rollout was built for mujoco %s, not the "
                      "installed %s; evaluations on MuJoCo use the NumPy rules (reinstall "
@@ -96,6 +102,8 @@ def _kernels_differ(ext: ModuleType) -> str | None:
                            np.ascontiguousarray(facing[:, :, None]), light, 1.0)
     if not np.array_equal(ext.light_values(pos, rot, point, facing, light, 1.0), want):
         return "light sensor"
+    if not np.array_equal(ext.falloff_values(pos, light, 0.7), light_falloff(pos, light, 0.7)):
+        return "light fall-off"
     return None
 
 
@@ -110,9 +118,9 @@ def rollout(world: World, robots: Sequence[Robot], starts: Sequence[Any], insert
             threads: int, rerun: Rerun) -> list[Path] | None:
     """``evaluation._rollout`` without noise, compiled; None where it does not apply.
 
-    It applies to an empty isolated MuJoCo ``world`` and a task without a signal, when the
-    extension is usable (:func:`available`); then it adds the robots to ``world`` (spent
-    afterwards: close it) and returns what the NumPy path would, bit for bit.
+    It applies to an empty isolated MuJoCo ``world`` and a task without a signal or with one of
+    :data:`SIGNALS`, when the extension is usable (:func:`available`); then it adds the robots
+    to ``world`` (spent afterwards: close it) and returns what the NumPy path would, bit for bit.
 
     Args:
         world: An empty ``World(config, isolated=True)``.
@@ -120,7 +128,7 @@ def rollout(world: World, robots: Sequence[Robot], starts: Sequence[Any], insert
         starts: Their starts (``position``, ``yaw``).
         insertion_ticks: Control periods before the fitness window.
         evaluation_ticks: Control periods of the window.
-        signal: The task's signal (compiled: none).
+        signal: The task's signal, None or one of :data:`SIGNALS`.
         joints: Per robot, its active hinges' start angles and speeds (None: at rest).
         threads: Threads to spread the robots over (>= 1); the numbers do not depend on it.
         rerun: ``evaluation._rollout`` on the NumPy path, with its arguments: evaluates the robots
@@ -129,7 +137,7 @@ def rollout(world: World, robots: Sequence[Robot], starts: Sequence[Any], insert
     Raises:
         ValueError: a network whose inputs or outputs do not match its body.
     """
-    if (signal is not None or world.engine != "mujoco" or world.handles
+    if ((signal is not None and signal not in SIGNALS) or world.engine != "mujoco" or world.handles
             or type(world.backend).__name__ != "MujocoScenes"):
         return None
     ext = _extension()
@@ -151,7 +159,8 @@ def rollout(world: World, robots: Sequence[Robot], starts: Sequence[Any], insert
     run = ext.Rollout(insertion_ticks, evaluation_ticks, c.brain_stride, c.substeps,
                       c.control_period, c.servo_gain / c.control_period, c.max_velocity,
                       math.radians(c.range_deg), c.gravity, IMU_HIGH,
-                      np.asarray(c.light_position, dtype=np.float64), float(c.light_range))
+                      np.asarray(c.light_position, dtype=np.float64), float(c.light_range),
+                      signal == "light")
     # The world's own bookkeeping of each robot and its scene (this package's private parts).
     states = [world._robots[h] for h in handles]  # noqa: SLF001
     scenes = world.backend._scene_list()  # type: ignore[attr-defined]  # noqa: SLF001
@@ -175,7 +184,7 @@ def rollout(world: World, robots: Sequence[Robot], starts: Sequence[Any], insert
     for i in range(n):
         path = run.path(i)
         path.setflags(write=False)
-        out.append((path, np.zeros(0), reasons[i]))
+        out.append((path, run.signal(i), reasons[i]))
     if redo:
         with World(c, isolated=True) as again:
             redone = rerun(again, [robots[i] for i in redo], [starts[i] for i in redo],

@@ -131,9 +131,21 @@ def test_threads_must_be_a_positive_whole_number() -> None:
             evaluate_many([example("spider")], engine="mujoco", threads=bad)  # type: ignore[arg-type]
 
 
-def test_noise_and_signals_keep_the_numpy_path(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Noise draws from each robot's NumPy generator, a light task reads a signal: no compiled
-    rollout (it declines), the same numbers as ever."""
+def test_the_light_signal_is_the_numpy_rules_bit_for_bit(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The light-following task's signal: robots with light sensors (on the core, on moving
+    links) and without; one blows up."""
+    robots = [example("sensor_crawler"), example("spider")] + _robots(8, 7)
+    kwargs: dict[str, Any] = {"seconds": 1.0, "insertion": 0.5, "task": "light-following",
+                              "config": WorldConfig(max_linear_speed=0.6)}
+    fast = _compiled(monkeypatch, robots, **kwargs)
+    slow = _numpy(monkeypatch, robots, **kwargs)
+    assert [_key(a) for a in fast] == [_key(b) for b in slow]
+    assert len({r.fitness for r in fast}) > 2
+
+
+def test_noise_and_pybullet_keep_the_numpy_path(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Noise draws from each robot's NumPy generator: the compiled rollout is not asked; on
+    pybullet it declines."""
     seen: list[bool] = []
     run = compiled.rollout
 
@@ -144,11 +156,10 @@ def test_noise_and_signals_keep_the_numpy_path(monkeypatch: pytest.MonkeyPatch) 
 
     monkeypatch.setattr(compiled, "rollout", spy)
     robot = example("spider")
-    evaluate_many([robot], seconds=0.2, insertion=0.1, engine="mujoco", task="light-following")
     evaluate_many([robot], seconds=0.2, insertion=0.1, engine="mujoco",
                   conditions=EvaluationConditions(sensor_noise=0.1))
     evaluate_many([robot], seconds=0.2, insertion=0.1, engine="pybullet")
-    assert seen == [False, False]  # noise never asks; pybullet declines
+    assert seen == [False]
 
 
 @pytest.mark.slow
