@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import importlib
+import logging
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -160,6 +163,39 @@ def test_noise_and_pybullet_keep_the_numpy_path(monkeypatch: pytest.MonkeyPatch)
                   conditions=EvaluationConditions(sensor_noise=0.1))
     evaluate_many([robot], seconds=0.2, insertion=0.1, engine="pybullet")
     assert seen == [False]
+
+
+def test_without_the_extension_the_numpy_rules_run_and_say_so_once(
+        monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> None:
+    """Not built (no compiler or no mujoco wheel at install), or built for another mujoco:
+    one log line, then the NumPy path, to the same numbers."""
+    want = _numpy(monkeypatch, [example("spider")], seconds=0.3, insertion=0.1)
+    real = importlib.import_module
+
+    def missing(name: str, package: str | None = None) -> ModuleType:
+        if name == "revolve_env._rollout":
+            raise ImportError("No module named 'revolve_env._rollout'")
+        return real(name, package)
+
+    try:
+        for broken in ("missing", "other mujoco"):
+            compiled._extension.cache_clear()
+            caplog.clear()
+            with monkeypatch.context() as m:
+                if broken == "missing":
+                    m.setattr(importlib, "import_module", missing)
+                else:
+                    m.setattr(real("revolve_env._rollout"), "MUJOCO_VERSION", "0.0.1")
+                with caplog.at_level(logging.WARNING, logger=compiled.__name__):
+                    got = [evaluate_many([example("spider")], engine="mujoco", seconds=0.3,
+                                         insertion=0.1)[0] for _ in range(2)]
+                    assert not compiled.available()
+            lines = [r.getMessage() for r in caplog.records]
+            assert len(lines) == 1 and "NumPy rules" in lines[0], lines
+            assert [_key(g) for g in got] == [_key(want[0])] * 2
+    finally:
+        compiled._extension.cache_clear()
+    assert compiled.available()
 
 
 @pytest.mark.slow
