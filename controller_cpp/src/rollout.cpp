@@ -174,29 +174,34 @@ class Rollout {
 
     // Runs every robot that is running until it is done or stops; the robots over `threads`
     // threads (each robot on one thread at a time: its result does not depend on the split).
-    void run(int threads) {
+    // Called without the GIL; between two robots the calling thread takes it to see Ctrl-C, and
+    // returns false (a Python error set) when a signal handler raised.
+    bool run(int threads) {
         std::vector<int> todo;
         for (int i = 0; i < static_cast<int>(robots_.size()); ++i) {
             if (robots_[i].status == kRunning) todo.push_back(i);
         }
         std::atomic<int> next{0};
-        auto work = [&]() {
+        std::atomic<bool> interrupted{false};
+        auto work = [&](bool caller) {
             mjfLogHandler outer = _mjPRIVATE_setTlsLogHandler(&on_log);
-            for (int k = next.fetch_add(1); k < static_cast<int>(todo.size()); k = next.fetch_add(1)) {
+            for (int k = next.fetch_add(1); k < static_cast<int>(todo.size()) && !interrupted;
+                 k = next.fetch_add(1)) {
                 advance(robots_[todo[k]]);
+                if (caller) {
+                    nb::gil_scoped_acquire gil;
+                    if (PyErr_CheckSignals() != 0) interrupted = true;
+                }
             }
             _mjPRIVATE_setTlsLogHandler(outer);
         };
         int n = threads < 1 ? 1 : threads;
         if (n > static_cast<int>(todo.size())) n = static_cast<int>(todo.size());
-        if (n <= 1) {
-            work();
-            return;
-        }
         std::vector<std::thread> pool;
-        for (int t = 1; t < n; ++t) pool.emplace_back(work);
-        work();
+        for (int t = 1; t < n; ++t) pool.emplace_back(work, false);
+        work(true);
         for (auto& t : pool) t.join();
+        return !interrupted;
     }
 
    private:
@@ -510,8 +515,12 @@ NB_MODULE(_rollout, mod) {
         .def("add", &add, "Add a robot (its scene's raw mjModel*/mjData* and layout); returns its index.")
         .def(
             "run", [](Rollout& ro, int threads) {
-                nb::gil_scoped_release release;
-                ro.run(threads);
+                bool finished;
+                {
+                    nb::gil_scoped_release release;
+                    finished = ro.run(threads);
+                }
+                if (!finished) throw nb::python_error();  // KeyboardInterrupt, say
             },
             nb::arg("threads") = 1, "Run every running robot until it is done or stops (GIL released).")
         .def("status", [](Rollout& ro, int i) { return ro.robot(i).status; }, nb::arg("index"))

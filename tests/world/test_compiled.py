@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import importlib
 import logging
+import signal
+import time
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -196,6 +198,29 @@ def test_without_the_extension_the_numpy_rules_run_and_say_so_once(
     finally:
         compiled._extension.cache_clear()
     assert compiled.available()
+
+
+class _Interrupted(Exception):
+    pass
+
+
+def test_a_signal_interrupts_a_long_compiled_evaluation() -> None:
+    """Ctrl-C (here a timer's signal handler that raises) is not held up until the whole batch
+    is done: the compiled rollout looks for signals between robots."""
+    def interrupt(signum: int, frame: object) -> None:
+        raise _Interrupted
+
+    robots = _robots(12, 9)
+    previous = signal.signal(signal.SIGALRM, interrupt)
+    start = time.process_time()
+    try:
+        signal.setitimer(signal.ITIMER_REAL, 0.3)
+        with pytest.raises(_Interrupted):
+            evaluate_many(robots, engine="mujoco", seconds=60.0, insertion=0.0)
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    assert time.process_time() - start < 2.0  # the whole batch: about 4 s of CPU
 
 
 @pytest.mark.slow
