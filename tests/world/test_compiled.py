@@ -121,13 +121,17 @@ def test_a_robot_whose_physics_turns_nan_is_evaluated_on_the_numpy_path(
 
 
 def test_threads_change_no_number(monkeypatch: pytest.MonkeyPatch) -> None:
+    """1, 3 and 16 threads (more than robots), on rugged ground with no insertion: the same
+    numbers, the NumPy rules'."""
     robots = _robots(7, 5) + [example("spider")]
-    kwargs: dict[str, Any] = {"seconds": 1.0, "insertion": 0.5,
+    kwargs: dict[str, Any] = {"seconds": 1.0, "insertion": 0.0, "terrain": "rugged",
                               "config": WorldConfig(max_linear_speed=0.8)}
     one = _compiled(monkeypatch, robots, threads=1, **kwargs)
     three = _compiled(monkeypatch, robots, threads=3, **kwargs)
     many = _compiled(monkeypatch, robots, threads=16, **kwargs)
-    assert [_key(a) for a in one] == [_key(b) for b in three] == [_key(c) for c in many]
+    slow = _numpy(monkeypatch, robots, **kwargs)
+    assert [_key(a) for a in one] == [_key(b) for b in three] == [_key(c) for c in many] \
+        == [_key(d) for d in slow]
 
 
 def test_threads_must_be_a_positive_whole_number() -> None:
