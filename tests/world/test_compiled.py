@@ -70,7 +70,7 @@ def test_examples_and_random_robots_with_sensors_are_the_numpy_rules_bit_for_bit
     lights = [s for m in models for _, s in m.sensors if isinstance(s, LightSensorModel)]
     assert any(s.link > 0 for s in lights) and any(s.link == 0 for s in lights)
     assert any(kind == "touch" for m in models for kind, _ in m.sensors)
-    timing = {"seconds": 2.0, "insertion": 1.0, "seeds": list(range(len(robots)))}
+    timing = {"seconds": 1.0, "insertion": 0.5, "seeds": list(range(len(robots)))}
     fast = _compiled(monkeypatch, robots, **timing)
     slow = _numpy(monkeypatch, robots, **timing)
     assert [_key(a) for a in fast] == [_key(b) for b in slow]
