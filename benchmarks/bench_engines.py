@@ -41,12 +41,13 @@ Usage: ``python benchmarks/bench_engines.py [--only single evaluate crowd ...] [
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import resource
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -73,11 +74,24 @@ from revolve_env import (
 )
 from revolve_env.body.robot import Robot
 from revolve_env.envs.population import PopulationEnv
-from revolve_env.world import World, WorldConfig
+from revolve_env.world import World, WorldConfig, compiled
 
 ENGINES = ("mujoco", "pybullet")
 SECTIONS = ("single", "evaluate", "offline", "crowd", "rank", "memory", "robust", "crowd-hour")
 _STATE = int(mujoco.mjtState.mjSTATE_INTEGRATION)
+AIMS: dict[str, tuple[float, str]] = {}
+"""Issue 28's aims measured in this run: name -> (figure, the aim), printed last."""
+
+
+@contextlib.contextmanager
+def numpy_rules() -> Iterator[None]:
+    """Evaluations inside take the NumPy path (the compiled rollout declines)."""
+    original = compiled.rollout
+    compiled.rollout = lambda *a, **k: None  # type: ignore[assignment]
+    try:
+        yield
+    finally:
+        compiled.rollout = original  # type: ignore[assignment]
 
 
 def alternate(sides: dict[str, Callable[[], float]], repeats: int) -> dict[str, float]:
@@ -198,6 +212,8 @@ def single(seconds: float, repeats: int) -> None:
         env.close()
     print(f"spider, Locomotion-v0, {seconds:g} simulated s, best CPU of {repeats}: "
           + ", ".join(f"{k} {v:.3f} s" for k, v in best.items()) + f" (replay {check})")
+    AIMS["Locomotion env stepping / raw mj_step"] = (best["env mujoco"] / best["raw mujoco"],
+                                                     "<= 1.2x (the aim is Locomotion-v1's)")
     print(f"  env/raw MuJoCo {best['env mujoco'] / best['raw mujoco']:.2f}x; "
           f"MuJoCo env {best['env pybullet'] / best['env mujoco']:.2f}x faster than pybullet "
           f"per CPU second; raw MuJoCo {seconds / best['raw mujoco']:.0f} sim s per CPU s")
@@ -220,8 +236,9 @@ def record_evaluate(robot: Robot, seconds: float, insertion: float, seed: int = 
 
     World.step = step  # type: ignore[method-assign]
     try:
-        evaluate(robot, seconds=seconds, insertion=insertion, engine="mujoco", seed=seed,
-                 conditions=conditions)
+        with numpy_rules():  # the compiled rollout steps no World: record the NumPy path's
+            evaluate(robot, seconds=seconds, insertion=insertion, engine="mujoco", seed=seed,
+                     conditions=conditions)
     finally:
         World.step = original  # type: ignore[method-assign]
     raw: Replay = seen["replay"]
@@ -239,12 +256,23 @@ def evaluate_one(repeats: int) -> None:
         evaluate(robot, seconds=seconds, insertion=insertion, engine=engine)
         return time.process_time() - cpu
 
+    def run_numpy() -> float:
+        with numpy_rules():
+            return run("mujoco")
+
+    path = "compiled" if compiled.available() else "NumPy rules: the compiled rollout is not usable"
     best = alternate({"evaluate mujoco": lambda: run("mujoco"), "raw mujoco": raw.run,
+                      "evaluate mujoco NumPy rules": run_numpy,
                       "evaluate pybullet": lambda: run("pybullet")}, repeats)
     print(f"spider, evaluate() {insertion:g} + {seconds:g} s, best CPU of {repeats}: "
-          + ", ".join(f"{k} {v:.3f} s" for k, v in best.items()) + f" (replay {check})")
-    print(f"  evaluate/raw MuJoCo {best['evaluate mujoco'] / best['raw mujoco']:.2f}x; MuJoCo "
+          + ", ".join(f"{k} {v:.3f} s" for k, v in best.items()) + f" (replay {check}; {path})")
+    ratio = best["evaluate mujoco"] / best["raw mujoco"]
+    print(f"  evaluate/raw MuJoCo {ratio:.2f}x (NumPy rules "
+          f"{best['evaluate mujoco NumPy rules'] / best['raw mujoco']:.2f}x); MuJoCo "
           f"{best['evaluate pybullet'] / best['evaluate mujoco']:.2f}x faster than pybullet")
+    AIMS["evaluate() of one spider / raw mj_step"] = (ratio, "<= 1.15x")
+    AIMS["MuJoCo over pybullet, evaluate() of one spider"] = (
+        best["evaluate pybullet"] / best["evaluate mujoco"], ">= 4x")
 
 
 # -- 3. offline: a generation evaluated side by side ------------------------------------------
@@ -267,11 +295,25 @@ def side_by_side(n: int, repeats: int) -> None:
                      conditions=conditions)
         return time.process_time() - cpu
 
-    def together() -> float:
+    def together(threads: int = 1) -> float:
         cpu = time.process_time()
         evaluate_many(robots, seconds=seconds, insertion=insertion, seeds=seeds, engine="mujoco",
-                      conditions=conditions)
+                      conditions=conditions, threads=threads)
         return time.process_time() - cpu
+
+    def together_numpy() -> float:
+        with numpy_rules():
+            return together()
+
+    walls: dict[int, float] = {}
+
+    def wall(threads: int) -> Callable[[], float]:
+        def timed() -> float:
+            start = time.perf_counter()
+            cpu = together(threads)
+            walls[threads] = min(walls.get(threads, math.inf), time.perf_counter() - start)
+            return cpu
+        return timed
 
     def raw() -> float:
         return sum(replay.run() for replay, _ in replays)
@@ -282,8 +324,9 @@ def side_by_side(n: int, repeats: int) -> None:
                          engine="mujoco", conditions=conditions)
     same = all(a.fitness == b.fitness and np.array_equal(a.trajectory, b.trajectory)
                for a, b in zip(one, many, strict=True))
-    best = alternate({"evaluate_many": together, "evaluate one by one": alone, "raw mujoco": raw},
-                     repeats)
+    best = alternate({"evaluate_many": wall(1), "evaluate one by one": alone, "raw mujoco": raw,
+                      "evaluate_many NumPy rules": together_numpy,
+                      "evaluate_many 2 threads": wall(2)}, repeats)
     robot_seconds = sum(len(r.trajectory) for r in one) / 60.0 + n * insertion
     print(f"{n} random robots, {insertion:g} + {seconds:g} s each, best CPU of {repeats}: "
           + ", ".join(f"{k} {v:.3f} s" for k, v in best.items())
@@ -292,8 +335,17 @@ def side_by_side(n: int, repeats: int) -> None:
     per = {k: v / robot_seconds * 1e3 for k, v in best.items()}
     print("  CPU ms per simulated robot-second: " + ", ".join(f"{k} {v:.2f}"
                                                              for k, v in per.items())
-          + f"; evaluate_many/raw {best['evaluate_many'] / best['raw mujoco']:.2f}x, "
+          + f"; evaluate_many/raw {best['evaluate_many'] / best['raw mujoco']:.2f}x (NumPy rules "
+          f"{best['evaluate_many NumPy rules'] / best['raw mujoco']:.2f}x), "
           f"one by one/raw {best['evaluate one by one'] / best['raw mujoco']:.2f}x")
+    speed_up = walls[1] / walls[2]
+    print(f"  threads (compiled rollout): wall {walls[1]:.3f} s with 1, {walls[2]:.3f} s with 2 "
+          f"-> {speed_up:.2f}x; CPU per robot-second with 2 threads / with 1 "
+          f"{best['evaluate_many 2 threads'] / best['evaluate_many']:.2f}x (a loaded machine "
+          "gives the second thread less than a core)")
+    AIMS[f"evaluate_many of {n} random robots / raw mj_step, per robot-second"] = (
+        best["evaluate_many"] / best["raw mujoco"], "<= 1.05x")
+    AIMS["2 threads / 1 thread, wall time of a generation"] = (speed_up, ">= 1.8x")
 
 
 # -- 3. a crowd --------------------------------------------------------------------------------
@@ -347,6 +399,8 @@ def crowd(n: int, seconds: float, repeats: int) -> tuple[float, float]:
           f"{best['env pybullet'] / best['env mujoco']:.2f}x faster than pybullet per CPU second; "
           f"MuJoCo {seconds / best['env mujoco']:.1f}x real time on one core; "
           f"{lost} robots lost to blow-ups in MuJoCo")
+    AIMS[f"population env of {n} robots / raw mj_step"] = (
+        best["env mujoco"] / best["raw mujoco"], "<= 1.1x")
     return best["env mujoco"] / (n * seconds), best["env pybullet"] / (n * seconds)
 
 
@@ -539,6 +593,11 @@ def main() -> None:
                     crowded_hour(engine, args.robots, args.crowd_minutes)
             else:
                 crowded_hour(engine, args.robots, args.crowd_minutes)
+    if AIMS:
+        print("issue 28's aims measured in this run (figure, then the aim; the whole-run aims, "
+              "CPU per birth, memory per birth and the study's hours: bench_experiments.py):")
+        for name, (figure, aim) in AIMS.items():
+            print(f"  {name}: {figure:.2f}x (aim {aim})")
 
 
 if __name__ == "__main__":

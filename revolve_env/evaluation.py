@@ -150,6 +150,7 @@ def evaluate_many(
     conditions: EvaluationConditions | None = None,
     task: Task | str | Mapping[str, Any] | None = None,
     terrain: Terrain | str | Mapping[str, Any] | None = None,
+    threads: int = 1,
 ) -> list[EvaluationResult]:
     """:func:`evaluate` many robots side by side: the same results, for less work per robot.
 
@@ -172,6 +173,9 @@ def evaluate_many(
             :data:`~revolve_env.conditions.IDEAL`.
         task: What every robot is scored on; default :class:`~revolve_env.tasks.Locomotion`.
         terrain: The ground (as :func:`evaluate`'s); None keeps ``config.terrain`` (flat).
+        threads: Threads of this process that step the robots (MuJoCo's compiled rollout,
+            :mod:`revolve_env.world.compiled`; elsewhere one). The results do not depend on it.
+            One by default, as processes (``--workers``) already share the cores.
 
     Returns:
         One :class:`EvaluationResult` per robot, in order.
@@ -186,6 +190,8 @@ def evaluate_many(
     """
     for robot in robots:
         validate(robot, limits)
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+        raise ValueError(f"threads must be a whole number >= 1, got {threads!r}")
     for name, value in (("seconds", seconds), ("insertion", insertion)):
         if not (math.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value}")
@@ -212,7 +218,8 @@ def evaluate_many(
               for g, robot in zip(gens, robots, strict=True)]
     with World(cfg, isolated=True) as world:
         paths = rollout(world, robots, starts, insertion_ticks, evaluation_ticks, rngs,
-                        conditions.sensor_noise, conditions.actuator_noise, scored.signal, joints)
+                        conditions.sensor_noise, conditions.actuator_noise, scored.signal, joints,
+                        threads)
     trajectories = [p for p, _, _ in paths]
     scores, window = score_paths(scored, paths, stride, dt)
     fitness = scores.tolist()

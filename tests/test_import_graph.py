@@ -56,6 +56,7 @@ LAYERS: tuple[tuple[str, int], ...] = (
     ("revolve_env.tasks", 2),
     ("revolve_env.terrain", 2),
     ("revolve_env.world", 3),
+    ("revolve_env._rollout", 3),
     ("revolve_env.conditions", 4),
     ("revolve_env.rollout", 4),
     ("revolve_env.evaluation", 5),

@@ -1,0 +1,612 @@
+// The compiled rollout of an evaluation on MuJoCo (module revolve_env._rollout).
+//
+// A whole evaluation (insertion, then the fitness window) of robots that each live in a MuJoCo
+// scene of their own (an isolated world), with no Python per control period: RoboGen's servo law,
+// mj_step, the body states, the core IMU, touch and light sensors, the blow-up screen, the brain
+// (revolve::BatchController, one per robot) and the core's path, all in C++ with the GIL released,
+// the robots spread over a few threads. It follows the NumPy rules of revolve_env/world (world.py,
+// sensing.py, blowups.py, mujoco_scenes.py) operation for operation, so that every number is the
+// one the NumPy path gives, bit for bit: the file is compiled without contraction
+// (-ffp-contract=off), and std::fma is written where NumPy's kernels fuse (measured; the Python
+// side checks these formulas against NumPy at import and keeps the NumPy path where they differ).
+//
+// What the rules decide in Python stays there: a robot whose blow-up screen fails stops (SCREEN)
+// until Python has computed its reason (revolve_env.world.blowups.reason) and resumes or drops it;
+// a robot whose state turns non-finite, whose brain's outputs are not finite or whose mj_step
+// fails stops for good (FALLBACK), and Python evaluates it again on the NumPy path, which replays
+// and reports such periods as ever.
+#include <mujoco/mujoco.h>
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/vector.h>
+
+#include <atomic>
+#include <cmath>
+#include <csetjmp>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "revolve/batch_controller.hpp"
+
+// Exported by libmujoco (used the same way by MuJoCo's own Python bindings): a log handler for the
+// calling thread only, so an mju_error inside mj_step comes back here instead of ending the process.
+extern "C" MJAPI mjfLogHandler _mjPRIVATE_setTlsLogHandler(mjfLogHandler handler);
+extern "C" MJAPI mjfLogHandler _mjPRIVATE_getGlobalLogHandler(void);
+
+namespace nb = nanobind;
+
+namespace {
+
+enum Status : int { kRunning = 0, kDone = 1, kScreen = 2, kFallback = 3 };
+
+thread_local std::jmp_buf* t_jump = nullptr;
+
+void on_log(const mjLogMessage* msg) {
+    if (msg->level == mjLOG_ERROR && t_jump != nullptr) std::longjmp(*t_jump, 1);
+    mjfLogHandler global = _mjPRIVATE_getGlobalLogHandler();
+    if (global != nullptr) global(msg);  // warnings go where they would have gone
+}
+
+// One physics step; false if MuJoCo raised an error (the data is then half-updated).
+bool guarded_step(const mjModel* m, mjData* d) {
+    std::jmp_buf buf;
+    std::jmp_buf* outer = t_jump;
+    t_jump = &buf;
+    if (setjmp(buf) != 0) {
+        t_jump = outer;
+        return false;
+    }
+    mj_step(m, d);
+    t_jump = outer;
+    return true;
+}
+
+bool finite(const double* a, int n) {
+    for (int i = 0; i < n; ++i) {
+        if (!std::isfinite(a[i])) return false;
+    }
+    return true;
+}
+
+// np.maximum / np.minimum: NaN in either argument gives NaN.
+inline double np_max(double a, double b) { return (a != a || a >= b) ? a : b; }
+inline double np_min(double a, double b) { return (a != a || a <= b) ? a : b; }
+
+// glibc's pow, never replaced by x * x (NumPy's float_power calls it).
+double (*volatile libm_pow)(double, double) = static_cast<double (*)(double, double)>(&std::pow);
+
+// The kernels, shared by the rollout and by the probes that check them against NumPy at import.
+
+// (2, 3) @ (3, 3), row vectors times the core's rotation (sensing.imu_readings' stacked matmul):
+// OpenBLAS's kernel fuses the products, first term first.
+inline void imu_product(const double rows[6], const double* R, double out[6]) {
+    for (int a = 0; a < 2; ++a) {
+        const double* v = rows + 3 * a;
+        for (int j = 0; j < 3; ++j) out[3 * a + j] = std::fma(v[2], R[6 + j], std::fma(v[1], R[3 + j], v[0] * R[j]));
+    }
+}
+
+// R @ w as NumPy's einsum("nij,nj->ni") sums it (terms 0 and 2, then 1): the core's angular
+// velocity in the world frame from MuJoCo's body-frame one (MujocoBackend.read).
+inline void einsum_product(const double* R, const double* w, double out[3]) {
+    for (int i = 0; i < 3; ++i) out[i] = (R[3 * i] * w[0] + R[3 * i + 2] * w[2]) + R[3 * i + 1] * w[1];
+}
+
+// sensing.light_intensity for one sensor: link pose (pos, R), sensing point and facing in the link.
+inline double light_value(const double* pos, const double* M, const double* point, const double* facing_in,
+                          const double* light, double light_range) {
+    double where[3], facing[3], to[3];
+    // (3, 3) @ (3, 1): this kernel sums term 1, then fuses 0, then 2.
+    for (int i = 0; i < 3; ++i) {
+        const double* row = M + 3 * i;
+        where[i] = pos[i] + std::fma(row[2], point[2], std::fma(row[0], point[0], row[1] * point[1]));
+        facing[i] = std::fma(row[2], facing_in[2], std::fma(row[0], facing_in[0], row[1] * facing_in[1]));
+    }
+    for (int i = 0; i < 3; ++i) to[i] = light[i] - where[i];
+    const double dist = std::sqrt((to[0] * to[0] + to[1] * to[1]) + to[2] * to[2]);  // np.vecdot
+    double cos_a = 1.0;
+    if (dist > 0) cos_a = ((facing[0] * to[0] + facing[1] * to[1]) + facing[2] * to[2]) / dist;
+    const double spread = 1.0 + libm_pow(dist / light_range, 2.0);
+    return (cos_a > 0 ? cos_a : 0.0) / spread;
+}
+
+// sensing.light_falloff: what a light sensor at ``pos`` facing the light reads.
+inline double falloff_value(const double* pos, const double* light, double light_range) {
+    double to[3];
+    for (int i = 0; i < 3; ++i) to[i] = light[i] - pos[i];
+    const double dist = std::sqrt((to[0] * to[0] + to[1] * to[1]) + to[2] * to[2]);
+    return 1.0 / (1.0 + libm_pow(dist / light_range, 2.0));
+}
+
+struct Settings {
+    bool light_signal = false;  // record the task signal "light" (signals.LightSignal)
+    int insertion_ticks = 0, evaluation_ticks = 0, brain_stride = 1, substeps = 1;
+    double control_period = 0, servo_k = 0, max_velocity = 0, target_scale = 0, gravity = 0;
+    double inv_period = 0;  // 1.0 / control_period, as Python computes it
+    double imu_high[6] = {0, 0, 0, 0, 0, 0};
+    double light[3] = {0, 0, 0};
+    double light_range = 1;
+};
+
+struct Light {
+    int body;  // -1: on the core (reads the core's pose)
+    int dest;
+    double point[3], facing[3];
+};
+
+// One robot in its own scene: its model and data (owned by Python), where to find it in them,
+// its brain, and its evaluation so far.
+struct Robot {
+    const mjModel* m = nullptr;
+    mjData* d = nullptr;
+    int root_body = 0, root_qpos = 0, root_dof = 0;
+    std::vector<int> hinge_qpos, hinge_dof;  // every hinge, joint order (the screen)
+    std::vector<int> active;                 // hinge of each output, output order
+    std::vector<int> touch_body, touch_dest;
+    std::vector<Light> lights;
+    std::vector<double> screen;  // blowups.Screen(1, hinges).inverse
+    std::unique_ptr<revolve::BatchController> brain;
+    std::vector<double> inputs, outputs, targets;
+    std::vector<char> touched;  // per body of the scene
+    double prev_vel[3] = {0, 0, 0};
+    double time = 0.0;
+    int tick = 0;
+    bool pending_record = false;  // resumed after a screen: the period's record is still due
+    int status = kRunning;
+    std::vector<double> path;  // recorded core positions, (rows, 3)
+    std::vector<double> signal;  // the task's signal at the same rows
+    int rows = 0;
+};
+
+class Rollout {
+   public:
+    explicit Rollout(const Settings& s) : s_(s) {}
+    Rollout(const Rollout&) = delete;  // owns its robots' brains
+    Rollout& operator=(const Rollout&) = delete;
+
+    Settings s_;
+    std::vector<Robot> robots_;
+
+    // Runs every robot that is running until it is done or stops; the robots over `threads`
+    // threads (each robot on one thread at a time: its result does not depend on the split).
+    // Called without the GIL; between two robots the calling thread takes it to see Ctrl-C, and
+    // returns false (a Python error set) when a signal handler raised.
+    bool run(int threads) {
+        std::vector<int> todo;
+        for (int i = 0; i < static_cast<int>(robots_.size()); ++i) {
+            if (robots_[i].status == kRunning) todo.push_back(i);
+        }
+        std::atomic<int> next{0};
+        std::atomic<bool> interrupted{false};
+        auto work = [&](bool caller) {
+            mjfLogHandler outer = _mjPRIVATE_setTlsLogHandler(&on_log);
+            for (int k = next.fetch_add(1); k < static_cast<int>(todo.size()) && !interrupted;
+                 k = next.fetch_add(1)) {
+                advance(robots_[todo[k]]);
+                if (caller) {
+                    nb::gil_scoped_acquire gil;
+                    if (PyErr_CheckSignals() != 0) interrupted = true;
+                }
+            }
+            _mjPRIVATE_setTlsLogHandler(outer);
+        };
+        int n = threads < 1 ? 1 : threads;
+        if (n > static_cast<int>(todo.size())) n = static_cast<int>(todo.size());
+        std::vector<std::thread> pool;
+        for (int t = 1; t < n; ++t) pool.emplace_back(work, false);
+        work(true);
+        for (auto& t : pool) t.join();
+        return !interrupted;
+    }
+
+   private:
+    void record(Robot& r) {
+        const double* q = r.d->qpos + r.root_qpos;
+        r.path.insert(r.path.end(), q, q + 3);
+        ++r.rows;
+        if (s_.light_signal) r.signal.push_back(light_signal(r));
+    }
+
+    // signals.LightSignal: the brightest light sensor, else the light at the core.
+    double light_signal(const Robot& r) const {
+        const double* core = r.d->qpos + r.root_qpos;
+        if (r.lights.empty()) return falloff_value(core, s_.light, s_.light_range);
+        const double* R = r.d->xmat + 9 * r.root_body;
+        double best = 0.0;
+        bool first = true;
+        for (const Light& L : r.lights) {
+            const double* pos = L.body < 0 ? core : r.d->xpos + 3 * L.body;
+            const double* M = L.body < 0 ? R : r.d->xmat + 9 * L.body;
+            const double v = light_value(pos, M, L.point, L.facing, s_.light, s_.light_range);
+            best = first ? v : np_max(best, v);  // np.maximum.reduceat: NaN wins
+            first = false;
+        }
+        return best;
+    }
+
+    // The core's angular velocity in the world frame: xmat @ (body-frame qvel), summed as NumPy's
+    // einsum("nij,nj->ni") sums (terms 0 and 2, then 1).
+   public:
+    static void angvel(const Robot& r, double out[3]) {
+        einsum_product(r.d->xmat + 9 * r.root_body, r.d->qvel + r.root_dof + 3, out);
+    }
+
+   private:
+
+    // World._sense for one robot (sensing.imu_readings, light_intensity; backend touching).
+    void sense(Robot& r) {
+        double* out = r.inputs.data();
+        const double* R = r.d->xmat + 9 * r.root_body;
+        const double* v = r.d->qvel + r.root_dof;
+        double rows[6], imu[6];
+        for (int k = 0; k < 3; ++k) rows[k] = (v[k] - r.prev_vel[k]) * s_.inv_period;
+        rows[2] += s_.gravity;
+        angvel(r, rows + 3);
+        imu_product(rows, R, imu);
+        for (int k = 0; k < 6; ++k) out[k] = np_min(np_max(imu[k], -s_.imu_high[k]), s_.imu_high[k]);
+        if (!r.touch_body.empty()) {
+            std::fill(r.touched.begin(), r.touched.end(), 0);
+            const mjData* d = r.d;
+            for (int c = 0; c < d->ncon; ++c) {
+                r.touched[r.m->geom_bodyid[d->contact[c].geom[0]]] = 1;
+                r.touched[r.m->geom_bodyid[d->contact[c].geom[1]]] = 1;
+            }
+            for (std::size_t k = 0; k < r.touch_body.size(); ++k) {
+                out[r.touch_dest[k]] = r.touched[r.touch_body[k]] ? 1.0 : 0.0;
+            }
+        }
+        for (const Light& L : r.lights) {
+            const double* pos = L.body < 0 ? r.d->qpos + r.root_qpos : r.d->xpos + 3 * L.body;
+            const double* M = L.body < 0 ? R : r.d->xmat + 9 * L.body;
+            out[L.dest] = light_value(pos, M, L.point, L.facing, s_.light, s_.light_range);
+        }
+    }
+
+    // blowups.all_calm for one robot: every entry within its screen, the core above -0.999 m.
+    static bool calm(const Robot& r, const double* w) {
+        const double* sc = r.screen.data();
+        const double* v = r.d->qvel + r.root_dof;
+        const double* p = r.d->qpos + r.root_qpos;
+        const int J = static_cast<int>(r.hinge_qpos.size());
+        int k = 0;
+        bool ok = true;
+        for (int i = 0; i < 3; ++i) ok &= std::fabs(v[i]) * sc[k++] <= 1.0;
+        for (int i = 0; i < 3; ++i) ok &= std::fabs(w[i]) * sc[k++] <= 1.0;
+        for (int i = 0; i < J; ++i) ok &= std::fabs(r.d->qvel[r.hinge_dof[i]]) * sc[k++] <= 1.0;
+        for (int i = 0; i < 3; ++i) ok &= std::fabs(p[i]) * sc[k++] <= 1.0;
+        for (int i = 0; i < J; ++i) ok &= std::fabs(r.d->qpos[r.hinge_qpos[i]]) * sc[k++] <= 1.0;
+        return ok && p[2] >= -0.999;
+    }
+
+    // One control period; false when the robot stopped (its status says why).
+    bool period(Robot& r) {
+        const mjModel* m = r.m;
+        mjData* d = r.d;
+        if (r.tick == s_.insertion_ticks) record(r);
+        const int n_out = static_cast<int>(r.active.size());
+        if (r.tick % s_.brain_stride == 0) {
+            sense(r);
+            r.brain->step(r.inputs.data(), r.outputs.data());
+            // World._write_targets: clipped and scaled; a non-finite target is the NumPy path's
+            if (!finite(r.outputs.data(), n_out)) {
+                r.status = kFallback;
+                return false;
+            }
+            for (int i = 0; i < n_out; ++i) {
+                r.targets[i] = np_min(np_max(r.outputs[i], -1.0), 1.0) * s_.target_scale;
+            }
+        }
+        // RoboGen's servo law (World.step).
+        for (int i = 0; i < n_out; ++i) {
+            const double q = d->qpos[r.hinge_qpos[r.active[i]]];
+            d->ctrl[i] = np_min(np_max(s_.servo_k * (r.targets[i] - q), -s_.max_velocity), s_.max_velocity);
+        }
+        for (int k = 0; k < 3; ++k) r.prev_vel[k] = d->qvel[r.root_dof + k];
+        for (int k = 0; k < s_.substeps; ++k) {
+            // A non-finite state is the NumPy path's to replay and report (MujocoBackend._replay).
+            if (!guarded_step(m, d) || !finite(d->qpos, m->nq) || !finite(d->qvel, m->nv)) {
+                r.status = kFallback;
+                return false;
+            }
+        }
+        if (!finite(d->qacc_warmstart, m->nv)) {
+            r.status = kFallback;
+            return false;
+        }
+        mj_kinematics(m, d);  // as MujocoScenes.step: the poses of the state now
+        r.time += s_.control_period;
+        double w[3];
+        angvel(r, w);
+        if (!calm(r, w)) {
+            r.status = kScreen;
+            r.pending_record = true;
+            return false;
+        }
+        finish(r);
+        return true;
+    }
+
+    void finish(Robot& r) {
+        if (r.tick >= s_.insertion_ticks) record(r);
+        ++r.tick;
+        if (r.tick >= s_.insertion_ticks + s_.evaluation_ticks) r.status = kDone;
+    }
+
+   public:
+    void advance(Robot& r) {
+        if (r.pending_record) {
+            r.pending_record = false;
+            finish(r);
+        }
+        while (r.status == kRunning && period(r)) {
+        }
+    }
+
+    // After a SCREEN stop: Python found the robot blown (drop) or not (go on).
+    void resume(int i, bool blown) {
+        Robot& r = robot(i);
+        if (r.status != kScreen) throw std::invalid_argument("robot is not waiting for a screen");
+        if (blown) {
+            r.pending_record = false;
+            r.status = kDone;
+        } else {
+            r.status = kRunning;
+        }
+    }
+
+    Robot& robot(int i) {
+        if (i < 0 || i >= static_cast<int>(robots_.size())) throw std::out_of_range("no such robot");
+        return robots_[i];
+    }
+};
+
+template <typename T>
+using Vec = nb::ndarray<const T, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+using Mat3 = nb::ndarray<const double, nb::shape<-1, 3>, nb::c_contig, nb::device::cpu>;
+
+std::vector<int> ints(const Vec<std::int64_t>& a) {
+    return std::vector<int>(a.data(), a.data() + a.shape(0));
+}
+
+void check_index(const std::vector<int>& v, int limit, const char* what) {
+    for (int x : v) {
+        if (x < 0 || x >= limit) throw nb::value_error((std::string(what) + " out of range").c_str());
+    }
+}
+
+int add(Rollout& ro, std::uintptr_t model, std::uintptr_t data, int root_body, int root_qpos, int root_dof,
+        Vec<std::int64_t> hinge_qpos, Vec<std::int64_t> hinge_dof, Vec<std::int64_t> active, int n_inputs,
+        Vec<std::int64_t> touch_body, Vec<std::int64_t> touch_dest, Vec<std::int64_t> light_body,
+        Vec<std::int64_t> light_dest, Mat3 light_point, Mat3 light_facing, Vec<double> screen,
+        Vec<double> prev_vel, Vec<std::int8_t> kinds, nb::ndarray<const double, nb::ndim<2>, nb::c_contig> params,
+        Vec<std::int32_t> src, Vec<std::int32_t> dst, Vec<double> weight, std::int64_t net_inputs,
+        std::int64_t net_outputs, double brain_dt) {
+    Robot r;
+    r.m = reinterpret_cast<const mjModel*>(model);
+    r.d = reinterpret_cast<mjData*>(data);
+    if (r.m == nullptr || r.d == nullptr) throw nb::value_error("null MuJoCo model or data");
+    const mjModel* m = r.m;
+    if (root_body < 0 || root_body >= m->nbody || root_qpos < 0 || root_qpos + 7 > m->nq || root_dof < 0 ||
+        root_dof + 6 > m->nv) {
+        throw nb::value_error("the robot's root is not in the model");
+    }
+    r.root_body = root_body;
+    r.root_qpos = root_qpos;
+    r.root_dof = root_dof;
+    r.hinge_qpos = ints(hinge_qpos);
+    r.hinge_dof = ints(hinge_dof);
+    r.active = ints(active);
+    check_index(r.hinge_qpos, m->nq, "hinge qpos");
+    check_index(r.hinge_dof, m->nv, "hinge dof");
+    if (r.hinge_qpos.size() != r.hinge_dof.size()) throw nb::value_error("hinge addresses differ in length");
+    check_index(r.active, static_cast<int>(r.hinge_qpos.size()), "active hinge");
+    if (static_cast<int>(r.active.size()) != m->nu) throw nb::value_error("one actuator per active hinge expected");
+    r.touch_body = ints(touch_body);
+    r.touch_dest = ints(touch_dest);
+    check_index(r.touch_body, m->nbody, "touch body");
+    check_index(r.touch_dest, n_inputs, "touch input");
+    if (r.touch_body.size() != r.touch_dest.size()) throw nb::value_error("touch arrays differ in length");
+    const std::size_t k = light_body.shape(0);
+    if (light_dest.shape(0) != k || light_point.shape(0) != k || light_facing.shape(0) != k) {
+        throw nb::value_error("light arrays differ in length");
+    }
+    for (std::size_t i = 0; i < k; ++i) {
+        Light L{static_cast<int>(light_body(i)), static_cast<int>(light_dest(i)), {}, {}};
+        if (L.body < -1 || L.body >= m->nbody || L.dest < 0 || L.dest >= n_inputs) {
+            throw nb::value_error("light sensor out of range");
+        }
+        for (int j = 0; j < 3; ++j) {
+            L.point[j] = light_point(i, j);
+            L.facing[j] = light_facing(i, j);
+        }
+        r.lights.push_back(L);
+    }
+    const std::size_t J = r.hinge_qpos.size();
+    if (screen.shape(0) != 6 + 2 * J + 3 || prev_vel.shape(0) != 3) throw nb::value_error("bad screen or velocity");
+    r.screen.assign(screen.data(), screen.data() + screen.shape(0));
+    for (int j = 0; j < 3; ++j) r.prev_vel[j] = prev_vel(j);
+    if (n_inputs < 6 || net_inputs != n_inputs || net_outputs != static_cast<std::int64_t>(r.active.size())) {
+        throw nb::value_error("the network does not fit the body");
+    }
+    if (params.shape(0) != kinds.shape(0) || params.shape(1) != revolve::kParamColumns ||
+        src.shape(0) != dst.shape(0) || src.shape(0) != weight.shape(0)) {
+        throw nb::value_error("malformed network arrays");
+    }
+    revolve::NetworkView v;
+    v.n_neurons = static_cast<std::int64_t>(kinds.shape(0));
+    v.n_inputs = net_inputs;
+    v.n_outputs = net_outputs;
+    v.kinds = kinds.data();
+    v.neuron_params = params.data();
+    v.n_connections = static_cast<std::int64_t>(src.shape(0));
+    v.src = src.data();
+    v.dst = dst.data();
+    v.weight = weight.data();
+    r.brain = std::make_unique<revolve::BatchController>(brain_dt);
+    r.brain->add(v);
+    r.inputs.assign(n_inputs, 0.0);
+    r.outputs.assign(r.active.size(), 0.0);
+    r.targets.assign(r.active.size(), 0.0);
+    r.touched.assign(m->nbody, 0);
+    r.path.reserve(3 * (ro.s_.evaluation_ticks + 1));
+    ro.robots_.push_back(std::move(r));
+    return static_cast<int>(ro.robots_.size()) - 1;
+}
+
+nb::ndarray<nb::numpy, double> copy_array(const double* src, std::size_t n, std::vector<std::size_t> shape) {
+    double* buf = new double[n];
+    if (n) std::memcpy(buf, src, n * sizeof(double));
+    nb::capsule owner(buf, [](void* p) noexcept { delete[] static_cast<double*>(p); });
+    return nb::ndarray<nb::numpy, double>(buf, shape.size(), shape.data(), owner);
+}
+
+}  // namespace
+
+NB_MODULE(_rollout, mod) {
+    mod.doc() = "revolve-env's compiled rollout on MuJoCo (use revolve_env.world.compiled)";
+    mod.attr("MUJOCO_HEADER") = mjVERSION_HEADER;
+#ifdef REVOLVE_MUJOCO_VERSION
+    mod.attr("MUJOCO_VERSION") = REVOLVE_MUJOCO_VERSION;  // the wheel built against
+#else
+    mod.attr("MUJOCO_VERSION") = "";
+#endif
+    mod.attr("RUNNING") = static_cast<int>(kRunning);
+    mod.attr("DONE") = static_cast<int>(kDone);
+    mod.attr("SCREEN") = static_cast<int>(kScreen);
+    mod.attr("FALLBACK") = static_cast<int>(kFallback);
+    mod.def("mujoco_version", []() { return mj_version(); }, "mj_version() of the loaded libmujoco.");
+
+    nb::class_<Rollout>(mod, "Rollout", "Robots in scenes of their own, evaluated in C++.")
+        .def(
+            "__init__",
+            [](Rollout* self, int insertion_ticks, int evaluation_ticks, int brain_stride, int substeps,
+               double control_period, double servo_k, double max_velocity, double target_scale, double gravity,
+               Vec<double> imu_high, Vec<double> light, double light_range, bool light_signal) {
+                if (insertion_ticks < 0 || evaluation_ticks < 1 || brain_stride < 1 || substeps < 1 ||
+                    !(control_period > 0) || imu_high.shape(0) != 6 || light.shape(0) != 3) {
+                    throw nb::value_error("bad rollout settings");
+                }
+                Settings s;
+                s.insertion_ticks = insertion_ticks;
+                s.evaluation_ticks = evaluation_ticks;
+                s.brain_stride = brain_stride;
+                s.substeps = substeps;
+                s.control_period = control_period;
+                s.inv_period = 1.0 / control_period;
+                s.servo_k = servo_k;
+                s.max_velocity = max_velocity;
+                s.target_scale = target_scale;
+                s.gravity = gravity;
+                for (int i = 0; i < 6; ++i) s.imu_high[i] = imu_high(i);
+                for (int i = 0; i < 3; ++i) s.light[i] = light(i);
+                s.light_range = light_range;
+                s.light_signal = light_signal;
+                new (self) Rollout(s);
+            },
+            nb::arg("insertion_ticks"), nb::arg("evaluation_ticks"), nb::arg("brain_stride"), nb::arg("substeps"),
+            nb::arg("control_period"), nb::arg("servo_k"), nb::arg("max_velocity"), nb::arg("target_scale"),
+            nb::arg("gravity"), nb::arg("imu_high"), nb::arg("light"), nb::arg("light_range"),
+            nb::arg("light_signal") = false)
+        .def("add", &add, "Add a robot (its scene's raw mjModel*/mjData* and layout); returns its index.")
+        .def(
+            "run", [](Rollout& ro, int threads) {
+                bool finished;
+                {
+                    nb::gil_scoped_release release;
+                    finished = ro.run(threads);
+                }
+                if (!finished) throw nb::python_error();  // KeyboardInterrupt, say
+            },
+            nb::arg("threads") = 1, "Run every running robot until it is done or stops (GIL released).")
+        .def("status", [](Rollout& ro, int i) { return ro.robot(i).status; }, nb::arg("index"))
+        .def("time", [](Rollout& ro, int i) { return ro.robot(i).time; }, nb::arg("index"))
+        .def("resume", &Rollout::resume, nb::arg("index"), nb::arg("blown"))
+        .def(
+            "path",
+            [](Rollout& ro, int i) {
+                Robot& r = ro.robot(i);
+                return copy_array(r.path.data(), r.path.size(), {static_cast<std::size_t>(r.rows), 3});
+            },
+            nb::arg("index"), "The core's recorded positions, (rows, 3). Metres.")
+        .def(
+            "signal",
+            [](Rollout& ro, int i) {
+                Robot& r = ro.robot(i);
+                return copy_array(r.signal.data(), r.signal.size(), {r.signal.size()});
+            },
+            nb::arg("index"), "The task signal at the recorded rows (empty without one).")
+        .def(
+            "state",
+            [](Rollout& ro, int i) {
+                // The robot's BodyStates row now (MujocoBackend.read), for blowups.reason.
+                Robot& r = ro.robot(i);
+                const std::size_t J = r.hinge_qpos.size();
+                std::vector<double> jp(J), jv(J);
+                for (std::size_t k = 0; k < J; ++k) {
+                    jp[k] = r.d->qpos[r.hinge_qpos[k]];
+                    jv[k] = r.d->qvel[r.hinge_dof[k]];
+                }
+                double w[3];
+                Rollout::angvel(r, w);
+                return nb::make_tuple(copy_array(r.d->qpos + r.root_qpos, 3, {1, 3}),
+                                      copy_array(r.d->xmat + 9 * r.root_body, 9, {1, 3, 3}),
+                                      copy_array(r.d->qvel + r.root_dof, 3, {1, 3}), copy_array(w, 3, {1, 3}),
+                                      copy_array(jp.data(), J, {J}), copy_array(jv.data(), J, {J}));
+            },
+            nb::arg("index"), "(core_pos, core_rot, core_vel, core_angvel, joint_pos, joint_vel) now.");
+
+    // The kernels over n rows, checked against NumPy's at import (revolve_env.world.compiled).
+    mod.def(
+        "imu_products",
+        [](nb::ndarray<const double, nb::shape<-1, 2, 3>, nb::c_contig, nb::device::cpu> rows,
+           nb::ndarray<const double, nb::shape<-1, 3, 3>, nb::c_contig, nb::device::cpu> rot) {
+            const std::size_t n = rows.shape(0);
+            if (rot.shape(0) != n) throw nb::value_error("rows and rot differ in length");
+            std::vector<double> out(6 * n);
+            for (std::size_t k = 0; k < n; ++k) imu_product(rows.data() + 6 * k, rot.data() + 9 * k, out.data() + 6 * k);
+            return copy_array(out.data(), out.size(), {n, 2, 3});
+        },
+        nb::arg("rows"), nb::arg("rot"), "rows @ rot, (n, 2, 3) @ (n, 3, 3).");
+    mod.def(
+        "einsum_products",
+        [](nb::ndarray<const double, nb::shape<-1, 3, 3>, nb::c_contig, nb::device::cpu> rot, Mat3 w) {
+            const std::size_t n = rot.shape(0);
+            if (w.shape(0) != n) throw nb::value_error("rot and w differ in length");
+            std::vector<double> out(3 * n);
+            for (std::size_t k = 0; k < n; ++k) einsum_product(rot.data() + 9 * k, w.data() + 3 * k, out.data() + 3 * k);
+            return copy_array(out.data(), out.size(), {n, 3});
+        },
+        nb::arg("rot"), nb::arg("w"), "einsum('nij,nj->ni', rot, w).");
+    mod.def(
+        "falloff_values",
+        [](Mat3 pos, Vec<double> light, double light_range) {
+            const std::size_t n = pos.shape(0);
+            if (light.shape(0) != 3) throw nb::value_error("light must have 3 values");
+            std::vector<double> out(n);
+            for (std::size_t k = 0; k < n; ++k) out[k] = falloff_value(pos.data() + 3 * k, light.data(), light_range);
+            return copy_array(out.data(), n, {n});
+        },
+        nb::arg("pos"), nb::arg("light"), nb::arg("light_range"), "sensing.light_falloff.");
+    mod.def(
+        "light_values",
+        [](Mat3 pos, nb::ndarray<const double, nb::shape<-1, 3, 3>, nb::c_contig, nb::device::cpu> rot, Mat3 point,
+           Mat3 facing, Vec<double> light, double light_range) {
+            const std::size_t n = pos.shape(0);
+            if (rot.shape(0) != n || point.shape(0) != n || facing.shape(0) != n || light.shape(0) != 3) {
+                throw nb::value_error("sensor arrays differ in length");
+            }
+            std::vector<double> out(n);
+            for (std::size_t k = 0; k < n; ++k) {
+                out[k] = light_value(pos.data() + 3 * k, rot.data() + 9 * k, point.data() + 3 * k,
+                                     facing.data() + 3 * k, light.data(), light_range);
+            }
+            return copy_array(out.data(), n, {n});
+        },
+        nb::arg("pos"), nb::arg("rot"), nb::arg("point"), nb::arg("facing"), nb::arg("light"), nb::arg("light_range"),
+        "sensing.light_intensity.");
+}

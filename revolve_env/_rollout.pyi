@@ -1,0 +1,49 @@
+"""Type stubs of the compiled rollout on MuJoCo (controller_cpp/src/rollout.cpp).
+
+Use it through :mod:`revolve_env.world.compiled`.
+"""
+
+import numpy as np
+from numpy.typing import NDArray
+
+MUJOCO_HEADER: int
+MUJOCO_VERSION: str
+RUNNING: int
+DONE: int
+SCREEN: int
+FALLBACK: int
+
+def mujoco_version() -> int: ...
+def imu_products(rows: NDArray[np.float64], rot: NDArray[np.float64]) -> NDArray[np.float64]: ...
+def einsum_products(rot: NDArray[np.float64], w: NDArray[np.float64]) -> NDArray[np.float64]: ...
+def falloff_values(pos: NDArray[np.float64], light: NDArray[np.float64],
+                   light_range: float) -> NDArray[np.float64]: ...
+def light_values(pos: NDArray[np.float64], rot: NDArray[np.float64], point: NDArray[np.float64],
+                 facing: NDArray[np.float64], light: NDArray[np.float64],
+                 light_range: float) -> NDArray[np.float64]: ...
+
+class Rollout:
+    def __init__(self, insertion_ticks: int, evaluation_ticks: int, brain_stride: int,
+                 substeps: int, control_period: float, servo_k: float, max_velocity: float,
+                 target_scale: float, gravity: float, imu_high: NDArray[np.float64],
+                 light: NDArray[np.float64], light_range: float,
+                 light_signal: bool = False) -> None: ...
+    def add(self, model: int, data: int, root_body: int, root_qpos: int, root_dof: int,
+            hinge_qpos: NDArray[np.int64], hinge_dof: NDArray[np.int64],
+            active: NDArray[np.int64], n_inputs: int, touch_body: NDArray[np.int64],
+            touch_dest: NDArray[np.int64], light_body: NDArray[np.int64],
+            light_dest: NDArray[np.int64], light_point: NDArray[np.float64],
+            light_facing: NDArray[np.float64], screen: NDArray[np.float64],
+            prev_vel: NDArray[np.float64], kinds: NDArray[np.int8],
+            params: NDArray[np.float64], src: NDArray[np.int32], dst: NDArray[np.int32],
+            weight: NDArray[np.float64], net_inputs: int, net_outputs: int,
+            brain_dt: float) -> int: ...
+    def run(self, threads: int = 1) -> None: ...
+    def status(self, index: int) -> int: ...
+    def time(self, index: int) -> float: ...
+    def resume(self, index: int, blown: bool) -> None: ...
+    def path(self, index: int) -> NDArray[np.float64]: ...
+    def signal(self, index: int) -> NDArray[np.float64]: ...
+    def state(self, index: int) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                         NDArray[np.float64], NDArray[np.float64],
+                                         NDArray[np.float64], NDArray[np.float64]]: ...

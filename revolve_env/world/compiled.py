@@ -1,0 +1,219 @@
+"""The compiled rollout: a whole evaluation on MuJoCo in C++, to the bit of the NumPy rules.
+
+:func:`rollout` runs the insertion and the fitness window of robots in an isolated MuJoCo world
+(each robot in a scene of its own) in the extension ``revolve_env._rollout``: per control period
+RoboGen's servo law, ``mj_step``, the body states, the IMU, touch and light sensors, the blow-up
+screen, the brain and the core's path, with the GIL released and no Python, the robots spread over
+``threads`` threads (a robot's result does not depend on the split). The rules stay where they
+are (:mod:`~revolve_env.world.world`, :mod:`~revolve_env.world.sensing`,
+:mod:`~revolve_env.world.blowups`); the extension does their arithmetic in the same order, and
+Python decides what they decide rarely: a robot whose screen fails waits until
+:func:`~revolve_env.world.blowups.reason` has judged it, and a robot whose physics or brain turns
+non-finite is evaluated again on the NumPy path (which replays and reports it as ever).
+
+The only module that imports the extension. It is used only where it gives the NumPy path's
+numbers: the extension must be built against the very ``mujoco`` that is imported, and its
+kernels must round as NumPy's do here (checked once per process on random data: NumPy's matrix
+products are OpenBLAS's, which fuse or not by CPU). Otherwise, or when it was not built (no
+compiler or no ``mujoco`` wheel at install time), :func:`rollout` returns None and the caller
+takes the NumPy path; the reason is logged once.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib
+import logging
+import math
+from collections.abc import Callable, Sequence
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from revolve_env.body.robot import Robot
+from revolve_env.brain._registry import as_spec
+from revolve_env.world.backend import BodyStates
+from revolve_env.world.blowups import Screen, reason
+from revolve_env.world.sensing import IMU_HIGH, imu_readings, light_falloff, light_intensity
+from revolve_env.world.world import World
+
+__all__ = ["SIGNALS", "Path", "available", "rollout"]
+
+_log = logging.getLogger(__name__)
+
+Path = tuple[NDArray[np.float64], NDArray[np.float64], str | None]
+"""Per robot: the core's path (read-only, metres), the task signal at the same rows (empty
+without one) and the blow-up reason."""
+
+SIGNALS = ("light",)
+"""The task signals the compiled rollout records (:mod:`revolve_env.world.signals`)."""
+
+Rerun = Callable[..., list[Path]]
+
+
+@functools.cache
+def _extension() -> ModuleType | None:
+    """The extension if it gives the NumPy rules' numbers here, else None (logged once)."""
+    # mujoco first: its libmujoco, loaded, is the one the extension links to (by its soname),
+    # wherever the mujoco package is installed.
+    from revolve_env.world.mujoco_gl import mujoco  # noqa: PLC0415 (only on MuJoCo's path)
+
+    try:
+        ext = importlib.import_module("revolve_env._rollout")
+    except ImportError as e:
+        _log.warning("revolve-env: the compiled rollout is not built (%s); evaluations on MuJoCo "
+                     "use the NumPy rules", " ".join(str(e).split()))
+        return None
+    if mujoco.__version__ != ext.MUJOCO_VERSION or ext.mujoco_version() != ext.MUJOCO_HEADER:
+        _log.warning("revolve-env: the compiled rollout was built for mujoco %s, not the "
+                     "installed %s; evaluations on MuJoCo use the NumPy rules (reinstall "
+                     "revolve-env to rebuild it)", ext.MUJOCO_VERSION, mujoco.__version__)
+        return None
+    odd = _kernels_differ(ext)
+    if odd:
+        _log.warning("revolve-env: the compiled rollout's %s does not round as NumPy's does on "
+                     "this machine; evaluations on MuJoCo use the NumPy rules", odd)
+        return None
+    return ext
+
+
+def _kernels_differ(ext: ModuleType) -> str | None:
+    """The first kernel whose bits differ from NumPy's on random data, else None."""
+    from revolve_env.world.mujoco_backend import _c_einsum  # noqa: PLC0415 (imports mujoco)
+
+    rng = np.random.default_rng(2026)
+    n = 256
+    rot = rng.normal(size=(n, 3, 3))
+    vel, prev, spin = (rng.normal(size=(n, 3)) * 10 for _ in range(3))
+    imu = imu_readings(vel, prev, spin, rot, 1 / 60, 9.81)
+    raw = np.concatenate(((vel - prev) * (1.0 / (1 / 60)), spin), axis=1)
+    raw[:, 2] += 9.81
+    if not np.array_equal(ext.imu_products(raw.reshape(n, 2, 3), rot).reshape(n, 6), imu):
+        return "IMU product"
+    if not np.array_equal(ext.einsum_products(rot, spin), _c_einsum("nij,nj->ni", rot, spin)):
+        return "angular velocity product"
+    pos, point = rng.normal(size=(n, 3)), rng.normal(size=(n, 3)) * 0.1
+    facing = rng.normal(size=(n, 3))
+    facing /= np.linalg.norm(facing, axis=1, keepdims=True)
+    light = np.array([1.0, 0.0, 0.1])
+    want = light_intensity(pos, rot, np.ascontiguousarray(point[:, :, None]),
+                           np.ascontiguousarray(facing[:, :, None]), light, 1.0)
+    if not np.array_equal(ext.light_values(pos, rot, point, facing, light, 1.0), want):
+        return "light sensor"
+    if not np.array_equal(ext.falloff_values(pos, light, 0.7), light_falloff(pos, light, 0.7)):
+        return "light fall-off"
+    return None
+
+
+def available() -> bool:
+    """Whether the compiled rollout is built and gives the NumPy rules' numbers here."""
+    return _extension() is not None
+
+
+def rollout(world: World, robots: Sequence[Robot], starts: Sequence[Any], insertion_ticks: int,
+            evaluation_ticks: int, signal: str | None,
+            joints: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]] | None] | None,
+            threads: int, rerun: Rerun) -> list[Path] | None:
+    """``evaluation._rollout`` without noise, compiled; None where it does not apply.
+
+    It applies to an empty isolated MuJoCo ``world`` and a task without a signal or with one of
+    :data:`SIGNALS`, when the extension is usable (:func:`available`); then it adds the robots
+    to ``world`` (spent afterwards: close it) and returns what the NumPy path would, bit for bit.
+
+    Args:
+        world: An empty ``World(config, isolated=True)``.
+        robots: The robots, with their networks.
+        starts: Their starts (``position``, ``yaw``).
+        insertion_ticks: Control periods before the fitness window.
+        evaluation_ticks: Control periods of the window.
+        signal: The task's signal, None or one of :data:`SIGNALS`.
+        joints: Per robot, its active hinges' start angles and speeds (None: at rest).
+        threads: Threads to spread the robots over (>= 1); the numbers do not depend on it.
+        rerun: ``evaluation._rollout`` on the NumPy path, with its arguments: evaluates the robots
+            the extension hands back (non-finite physics or brain outputs).
+
+    Raises:
+        ValueError: a network whose inputs or outputs do not match its body.
+    """
+    if ((signal is not None and signal not in SIGNALS) or world.engine != "mujoco" or world.handles
+            or not any(k.__name__ == "MujocoScenes" for k in type(world.backend).__mro__)):
+        return None
+    ext = _extension()
+    if ext is None:
+        return None
+    c = world.config
+    n = len(robots)
+    handles = [world.add_robot(robot, start.position, start.yaw)
+               for robot, start in zip(robots, starts, strict=True)]
+    specs = [as_spec(robot) for robot in robots]
+    for spec, h in zip(specs, handles, strict=True):
+        if world.n_inputs(h) != spec.n_inputs or world.n_outputs(h) != spec.n_outputs:
+            raise ValueError(
+                f"the network has {spec.n_inputs} inputs / {spec.n_outputs} outputs but the body "
+                f"has {world.n_inputs(h)} sensor values / {world.n_outputs(h)} active hinges")
+    for h, hinges in zip(handles, joints or [None] * n, strict=True):
+        if hinges is not None:
+            world.set_hinge_state(h, *hinges)
+    run = ext.Rollout(insertion_ticks, evaluation_ticks, c.brain_stride, c.substeps,
+                      c.control_period, c.servo_gain / c.control_period, c.max_velocity,
+                      math.radians(c.range_deg), c.gravity, IMU_HIGH,
+                      np.asarray(c.light_position, dtype=np.float64), float(c.light_range),
+                      signal == "light")
+    # The world's own bookkeeping of each robot and its scene (this package's private parts).
+    states = [world._robots[h] for h in handles]  # noqa: SLF001
+    scenes = world.backend._scene_list()  # type: ignore[attr-defined]  # noqa: SLF001
+    prev_vel = world._prev_vel  # noqa: SLF001
+    redo = [i for i, h in enumerate(handles) if world.blow_up(h) is not None]  # blown at birth
+    for i, (s, scene, spec) in enumerate(zip(states, scenes, specs, strict=True)):
+        _add(run, s, scene, spec, Screen(1, s.n_joints, c).inverse, prev_vel[i], c.brain_dt)
+    reasons: list[str | None] = [None] * n
+    while True:
+        run.run(max(1, int(threads)))
+        waiting = [i for i in range(n) if run.status(i) == ext.SCREEN]
+        if not waiting:
+            break
+        for i in waiting:
+            pos, rot, vel, spin, angles, speeds = run.state(i)
+            now = BodyStates(pos, rot, vel, spin, angles, speeds, np.zeros(1, dtype=bool))
+            reasons[i] = reason(now, 0, slice(0, angles.shape[0]), c, run.time(i))
+            run.resume(i, reasons[i] is not None)
+    redo += [i for i in range(n) if run.status(i) == ext.FALLBACK and i not in redo]
+    out: list[Path] = []
+    for i in range(n):
+        path = run.path(i)
+        path.setflags(write=False)
+        out.append((path, run.signal(i), reasons[i]))
+    if redo:
+        with World(c, isolated=True) as again:
+            redone = rerun(again, [robots[i] for i in redo], [starts[i] for i in redo],
+                           insertion_ticks, evaluation_ticks,
+                           [np.random.default_rng(0) for _ in redo], 0.0, 0.0, signal,
+                           None if joints is None else [joints[i] for i in redo])
+        for i, result in zip(redo, redone, strict=True):
+            out[i] = result
+    return out
+
+
+def _add(run: Any, s: Any, scene: Any, spec: Any, screen: NDArray[np.float64],
+         prev_vel: NDArray[np.float64], brain_dt: float) -> None:
+    """Hand one robot (its world bookkeeping ``s``, its MuJoCo scene, its network) to ``run``."""
+    def ints(a: Any) -> NDArray[np.int64]:
+        return np.ascontiguousarray(np.asarray(a).reshape(-1), dtype=np.int64)
+
+    m, d = scene._model, scene._data  # noqa: SLF001
+    root = s.light_links == 0
+    bodies = np.full(s.light_links.shape[0], -1, dtype=np.int64)  # -1: the core's pose
+    if (~root).any():
+        bodies[~root] = scene.link_index(0, s.light_links[~root])
+    touch = scene.link_index(0, s.touch_links) if s.touch_links.size else np.zeros(0)
+    run.add(m._address, d._address, int(scene._root_bodies[0]),  # noqa: SLF001
+            int(scene._root_qpos[0]), int(scene._root_dofs[0]),  # noqa: SLF001
+            ints(scene._hinge_qpos), ints(scene._hinge_dofs), ints(s.active_local),  # noqa: SLF001
+            int(s.n_inputs), ints(touch), ints(s.touch_local), bodies, ints(s.light_local),
+            np.ascontiguousarray(s.light_position, dtype=np.float64).reshape(-1, 3),
+            np.ascontiguousarray(s.light_direction, dtype=np.float64).reshape(-1, 3),
+            np.ascontiguousarray(screen), np.ascontiguousarray(prev_vel, dtype=np.float64),
+            spec.kinds, spec.neuron_params, spec.src, spec.dst, spec.weight,
+            int(spec.n_inputs), int(spec.n_outputs), float(brain_dt))
