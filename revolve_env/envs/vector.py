@@ -44,9 +44,9 @@ from revolve_env.tasks import score
 from revolve_env.world import World
 from revolve_env.world.signals import SignalReader, signal_reader
 
-__all__ = ["LocomotionVectorEnv"]
+__all__ = ["INFO_KEYS", "LocomotionVectorEnv"]
 
-_INFO_KEYS = ("fitness", "fitness_v", "fitness_s", "reward_fitness", "time", "evaluating",
+INFO_KEYS = ("fitness", "fitness_v", "fitness_s", "reward_fitness", "time", "evaluating",
               "x_position", "y_position", "blow_up")
 
 
@@ -428,7 +428,7 @@ class LocomotionVectorEnv(VectorEnv[NDArray[np.float64], NDArray[np.float32],
                     "reward_fitness": np.zeros(n), "time": np.zeros(n),
                     "evaluating": np.zeros(n, dtype=bool), "x_position": np.zeros(n),
                     "y_position": np.zeros(n), "blow_up": np.full(n, None, dtype=object)}
-            for key in _INFO_KEYS:
+            for key in INFO_KEYS:
                 info["_" + key] = np.zeros(n, dtype=bool)
         world = self._world
         assert world is not None
@@ -444,7 +444,7 @@ class LocomotionVectorEnv(VectorEnv[NDArray[np.float64], NDArray[np.float32],
         info["y_position"][ids] = pos[rows, 1]
         for i in ids.tolist():
             info["blow_up"][i] = self._blow_up[i]
-        for key in _INFO_KEYS:
+        for key in INFO_KEYS:
             info["_" + key][ids] = True
         return info
 
