@@ -53,8 +53,7 @@ class NativeVecEnv(VecEnv):
                                                  max_episode_steps=None)
         super().__init__(num_envs, self.venv.single_observation_space,
                          self.venv.single_action_space)
-        self._actions: NDArray[Any] = np.zeros(
-            (num_envs, len(self.venv.env.action_space.low)), dtype=np.float32)
+        self._actions: NDArray[Any] = np.zeros(0, dtype=np.float32)  # step_async's
         self._returns = np.zeros(num_envs)
         self._lengths = np.zeros(num_envs, dtype=np.int64)
         self._t0 = time.time()
