@@ -19,10 +19,10 @@ def one_by_one(task: EvalTask) -> EvalOutcome:
 
 
 def _learners(function: Any, engine: str) -> tuple[CMAESLearner, RandomSearchLearner]:
-    evaluation = CandidateEvaluation(insertion=0.25, seconds=0.5, engine=engine,
+    evaluation = CandidateEvaluation(insertion=0.1, seconds=0.25, engine=engine,
                                      function=function)
-    return (CMAESLearner(popsize=6, evaluation=evaluation),
-            RandomSearchLearner(batch_size=5, evaluation=evaluation))
+    return (CMAESLearner(popsize=4, evaluation=evaluation),
+            RandomSearchLearner(batch_size=4, evaluation=evaluation))
 
 
 @pytest.mark.parametrize("engine", ["mujoco", pytest.param("pybullet", marks=pytest.mark.slow)])
@@ -38,15 +38,15 @@ def test_a_batched_generation_gives_the_numbers_of_one_by_one(
 
     monkeypatch.setattr(revolve_env.evaluation, "evaluate_many", counted)
     robot = EXAMPLES["spider"]()
-    budget = 13 * 0.75  # the inborn controller and two generations of six
+    budget = 9 * 0.35  # the inborn controller and two generations of four
     for batched, single in zip(_learners(evaluate_task, engine),
                                _learners(one_by_one, engine), strict=True):
         calls.clear()
         a = batched.learn(robot, budget, np.random.default_rng(4))
         generations = list(calls)
         b = single.learn(robot, budget, np.random.default_rng(4))
-        assert a.fitness == b.fitness and len(a.fitness) == 13
+        assert a.fitness == b.fitness and len(a.fitness) == 9
         assert np.array_equal(a.params, b.params) and a.best_fitness == b.best_fitness
-        assert generations[0] == 1 and sum(generations) == 13  # the inborn, then batches
+        assert generations[0] == 1 and sum(generations) == 9  # the inborn, then batches
         assert max(generations) > 1
-        assert calls[len(generations):] == [1] * 13  # one by one: a robot per call
+        assert calls[len(generations):] == [1] * 9  # one by one: a robot per call
