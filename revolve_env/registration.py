@@ -43,6 +43,7 @@ from revolve_env.episode_length import (
     DEFAULT_INSERTION_TIME,
     DEFAULT_MAX_EPISODE_STEPS,
     DEFAULT_ROBOT,
+    check_time_limit,
     episode_steps,
 )
 
@@ -56,7 +57,6 @@ __all__ = [
     "LOCOMOTION_V1_ID",
     "VECTOR_ENTRY_POINT",
     "TimeLimitFits",
-    "check_time_limit",
     "episode_steps",
     "register_envs",
     "vector_spec",
@@ -81,27 +81,6 @@ class TimeLimitFits(gymnasium.Wrapper[Any, Any, Any, Any],
         gymnasium.Wrapper.__init__(self, env)
         check_time_limit(env.spec.max_episode_steps if env.spec is not None else None,
                          env.unwrapped)
-
-
-def check_time_limit(limit: int | None, env: Any) -> None:
-    """Refuse a ``max_episode_steps`` that would end ``env``'s episodes early (None, -1: none).
-
-    ``env``: a :class:`~revolve_env.envs.LocomotionEnv` (its times and control period).
-
-    Raises:
-        ValueError: the limit is shorter than the env's episode (one line: what to pass).
-    """
-    dt = float(env.config.control_period)
-    insertion, total = episode_steps(env.insertion_time, env.evaluation_time, dt)
-    if limit is None or limit < 0 or limit >= total:
-        return
-    what = (f"ends every episode within the {insertion}-step insertion phase, which is not "
-            "scored (every return would be 0)" if limit <= insertion else
-            f"cuts the {total}-step episode short")
-    raise ValueError(
-        f"max_episode_steps={limit} {what}: an episode is {env.insertion_time:g} s + "
-        f"{env.evaluation_time:g} s at {dt:.4g} s per step; pass max_episode_steps={total} "
-        "(or -1), or choose shorter insertion_time/evaluation_time")
 
 
 def register_envs() -> None:

@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 from revolve_env.brain import BatchController
 from revolve_env.envs.locomotion import LocomotionEnv, _all_finite
 from revolve_env.envs.observations import hinge_values
+from revolve_env.episode_length import check_time_limit
 from revolve_env.evaluation import start_generator
 from revolve_env.fitness import FitnessTerms, SlidingWindowFitness
 from revolve_env.fitness.sampling import pose_due
@@ -102,8 +103,6 @@ class LocomotionVectorEnv(VectorEnv[NDArray[np.float64], NDArray[np.float32],
         mode = autoreset_mode if isinstance(autoreset_mode, AutoresetMode) else \
             AutoresetMode(autoreset_mode)
         env = LocomotionEnv(**kwargs)  # every argument's check and every derived setting
-        from revolve_env.registration import check_time_limit
-
         check_time_limit(max_episode_steps, env)
         self.env = env
         self.env_kwargs = dict(kwargs)
