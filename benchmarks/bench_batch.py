@@ -6,10 +6,10 @@ periods of 4 physics steps):
 * ``raw mujoco.batch, T thr``: the floor. The robot's very model (``World.to_mjcf``) stepped by
   ``mujoco.batch.Batch`` on ``T`` threads, closed loop through its live views with RoboGen's
   servo law in NumPy toward sinusoidal targets (no sensors, rewards or Python per robot).
-* ``native vector env``: :class:`revolve_env.envs.vector.LocomotionVectorEnv` (random actions),
-  everything the env does: servo law, sensors, blow-up screen, fitness windows, rewards, infos.
-  It steps its N MuJoCo scenes one after the other in this thread (the route that is bit for bit
-  the single env), so it has one row; its 2-thread row says so.
+* ``native vector env, T thr``: :class:`revolve_env.envs.vector.LocomotionVectorEnv` (random
+  actions), everything the env does: servo law, sensors, blow-up screen, fitness windows,
+  rewards, infos; its N copies of one model step in one ``mujoco.batch`` on ``T`` threads
+  (:mod:`revolve_env.world.mujoco_batch`), bit for bit the single env.
 * ``native via SB3``: the same behind :class:`~revolve_env.envs.sb3_vector.NativeVecEnv`, what
   ``rl.make_vec_env`` gives PPO.
 * ``SB3 DummyVecEnv``: today's route before this benchmark, ``DummyVecEnv`` of ``Monitor``-ed
@@ -134,11 +134,12 @@ def env_rate(make: Callable[[], object], n: int, steps: int, sb3: bool) -> Rate:
     return Rate(n * steps / spent[0], n * steps / spent[1], setup)
 
 
-def native(robot: Robot, n: int, steps: int) -> Rate:
+def native(robot: Robot, n: int, steps: int, threads: int) -> Rate:
     from revolve_env.envs.vector import LocomotionVectorEnv
 
     return env_rate(lambda: LocomotionVectorEnv(n, robot=robot, engine="mujoco",
-                                                proprioception=True), n, steps, sb3=False)
+                                                proprioception=True, threads=threads),
+                    n, steps, sb3=False)
 
 
 def via_sb3(robot: Robot, n: int, steps: int, batched: bool) -> Rate:
@@ -208,15 +209,16 @@ def main() -> None:
                 rows.append((f"raw mujoco.batch, {threads} thr",
                              _fmt(raw_batch(robot, n, steps, threads))))
             if n <= env_limit:
-                rows.append(("native vector env, 1 thr", _fmt(native(robot, n, steps))))
-                rows.append(("native vector env, 2 thr",
-                             _fmt(None, "n/a: its scenes step in one thread")))
+                for threads in (1, 2):
+                    rows.append((f"native vector env, {threads} thr",
+                                 _fmt(native(robot, n, steps, threads))))
                 rows.append(("native via SB3 (rl.make_vec_env)",
                              _fmt(via_sb3(robot, n, steps, batched=True))))
                 rows.append(("SB3 DummyVecEnv of single envs",
                              _fmt(via_sb3(robot, n, steps, batched=False))))
             else:
-                for route in ("native vector env, 1 thr", "native via SB3 (rl.make_vec_env)",
+                for route in ("native vector env, 1 thr", "native vector env, 2 thr",
+                              "native via SB3 (rl.make_vec_env)",
                               "SB3 DummyVecEnv of single envs"):
                     rows.append((route, _fmt(None, f"not run: N > {env_limit} (set-up "
                                                    "compiles a model per robot)")))

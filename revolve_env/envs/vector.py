@@ -3,10 +3,11 @@
 :class:`LocomotionVectorEnv` is the Gymnasium ``VectorEnv`` of ``revolve_env/Locomotion-v0`` and
 ``-v1``: ``num_envs`` copies of :class:`~revolve_env.envs.LocomotionEnv`, each robot in a scene of
 its own of one isolated :class:`~revolve_env.world.World` (``World(config, isolated=True)``, as
-:func:`revolve_env.evaluate_many` uses), stepped together: one call per control period writes
-every robot's targets, steps every scene (MuJoCo: :mod:`~revolve_env.world.mujoco_scenes`,
-pybullet: a client per robot) and reads every robot's sensors and pose as ``(num_envs, ...)``
-arrays; the observations, rewards, terminations and truncations are those arrays.
+:func:`revolve_env.evaluate_many` uses), stepped together: one call per control period writes every
+robot's targets, steps every scene (MuJoCo: :mod:`~revolve_env.world.mujoco_batch`, one
+``mujoco.batch`` of the N copies of one model; pybullet: a client per robot) and reads every
+robot's sensors and pose as ``(num_envs, ...)`` arrays; the observations, rewards, terminations and
+truncations are those arrays.
 
 Every rule is the single env's, from its one home: the arguments are checked and the spaces,
 the episode's steps, the task, the conditions and the world's config are made by a
@@ -82,6 +83,8 @@ class LocomotionVectorEnv(VectorEnv[NDArray[np.float64], NDArray[np.float32],
             ``DISABLED``: the caller resets ended sub-envs with ``options={"reset_mask": m}``.
         max_episode_steps: The registered limit ``gym.make_vec`` passes: refused when it would
             cut the env's own episode short (as ``gym.make``'s); None or -1: none.
+        threads: Threads that step the robots (MuJoCo: the ``mujoco.batch`` of the copies, the
+            same numbers at any count; pybullet steps in this thread).
         **kwargs: :class:`~revolve_env.envs.LocomotionEnv`'s keywords (robot, times, task,
             conditions, engine, ...), checked by it.
 
@@ -94,7 +97,8 @@ class LocomotionVectorEnv(VectorEnv[NDArray[np.float64], NDArray[np.float32],
 
     def __init__(self, num_envs: int = 1, *,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
-                 max_episode_steps: int | None = None, **kwargs: Any) -> None:
+                 max_episode_steps: int | None = None, threads: int = 1,
+                 **kwargs: Any) -> None:
         if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
         if kwargs.get("render_mode") is not None:
@@ -104,6 +108,9 @@ class LocomotionVectorEnv(VectorEnv[NDArray[np.float64], NDArray[np.float32],
             AutoresetMode(autoreset_mode)
         env = LocomotionEnv(**kwargs)  # every argument's check and every derived setting
         check_time_limit(max_episode_steps, env)
+        if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+            raise ValueError(f"threads must be an integer >= 1, got {threads!r}")
+        self.threads = threads
         self.env = env
         self.env_kwargs = dict(kwargs)
         self.num_envs = num_envs
@@ -174,7 +181,7 @@ class LocomotionVectorEnv(VectorEnv[NDArray[np.float64], NDArray[np.float32],
             if not self._started and not mask.all():
                 raise ValueError("the first reset must reset every env")
         if self._world is None:
-            self._world = World(self.config, isolated=True)
+            self._world = World(self.config, isolated=True, threads=self.threads)
         elif mask.all():  # a new world is cheaper than every robot's removal
             self._world.reset()
             self._handles[:] = -1

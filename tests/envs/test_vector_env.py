@@ -162,3 +162,20 @@ def test_a_bad_action_is_refused() -> None:
     with pytest.raises(ValueError, match="NaN or infinity"):
         vec.step(bad)
     vec.close()
+
+
+def test_two_threads_give_the_same_steps() -> None:
+    pytest.importorskip("mujoco")
+    one = LocomotionVectorEnv(4, engine="mujoco", **SHORT)
+    two = LocomotionVectorEnv(4, engine="mujoco", threads=2, **SHORT)
+    assert np.array_equal(one.reset(seed=1)[0], two.reset(seed=1)[0])
+    rng = np.random.default_rng(1)
+    for _ in range(25):
+        a = rng.uniform(-1, 1, one.action_space.shape).astype(np.float32)
+        for x, y in zip(one.step(a)[:4], two.step(a)[:4], strict=True):
+            assert np.array_equal(x, y)
+    assert two._world is not None and two._world.backend._batch.nthread == 2  # type: ignore
+    one.close()
+    two.close()
+    with pytest.raises(ValueError, match="threads must be an integer >= 1"):
+        LocomotionVectorEnv(2, threads=0, **SHORT)
