@@ -268,11 +268,16 @@ class LocomotionVectorEnv(VectorEnv[NDArray[np.float64], NDArray[np.float32],
     # -- episodes -------------------------------------------------------------------------------
     def _remove(self, ids: NDArray[np.intp]) -> None:
         """Take the robots of envs ``ids`` out of the world (those that have one)."""
-        assert self._world is not None
+        world = self._world
+        assert world is not None
         gone = [i for i in ids.tolist() if self._handles[i] >= 0]
+        if gone and len(gone) == len(world.handles):  # every robot: a fresh world is cheaper
+            world.reset()
+            self._handles[gone] = -1
         for i in gone:
-            self._world.remove_robot(int(self._handles[i]))
-            self._handles[i] = -1
+            if self._handles[i] >= 0:
+                world.remove_robot(int(self._handles[i]))
+                self._handles[i] = -1
         if gone:
             self._relayout()
 
