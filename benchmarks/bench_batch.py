@@ -5,7 +5,8 @@ periods of 4 physics steps):
 
 * ``raw mujoco.batch, T thr``: the floor. The robot's very model (``World.to_mjcf``) stepped by
   ``mujoco.batch.Batch`` on ``T`` threads, closed loop through its live views with RoboGen's
-  servo law in NumPy toward sinusoidal targets (no sensors, rewards or Python per robot).
+  servo law in NumPy toward the envs' own random targets (no sensors, rewards or Python per
+  robot).
 * ``native vector env, T thr``: :class:`revolve_env.envs.vector.LocomotionVectorEnv` (random
   actions), everything the env does: servo law, sensors, blow-up screen, fitness windows,
   rewards, infos; its N copies of one model step in one ``mujoco.batch`` on ``T`` threads
@@ -99,15 +100,19 @@ def raw_batch(robot: Robot, n: int, steps: int, threads: int) -> Rate:
     qpos, ctrl = batch.bind("qpos"), batch.bind("ctrl")
     k = config.servo_gain / config.control_period
     scale = math.radians(config.range_deg)
-    phase = np.linspace(0, 2 * math.pi, model.nu, endpoint=False)
-    for _ in range(5):  # as the envs: first calls untimed
+    rng = np.random.default_rng(0)  # the envs' actions (env_rate's), as targets
+    actions = [rng.uniform(-1, 1, (n, model.nu)) * scale for _ in range(8)]
+
+    def period(t: int) -> None:
+        ctrl[:] = np.clip(k * (actions[t % 8] - qpos[:, hinges]), -config.max_velocity,
+                          config.max_velocity)
         batch.step(nstep=config.substeps)
+
+    for t in range(5):  # as the envs: first calls untimed
+        period(t)
     with _clock() as spent:
-        for t in range(steps):
-            target = 0.8 * scale * np.sin(2 * math.pi * t * config.control_period + phase)
-            ctrl[:] = np.clip(k * (target - qpos[:, hinges]), -config.max_velocity,
-                              config.max_velocity)
-            batch.step(nstep=config.substeps)
+        for t in range(5, 5 + steps):
+            period(t)
     return Rate(n * steps / spent[0], n * steps / spent[1], setup)
 
 
