@@ -31,10 +31,11 @@ would go on with:
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import gymnasium
-from gymnasium.envs.registration import WrapperSpec
+from gymnasium.envs.registration import EnvSpec, WrapperSpec
 
 from revolve_env.episode_length import (
     DEFAULT_CONTROL_PERIOD,
@@ -42,6 +43,7 @@ from revolve_env.episode_length import (
     DEFAULT_INSERTION_TIME,
     DEFAULT_MAX_EPISODE_STEPS,
     DEFAULT_ROBOT,
+    check_time_limit,
     episode_steps,
 )
 
@@ -53,9 +55,11 @@ __all__ = [
     "DEFAULT_ROBOT",
     "LOCOMOTION_ID",
     "LOCOMOTION_V1_ID",
+    "VECTOR_ENTRY_POINT",
     "TimeLimitFits",
     "episode_steps",
     "register_envs",
+    "vector_spec",
 ]
 
 LOCOMOTION_ID = "revolve_env/Locomotion-v0"
@@ -75,19 +79,8 @@ class TimeLimitFits(gymnasium.Wrapper[Any, Any, Any, Any],
     def __init__(self, env: gymnasium.Env[Any, Any]) -> None:
         gymnasium.utils.RecordConstructorArgs.__init__(self)
         gymnasium.Wrapper.__init__(self, env)
-        limit = env.spec.max_episode_steps if env.spec is not None else None
-        inner: Any = env.unwrapped
-        dt = float(inner.config.control_period)
-        insertion, total = episode_steps(inner.insertion_time, inner.evaluation_time, dt)
-        if limit is None or limit >= total:
-            return
-        what = (f"ends every episode within the {insertion}-step insertion phase, which is not "
-                "scored (every return would be 0)" if limit <= insertion else
-                f"cuts the {total}-step episode short")
-        raise ValueError(
-            f"max_episode_steps={limit} {what}: an episode is {inner.insertion_time:g} s + "
-            f"{inner.evaluation_time:g} s at {dt:.4g} s per step; pass max_episode_steps={total} "
-            "(or -1), or choose shorter insertion_time/evaluation_time")
+        check_time_limit(env.spec.max_episode_steps if env.spec is not None else None,
+                         env.unwrapped)
 
 
 def register_envs() -> None:
@@ -98,3 +91,20 @@ def register_envs() -> None:
             gymnasium.register(id=env_id, entry_point="revolve_env.envs.locomotion:LocomotionEnv",
                                kwargs=kwargs, max_episode_steps=DEFAULT_MAX_EPISODE_STEPS,
                                additional_wrappers=(check,))
+
+
+VECTOR_ENTRY_POINT = "revolve_env.envs.vector:LocomotionVectorEnv"
+"""The native vector env of both ids (:class:`~revolve_env.envs.vector.LocomotionVectorEnv`)."""
+
+
+def vector_spec(env_id: str = LOCOMOTION_V1_ID) -> EnvSpec:
+    """``env_id``'s spec for ``gym.make_vec(..., vectorization_mode="vector_entry_point")``.
+
+    ``gym.make_vec(vector_spec(), num_envs=64, vectorization_mode="vector_entry_point")`` makes
+    the native vector env (64 robots stepped in one batch). The registered ids cannot carry the
+    vector entry point themselves: Gymnasium refuses that mode for a spec with additional
+    wrappers, and theirs (:class:`TimeLimitFits`) is what refuses a ``max_episode_steps`` that
+    cuts ``gym.make``'s episodes short; the vector env makes that check itself.
+    """
+    spec = gymnasium.spec(env_id)
+    return dataclasses.replace(spec, additional_wrappers=(), vector_entry_point=VECTOR_ENTRY_POINT)

@@ -99,6 +99,10 @@ class VecEnvConfig:
         gamma: Discount of the reward normalisation (the return it scales by); the algorithm's
             own ``gamma`` should be the same (:func:`make_ppo` takes it from here).
         subprocess: One process per env (``SubprocVecEnv``) instead of all in this one.
+        batched: All envs in one native vector env
+            (:class:`~revolve_env.envs.sb3_vector.NativeVecEnv`: the robots stepped in one
+            batch, bit for bit the single envs' steps, for less work per step); False:
+            ``DummyVecEnv`` of single envs. Ignored with ``subprocess``.
     """
 
     n_envs: int = 4
@@ -108,6 +112,7 @@ class VecEnvConfig:
     clip_obs: float = 10.0
     gamma: float = 0.99
     subprocess: bool = False
+    batched: bool = True
 
     def __post_init__(self) -> None:
         if isinstance(self.n_envs, bool) or not isinstance(self.n_envs, int) or self.n_envs < 1:
@@ -197,10 +202,12 @@ def make_vec_env(robot: Robot | str | os.PathLike[str] = "spider",
                  env_id: str = LOCOMOTION_V1_ID, **env_kwargs: Any) -> VecEnv:
     """The normalised, short-episode vector env of ``robot`` for stable-baselines3, in one call.
 
-    ``config.n_envs`` copies of ``env_id`` (hinge angles and velocities observed), each episode
-    ``config.insertion_time + config.evaluation_time`` seconds with the fitness window equal to
-    the evaluation time (the return is the fitness, in metres), each env in a ``Monitor`` (so
-    ``model.ep_info_buffer`` and ``rollout/ep_rew_mean`` work), seeded ``seed, seed + 1, ...``,
+    ``config.n_envs`` copies of ``env_id`` (hinge angles and velocities observed), stepped in one
+    batch (:class:`~revolve_env.envs.sb3_vector.NativeVecEnv`, unless ``config.batched`` is
+    off), each episode ``config.insertion_time + config.evaluation_time`` seconds with the
+    fitness window equal to the evaluation time (the return is the fitness, in metres), each env
+    reporting as a ``Monitor`` (so ``model.ep_info_buffer`` and ``rollout/ep_rew_mean`` work),
+    seeded ``seed, seed + 1, ...``,
     under ``VecNormalize(norm_obs=True, norm_reward=True)`` unless ``config.normalize`` is off.
 
     Args:
@@ -241,6 +248,10 @@ def make_vec_env(robot: Robot | str | os.PathLike[str] = "spider",
     venv: VecEnv
     if config.subprocess and config.n_envs > 1:
         venv = SubprocVecEnv(makers, start_method="forkserver")
+    elif config.batched:
+        from revolve_env.envs.sb3_vector import NativeVecEnv
+
+        venv = NativeVecEnv(env_id, config.n_envs, **kwargs)
     else:
         venv = DummyVecEnv(makers)
     venv.seed(seed)

@@ -2,8 +2,9 @@
 
 :class:`SB3Learner` trains an SB3 algorithm class (``PPO``, ``SAC``, ``TD3``, ... or its name)
 on ``revolve_env/Locomotion-v0`` with the infant's body (``-v1`` with ``proprioception=True``:
-the hinge angles and velocities observed too), in vectorised envs (``SubprocVecEnv``, or
-``DummyVecEnv`` in this process). Two action modes:
+the hinge angles and velocities observed too), in vectorised envs (``SubprocVecEnv``, or in this
+process the native vector env, every robot stepped in one batch:
+:class:`~revolve_env.envs.sb3_vector.NativeVecEnv`). Two action modes:
 
 * ``action="targets"``: the policy sets every hinge target directly (the network is unused);
 * ``action="modulate"``: the robot's own network (its CPG) keeps running and the policy scales
@@ -291,7 +292,8 @@ class SB3Learner:
         policy: The SB3 policy name (``"MlpPolicy"``).
         action: ``"modulate"`` (on top of the robot's CPG; default) or ``"targets"``.
         n_envs: Parallel training envs.
-        vec_env: ``"subproc"`` (one process per env) or ``"dummy"`` (all in this process).
+        vec_env: ``"subproc"`` (one process per env) or ``"dummy"`` (all in this process, in
+            one native vector env: the same steps as ``DummyVecEnv`` of single envs).
         insertion: Settling time of each training episode. Seconds.
         seconds: Scored part of each training episode (and the fitness window). Seconds.
         control_period: Time per env step. Seconds (a multiple of the physics timestep).

@@ -40,8 +40,9 @@ class Engine:
         backend: The backend's class in ``module``: a
             :class:`~revolve_env.world.backend.PhysicsBackend`.
         isolated: ``"module:Class"`` of the engine's own backend for isolated worlds (a scene
-            per robot, stepped together), or None: the generic
-            :class:`~revolve_env.world.isolated.IsolatedBackend` over scenes of ``backend``.
+            per robot, stepped together; made as ``Class(config, threads=...)``), or None: the
+            generic :class:`~revolve_env.world.isolated.IsolatedBackend` over scenes of
+            ``backend``.
         package: The module the engine's Python package installs (checked, not imported, by
             :func:`require_engine`).
         pip: What ``pip install`` brings that package.
@@ -96,7 +97,7 @@ TABLE: tuple[Engine, ...] = (
     # MuJoCo 2: the discrete integrator with islands off and one spec per robot (revision 1,
     # with ``implicitfast``, made every result stored before revision numbers).
     Engine("mujoco", "revolve_env.world.mujoco_backend", "MujocoBackend",
-           "revolve_env.world.mujoco_scenes:MujocoScenes", package="mujoco", pip="mujoco",
+           "revolve_env.world.mujoco_batch:MujocoBatchScenes", package="mujoco", pip="mujoco",
            extra="mujoco", revision=2, gui=True, exact_restore=True, offscreen_gl=True),
 )
 """Every engine this package runs; the first is the reference."""
@@ -175,12 +176,13 @@ def _load(record: Engine, path: str) -> Callable[..., PhysicsBackend]:
     return loaded
 
 
-def make_backend(config: WorldConfig, *, gui: bool = False,
-                 isolated: bool = False) -> PhysicsBackend:
+def make_backend(config: WorldConfig, *, gui: bool = False, isolated: bool = False,
+                 threads: int = 1) -> PhysicsBackend:
     """A fresh backend of ``config.engine`` built from ``config``.
 
     With ``isolated``, every robot is in a scene of its own (the engine's own isolated backend,
-    else :class:`~revolve_env.world.isolated.IsolatedBackend`).
+    else :class:`~revolve_env.world.isolated.IsolatedBackend`), whose batched stepping, where the
+    engine has one, runs on ``threads`` threads.
 
     Raises:
         ValueError: unknown engine name.
@@ -198,6 +200,8 @@ def make_backend(config: WorldConfig, *, gui: bool = False,
     scene = _load(record, f"{record.module}:{record.backend}")
     if not isolated:
         return scene(config, gui=gui)
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+        raise ValueError(f"threads must be an integer >= 1, got {threads!r}")
     if record.isolated is not None:
-        return _load(record, record.isolated)(config)
+        return _load(record, record.isolated)(config, threads=threads)
     return IsolatedBackend(config, scene=scene)

@@ -14,3 +14,4 @@ __all__ = ["mujoco"]
 
 choose_mujoco_gl()
 import mujoco  # noqa: E402  (after the choice: MuJoCo reads MUJOCO_GL here, once)
+import mujoco.batch  # noqa: E402  (its batched stepping: mujoco.batch.Batch, for mujoco_batch)

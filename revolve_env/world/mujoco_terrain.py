@@ -1,8 +1,9 @@
 """The ground of a MuJoCo scene: the plane, or a terrain's heightfield (imports ``mujoco``).
 
-With :mod:`~revolve_env.world.mujoco_backend` and :mod:`~revolve_env.world.mujoco_scenes`, the
-only modules that import ``mujoco``. Every scene (the online world, each isolated scene, a
-rebuilt snapshot) gets its ground here, from :mod:`revolve_env.terrain`'s height grid.
+With :mod:`~revolve_env.world.mujoco_backend`, :mod:`~revolve_env.world.mujoco_scenes` and
+:mod:`~revolve_env.world.mujoco_batch`, the only modules that import ``mujoco``. Every scene (the
+online world, each isolated scene, a rebuilt snapshot) gets its ground here, from
+:mod:`revolve_env.terrain`'s height grid.
 """
 
 from __future__ import annotations

@@ -62,7 +62,7 @@ class World:
     """
 
     def __init__(self, config: WorldConfig | None = None, *, gui: bool = False,
-                 isolated: bool = False) -> None:
+                 isolated: bool = False, threads: int = 1) -> None:
         """Start a fresh engine of ``config.engine`` and build the ground.
 
         Args:
@@ -71,6 +71,9 @@ class World:
             isolated: Every robot in a scene of its own
                 (:mod:`~revolve_env.world.isolated`): robots never meet, and each moves
                 exactly as in a world of its own. No snapshots, no GUI.
+            threads: Threads of an isolated world's batched stepping (MuJoCo: copies of one
+                model in ``mujoco.batch``, bit for bit at any count); other engines and
+                worlds step in this thread.
 
         Raises:
             ValueError: unknown engine name.
@@ -79,7 +82,8 @@ class World:
                 while another GUI is open, or of an engine that has none.
         """
         self.config = config if config is not None else WorldConfig()
-        self._backend: PhysicsBackend = make_backend(self.config, gui=gui, isolated=isolated)
+        self._backend: PhysicsBackend = make_backend(self.config, gui=gui, isolated=isolated,
+                                                     threads=threads)
         self._closed = False
         self._robots: dict[int, RobotState] = {}
         self._next_handle = 0

@@ -1,0 +1,242 @@
+"""Many worlds of one body: robot-steps per second of the batched routes, and the batched infancy.
+
+Rows, for ``N`` copies of the spider and of a 20-part random robot (MuJoCo, 1/60 s control
+periods of 4 physics steps):
+
+* ``raw mujoco.batch, T thr``: the floor. The robot's very model (``World.to_mjcf``) stepped by
+  ``mujoco.batch.Batch`` on ``T`` threads, closed loop through its live views with RoboGen's
+  servo law in NumPy toward the envs' own random targets (no sensors, rewards or Python per
+  robot).
+* ``native vector env, T thr``: :class:`revolve_env.envs.vector.LocomotionVectorEnv` (random
+  actions), everything the env does: servo law, sensors, blow-up screen, fitness windows,
+  rewards, infos; its N copies of one model step in one ``mujoco.batch`` on ``T`` threads
+  (:mod:`revolve_env.world.mujoco_batch`), bit for bit the single env.
+* ``native via SB3``: the same behind :class:`~revolve_env.envs.sb3_vector.NativeVecEnv`, what
+  ``rl.make_vec_env`` gives PPO.
+* ``SB3 DummyVecEnv``: today's route before this benchmark, ``DummyVecEnv`` of ``Monitor``-ed
+  single envs (``rl.VecEnvConfig(batched=False)``).
+* ``MuJoCo Warp (GPU)``: not built (no GPU was lent to this work): printed as such.
+
+Each figure is robot-steps (control periods of one robot) per second, of wall time and of this
+process's CPU time; the set-up (model compiles, resets) is timed apart. Then CMA-ES infancy of
+one spider (popsize 16; the inborn controller and whole generations while the budget pays) with
+the candidates evaluated one by one (a function the evaluators cannot batch) vs one generation in
+one ``evaluate_many`` call (the Training Center's route): CPU seconds and the same result.
+
+Usage::
+
+    python benchmarks/bench_batch.py --quick          # small N, short runs (a shared 2-core box)
+    python benchmarks/bench_batch.py --device-check   # N = 1, 16, 256, 4096; one markdown table
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import platform
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+import numpy as np
+
+from evolution.config import EvolutionConfig
+from evolution.evaluation import EvalOutcome, EvalTask, evaluate_task
+from evolution.learning import CandidateEvaluation, CMAESLearner
+from evolution.random_robot import random_robot
+from revolve_env.body.examples import EXAMPLES
+from revolve_env.body.robot import Layer, Robot
+from revolve_env.world import World, WorldConfig
+
+
+@dataclass(frozen=True, slots=True)
+class Rate:
+    """Robot-steps per second of wall and of CPU time, and the set-up's wall seconds."""
+
+    wall: float
+    cpu: float
+    setup: float
+
+
+@contextmanager
+def _clock() -> Iterator[list[float]]:
+    out: list[float] = []
+    w, c = time.perf_counter(), time.process_time()
+    yield out
+    out += [time.perf_counter() - w, time.process_time() - c]
+
+
+def spider() -> Robot:
+    """The example spider (17 parts, 8 active hinges)."""
+    return EXAMPLES["spider"]()
+
+
+def twenty_part_robot(seed: int = 0) -> Robot:
+    """The first random robot of exactly 20 parts with active hinges from ``seed`` on."""
+    config = EvolutionConfig(initial_parts_mean=20, initial_parts_sd=0.0)
+    rng = np.random.default_rng(seed)
+    while True:
+        robot = random_robot(rng, config)
+        if robot.num_parts() == 20 and robot.neurons_of(Layer.OUTPUT):
+            return robot
+
+
+def raw_batch(robot: Robot, n: int, steps: int, threads: int) -> Rate:
+    """The floor: the robot's model in ``mujoco.batch`` with the servo law in NumPy."""
+    import mujoco
+    from mujoco.batch import Batch
+
+    config = WorldConfig(engine="mujoco")
+    w0 = time.perf_counter()
+    with World(config) as world:
+        world.add_robot(robot)
+        model = mujoco.MjModel.from_xml_string(world.to_mjcf())
+    batch = Batch(model, nsim=n, nthread=threads)
+    batch.reset()
+    setup = time.perf_counter() - w0
+    # the servos' hinges, in actuator order
+    hinges = model.jnt_qposadr[model.actuator_trnid[:, 0]].astype(np.intp)
+    qpos, ctrl = batch.bind("qpos"), batch.bind("ctrl")
+    k = config.servo_gain / config.control_period
+    scale = math.radians(config.range_deg)
+    rng = np.random.default_rng(0)  # the envs' actions (env_rate's), as targets
+    actions = [rng.uniform(-1, 1, (n, model.nu)) * scale for _ in range(8)]
+
+    def period(t: int) -> None:
+        ctrl[:] = np.clip(k * (actions[t % 8] - qpos[:, hinges]), -config.max_velocity,
+                          config.max_velocity)
+        batch.step(nstep=config.substeps)
+
+    for t in range(5):  # as the envs: first calls untimed
+        period(t)
+    with _clock() as spent:
+        for t in range(5, 5 + steps):
+            period(t)
+    return Rate(n * steps / spent[0], n * steps / spent[1], setup)
+
+
+def env_rate(make: Callable[[], object], n: int, steps: int, sb3: bool) -> Rate:
+    """A vector env's rate over ``steps`` steps after its first reset (no episode ends)."""
+    w0 = time.perf_counter()
+    venv = make()
+    rng = np.random.default_rng(0)
+    if sb3:
+        venv.seed(0)  # type: ignore[attr-defined]
+        venv.reset()  # type: ignore[attr-defined]
+        shape = (n, *venv.action_space.shape)  # type: ignore[attr-defined]
+    else:
+        venv.reset(seed=0)  # type: ignore[attr-defined]
+        shape = venv.action_space.shape  # type: ignore[attr-defined]
+    setup = time.perf_counter() - w0
+    actions = [rng.uniform(-1, 1, shape).astype(np.float32) for _ in range(8)]
+    for t in range(5):  # first calls' one-time costs (lazy imports, caches) are not timed
+        venv.step(actions[t])  # type: ignore[attr-defined]
+    with _clock() as spent:
+        for t in range(steps):
+            venv.step(actions[t % 8])  # type: ignore[attr-defined]
+    venv.close()  # type: ignore[attr-defined]
+    return Rate(n * steps / spent[0], n * steps / spent[1], setup)
+
+
+def native(robot: Robot, n: int, steps: int, threads: int) -> Rate:
+    from revolve_env.envs.vector import LocomotionVectorEnv
+
+    return env_rate(lambda: LocomotionVectorEnv(n, robot=robot, engine="mujoco",
+                                                proprioception=True, threads=threads),
+                    n, steps, sb3=False)
+
+
+def via_sb3(robot: Robot, n: int, steps: int, batched: bool) -> Rate:
+    from revolve_env import rl
+
+    def make() -> object:
+        config = rl.VecEnvConfig(n_envs=n, insertion_time=3.0, evaluation_time=12.0,
+                                 normalize=False, batched=batched)
+        return rl.make_vec_env(robot, config, engine="mujoco")
+
+    return env_rate(make, n, steps, sb3=True)
+
+
+def one_by_one(task: EvalTask) -> EvalOutcome:
+    """evaluate_task, which the evaluators cannot batch (so each candidate goes alone)."""
+    return evaluate_task(task)
+
+
+def infancy(budget: float, insertion: float, seconds: float) -> list[str]:
+    """CMA-ES popsize 16 on the spider: one by one vs batched, CPU seconds and the results."""
+    lines = []
+    results = {}
+    for name, function in (("one by one", one_by_one), ("batched", evaluate_task)):
+        evaluation = CandidateEvaluation(insertion=insertion, seconds=seconds, engine="mujoco",
+                                         function=function)
+        learner = CMAESLearner(popsize=16, evaluation=evaluation)
+        with _clock() as spent:
+            result = learner.learn(spider(), budget, np.random.default_rng(0))
+        results[name] = result
+        lines.append(f"| CMA-ES popsize 16, budget {budget:g} s ({insertion:g} + {seconds:g} s "
+                     f"per candidate), {name} | {result.evaluations} | {spent[1]:.2f} | "
+                     f"{spent[0]:.2f} | {result.best_fitness:.6f} |")
+    same = results["one by one"].fitness == results["batched"].fitness
+    lines.append(f"(same fitness of every candidate on both routes: {same})")
+    return lines
+
+
+def _fmt(rate: Rate | None, note: str = "") -> str:
+    if rate is None:
+        return f"| {note} | | |"
+    return f"| {rate.wall:,.0f} | {rate.cpu:,.0f} | {rate.setup:.2f} |"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="small N and short runs")
+    parser.add_argument("--device-check", action="store_true",
+                        help="N = 1, 16, 256, 4096 and one table to paste into the docs")
+    parser.add_argument("--steps", type=int, default=None, help="control periods per row")
+    args = parser.parse_args()
+    if args.quick:
+        sizes, steps, env_limit = [1, 16, 64], args.steps or 60, 64
+        budgets = [(119.0, 1.0, 6.0)]
+    else:
+        sizes, steps, env_limit = [1, 16, 256, 4096], args.steps or 200, 256
+        budgets = [(119.0, 1.0, 6.0), (480.0, 3.0, 12.0)]
+    robots = {"spider": spider(), "20-part random": twenty_part_robot()}
+    print(f"# bench_batch: {platform.processor() or platform.machine()}, "
+          f"{time.strftime('%Y-%m-%d')}, {steps} control periods per row")
+    print("robot-steps per second (wall | CPU of this process), set-up wall seconds\n")
+    print("| robot | N | route | steps/s wall | steps/s CPU | set-up s |")
+    print("|---|---|---|---|---|---|")
+    for name, robot in robots.items():
+        for n in sizes:
+            rows: list[tuple[str, str]] = []
+            for threads in (1, 2):
+                rows.append((f"raw mujoco.batch, {threads} thr",
+                             _fmt(raw_batch(robot, n, steps, threads))))
+            if n <= env_limit:
+                for threads in (1, 2):
+                    rows.append((f"native vector env, {threads} thr",
+                                 _fmt(native(robot, n, steps, threads))))
+                rows.append(("native via SB3 (rl.make_vec_env)",
+                             _fmt(via_sb3(robot, n, steps, batched=True))))
+                rows.append(("SB3 DummyVecEnv of single envs",
+                             _fmt(via_sb3(robot, n, steps, batched=False))))
+            else:
+                for route in ("native vector env, 1 thr", "native vector env, 2 thr",
+                              "native via SB3 (rl.make_vec_env)",
+                              "SB3 DummyVecEnv of single envs"):
+                    rows.append((route, _fmt(None, f"not run: N > {env_limit} (set-up "
+                                                   "compiles a model per robot)")))
+            rows.append(("MuJoCo Warp (GPU)", _fmt(None, "no GPU lent")))
+            for route, cells in rows:
+                print(f"| {name} | {n} | {route} {cells}")
+    print("\nInfancy (one spider): evaluations, CPU s, wall s, best fitness (m)\n")
+    print("| learner | evaluations | CPU s | wall s | best fitness |")
+    print("|---|---|---|---|---|")
+    for budget, insertion, seconds in budgets:
+        for line in infancy(budget, insertion, seconds):
+            print(line)
+
+
+if __name__ == "__main__":
+    main()
