@@ -370,7 +370,7 @@ class LocomotionVectorEnv(VectorEnv[NDArray[np.float64], NDArray[np.float32],
         sample = evaluating & ~self._blown
         if sample.any():
             ages = self._steps - env._insertion_steps
-            due = pose_due(ages, env._pose_stride)
+            due = pose_due(ages, env._windows.stride)
             pos, sig = world.states.core_pos, self._signals()
             for i in np.flatnonzero(sample).tolist():
                 fit = self._fitness[i]
