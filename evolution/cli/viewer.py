@@ -119,7 +119,7 @@ def _plan(args: argparse.Namespace) -> _Plan:
         robot, name = robot_file(args.robot) if args.robot is not None else _no_robot()
         return _Plan(robot, name, args.seconds or 12.0,
                      3.0 if args.insertion is None else args.insertion,
-                     args.engine or "pybullet", 0)
+                     args.engine or revolve_env.DEFAULT_ENGINE, 0)
     stored = stored_robot(args)
     config = stored.config
     robot, learned = stored.robot, False

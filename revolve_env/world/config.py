@@ -11,7 +11,11 @@ from typing import Any
 from revolve_env.body.parts import SERVO
 from revolve_env.terrain import Flat, Terrain, TerrainError, make_terrain
 
-__all__ = ["TIMINGS", "TerrainError", "WorldConfig"]
+__all__ = ["DEFAULT_ENGINE", "TIMINGS", "TerrainError", "WorldConfig"]
+
+#: The physics engine of everything that names none: pybullet, the reference. The one home of
+#: the default: every ``engine=`` keyword's None, and :class:`revolve_env.Setting`, mean this one.
+DEFAULT_ENGINE = "pybullet"
 
 #: Named timings: preset -> (``timestep``, ``control_period``, ``brain_period``), seconds.
 #: ``"default"`` (also ``"revolve-env-2025"``): physics at 1/240 s, servo law, sensors and
@@ -40,9 +44,10 @@ class WorldConfig:
 
     Attributes:
         engine: The physics engine, a name of :data:`~revolve_env.world.engines.ENGINES`:
-            ``"pybullet"`` (the reference) or ``"mujoco"`` (faster; see docs/engines.md for its
-            integrator and contact settings). Every rule above the engine (servo law, sensors,
-            blow-up policy) is the same for both. The name is checked against the engine
+            :data:`DEFAULT_ENGINE`, ``"pybullet"`` (the reference), or ``"mujoco"`` (faster;
+            see docs/engines.md for its integrator and contact settings).
+            Every rule above the engine (servo law, sensors, blow-up policy) is the same for
+            both. The name is checked against the engine
             registry (:mod:`revolve_env.world.engines`) where a world or an env is made; this
             record is pure data and knows no engine.
         timestep: Physics step. Seconds.
@@ -78,7 +83,7 @@ class WorldConfig:
             :func:`~revolve_env.terrain.make_terrain`.
     """
 
-    engine: str = "pybullet"
+    engine: str = DEFAULT_ENGINE
     timestep: float = 1.0 / 240.0
     control_period: float = 1.0 / 60.0
     gravity: float = 9.81
