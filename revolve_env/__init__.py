@@ -4,7 +4,7 @@ Importing the package registers the single-robot Gymnasium envs ``revolve_env/Lo
 (``gymnasium.make("revolve_env/Locomotion-v1")``: the spider; ``robot=`` a Robot, an example name
 or a JSON file) and ``-v0`` (without proprioception, kept for older code); see
 :mod:`revolve_env.registration`.
-The physics engine (pybullet, the default, or MuJoCo, chosen by ``engine=`` / ``setting=`` /
+The physics engine (MuJoCo, the default, or pybullet, chosen by ``engine=`` / ``setting=`` /
 ``WorldConfig.engine``) is
 imported only when a world is made (``evaluate``, ``population_env``, the envs), so the pure
 layers (``revolve_env.body``, ``evolution``) never load it.

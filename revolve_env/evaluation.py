@@ -90,7 +90,7 @@ def evaluate(
         robot: The robot, with its neural network.
         setting: Where and how it is simulated (:class:`~revolve_env.setting.Setting`: engine,
             terrain, timings, task, conditions, insertion and evaluation times); ``Setting()``
-            by default: pybullet, flat ground, 3 s insertion, 12 s window, the paper's task and
+            by default: MuJoCo, flat ground, 3 s insertion, 12 s window, the paper's task and
             :data:`~revolve_env.conditions.IDEAL` conditions.
         seed: Seeds the start (heading, jitter) and the noise that the conditions ask for (the
             physics itself is deterministic): two generators, ``default_rng(seed)`` for the noise
@@ -99,8 +99,8 @@ def evaluate(
         **keywords: Parts of the setting, changed (:meth:`Setting.of
             <revolve_env.setting.Setting.of>`): ``seconds`` (the fitness window) and
             ``insertion`` (settling time), seconds; ``config`` (a
-            :class:`~revolve_env.world.WorldConfig`); ``engine`` (``"pybullet"``, the default, or
-            ``"mujoco"``); ``timing`` (a named timing); ``terrain`` (``"flat"``,
+            :class:`~revolve_env.world.WorldConfig`); ``engine`` (``"mujoco"``, the default, or
+            ``"pybullet"``); ``timing`` (a named timing); ``terrain`` (``"flat"``,
             ``"rugged"``, ``"crater"``, ``"bowl"``, a table or a spec: the robot is dropped onto
             the highest ground under its footprint); ``task`` (a task, a name or a table);
             ``conditions``; ``sensor_noise`` and ``actuator_noise`` (standard deviations of

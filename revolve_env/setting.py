@@ -9,7 +9,7 @@ start and live under, and the insertion and evaluation times. :func:`revolve_env
     setting = Setting.of(engine="pybullet", terrain="rugged", timing="revolve2018")
     evaluate(robot, setting, seed=3)         # the same as evaluate(robot, seed=3, engine=...)
 
-The default engine has one home, :data:`DEFAULT_ENGINE` (pybullet; defined beside the world's
+The default engine has one home, :data:`DEFAULT_ENGINE` (MuJoCo; defined beside the world's
 settings, :mod:`revolve_env.world.config`, whose ``WorldConfig().engine`` it is, and named here for
 the layers that do not import the world, such as ``evolution``); every ``engine=None`` means it.
 """
@@ -54,7 +54,7 @@ class Setting:
     """Where and how robots are simulated (module docstring); frozen.
 
     Attributes:
-        world: The physics world: engine (``world.engine``, pybullet by default), terrain,
+        world: The physics world: engine (``world.engine``, MuJoCo by default), terrain,
             physics step, control and brain periods, servo settings.
         task: What robots are scored on (:mod:`revolve_env.tasks`); the paper's
             :class:`~revolve_env.tasks.Locomotion` by default.

@@ -22,9 +22,9 @@ from revolve_env.world import DEFAULT_ENGINE, ENGINES, WorldConfig
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def test_the_default_setting_is_the_default_engine_and_the_papers_evaluation() -> None:
+def test_the_default_setting_is_mujoco_and_the_papers_evaluation() -> None:
     setting = Setting()
-    assert setting.engine == DEFAULT_ENGINE == WorldConfig().engine
+    assert setting.engine == DEFAULT_ENGINE == WorldConfig().engine == "mujoco"
     assert setting.terrain == Flat() and setting.task == Locomotion()
     assert setting.conditions == IDEAL and (setting.insertion, setting.seconds) == (3.0, 12.0)
 
@@ -100,7 +100,7 @@ def test_the_single_robot_env_takes_a_setting() -> None:
         env.close()
     default = LocomotionEnv()
     try:  # without a setting: the env's defaults as before
-        assert default.config.engine == DEFAULT_ENGINE and default.reset_noise_scale == 0.1
+        assert default.config.engine == "mujoco" and default.reset_noise_scale == 0.1
         assert (default.insertion_time, default.evaluation_time) == (3.0, 12.0)
     finally:
         default.close()

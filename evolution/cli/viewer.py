@@ -285,7 +285,7 @@ def _timing_arguments(p: argparse.ArgumentParser, help_seconds: str,
                    help=f"frames per simulated second, at most {MAX_FPS:g} (one per control "
                         "period; a GIF plays at most 50)")
     p.add_argument("--engine", choices=revolve_env.ENGINES,
-                   help="physics engine (default: the stored one, else pybullet)")
+                   help="physics engine (default: the stored one, else mujoco)")
     p.add_argument("--size", type=frame_size, default="480x360", metavar="WxH",
                    help="frame width and height, pixels")
 

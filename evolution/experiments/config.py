@@ -154,8 +154,8 @@ class WorldSettings:
     """The ``[world]`` table: the physics every evaluation and online world of a run uses.
 
     Attributes:
-        engine: The physics engine: ``"pybullet"`` (the default,
-            :data:`revolve_env.setting.DEFAULT_ENGINE`) or ``"mujoco"``
+        engine: The physics engine: ``"mujoco"`` (the default,
+            :data:`revolve_env.setting.DEFAULT_ENGINE`) or ``"pybullet"``
             (:data:`revolve_env.ENGINES`). Stored with the results, so ``resume``
             and ``report`` know it; the engine's package must import when the run starts.
         terrain: The ground (:mod:`revolve_env.terrain`): ``"flat"`` (the default), or a

@@ -208,7 +208,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     | world_config       | None      | a :class:`~revolve_env.world.WorldConfig` (physics)        |
     | limits             | None      | validation limits                                          |
     |                    |           | (:class:`~revolve_env.body.validate.Limits`)               |
-    | engine             | None      | "pybullet" or "mujoco"; None: ``world_config``'s (pybullet) |
+    | engine             | None      | "mujoco" or "pybullet"; None: ``world_config``'s (mujoco)   |
     | task               | None      | what the robot is rewarded for: a task, a name or a table  |
     |                    |           | (:func:`~revolve_env.tasks.make_task`); None: Locomotion   |
     | terrain            | None      | the ground: "flat", "rugged", "crater", "bowl", a table or |

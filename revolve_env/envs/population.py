@@ -147,7 +147,7 @@ each a ``Robot`` or a mapping with keys ``robot`` and optional ``position``, ``c
 | space_mode          | "exact"  | "exact" or "uniform" (see Spaces)                           |
 | proprioception      | False    | observe hinge angles and velocities                         |
 | lifecycle           | None     | births and deaths inside a step (see the module doc)        |
-| engine              | None     | "pybullet" or "mujoco"; None: world_config's (pybullet)     |
+| engine              | None     | "mujoco" or "pybullet"; None: world_config's (mujoco)       |
 | conditions          | None     | heading, jitter and noise of newborns (see Conditions);     |
 |                     |          | None: :data:`ONLINE_CONDITIONS` with reset noise 0.1        |
 | reset_noise_scale   | None     | half-width of the uniform noise on newborns' hinge start    |

@@ -7,7 +7,7 @@ Public interface (engine-neutral: NumPy arrays and plain numbers in and out):
   blow-up reasons, render. The rules (servo law, sensors, blow-ups) live in the world; the
   engine is a backend behind :class:`~revolve_env.world.backend.PhysicsBackend`, chosen by
   ``WorldConfig.engine`` (one of :data:`ENGINES`: ``"pybullet"``, ``"mujoco"``; by default
-  :data:`DEFAULT_ENGINE`, pybullet).
+  :data:`DEFAULT_ENGINE`, MuJoCo).
 * :func:`engine`: an engine's record in the one table of engines
   (:mod:`revolve_env.world.engines`): its package, physics revision and capabilities.
 * :func:`build_model`: the engine-neutral physical model (links, masses, sensors) of a robot.

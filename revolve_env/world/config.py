@@ -13,9 +13,12 @@ from revolve_env.terrain import Flat, Terrain, TerrainError, make_terrain
 
 __all__ = ["DEFAULT_ENGINE", "TIMINGS", "TerrainError", "WorldConfig"]
 
-#: The physics engine of everything that names none: pybullet, the reference. The one home of
-#: the default: every ``engine=`` keyword's None, and :class:`revolve_env.Setting`, mean this one.
-DEFAULT_ENGINE = "pybullet"
+#: The physics engine of everything that names none: MuJoCo (2.5-3.8x faster than pybullet,
+#: exact snapshots). The one home of the default: every ``engine=`` keyword's None, and
+#: :class:`revolve_env.Setting`, mean this one. ``engine="pybullet"`` is one keyword away.
+#: (Before 2026-11-27 it was pybullet: results stored then name their engine, or are read as
+#: pybullet by the store's upgrade.)
+DEFAULT_ENGINE = "mujoco"
 
 #: Named timings: preset -> (``timestep``, ``control_period``, ``brain_period``), seconds.
 #: ``"default"`` (also ``"revolve-env-2025"``): physics at 1/240 s, servo law, sensors and
@@ -44,8 +47,8 @@ class WorldConfig:
 
     Attributes:
         engine: The physics engine, a name of :data:`~revolve_env.world.engines.ENGINES`:
-            :data:`DEFAULT_ENGINE`, ``"pybullet"`` (the reference), or ``"mujoco"`` (faster;
-            see docs/engines.md for its integrator and contact settings).
+            :data:`DEFAULT_ENGINE`, ``"mujoco"`` (faster, exact snapshots; see docs/engines.md
+            for its integrator and contact settings), or ``"pybullet"`` (the first engine).
             Every rule above the engine (servo law, sensors, blow-up policy) is the same for
             both. The name is checked against the engine
             registry (:mod:`revolve_env.world.engines`) where a world or an env is made; this

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from evolution.experiments.config import load_config
+from evolution.experiments.config import ExperimentConfig, load_config
 from revolve_env.conditions import EvaluationConditions
+from revolve_env.setting import Setting
 from revolve_env.tasks import DirectedLocomotion
 from revolve_env.terrain import Rugged
 
@@ -19,3 +20,8 @@ def test_the_setting_carries_the_configs_world_task_conditions_and_times() -> No
     assert setting.conditions == EvaluationConditions(heading="random", sensor_noise=0.05)
     assert (setting.insertion, setting.seconds) == (1.0, 6.0)
 
+
+def test_a_shipped_config_runs_on_the_default_engine() -> None:
+    """The shipped configs name MuJoCo, the default since 2026-11-27 (Setting's)."""
+    assert load_config("scenario1").setting().engine == Setting().engine == "mujoco"
+    assert ExperimentConfig().world.engine == "mujoco"
