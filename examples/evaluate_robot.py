@@ -16,7 +16,7 @@ INSERTION = 0.5
 spider = revolve_env.example("spider")  # also: gecko, snake, sensor_crawler, bar_walker
 
 # 1. One call: the robot's own neural network drives it in a fresh world.
-for engine in revolve_env.ENGINES:  # ("pybullet", "mujoco"); MuJoCo needs `pip install .[mujoco]`
+for engine in revolve_env.ENGINES:  # ("pybullet", "mujoco"); MuJoCo is the default
     result = revolve_env.evaluate(spider, seconds=SECONDS, insertion=INSERTION, seed=0,
                                   engine=engine)
     print(f"{engine}: fitness {result.fitness:.3f} m "

@@ -4,7 +4,8 @@ Importing the package registers the single-robot Gymnasium envs ``revolve_env/Lo
 (``gymnasium.make("revolve_env/Locomotion-v1")``: the spider; ``robot=`` a Robot, an example name
 or a JSON file) and ``-v0`` (without proprioception, kept for older code); see
 :mod:`revolve_env.registration`.
-The physics engine (pybullet or MuJoCo, chosen by ``engine=`` / ``WorldConfig.engine``) is
+The physics engine (MuJoCo, the default, or pybullet, chosen by ``engine=`` / ``setting=`` /
+``WorldConfig.engine``) is
 imported only when a world is made (``evaluate``, ``population_env``, the envs), so the pure
 layers (``revolve_env.body``, ``evolution``) never load it.
 """
@@ -45,8 +46,10 @@ _LAZY = {
     "evaluate": ("revolve_env.evaluation", "evaluate"),
     "evaluate_many": ("revolve_env.evaluation", "evaluate_many"),
     "EvaluationResult": ("revolve_env.evaluation", "EvaluationResult"),
+    "Setting": ("revolve_env.setting", "Setting"),
     "World": ("revolve_env.world", "World"),
     "ENGINES": ("revolve_env.world", "ENGINES"),
+    "DEFAULT_ENGINE": ("revolve_env.world", "DEFAULT_ENGINE"),
     "PHYSICS_REVISIONS": ("revolve_env.world", "PHYSICS_REVISIONS"),
     "require_engine": ("revolve_env.world", "require_engine"),
     "engine": ("revolve_env.world", "engine"),
@@ -75,6 +78,7 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
+    "DEFAULT_ENGINE",
     "ENGINES",
     "PHYSICS_REVISIONS",
     "EXAMPLES",
@@ -95,6 +99,7 @@ __all__ = [
     "PopulationEnv",
     "Robot",
     "RobotError",
+    "Setting",
     "TERRAINS",
     "TerrainError",
     "require_engine",

@@ -6,26 +6,20 @@ function (a submodule of the same name would replace it once imported).
 
 from __future__ import annotations
 
-import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Unpack
 
 import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.body.robot import Layer, Robot
 from revolve_env.body.validate import Limits, validate
-from revolve_env.conditions import (
-    IDEAL,
-    EvaluationConditions,
-    with_noise_shortcuts,
-)
+from revolve_env.conditions import IDEAL, EvaluationConditions
 from revolve_env.fitness.sampling import shaking
 from revolve_env.fitness.terms import pose_path_lengths
 from revolve_env.rollout import rollout, score_paths, task_pose_stride
-from revolve_env.tasks import Task, make_task
-from revolve_env.terrain import Terrain
+from revolve_env.setting import Setting, SettingKeywords
 from revolve_env.world import World, WorldConfig, with_engine
 
 __all__ = ["EvaluationResult", "evaluate", "evaluate_many", "evaluation_mjcf", "start_generator"]
@@ -72,53 +66,42 @@ class EvaluationResult:
 
 def evaluate(
     robot: Robot,
+    setting: Setting | None = None,
     *,
-    seconds: float = 12.0,
-    insertion: float = 3.0,
     seed: int = 0,
-    sensor_noise: float = 0.0,
-    actuator_noise: float = 0.0,
-    config: WorldConfig | None = None,
     limits: Limits | None = None,
-    engine: str | None = None,
-    conditions: EvaluationConditions | None = None,
-    task: Task | str | Mapping[str, Any] | None = None,
-    terrain: Terrain | str | Mapping[str, Any] | None = None,
+    **keywords: Unpack[SettingKeywords],
 ) -> EvaluationResult:
     """Run ``robot`` on its own controller in a fresh world and measure its fitness.
 
     (:func:`evaluate_many` evaluates many robots at once, to the same results.)
 
-    The robot is validated, dropped at the origin (or where ``conditions`` draw its start), left
-    ``insertion`` seconds to settle (its controller already runs) and then followed for
-    ``seconds``; the fitness is ``task``'s over that span, by default the paper's ``v + 5 s``
-    (:class:`revolve_env.tasks.Locomotion`). The network is stepped by the compiled
+    The robot is validated, dropped at the origin (or where the setting's conditions draw its
+    start), left ``insertion`` seconds to settle (its controller already runs) and then followed
+    for ``seconds``; the fitness is the setting's task's over that span, by default the paper's
+    ``v + 5 s`` (:class:`revolve_env.tasks.Locomotion`). The network is stepped by the compiled
     :class:`~revolve_env.brain.BatchController` once per control period.
 
     Args:
         robot: The robot, with its neural network.
-        seconds: Evaluation time (the fitness window). Seconds.
-        insertion: Settling time before the evaluation. Seconds.
-        seed: Seeds the start (heading, jitter) and the noise that ``conditions`` ask for (the
+        setting: Where and how it is simulated (:class:`~revolve_env.setting.Setting`: engine,
+            terrain, timings, task, conditions, insertion and evaluation times); ``Setting()``
+            by default: MuJoCo, flat ground, 3 s insertion, 12 s window, the paper's task and
+            :data:`~revolve_env.conditions.IDEAL` conditions.
+        seed: Seeds the start (heading, jitter) and the noise that the conditions ask for (the
             physics itself is deterministic): two generators, ``default_rng(seed)`` for the noise
             and :func:`start_generator` for the start.
-        sensor_noise: Standard deviation of Gaussian noise on every sensor value (a shortcut for
-            ``conditions=EvaluationConditions(sensor_noise=...)``; not with ``conditions``).
-        actuator_noise: Standard deviation of Gaussian noise on every normalized hinge target
-            (likewise).
-        config: Physics settings; ``WorldConfig()`` by default.
         limits: Validation limits.
-        engine: Physics engine (``"pybullet"`` or ``"mujoco"``); None keeps ``config.engine``
-            (pybullet by default).
-        conditions: Start heading and position jitter around the origin, sensor and actuator
-            noise (:class:`~revolve_env.conditions.EvaluationConditions`); default
-            :data:`~revolve_env.conditions.IDEAL` (heading 0 at the origin, no noise).
-        task: What the robot is scored on (:func:`revolve_env.tasks.make_task`: a task, a
-            name, a table); default :class:`~revolve_env.tasks.Locomotion`.
-        terrain: The ground (:func:`revolve_env.terrain.make_terrain`: ``"flat"``,
-            ``"rugged"``, ``"crater"``, ``"bowl"``, a table or a spec); None keeps
-            ``config.terrain`` (flat by default). The robot is dropped onto the highest ground
-            under its footprint.
+        **keywords: Parts of the setting, changed (:meth:`Setting.of
+            <revolve_env.setting.Setting.of>`): ``seconds`` (the fitness window) and
+            ``insertion`` (settling time), seconds; ``config`` (a
+            :class:`~revolve_env.world.WorldConfig`); ``engine`` (``"mujoco"``, the default, or
+            ``"pybullet"``); ``timing`` (a named timing); ``terrain`` (``"flat"``,
+            ``"rugged"``, ``"crater"``, ``"bowl"``, a table or a spec: the robot is dropped onto
+            the highest ground under its footprint); ``task`` (a task, a name or a table);
+            ``conditions``; ``sensor_noise`` and ``actuator_noise`` (standard deviations of
+            Gaussian noise on every sensor value and normalized hinge target: shortcuts for
+            ``conditions``, not with it).
 
     Raises:
         RobotError: the robot is invalid (before any physics runs).
@@ -126,31 +109,21 @@ def evaluate(
             network whose inputs do not match the body's sensors, a bad task (``TaskError``), or
             a bad terrain or a start off it (``TerrainError``).
         EngineUnavailableError: the engine's package is not installed.
-        TypeError: ``conditions`` is not an ``EvaluationConditions``.
+        TypeError: ``conditions`` is not an ``EvaluationConditions``, or an unknown keyword.
     """
-    for name, value in (("sensor_noise", sensor_noise), ("actuator_noise", actuator_noise)):
-        if not (math.isfinite(value) and value >= 0):
-            raise ValueError(f"{name} must be a finite number >= 0, got {value}")
-    conditions = with_noise_shortcuts(conditions, sensor_noise, actuator_noise)
-    [result] = evaluate_many([robot], seconds=seconds, insertion=insertion, seeds=[seed],
-                             config=config, limits=limits, engine=engine, conditions=conditions,
-                             task=task, terrain=terrain)
+    setting = Setting.of(setting, **keywords)
+    [result] = evaluate_many([robot], setting, seeds=[seed], limits=limits)
     return result
 
 
 def evaluate_many(
     robots: Sequence[Robot],
+    setting: Setting | None = None,
     *,
-    seconds: float = 12.0,
-    insertion: float = 3.0,
     seeds: Sequence[int] | None = None,
-    config: WorldConfig | None = None,
     limits: Limits | None = None,
-    engine: str | None = None,
-    conditions: EvaluationConditions | None = None,
-    task: Task | str | Mapping[str, Any] | None = None,
-    terrain: Terrain | str | Mapping[str, Any] | None = None,
     threads: int = 1,
+    **keywords: Unpack[SettingKeywords],
 ) -> list[EvaluationResult]:
     """:func:`evaluate` many robots side by side: the same results, for less work per robot.
 
@@ -163,19 +136,14 @@ def evaluate_many(
 
     Args:
         robots: The robots, with their networks.
-        seconds: Evaluation time (the fitness window). Seconds.
-        insertion: Settling time before the evaluation. Seconds.
+        setting: Where and how every robot is simulated (as :func:`evaluate`'s); the
+            conditions of each are drawn from its own seed.
         seeds: One seed per robot (as :func:`evaluate`'s ``seed``); default 0 for each.
-        config: Physics settings; ``WorldConfig()`` by default.
         limits: Validation limits.
-        engine: Physics engine; None keeps ``config.engine`` (pybullet by default).
-        conditions: The conditions of every robot (each drawn from its own seed); default
-            :data:`~revolve_env.conditions.IDEAL`.
-        task: What every robot is scored on; default :class:`~revolve_env.tasks.Locomotion`.
-        terrain: The ground (as :func:`evaluate`'s); None keeps ``config.terrain`` (flat).
         threads: Threads of this process that step the robots (MuJoCo's compiled rollout,
             :mod:`revolve_env.world.compiled`; elsewhere one). The results do not depend on it.
             One by default, as processes (``--workers``) already share the cores.
+        **keywords: Parts of the setting, changed (as :func:`evaluate`'s).
 
     Returns:
         One :class:`EvaluationResult` per robot, in order.
@@ -186,27 +154,23 @@ def evaluate_many(
             whose inputs do not match its body's sensors, a robot the engine cannot build, a
             bad task (``TaskError``), or a bad terrain or a start off it (``TerrainError``).
         EngineUnavailableError: the engine's package is not installed.
-        TypeError: ``conditions`` is not an ``EvaluationConditions``.
+        TypeError: ``conditions`` is not an ``EvaluationConditions``, or an unknown keyword.
     """
     for robot in robots:
         validate(robot, limits)
     if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
         raise ValueError(f"threads must be a whole number >= 1, got {threads!r}")
-    for name, value in (("seconds", seconds), ("insertion", insertion)):
-        if not (math.isfinite(value) and value >= 0):
-            raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+    setting = Setting.of(setting, **keywords)
     seeds = [0] * len(robots) if seeds is None else [int(s) for s in seeds]
     if len(seeds) != len(robots):
         raise ValueError(f"{len(seeds)} seeds for {len(robots)} robots")
-    conditions = with_noise_shortcuts(conditions, 0.0, 0.0)
-    scored = make_task(task)
-    cfg = with_engine(config if config is not None else WorldConfig(), engine).with_terrain(
-        terrain)
+    conditions, scored, cfg = setting.conditions, setting.task, setting.world
     dt = cfg.control_period
-    insertion_ticks = round(insertion / dt)
-    evaluation_ticks = round(seconds / dt)
+    insertion_ticks = round(setting.insertion / dt)
+    evaluation_ticks = round(setting.seconds / dt)
     if evaluation_ticks < 1:
-        raise ValueError(f"seconds ({seconds}) must cover at least one control period ({dt} s)")
+        raise ValueError(f"seconds ({setting.seconds}) must cover at least one control period "
+                         f"({dt} s)")
     stride = task_pose_stride(scored, dt)
     if not robots:
         return []

@@ -152,7 +152,7 @@ def test_ideal_conditions_give_the_numbers_recorded_before_conditions_existed() 
     """Recorded with the code of commit e46ad0e (no conditions at all), pybullet: the spider's
     fitness and path over 1 s + 2 s. A change in how IDEAL starts a robot breaks this."""
     # The fitness then sampled the core every control period (the default pose rate is 5 Hz now).
-    result = evaluate(spider(), seconds=2.0, insertion=1.0, conditions=IDEAL,
+    result = evaluate(spider(), seconds=2.0, insertion=1.0, conditions=IDEAL, engine="pybullet",
                       task={"name": "locomotion", "pose_rate": "every-period"})
     # Recorded on another machine: equal as floating point allows there (a change in how a
     # robot starts moves it by far more); bit for bit, path included, where it rounds the same.

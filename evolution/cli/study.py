@@ -9,8 +9,9 @@ a crash, a kill) and leaves finished experiments alone; other settings into the 
 refused on one line naming the setting.
 
 Time, measured once each on this project's shared 2-core machine: ``revolve study --runs 3
---births 60`` took 16 min 50 s with pybullet (load average 4.5 to 6.8: other jobs shared the
-cores) and 1 min 54 s with ``--set world.engine=mujoco`` (load average about 2.4); scenario 3's
+--births 60`` took 1 min 54 s on MuJoCo, the default engine (load average about 2.4), and 16 min
+50 s with ``--set world.engine=pybullet`` (load average 4.5 to 6.8: other jobs shared the
+cores); scenario 3's
 online runs (one world of 8 to 30 robots simulated for 15 s per birth) took about 8 min each with
 pybullet and 45 s with MuJoCo, an offline run 0.5 to 1 min and 5 to 10 s.
 """
@@ -229,8 +230,8 @@ def add_study(sub: argparse._SubParsersAction[Any]) -> None:
         epilog="births 60 with population 15 is 4 offline generations (15 + 3 x 15) for "
                "scenario 1 and the baselines, 45 generations of one child for scenario 2, and "
                "45 births after the first 15 in scenario 3's world. Measured on two shared cores: "
-               "17 min with pybullet, 2 min with --set world.engine=mujoco. Example: revolve "
-               "study --runs 3 --births 60 --set world.engine=mujoco",
+               "2 min on MuJoCo (the default), 17 min with --set world.engine=pybullet. "
+               "Example: revolve study --runs 3 --births 60",
     )
     p.add_argument("--out", default="results/study", metavar="DIR", help="the study's folder")
     p.add_argument("--runs", type=positive_int, default=3, help="runs per experiment")
@@ -240,7 +241,7 @@ def add_study(sub: argparse._SubParsersAction[Any]) -> None:
                    help="experiment seed of every experiment")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="change a config key in every experiment, e.g. --set "
-                        "world.engine=mujoco or --set evaluation_time=6 (repeatable)")
+                        "world.engine=pybullet or --set evaluation_time=6 (repeatable)")
     p.add_argument("--only", nargs="+", metavar="NAME",
                    help="run only these experiments (shipped names or TOML paths; default: "
                         f"{' '.join(PAPER_SCENARIOS)}); a later call may add the others")

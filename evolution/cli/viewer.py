@@ -119,7 +119,7 @@ def _plan(args: argparse.Namespace) -> _Plan:
         robot, name = robot_file(args.robot) if args.robot is not None else _no_robot()
         return _Plan(robot, name, args.seconds or 12.0,
                      3.0 if args.insertion is None else args.insertion,
-                     args.engine or "pybullet", 0)
+                     args.engine or revolve_env.DEFAULT_ENGINE, 0)
     stored = stored_robot(args)
     config = stored.config
     robot, learned = stored.robot, False
@@ -285,7 +285,7 @@ def _timing_arguments(p: argparse.ArgumentParser, help_seconds: str,
                    help=f"frames per simulated second, at most {MAX_FPS:g} (one per control "
                         "period; a GIF plays at most 50)")
     p.add_argument("--engine", choices=revolve_env.ENGINES,
-                   help="physics engine (default: the stored one, else pybullet)")
+                   help="physics engine (default: the stored one, else mujoco)")
     p.add_argument("--size", type=frame_size, default="480x360", metavar="WxH",
                    help="frame width and height, pixels")
 

@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 from evolution.lifecycle import InfancyHook, LearningSummary, SummarizingInfancyHook
 from revolve_env.body.robot import Robot
 from revolve_env.conditions import IDEAL, EvaluationConditions
+from revolve_env.setting import DEFAULT_ENGINE
 from revolve_env.tasks import Locomotion, Task
 from revolve_env.terrain import Flat, Terrain
 
@@ -93,7 +94,7 @@ class EvalTask:
     seconds: float
     seed: int
     infancy: InfancyHook | None = None
-    engine: str = "pybullet"
+    engine: str = DEFAULT_ENGINE
     policy: DrivingPolicy | None = None
     conditions: EvaluationConditions = IDEAL
     task: Task = Locomotion()

@@ -55,6 +55,7 @@ from evolution.learning.base import Learner, TrainingCenter
 from evolution.learning.params import CandidateEvaluation, CMAESLearner, RandomSearchLearner
 from evolution.learning.sb3 import SB3Learner
 from revolve_env.conditions import IDEAL, EvaluationConditions
+from revolve_env.setting import DEFAULT_ENGINE
 from revolve_env.tasks import Locomotion, Task
 from revolve_env.terrain import Flat, Terrain
 
@@ -81,7 +82,7 @@ def policies_observe_hinges(data: Mapping[str, Any] | None) -> bool:
                 and data.get("proprioception", False) is True)
 
 
-def training_center_from_dict(data: Mapping[str, Any], engine: str = "pybullet",
+def training_center_from_dict(data: Mapping[str, Any], engine: str = DEFAULT_ENGINE,
                               conditions: EvaluationConditions = IDEAL,
                               task: Task | None = None,
                               terrain: Terrain | None = None) -> TrainingCenter:

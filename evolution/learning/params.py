@@ -36,6 +36,7 @@ from evolution.learning.base import LearningResult, check_budget
 from revolve_env.body.robot import Robot
 from revolve_env.brain import get_params, param_bounds, set_params
 from revolve_env.conditions import IDEAL, EvaluationConditions
+from revolve_env.setting import DEFAULT_ENGINE
 from revolve_env.tasks import Locomotion, Task
 from revolve_env.terrain import Flat, Terrain
 
@@ -94,7 +95,7 @@ class CandidateEvaluation:
     seconds: float = 6.0
     workers: int = 1
     function: EvaluateFunction = field(default=evaluate_task)
-    engine: str = "pybullet"
+    engine: str = DEFAULT_ENGINE
     conditions: EvaluationConditions = IDEAL
     task: Task = Locomotion()
     terrain: Terrain = Flat()

@@ -62,6 +62,7 @@ from revolve_env.body.robot import Layer, Robot
 from revolve_env.conditions import IDEAL, EvaluationConditions
 from revolve_env.registration import LOCOMOTION_ID, LOCOMOTION_V1_ID
 from revolve_env.rl import INSTALL_HINT, ObservationNormalization, VecEnvConfig, ppo_settings
+from revolve_env.setting import DEFAULT_ENGINE
 from revolve_env.tasks import Locomotion, Task
 from revolve_env.terrain import Flat, Terrain
 
@@ -105,7 +106,7 @@ def _algorithm_class(algorithm: type | str) -> type:
 
 
 def _make_env(robot: Robot, action: ActionMode, insertion: float, seconds: float,
-              control_period: float, engine: str = "pybullet",
+              control_period: float, engine: str = DEFAULT_ENGINE,
               conditions: EvaluationConditions = IDEAL, proprioception: bool = False,
               task: Task | None = None, terrain: Terrain | None = None) -> Any:
     """The infant's single-robot env, for the learner's two evaluations.
@@ -256,7 +257,7 @@ class PolicyAgent:
 
 
 def rollout_fitness(agent: PolicyAgent | None, robot: Robot, insertion: float, seconds: float,
-                    control_period: float, seed: int, engine: str = "pybullet",
+                    control_period: float, seed: int, engine: str = DEFAULT_ENGINE,
                     conditions: EvaluationConditions = IDEAL, task: Task | None = None,
                     terrain: Terrain | None = None) -> float:
     """Fitness of one episode of ``robot`` driven by ``agent`` (``None``: by its own network).
@@ -327,7 +328,7 @@ class SB3Learner:
     insertion: float = 0.5
     seconds: float = 4.0
     control_period: float = 1.0 / 60.0
-    engine: str = "pybullet"
+    engine: str = DEFAULT_ENGINE
     algorithm_kwargs: Mapping[str, Any] = field(default_factory=dict)
     conditions: EvaluationConditions = IDEAL
     normalize: bool = True

@@ -42,6 +42,7 @@ from revolve_env.episode_length import (
 from revolve_env.evaluation import start_generator
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, Window
 from revolve_env.rollout import Rollout, TaskWindows
+from revolve_env.setting import Setting, env_parts
 from revolve_env.tasks import BaseTask, Task, make_task
 from revolve_env.terrain import Terrain
 from revolve_env.world import World, WorldConfig, with_engine
@@ -187,8 +188,10 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     | camera             | "track"   | a :class:`~revolve_env.cameras.Camera` or the name of |
     |                    |           | one (:data:`~revolve_env.cameras.CAMERAS`: "track"    |
     |                    |           | follows the core at 1 m, "far", "top", "fixed")            |
-    | insertion_time     | 3.0       | settling phase, not scored. Seconds                        |
-    | evaluation_time    | 12.0      | scored phase. Seconds                                      |
+    | insertion_time     | None      | settling phase, not scored. Seconds; None: the setting's,  |
+    |                    |           | 3.0                                                        |
+    | evaluation_time    | None      | scored phase. Seconds; None: the setting's ``seconds``,    |
+    |                    |           | 12.0                                                       |
     | control_period     | None      | time per env step. Seconds (a multiple of the timestep);   |
     |                    |           | None: ``world_config``'s (1/60 s by default)               |
     | fitness_window     | 12.0      | sliding window of the fitness. Seconds                     |
@@ -209,12 +212,16 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     | world_config       | None      | a :class:`~revolve_env.world.WorldConfig` (physics)        |
     | limits             | None      | validation limits                                          |
     |                    |           | (:class:`~revolve_env.body.validate.Limits`)               |
-    | engine             | None      | "pybullet" or "mujoco"; None: ``world_config``'s (pybullet) |
+    | engine             | None      | "mujoco" or "pybullet"; None: ``world_config``'s (mujoco)   |
     | task               | None      | what the robot is rewarded for: a task, a name or a table  |
     |                    |           | (:func:`~revolve_env.tasks.make_task`); None: Locomotion   |
     | terrain            | None      | the ground: "flat", "rugged", "crater", "bowl", a table or |
     |                    |           | a spec (:mod:`~revolve_env.terrain`); None:                |
     |                    |           | ``world_config``'s (flat)                                  |
+    | setting            | None      | a :class:`~revolve_env.setting.Setting`: world (engine,    |
+    |                    |           | terrain, timings), task, conditions, insertion and         |
+    |                    |           | evaluation times at once; a keyword above given beside it  |
+    |                    |           | changes that part (its conditions keep their reset noise)  |
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 60}  # noqa: RUF012 (gymnasium API)
@@ -223,8 +230,8 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self,
         robot: Robot | str | os.PathLike[str] = DEFAULT_ROBOT,
         render_mode: Literal["rgb_array", "human"] | None = None,
-        insertion_time: float = DEFAULT_INSERTION_TIME,
-        evaluation_time: float = DEFAULT_EVALUATION_TIME,
+        insertion_time: float | None = None,
+        evaluation_time: float | None = None,
         control_period: float | None = None,
         fitness_window: float = DEFAULT_WINDOW,
         sensor_noise: float = 0.0,
@@ -242,7 +249,14 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         height: int = 360,
         camera: str | Camera = "track",
         reset_noise_scale: float | None = None,
+        setting: Setting | None = None,
     ) -> None:
+        given = conditions is not None or setting is not None
+        world_config, task, conditions = env_parts(setting, world_config, task, conditions)
+        if insertion_time is None:
+            insertion_time = DEFAULT_INSERTION_TIME if setting is None else setting.insertion
+        if evaluation_time is None:
+            evaluation_time = DEFAULT_EVALUATION_TIME if setting is None else setting.seconds
         self.width, self.height = check_size(width, height)
         self.camera = make_camera(camera)
         robot = resolve_robot(robot, limits)[0]
@@ -256,7 +270,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
                          controller, action)
         self.conditions = with_reset_noise(
             with_noise_shortcuts(conditions, sensor_noise, actuator_noise), reset_noise_scale,
-            conditions_given=conditions is not None)
+            conditions_given=given)
         self.reset_noise_scale = self.conditions.reset_noise_scale
 
         config = world_config if world_config is not None else WorldConfig()

@@ -127,9 +127,10 @@ each a ``Robot`` or a mapping with keys ``robot`` and optional ``position``, ``c
 | render_mode         | None     | "rgb_array"                                                 |
 | render_view         | "top"    | "top" (straight down) or "chase" (oblique), whole arena     |
 | render_size         | (480, 360) | image width and height. Pixels                            |
-| insertion_time      | 3.0      | not scored after birth. Seconds                             |
+| insertion_time      | None     | not scored after birth. Seconds; None: the setting's, 3.0   |
 | maturity_age        | 15.0     | age from which ``is_mature`` holds. Seconds                 |
-| fitness_window      | 12.0     | sliding window of the fitness. Seconds                      |
+| fitness_window      | None     | sliding window of the fitness. Seconds; None: the setting's |
+|                     |          | ``seconds``, 12.0                                           |
 | birth_radius        | 2.0      | random births lie within this distance of the origin. m     |
 | birth_clearance     | 0.02     | gap kept between footprints at birth. Metres                |
 | max_placement_tries | 200      | random draws in the birth disc before placing outside it    |
@@ -146,7 +147,7 @@ each a ``Robot`` or a mapping with keys ``robot`` and optional ``position``, ``c
 | space_mode          | "exact"  | "exact" or "uniform" (see Spaces)                           |
 | proprioception      | False    | observe hinge angles and velocities                         |
 | lifecycle           | None     | births and deaths inside a step (see the module doc)        |
-| engine              | None     | "pybullet" or "mujoco"; None: world_config's (pybullet)     |
+| engine              | None     | "mujoco" or "pybullet"; None: world_config's (mujoco)       |
 | conditions          | None     | heading, jitter and noise of newborns (see Conditions);     |
 |                     |          | None: :data:`ONLINE_CONDITIONS` with reset noise 0.1        |
 | reset_noise_scale   | None     | half-width of the uniform noise on newborns' hinge start    |
@@ -155,6 +156,10 @@ each a ``Robot`` or a mapping with keys ``robot`` and optional ``position``, ``c
 | task                | None     | what robots are rewarded for (:func:`~revolve_env.tasks.    |
 |                     |          | make_task`: a task, a name, a table); None: Locomotion      |
 | terrain             | None     | "flat", "rugged", "crater", "bowl", a table; None: flat     |
+| setting             | None     | a :class:`~revolve_env.setting.Setting`: world (engine,     |
+|                     |          | terrain, timings), task, conditions, insertion and fitness  |
+|                     |          | window at once; a keyword above given beside it changes     |
+|                     |          | that part (its conditions keep their reset noise, 0)        |
 """
 
 from __future__ import annotations
@@ -181,6 +186,7 @@ from revolve_env.envs.placement import footprint_radius
 from revolve_env.envs.reports import Dicts, end_step, report_step, status_info
 from revolve_env.envs.roster import Roster
 from revolve_env.fitness import DEFAULT_WINDOW
+from revolve_env.setting import Setting, env_parts
 from revolve_env.status import RobotStatus, agent_name
 from revolve_env.tasks import Task, make_task
 from revolve_env.terrain import Terrain
@@ -290,9 +296,9 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         render_mode: Literal["rgb_array"] | None = None,
         render_view: Literal["top", "chase"] = "top",
         render_size: tuple[int, int] = (480, 360),
-        insertion_time: float = 3.0,
+        insertion_time: float | None = None,
         maturity_age: float = 15.0,
-        fitness_window: float = DEFAULT_WINDOW,
+        fitness_window: float | None = None,
         birth_radius: float = 2.0,
         birth_clearance: float = 0.02,
         max_placement_tries: int = 200,
@@ -311,9 +317,15 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         task: Task | str | Mapping[str, Any] | None = None,
         terrain: Terrain | str | Mapping[str, Any] | None = None,
         reset_noise_scale: float | None = None,
+        setting: Setting | None = None,
     ) -> None:
         max_cycles = max_cycles_of(max_cycles, max_steps)
-        given = conditions is not None
+        given = conditions is not None or setting is not None
+        world_config, task, conditions = env_parts(setting, world_config, task, conditions)
+        if insertion_time is None:
+            insertion_time = 3.0 if setting is None else setting.insertion
+        if fitness_window is None:
+            fitness_window = DEFAULT_WINDOW if setting is None else setting.seconds
         conditions = conditions if conditions is not None else ONLINE_CONDITIONS
         times = {"insertion_time": insertion_time, "maturity_age": maturity_age,
                  "birth_radius": birth_radius, "birth_clearance": birth_clearance}

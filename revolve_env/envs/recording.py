@@ -110,7 +110,7 @@ def record_robot(
         insertion: Settling time shown first. Seconds.
         fps: Frames per simulated second (the GIF plays in real time). The frame period is a
             whole number of control periods, the nearest to ``1 / fps``.
-        engine: Physics engine (``"pybullet"`` or ``"mujoco"``); None: pybullet.
+        engine: Physics engine (``"mujoco"`` or ``"pybullet"``); None: MuJoCo.
         seed: Seed of the episode (:func:`revolve_env.evaluate`'s ``seed``).
         conditions: Start heading, jitter and noise (default
             :data:`~revolve_env.conditions.IDEAL`); with the same ``seed`` the robot starts and

@@ -11,7 +11,14 @@ from typing import Any
 from revolve_env.body.parts import SERVO
 from revolve_env.terrain import Flat, Terrain, TerrainError, make_terrain
 
-__all__ = ["TIMINGS", "TerrainError", "WorldConfig"]
+__all__ = ["DEFAULT_ENGINE", "TIMINGS", "TerrainError", "WorldConfig"]
+
+#: The physics engine of everything that names none: MuJoCo (2.5-3.8x faster than pybullet,
+#: exact snapshots). The one home of the default: every ``engine=`` keyword's None, and
+#: :class:`revolve_env.Setting`, mean this one. ``engine="pybullet"`` is one keyword away.
+#: (Before 2026-11-27 it was pybullet: results stored then name their engine, or are read as
+#: pybullet by the store's upgrade.)
+DEFAULT_ENGINE = "mujoco"
 
 #: Named timings: preset -> (``timestep``, ``control_period``, ``brain_period``), seconds.
 #: ``"default"`` (also ``"revolve-env-2025"``): physics at 1/240 s, servo law, sensors and
@@ -40,9 +47,10 @@ class WorldConfig:
 
     Attributes:
         engine: The physics engine, a name of :data:`~revolve_env.world.engines.ENGINES`:
-            ``"pybullet"`` (the reference) or ``"mujoco"`` (faster; see docs/engines.md for its
-            integrator and contact settings). Every rule above the engine (servo law, sensors,
-            blow-up policy) is the same for both. The name is checked against the engine
+            :data:`DEFAULT_ENGINE`, ``"mujoco"`` (faster, exact snapshots; see docs/engines.md
+            for its integrator and contact settings), or ``"pybullet"`` (the first engine).
+            Every rule above the engine (servo law, sensors, blow-up policy) is the same for
+            both. The name is checked against the engine
             registry (:mod:`revolve_env.world.engines`) where a world or an env is made; this
             record is pure data and knows no engine.
         timestep: Physics step. Seconds.
@@ -78,7 +86,7 @@ class WorldConfig:
             :func:`~revolve_env.terrain.make_terrain`.
     """
 
-    engine: str = "pybullet"
+    engine: str = DEFAULT_ENGINE
     timestep: float = 1.0 / 240.0
     control_period: float = 1.0 / 60.0
     gravity: float = 9.81

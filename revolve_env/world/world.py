@@ -66,7 +66,7 @@ class World:
         """Start a fresh engine of ``config.engine`` and build the ground.
 
         Args:
-            config: Physics settings; defaults to ``WorldConfig()`` (pybullet).
+            config: Physics settings; defaults to ``WorldConfig()`` (MuJoCo).
             gui: Open the engine's window instead of running headless (pybullet only).
             isolated: Every robot in a scene of its own
                 (:mod:`~revolve_env.world.isolated`): robots never meet, and each moves

@@ -19,6 +19,7 @@ from revolve_env import evaluate, example
 from revolve_env.body.parts import light_inputs
 from revolve_env.envs.population import PopulationEnv
 from revolve_env.fitness import fitness_terms
+from revolve_env.setting import Setting, SettingKeywords
 from revolve_env.tasks import (
     TASKS,
     DirectedLocomotion,
@@ -248,6 +249,7 @@ def test_a_fitness_of_the_wrong_shape_is_refused_naming_the_task() -> None:
 def test_the_package_exports_the_task_keywords() -> None:
     import inspect
 
-    for fn in (revolve_env.evaluate, revolve_env.evaluate_many, PopulationEnv.__init__,
-               revolve_env.LocomotionEnv.__init__):
+    # evaluate and evaluate_many take it as a part of their setting (Setting.of's keywords)
+    for fn in (Setting.of, PopulationEnv.__init__, revolve_env.LocomotionEnv.__init__):
         assert "task" in inspect.signature(fn).parameters
+    assert "task" in SettingKeywords.__annotations__

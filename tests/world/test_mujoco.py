@@ -262,7 +262,8 @@ def test_engine_keyword_everywhere() -> None:
     a = evaluate(robot, engine="mujoco", seconds=1.0, insertion=0.5)
     b = evaluate(robot, config=WorldConfig(engine="mujoco"), seconds=1.0, insertion=0.5)
     assert a.fitness == b.fitness
-    assert a.fitness != evaluate(robot, seconds=1.0, insertion=0.5).fitness
+    assert a.fitness == evaluate(robot, seconds=1.0, insertion=0.5).fitness  # the default
+    assert a.fitness != evaluate(robot, engine="pybullet", seconds=1.0, insertion=0.5).fitness
 
     env = gym.make("revolve_env/Locomotion-v0", robot=robot, engine="mujoco", controller="brain",
                    evaluation_time=0.5, insertion_time=0.1)

@@ -48,7 +48,7 @@ def test_a_pybullet_servo_driven_to_a_far_target_never_exceeds_its_speed(
     # pybullet's motor is a velocity constraint within the torque limit, as RoboGen's (ODE's):
     # the hinge turns at the speed limit and not faster (2 % solver slack). MuJoCo's velocity
     # actuator does not keep it (up to 1.8x the limit: see docs/engines.md, 2026-11-27).
-    with World(WorldConfig(max_velocity=max_velocity)) as world:
+    with World(WorldConfig(engine="pybullet", max_velocity=max_velocity)) as world:
         ends, top = _drive(world, world.add_robot(_arm()))
         np.testing.assert_allclose(ends, [45.0, -45.0], atol=1.0)
         assert 0.95 * max_velocity <= top <= 1.02 * max_velocity

@@ -15,10 +15,13 @@ from revolve_env.body.robot import Layer, Node, PartType, Robot
 from revolve_env.world import World, WorldConfig, build_model
 from revolve_env.world.pybullet_backend import PybulletBackend, pybullet_link_order
 
+PYBULLET = WorldConfig(engine="pybullet")
+"""This file's engine (MuJoCo, the default, has its own: test_mujoco.py)."""
+
 
 def test_every_part_builds_with_its_joints_and_mass() -> None:
     robot = every_part()
-    with World() as world:
+    with World(PYBULLET) as world:
         h = world.add_robot(robot)
         assert world.n_outputs(h) == 1  # one active hinge
         assert world.n_inputs(h) == 6 + 1 + 2  # IMU, light, touch (traversal order)
@@ -45,7 +48,7 @@ def test_inertia_is_positive_and_centre_of_mass_inside_the_boxes() -> None:
 
 
 def test_robot_is_dropped_from_drop_height_and_settles_on_the_ground() -> None:
-    with World() as world:
+    with World(PYBULLET) as world:
         h = world.add_robot(lone_core(), position=(0.5, -0.25), drop_height=0.1)
         half = 0.0465 / 2
         assert world.core_position(h) == pytest.approx([0.5, -0.25, 0.1 + half])
@@ -54,7 +57,7 @@ def test_robot_is_dropped_from_drop_height_and_settles_on_the_ground() -> None:
 
 
 def test_removal_leaves_no_body_and_handles_are_not_reused() -> None:
-    with World() as world:
+    with World(PYBULLET) as world:
         assert world.body_count() == 1  # the ground
         a = world.add_robot(spider())
         b = world.add_robot(snake(), position=(1.0, 0.0))
@@ -73,7 +76,7 @@ def test_removal_leaves_no_body_and_handles_are_not_reused() -> None:
 
 
 def test_servo_reaches_target_within_speed_limit() -> None:
-    with World() as world:
+    with World(PYBULLET) as world:
         h = world.add_robot(spider())
         world.step(30)
         start = world.joint_angles(h)
@@ -118,7 +121,7 @@ def test_pybullet_links_carry_their_own_mass_and_inertia() -> None:
     model = build_model(robot)
     order = pybullet_link_order(model)
     assert order.tolist() == [1, 3, 4, 2]  # depth first: the halves hang below link 1
-    with World() as world:
+    with World(PYBULLET) as world:
         world.add_robot(robot)
         backend = world.backend
         assert isinstance(backend, PybulletBackend)
@@ -133,7 +136,7 @@ def test_pybullet_links_carry_their_own_mass_and_inertia() -> None:
 
 
 def test_bad_targets_are_rejected() -> None:
-    with World() as world:
+    with World(PYBULLET) as world:
         h = world.add_robot(spider())
         with pytest.raises(ValueError, match="8 active hinges"):
             world.set_targets(h, np.zeros(3))
@@ -149,7 +152,7 @@ def _leg_with_touch() -> Robot:
 
 
 def test_touch_sensor_fires_on_ground_contact_only() -> None:
-    with World() as world:
+    with World(PYBULLET) as world:
         h = world.add_robot(_leg_with_touch(), drop_height=0.2)
         world.step(1)
         assert world.read_sensors(h)[6:].tolist() == [0.0] * 8  # falling
@@ -159,7 +162,7 @@ def test_touch_sensor_fires_on_ground_contact_only() -> None:
 
 
 def test_imu_at_rest_reads_gravity_and_no_rotation() -> None:
-    with World() as world:
+    with World(PYBULLET) as world:
         h = world.add_robot(spider(), yaw=0.7)
         world.step(60)
         imu = world.read_sensors(h)[:6]
@@ -174,7 +177,7 @@ def test_imu_at_rest_reads_gravity_and_no_rotation() -> None:
 
 def test_light_sensor_sees_the_light_only_when_facing_it() -> None:
     light_index = 6  # after the IMU; the light sensor sits on the front leg (slot 0)
-    with World(WorldConfig(light_position=(1.0, 0.0, 0.05))) as world:
+    with World(WorldConfig(engine="pybullet", light_position=(1.0, 0.0, 0.05))) as world:
         facing = world.add_robot(every_part())
         away = world.add_robot(every_part(), position=(0.0, 1.0), yaw=math.pi)
         world.step(1)
@@ -189,7 +192,7 @@ def test_light_sensor_sees_the_light_only_when_facing_it() -> None:
 
 def test_same_inputs_same_trajectory() -> None:
     def run() -> np.ndarray:
-        with World() as world:
+        with World(PYBULLET) as world:
             h = world.add_robot(spider(), yaw=0.3)
             out = []
             for i in range(120):
@@ -203,7 +206,7 @@ def test_same_inputs_same_trajectory() -> None:
 
 
 def test_two_worlds_are_independent() -> None:
-    with World() as a, World() as b:
+    with World(PYBULLET) as a, World(PYBULLET) as b:
         ha = a.add_robot(lone_core(), drop_height=0.5)
         hb = b.add_robot(lone_core(), drop_height=0.5)
         a.step(20)
@@ -212,7 +215,7 @@ def test_two_worlds_are_independent() -> None:
 
 
 def test_robots_collide_with_each_other() -> None:
-    with World() as world:
+    with World(PYBULLET) as world:
         below = world.add_robot(lone_core())
         above = world.add_robot(lone_core(), drop_height=0.2)
         world.step(90)
@@ -222,7 +225,7 @@ def test_robots_collide_with_each_other() -> None:
 
 
 def test_blow_up_is_reported_not_raised() -> None:
-    with World(WorldConfig(max_linear_speed=1.0)) as world:
+    with World(WorldConfig(engine="pybullet", max_linear_speed=1.0)) as world:
         h = world.add_robot(spider(), drop_height=2.0)
         calm = world.add_robot(spider(), position=(1.0, 0.0))
         world.step(60)  # falls faster than 1 m/s
@@ -234,7 +237,7 @@ def test_blow_up_is_reported_not_raised() -> None:
 
 
 def test_closed_world_refuses_work_and_disconnects() -> None:
-    world = World()
+    world = World(PYBULLET)
     cid = world.backend.client_id  # type: ignore[attr-defined]
     world.close()
     assert not pb.isConnected(physicsClientId=cid)
@@ -275,7 +278,7 @@ def test_reset_world_replays_exactly() -> None:
             out.append(world.core_position(h))
         return np.array(out)
 
-    with World() as world:
+    with World(PYBULLET) as world:
         first = run(world)
         world.add_robot(snake(), position=(1, 1))  # leftovers must not matter
         world.step(10)
@@ -286,7 +289,7 @@ def test_reset_world_replays_exactly() -> None:
 
 def test_non_finite_targets_mark_a_blow_up_instead_of_raising() -> None:
     """A diverged controller (NaN outputs) is reported like a physics blow-up, never a crash."""
-    with World() as world:
+    with World(PYBULLET) as world:
         h = world.add_robot(spider())
         calm = world.add_robot(spider(), position=(1.0, 0.0))
         world.set_targets(h, np.full(world.n_outputs(h), np.nan))
@@ -305,7 +308,7 @@ def test_imu_readings_saturate_at_full_scale_and_nan_passes(
     every env and evaluation feeds the brains the same bounded values; NaN stays visible."""
     from revolve_env.body.parts import IMU_ACCEL_RANGE, IMU_GYRO_RANGE
 
-    with World() as world:
+    with World(PYBULLET) as world:
         h = world.add_robot(spider())
         huge = np.array([[1e6, -1e6, 3.0, 1e4, -1e4, np.nan]])
         monkeypatch.setattr(World, "_imus", lambda self: huge)

@@ -87,6 +87,7 @@ from evolution.experiments.loop.registry import read_toml, shipped_config, shipp
 from evolution.learning import TrainingCenter, training_center_from_dict
 from revolve_env.conditions import MAX_RADIUS, EvaluationConditions
 from revolve_env.fitness.sampling import pose_stride
+from revolve_env.setting import DEFAULT_ENGINE, Setting
 from revolve_env.tasks import (
     TASKS,
     Locomotion,
@@ -153,7 +154,8 @@ class WorldSettings:
     """The ``[world]`` table: the physics every evaluation and online world of a run uses.
 
     Attributes:
-        engine: The physics engine: ``"pybullet"`` or ``"mujoco"``
+        engine: The physics engine: ``"mujoco"`` (the default,
+            :data:`revolve_env.setting.DEFAULT_ENGINE`) or ``"pybullet"``
             (:data:`revolve_env.ENGINES`). Stored with the results, so ``resume``
             and ``report`` know it; the engine's package must import when the run starts.
         terrain: The ground (:mod:`revolve_env.terrain`): ``"flat"`` (the default), or a
@@ -164,7 +166,7 @@ class WorldSettings:
             runs on the plane are as before).
     """
 
-    engine: str = "pybullet"
+    engine: str = DEFAULT_ENGINE
     terrain: str | Mapping[str, Any] = "flat"
 
     def __post_init__(self) -> None:
@@ -505,6 +507,21 @@ class ExperimentConfig:
             return task_from_dict(self.task, allow_import=allow_import)
         except TaskError as error:
             raise ConfigError(f"task: {error}") from None
+
+    def setting(self, allow_import: bool = True) -> Setting:
+        """Where and how this experiment's robots are simulated, as one record.
+
+        Its ``[world]`` engine and terrain, its task (:meth:`fitness_task`), its
+        ``[evaluation]`` conditions, ``insertion`` and ``evaluation_time``
+        (:class:`revolve_env.setting.Setting`: what ``evaluate`` and the envs take).
+
+        Raises:
+            ConfigError: see :meth:`fitness_task`.
+        """
+        world = revolve_env.WorldConfig(engine=self.world.engine, terrain=self.world.terrain_spec)
+        return Setting(world=world, task=self.fitness_task(allow_import),
+                       conditions=self.evaluation, insertion=self.insertion,
+                       seconds=self.evaluation_time)
 
     @property
     def seconds_per_evaluation(self) -> float:

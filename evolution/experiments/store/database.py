@@ -64,6 +64,7 @@ reports and plots read.
 from __future__ import annotations
 
 import json
+import logging
 import math
 import os
 import sqlite3
@@ -99,8 +100,10 @@ from evolution.lifecycle import Stage, Transition
 __all__ = [
     "DB_NAME", "SCHEMA_VERSION", "Batch", "Checkpoint", "DiversityPoint", "FailureRecord",
     "FitnessSample", "FitnessSeries", "LearningRecord", "ReevaluationRecord", "RobotRecord",
-    "RunRecord", "Store", "StoreError", "package_version",
+    "RunRecord", "Store", "StoreError", "engine_of_old_config", "package_version",
 ]
+
+_log = logging.getLogger(__name__)
 
 DB_NAME = "results.sqlite"
 """File name of the database inside a results directory."""
@@ -617,6 +620,8 @@ def _check_database(db: sqlite3.Connection, path: Path, check: tuple[str] | None
             f"{SCHEMA_VERSION}; upgrade revolve-env to read it"
         )
     if version < SCHEMA_VERSION:
+        if version < 8:
+            engine_of_old_config(db, path)
         try:
             _migrate(db, version)
         except sqlite3.Error as error:
@@ -634,6 +639,27 @@ def _check_database(db: sqlite3.Connection, path: Path, check: tuple[str] | None
         raise StoreError(
             f"{path} is incomplete: table(s) {', '.join(missing)} missing; corrupt?"
         )
+
+
+def engine_of_old_config(db: sqlite3.Connection, path: Path) -> bool:
+    """Say in one line (logged) that ``db``'s stored config names no engine and is read as pybullet.
+
+    The rule itself is the schema 8 upgrade (:data:`~evolution.experiments.records.
+    ENGINE_OF_OLD_CONFIGS`); this is its one line, said before it is applied (on every open of a
+    read-only database, whose upgrade is a copy in memory).
+
+    Returns:
+        Whether the config names no engine.
+    """
+    unnamed = db.execute(
+        "SELECT 1 FROM meta WHERE key = 'config' AND json_valid(value) "
+        "AND json_type(value) = 'object' AND json_type(value, '$.world.engine') IS NULL "
+        "AND (json_type(value, '$.world') IS NULL OR json_type(value, '$.world') = 'object')"
+    ).fetchall()
+    if unnamed:
+        _log.warning("%s: its config names no physics engine (stored before MuJoCo became the "
+                     "default): read as pybullet, the engine it ran on", path)
+    return bool(unnamed)
 
 
 class _ReadOnly(StoreError):

@@ -17,6 +17,7 @@ import numpy as np
 
 __all__ = [
     "CONDITIONS_OF_OLD_RUNS",
+    "ENGINE_OF_OLD_CONFIGS",
     "LEARNING_TABLE",
     "MIGRATIONS",
     "MODE_OF_OLD_CONFIGS",
@@ -34,7 +35,7 @@ __all__ = [
     "RunRecord",
 ]
 
-SCHEMA_VERSION = 7
+SCHEMA_VERSION = 8
 """Version of the database layout; a database with a newer one is refused, an older one is
 upgraded when opened (see the module docstring)."""
 
@@ -238,6 +239,20 @@ scores its remaining births as it scored the first ones. A pose rate already the
 Written out literally on purpose: a migration must not change when the code's defaults do, and
 this statement is the one home of that rule."""
 
+ENGINE_OF_OLD_CONFIGS = """
+UPDATE meta SET value = json_set(value, '$.world.engine', 'pybullet')
+WHERE key = 'config' AND json_valid(value) AND json_type(value) = 'object'
+    AND (json_type(value, '$.world') IS NULL OR json_type(value, '$.world') = 'object')
+    AND json_type(value, '$.world.engine') IS NULL;
+"""
+"""Schema version 8: the physics engine of a stored config that names none. Until MuJoCo became
+the default engine (2026-11-27) a config without ``world.engine`` (every one stored before the
+``[world]`` table, 2026-11-23) ran on pybullet, so it gets ``world.engine = "pybullet"``: a
+resumed run steps its remaining births on the engine of its first ones. An engine already there
+is kept. Written out literally on purpose: a migration must not change when the code's defaults
+do, and this statement is the one home of that rule (the store says so in one line when it
+applies it: :func:`evolution.experiments.store.engine_of_old_config`)."""
+
 SCHEMA = SCHEMA_V1 + LEARNING_TABLE + POLICY_COLUMN + REEVALUATIONS_TABLE + SHAKING_COLUMN
 """The current layout (version :data:`SCHEMA_VERSION`)."""
 
@@ -247,7 +262,8 @@ TABLES = frozenset(re.findall(r"CREATE TABLE (\w+)", SCHEMA))
 MIGRATIONS: dict[int, str] = {1: LEARNING_TABLE, 2: POLICY_COLUMN,
                                3: REEVALUATIONS_TABLE + CONDITIONS_OF_OLD_RUNS,
                                4: MODE_OF_OLD_CONFIGS, 5: SB3_OF_OLD_RUNS,
-                               6: SHAKING_COLUMN + POSE_RATE_OF_OLD_CONFIGS}
+                               6: SHAKING_COLUMN + POSE_RATE_OF_OLD_CONFIGS,
+                               7: ENGINE_OF_OLD_CONFIGS}
 """For each old version, the statements that bring it to the next one."""
 
 

@@ -105,8 +105,9 @@ def test_ctrl_c_names_the_command_that_continues(monkeypatch: pytest.MonkeyPatch
                         lambda *a, **k: LocalEvaluator(workers=1, function=fake_evaluate))
     assert main(shlex.split(again)[1:]) == 0
     out_text = capsys.readouterr().out
-    assert "scenario1: 2 run(s) x 16 births (offline, pybullet): 2 run(s) to do" in out_text
-    assert "scenario3: 2 run(s) x 16 births (online, pybullet): finished" in out_text
+    # the shipped configs' engine, MuJoCo
+    assert "scenario1: 2 run(s) x 16 births (offline, mujoco): 2 run(s) to do" in out_text
+    assert "scenario3: 2 run(s) x 16 births (online, mujoco): finished" in out_text
     assert "estimated time" not in out_text  # --no-estimate: no calibration
 
 

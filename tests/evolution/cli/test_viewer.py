@@ -83,7 +83,7 @@ def test_show_of_an_offline_robot_reproduces_its_stored_fitness_exactly(
     rec = stored.record
     assert (f"robot {rec.robot_id} of run 0 of quick (born at birth {rec.robot_id}, "
             f"t = {rec.birth_time:.1f} s)") in out
-    assert "isolated 1 s evaluation after 0.5 s settling, pybullet" in out
+    assert "isolated 1 s evaluation after 0.5 s settling, mujoco" in out  # quick's engine
     assert "(the same)" in out and "differ" not in out
     video = record_robot(stored.robot, tmp_path / "again.gif", seconds=1.0, insertion=0.5,
                          fps=5.0, seed=evaluation_seed(stored.run_seed, rec.robot_id),
@@ -111,11 +111,11 @@ def test_reasons_come_from_the_stored_records(offline: Path) -> None:
     policy = LearningRecord(0, 0.0, "darwinian", None, 1.0, 2.0, 3, 4.0, 0,
                             json.dumps({"file": "policies/run0_robot0.pkl", "digest": "x"}))
     plan = replace(_plan(_args(offline, robot_id=0)), stored=replace(noisy, learning=policy),
-                   engine="mujoco")
+                   engine="pybullet")
     reasons = "; ".join(fitness_reasons(plan))
     assert "other conditions" in reasons and "sensor_noise=0.1" in reasons
     assert "learned policy (policies/run0_robot0.pkl)" in reasons
-    assert "re-simulated on mujoco, stored from pybullet" in reasons
+    assert "re-simulated on pybullet, stored from mujoco" in reasons
 
 
 def _walker(db: Path) -> tuple[int, float]:

@@ -200,14 +200,16 @@ def test_bad_learner_settings_are_refused() -> None:
 # -- learners in the physics -----------------------------------------------------------------------
 
 def test_cma_es_improves_a_weak_inborn_gait_in_the_physics() -> None:
-    evaluation = CandidateEvaluation(insertion=0.25, seconds=2.0, function=evaluate_in_env)
+    # On pybullet, where the figures below were measured.
+    evaluation = CandidateEvaluation(insertion=0.25, seconds=2.0, function=evaluate_in_env,
+                                     engine="pybullet")
     learner = CMAESLearner(sigma0=0.2, popsize=4, evaluation=evaluation)
     result = learner.learn(weak_gecko(), budget=9 * 2.25, rng=np.random.default_rng(1))
     assert result.evaluations == 9
     # Measured: inborn 0.357 m, best 0.991 m over a 2 s window (seed 1).
     assert result.improvement > 0.3
     # The returned robot really walks that well (an independent re-evaluation, same seed).
-    task = EvalTask(0, result.robot, 0.25, 2.0, 0)
+    task = EvalTask(0, result.robot, 0.25, 2.0, 0, engine="pybullet")
     again = evaluate_in_env(task).fitness
     assert again is not None and again > result.inborn_fitness + 0.3
 

@@ -243,7 +243,7 @@ def test_version_3_run_is_upgraded_and_keeps_every_row(study: Path, tmp_path: Pa
     _as_version_3(db)
     before = dump_results(db)
     with Store.open(db) as store:
-        assert store.meta()["schema_version"] == "7"
+        assert store.meta()["schema_version"] == "8"
         assert store.config["evaluation"]["heading"] == 0.0  # an offline run: heading 0
         assert store.config["mode"] == "offline" and "engine" not in store.config
         assert store.config["task"] == {"name": "locomotion", "pose_rate": "every-period"}

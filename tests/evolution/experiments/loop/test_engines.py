@@ -25,10 +25,10 @@ def tiny(name: str, **changes: Any) -> ExperimentConfig:
 
 
 def test_world_engine_is_one_config_key_stored_with_the_results(tmp_path: Path) -> None:
-    config = load_config("quick", {"world": {"engine": "mujoco"}})
-    assert config.world.engine == "mujoco" and config.to_dict()["world"] == {"engine": "mujoco"}
+    config = load_config("quick", {"world": {"engine": "pybullet"}})
+    assert config.world.engine == "pybullet" and config.to_dict()["world"] == {"engine": "pybullet"}
     assert ExperimentConfig.from_dict(config.to_dict()) == config
-    assert load_config("quick").world.engine == "pybullet"
+    assert load_config("quick").world.engine == "mujoco"  # the default since 2026-11-27
     with pytest.raises(ConfigError, match="world.engine must be one of"):
         load_config("quick", {"world": {"engine": "ode"}})
     with pytest.raises(ConfigError, match="unknown world config key"):

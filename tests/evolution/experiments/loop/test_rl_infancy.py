@@ -19,6 +19,7 @@ from experiment_fakes import kill_after as killer
 from evolution import experiments
 from evolution.evaluation import LocalEvaluator, evaluate_task
 from evolution.experiments import ConfigError, ExperimentConfig, ProgressEvent, preset
+from evolution.experiments.loop.config import WorldSettings
 from evolution.experiments.store.database import Store, StoreError
 
 pytest.importorskip("stable_baselines3")
@@ -37,9 +38,12 @@ def offline_config() -> ExperimentConfig:
 
 
 def online_config() -> ExperimentConfig:
+    # On pybullet, which cannot restore a world snapshot: a resumed run replays from birth 0,
+    # the route (policies driving the replayed robots) these tests check.
     return (preset("scenario3", runs=1, births=6, population_size=4, min_alive=2, max_alive=8,
                         insertion=0.5, evaluation_time=1.0, fertile_age=1.0,
-                        conception_interval=0.5, checkpoint_interval=1, learning=LEARNING))
+                        conception_interval=0.5, checkpoint_interval=1, learning=LEARNING,
+                        world=WorldSettings(engine="pybullet")))
 
 
 def _check_policies(out: Path) -> None:

@@ -79,12 +79,16 @@ def test_a_stored_sb3_table_trains_to_the_old_codes_numbers(tmp_path: Path, acti
     with Store.open(path) as store:
         table = store.config["learning"]
         task = store.config["task"]
+        engine = store.config["world"]["engine"]
+    # The engine it ran on (schema 8: pybullet, the default then), as the experiment hands it to
+    # its learner (ExperimentConfig.training_center).
+    assert engine == "pybullet"
     assert table == {**OLD_TABLE, "action": action, "normalize": False,
                      "settings": "sb3-defaults"}
     # The task an old run was scored with (schema 7): poses every control period, as the
     # experiment hands it to its learner (ExperimentConfig.fitness_task).
     assert task["pose_rate"] == "every-period"
-    center = training_center_from_dict(table, task=make_task(task))
+    center = training_center_from_dict(table, engine=engine, task=make_task(task))
     result = center.learner.learn(EXAMPLES["gecko"](), table["budget"],
                                   np.random.default_rng(2018))
     old = OLD_CODE[action]
@@ -116,7 +120,7 @@ def test_version_5_upgrade_pins_only_old_sb3_tables(
     path = tmp_path / "results.sqlite"
     _version_5_store(path, stored)
     with Store.open(path) as store:
-        assert store.meta()["schema_version"] == "7"
+        assert store.meta()["schema_version"] == "8"
         assert store.config.get("learning") == expected
         config = store.config
     with Store.open(path) as store:  # opening again changes nothing more

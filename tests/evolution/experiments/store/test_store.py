@@ -178,7 +178,7 @@ def test_version_1_database_is_upgraded_in_place(tmp_path: Path) -> None:
     db.commit()
     db.close()
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == str(SCHEMA_VERSION) == "7"
+        assert s.meta()["schema_version"] == str(SCHEMA_VERSION) == "8"
         assert s.learning(0) == [] and [r.robot_id for r in s.robots(0)] == [0]
         assert set(s.table_counts()) == TABLES
 
@@ -202,7 +202,7 @@ def test_version_2_database_gains_the_policy_column(tmp_path: Path) -> None:
     db.commit()
     db.close()
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == "7"
+        assert s.meta()["schema_version"] == "8"
         assert s.learning(0) == [LearningRecord(0, 0.0, "darwinian", None, 0.5, 0.75, 3, 21.0)]
 
 
@@ -221,6 +221,9 @@ def test_run_seed_conflict(store: Store) -> None:
 
 OLD_TASK = {"name": "locomotion", "pose_rate": "every-period"}
 """The task a config stored before schema 7 without one gains: the fitness it was scored with."""
+
+OLD_WORLD = {"engine": "pybullet"}
+"""The world table a config stored before schema 8 without an engine gains: the engine it ran on."""
 
 
 def _make_version_3(path: Path, config: dict[str, object]) -> None:
@@ -271,10 +274,10 @@ def test_version_3_database_is_upgraded_in_place(
     before = _dump(path, old_tables)
     renamed = {("mode" if k == "engine" else k): v for k, v in config.items()}
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == "7"
+        assert s.meta()["schema_version"] == "8"
         assert s.config == {**renamed, "evaluation": {
             "heading": heading, "position_jitter": 0.0, "sensor_noise": 0.0,
-            "actuator_noise": 0.0}, "task": OLD_TASK}
+            "actuator_noise": 0.0}, "task": OLD_TASK, "world": OLD_WORLD}
         assert s.reevaluations() == [] and set(s.table_counts()) == TABLES
     assert _dump(path, old_tables) == before
     with Store.open(path) as s:  # opening again changes nothing more
@@ -304,7 +307,7 @@ def test_version_4_database_names_its_mode(tmp_path: Path, mode: str | None) -> 
     if mode is not None:
         expected["mode"] = mode
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == "7" and s.config == expected
+        assert s.meta()["schema_version"] == "8" and s.config == expected
         assert ExperimentConfig.from_dict({**s.config, "births": 15}).mode == (mode or "offline")
     assert _dump(path, tables) == before
     with Store.open(path) as s:  # opening again changes nothing more
@@ -392,7 +395,7 @@ def test_version_6_database_keeps_the_pose_rate_it_was_scored_at(
     db.commit()
     db.close()
     with Store.open(path) as s:
-        assert s.meta()["schema_version"] == "7" and s.config["task"] == expected
+        assert s.meta()["schema_version"] == "8" and s.config["task"] == expected
         assert s.fitness_samples(0) == [FitnessSample(0, 15.0, 1.0, 0.5, 0.1, None)]
         fitness_task = ExperimentConfig.from_dict({**s.config, "births": 15}).fitness_task()
         assert fitness_task.to_dict()["pose_rate"] == expected["pose_rate"]
@@ -401,3 +404,43 @@ def test_version_6_database_keeps_the_pose_rate_it_was_scored_at(
         assert s.fitness_samples(0, 1) == [FitnessSample(1, 30.0, 2.0, 1.0, 0.2, 1.5)]
     with Store.open(path) as s:  # opening again changes nothing more
         assert s.config["task"] == expected
+
+
+@pytest.mark.parametrize(("world", "expected", "said"), [
+    (None, {"engine": "pybullet"}, True),
+    ({"terrain": "rugged"}, {"terrain": "rugged", "engine": "pybullet"}, True),
+    # an engine already named is kept, whichever it is
+    ({"engine": "mujoco"}, {"engine": "mujoco"}, False),
+    ({"engine": "pybullet"}, {"engine": "pybullet"}, False),
+])
+def test_version_7_database_keeps_the_engine_it_ran_on(
+        tmp_path: Path, caplog: pytest.LogCaptureFixture, world: dict[str, object] | None,
+        expected: dict[str, object], said: bool) -> None:
+    """Before schema 8 a config without ``world.engine`` ran on pybullet, the default then: it
+    reads as pybullet after the upgrade (MuJoCo is the default now), with one line saying so,
+    and a resumed run steps its remaining births on the engine of its first ones."""
+    path = tmp_path / "results.sqlite"
+    config: dict[str, object] = {"name": "old", "births": 15}
+    if world is not None:
+        config["world"] = world
+    Store.create(path, config, 0).close()
+    db = sqlite3.connect(path)
+    db.execute("UPDATE meta SET value = '7' WHERE key = 'schema_version'")
+    db.commit()
+    db.close()
+    with caplog.at_level("WARNING", logger="evolution.experiments.store"), Store.open(path) as s:
+        assert s.meta()["schema_version"] == "8" and s.config["world"] == expected
+        assert ExperimentConfig.from_dict(s.config).world.engine == expected["engine"]
+    lines = [r.getMessage() for r in caplog.records]
+    assert len(lines) == int(said)
+    if said:
+        assert "names no physics engine" in lines[0] and "read as pybullet" in lines[0]
+    caplog.clear()
+    with Store.open(path) as s:  # opening again changes nothing more, and says nothing
+        assert s.config["world"] == expected
+    assert caplog.records == []
+
+
+def test_new_config_without_an_engine_runs_on_mujoco() -> None:
+    """A config written today without ``world.engine`` runs on the default engine, MuJoCo."""
+    assert ExperimentConfig.from_dict({"name": "new"}).world.engine == "mujoco"
