@@ -11,10 +11,16 @@ folder (``torchinductor_<user>``, made when an optimizer is made): it goes into 
 folder under a name of its own and is deleted with it; Ray keeps its sessions' logs in a
 folder of its own (``RAY_TMPDIR``, short: its sockets' paths must stay under 108 characters),
 deleted at the end, once the tests have shut Ray down.
+
+Under pytest-xdist (``-n``), each worker is a session of its own: it takes back the variables
+as they were before the controller set them, then makes its own folder (so each worker starts
+its own Ray instance, since ``ray.init()`` joins the latest cluster recorded in ``RAY_TMPDIR``,
+and checks its own leftovers).
 """
 
 from __future__ import annotations
 
+import json
 import multiprocessing
 import multiprocessing.util
 import os
@@ -27,9 +33,21 @@ import pytest
 _KEY = pytest.StashKey[Path]()
 _TORCH_CACHE = "torch-compiler-cache"
 _RAY = "ray"
+_SET = ("TMPDIR", "TORCHINDUCTOR_CACHE_DIR", "RAY_TMPDIR")
+_BEFORE = "REVOLVE_TESTS_ENVIRONMENT"
+"""The variables of :data:`_SET` as the first session found them (JSON), for xdist's workers."""
 
 
 def pytest_configure(config: pytest.Config) -> None:
+    if _BEFORE in os.environ:  # an xdist worker: the controller's values are not ours
+        for name, value in json.loads(os.environ[_BEFORE]).items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+        tempfile.tempdir = None  # gettempdir() reads TMPDIR again
+    else:
+        os.environ[_BEFORE] = json.dumps({name: os.environ.get(name) for name in _SET})
     system = tempfile.gettempdir()
     session = Path(tempfile.mkdtemp(prefix="revolve-tests-", dir=system))
     session.chmod(0o755)  # another user must reach folders made in it (the read-only test)

@@ -51,6 +51,9 @@ def nothing_runs(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(reevaluate_module, "make_evaluator", _ran)
     monkeypatch.setattr("evolution.cli.viewer.replay_online", _ran)
     monkeypatch.setattr("evolution.cli.study.run_study", _ran)
+    # revolve study's time estimate simulates each experiment for a few seconds of CPU first
+    # (20 s for the five): it was most of the numeric options' fuzz (2026-11-27).
+    monkeypatch.setattr("evolution.cli.study.calibrate_all", _ran)
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import sqlite3
+import threading
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -214,6 +216,31 @@ def test_bad_robot_inputs(capsys: pytest.CaptureFixture[str], tmp_path: Path) ->
     bad.write_text('{"schema": "revolve-robot", "version": 1, "body": 3}')
     assert "bad.json" in _error(capsys, ["export", str(bad), "--format", "sdf"])
     assert "give a robot" in _error(capsys, ["export", "--format", "bom"])
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs FIFOs")
+def test_a_robot_file_that_is_not_a_regular_file_is_one_line_not_a_hang(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    fifo = tmp_path / "robot.json"
+    os.mkfifo(fifo)
+    # Were the FIFO opened to be read, it would wait for a writer: this one comes after a minute,
+    # so that a regression fails (on its message) instead of hanging the suite.
+    rescue = threading.Timer(60, lambda: os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK)))
+    rescue.start()
+    try:
+        for argv in (["export", str(fifo), "--format", "bom"],
+                     ["show", str(fifo), "--out", str(tmp_path / "x.gif")]):
+            assert _error(capsys, argv).endswith(f"the robot file {fifo} is a FIFO, not a "
+                                                 "regular file")
+    finally:
+        rescue.cancel()
+    assert "is a folder, not a regular file" in _error(capsys, ["export", str(tmp_path),
+                                                                "--format", "bom"])
+    (tmp_path / "spider").mkdir()  # a file wins over the example of its name, whatever it is
+    monkeypatch.chdir(tmp_path)
+    assert _error(capsys, ["export", "spider", "--format", "bom"]).endswith(
+        "the robot file spider is a folder, not a regular file")
 
 
 # -- end to end ---------------------------------------------------------------------------------

@@ -163,6 +163,24 @@ def test_learning_records_round_trip(store: Store) -> None:
                                                          None, None).improvement is None
 
 
+def _make_old(path: Path, version: int, *, drop: tuple[str, ...] = (),
+              config: dict[str, object] | None = None, sql: tuple[str, ...] = ()) -> None:
+    """Turn a fresh database into one written by schema ``version``: the tables it did not have
+    dropped, the fitness table without schema 7's ``shaking``, then ``sql`` run and its config
+    stored as ``config`` (if given) as that version stored it."""
+    db = sqlite3.connect(path)
+    for table in drop:
+        db.execute(f"DROP TABLE {table}")
+    db.execute("ALTER TABLE fitness DROP COLUMN shaking")  # added by schema 7
+    for statement in sql:
+        db.execute(statement)
+    db.execute("UPDATE meta SET value = ? WHERE key = 'schema_version'", (str(version),))
+    if config is not None:
+        db.execute("UPDATE meta SET value = ? WHERE key = 'config'", (json.dumps(config),))
+    db.commit()
+    db.close()
+
+
 def test_version_1_database_is_upgraded_in_place(tmp_path: Path) -> None:
     """A database written before the learning table existed opens, gains an empty learning
     table (with its policy column) and the current version, and keeps every record."""
@@ -170,13 +188,7 @@ def test_version_1_database_is_upgraded_in_place(tmp_path: Path) -> None:
     with Store.create(path, {"name": "old"}, 0) as s:
         s.add_run(0, 7)
         s.commit(0, Batch(robots=[_robot(0, 0.0)]), _checkpoint(1, 15.0))
-    db = sqlite3.connect(path)
-    db.execute("DROP TABLE learning")
-    db.execute("DROP TABLE reevaluations")
-    db.execute("ALTER TABLE fitness DROP COLUMN shaking")  # added by schema 7
-    db.execute("UPDATE meta SET value = '1' WHERE key = 'schema_version'")
-    db.commit()
-    db.close()
+    _make_old(path, 1, drop=("learning", "reevaluations"))
     with Store.open(path) as s:
         assert s.meta()["schema_version"] == str(SCHEMA_VERSION) == "8"
         assert s.learning(0) == [] and [r.robot_id for r in s.robots(0)] == [0]
@@ -189,18 +201,12 @@ def test_version_2_database_gains_the_policy_column(tmp_path: Path) -> None:
     path = tmp_path / "results.sqlite"
     with Store.create(path, {"name": "old"}, 0) as s:
         s.add_run(0, 7)
-    db = sqlite3.connect(path)
-    db.execute("DROP TABLE learning")
-    db.execute("DROP TABLE reevaluations")
-    db.execute("CREATE TABLE learning (run_id INTEGER NOT NULL, robot_id INTEGER NOT NULL, "
-               "time REAL NOT NULL, inheritance TEXT NOT NULL, learned_genome TEXT, "
-               "inborn_fitness REAL, learned_fitness REAL, evaluations INTEGER, sim_seconds REAL, "
-               "failures INTEGER NOT NULL DEFAULT 0, PRIMARY KEY (run_id, robot_id))")
-    db.execute("INSERT INTO learning VALUES (0, 0, 0.0, 'darwinian', NULL, 0.5, 0.75, 3, 21.0, 0)")
-    db.execute("ALTER TABLE fitness DROP COLUMN shaking")  # added by schema 7
-    db.execute("UPDATE meta SET value = '2' WHERE key = 'schema_version'")
-    db.commit()
-    db.close()
+    _make_old(path, 2, drop=("learning", "reevaluations"), sql=(
+        "CREATE TABLE learning (run_id INTEGER NOT NULL, robot_id INTEGER NOT NULL, "
+        "time REAL NOT NULL, inheritance TEXT NOT NULL, learned_genome TEXT, "
+        "inborn_fitness REAL, learned_fitness REAL, evaluations INTEGER, sim_seconds REAL, "
+        "failures INTEGER NOT NULL DEFAULT 0, PRIMARY KEY (run_id, robot_id))",
+        "INSERT INTO learning VALUES (0, 0, 0.0, 'darwinian', NULL, 0.5, 0.75, 3, 21.0, 0)"))
     with Store.open(path) as s:
         assert s.meta()["schema_version"] == "8"
         assert s.learning(0) == [LearningRecord(0, 0.0, "darwinian", None, 0.5, 0.75, 3, 21.0)]
@@ -224,17 +230,6 @@ OLD_TASK = {"name": "locomotion", "pose_rate": "every-period"}
 
 OLD_WORLD = {"engine": "pybullet"}
 """The world table a config stored before schema 8 without an engine gains: the engine it ran on."""
-
-
-def _make_version_3(path: Path, config: dict[str, object]) -> None:
-    """Turn a fresh database into one written by schema version 3 (no reevaluations)."""
-    db = sqlite3.connect(path)
-    db.execute("DROP TABLE reevaluations")
-    db.execute("ALTER TABLE fitness DROP COLUMN shaking")  # added by schema 7
-    db.execute("UPDATE meta SET value = '3' WHERE key = 'schema_version'")
-    db.execute("UPDATE meta SET value = ? WHERE key = 'config'", (json.dumps(config),))
-    db.commit()
-    db.close()
 
 
 def _dump(path: Path, tables: list[str]) -> dict[str, list[tuple[object, ...]]]:
@@ -269,7 +264,7 @@ def test_version_3_database_is_upgraded_in_place(
         s.add_run(0, 7)
         s.commit(0, Batch(robots=[_robot(0, 0.0)], population=[(0, 1.0)],
                           fitness=[FitnessSample(0, 15.0, 1.0, 0.5, 0.1)]), _checkpoint(1, 15.0))
-    _make_version_3(path, config)
+    _make_old(path, 3, drop=("reevaluations",), config=config)
     old_tables = sorted(TABLES - {"meta", "reevaluations"})
     before = _dump(path, old_tables)
     renamed = {("mode" if k == "engine" else k): v for k, v in config.items()}
@@ -296,11 +291,7 @@ def test_version_4_database_names_its_mode(tmp_path: Path, mode: str | None) -> 
     with Store.create(path, config, 0) as s:
         s.add_run(0, 7)
         s.commit(0, Batch(robots=[_robot(0, 0.0)], population=[(0, 1.0)]), _checkpoint(1, 15.0))
-    db = sqlite3.connect(path)
-    db.execute("ALTER TABLE fitness DROP COLUMN shaking")  # added by schema 7
-    db.execute("UPDATE meta SET value = '4' WHERE key = 'schema_version'")
-    db.commit()
-    db.close()
+    _make_old(path, 4)
     tables = sorted(TABLES - {"meta"})
     before = _dump(path, tables)
     expected = {k: v for k, v in config.items() if k != "engine"} | {"task": OLD_TASK}
@@ -321,7 +312,7 @@ def test_upgrade_keeps_stored_conditions(tmp_path: Path) -> None:
                   "actuator_noise": 0.05}
     config = {"name": "old", "engine": "online", "evaluation": conditions}
     Store.create(path, config, 0).close()
-    _make_version_3(path, config)
+    _make_old(path, 3, drop=("reevaluations",), config=config)
     with Store.open(path) as s:
         assert s.config["evaluation"] == conditions
 
@@ -352,7 +343,7 @@ def test_upgrade_pins_the_learning_conditions_of_old_runs(tmp_path: Path) -> Non
     learning = {"learner": "cma-es", "budget": 60.0, "insertion": 0.5, "seconds": 1.0}
     config: dict[str, object] = {"name": "old", "engine": "online", "learning": learning}
     Store.create(path, config, 0).close()
-    _make_version_3(path, config)
+    _make_old(path, 3, drop=("reevaluations",), config=config)
     with Store.open(path) as s:
         stored = s.config
     assert stored["evaluation"]["heading"] == "random"
@@ -389,11 +380,7 @@ def test_version_6_database_keeps_the_pose_rate_it_was_scored_at(
         s.commit(0, Batch(robots=[_robot(0, 0.0)],
                           fitness=[FitnessSample(0, 15.0, 1.0, 0.5, 0.1, 1.25)]),
                  _checkpoint(1, 15.0))
-    db = sqlite3.connect(path)
-    db.execute("ALTER TABLE fitness DROP COLUMN shaking")
-    db.execute("UPDATE meta SET value = '6' WHERE key = 'schema_version'")
-    db.commit()
-    db.close()
+    _make_old(path, 6)
     with Store.open(path) as s:
         assert s.meta()["schema_version"] == "8" and s.config["task"] == expected
         assert s.fitness_samples(0) == [FitnessSample(0, 15.0, 1.0, 0.5, 0.1, None)]
