@@ -57,6 +57,7 @@ _LAZY = {
     "WorldConfig": ("revolve_env.world", "WorldConfig"),
     "LocomotionEnv": ("revolve_env.envs.locomotion", "LocomotionEnv"),
     "PopulationEnv": ("revolve_env.envs.population", "PopulationEnv"),
+    "PopulationOptions": ("revolve_env.envs.population", "PopulationOptions"),
     "population_env": ("revolve_env.envs.population", "population_env"),
     "BatchController": ("revolve_env.brain", "BatchController"),
     # scipy (the rugged terrain's blur) is loaded only when terrains are used
@@ -97,6 +98,7 @@ __all__ = [
     "Node",
     "PartType",
     "PopulationEnv",
+    "PopulationOptions",
     "Robot",
     "RobotError",
     "Setting",

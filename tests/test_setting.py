@@ -13,7 +13,7 @@ import pytest
 import revolve_env
 from revolve_env.conditions import IDEAL, EvaluationConditions
 from revolve_env.envs.locomotion import LocomotionEnv
-from revolve_env.envs.population import PopulationEnv
+from revolve_env.envs.population import PopulationEnv, PopulationOptions
 from revolve_env.setting import Setting
 from revolve_env.tasks import DirectedLocomotion, Locomotion
 from revolve_env.terrain import Flat, Rugged
@@ -75,10 +75,16 @@ def test_evaluate_takes_a_setting_or_the_keywords_that_build_it() -> None:
         revolve_env.evaluate(spider, bogus=1)  # type: ignore[call-arg]
 
 
-@pytest.mark.parametrize("function", [revolve_env.evaluate, revolve_env.evaluate_many])
-def test_evaluate_takes_at_most_ten_parameters(function: object) -> None:
-    """The setting carries the rest (issue 29's done-when)."""
-    assert len(inspect.signature(function).parameters) <= 10  # type: ignore[arg-type]
+@pytest.mark.parametrize("function", [revolve_env.evaluate, revolve_env.evaluate_many,
+                                      PopulationEnv.__init__])
+def test_evaluate_and_the_population_env_take_at_most_ten_parameters(function: object) -> None:
+    """The setting (and the env's options) carry the rest (issue 29's done-when).
+
+    ``**keywords`` counts as one; ``self`` does not.
+    """
+    parameters = [name for name in inspect.signature(function).parameters  # type: ignore[arg-type]
+                  if name != "self"]
+    assert len(parameters) <= 10, parameters
 
 
 def test_the_single_robot_env_takes_a_setting() -> None:
@@ -142,3 +148,32 @@ def test_no_engine_name_is_a_default_but_the_one_home() -> None:
     found = [hit for package in ("revolve_env", "evolution")
              for path in sorted((ROOT / package).rglob("*.py")) for hit in _engine_defaults(path)]
     assert found == []
+
+
+def test_the_population_env_takes_its_options_as_a_record_or_as_keywords() -> None:
+    options = PopulationOptions(max_births=6, birth_radius=1.5, trajectory_length=0,
+                                space_mode="uniform", proprioception=True)
+    by_record = PopulationEnv((), Setting.of(engine="pybullet"), options)
+    by_keywords = PopulationEnv(initial_robots=(), engine="pybullet", max_births=6,
+                                birth_radius=1.5, trajectory_length=0, space_mode="uniform",
+                                proprioception=True)
+    # a keyword beside the record changes that option only
+    changed = PopulationEnv(initial_robots=(), options=options, max_births=9)
+    try:
+        for env in (by_record, by_keywords):
+            assert env.options == options and env.config.engine == "pybullet"
+            assert (env.max_births, env.birth_radius, env.trajectory_length) == (6, 1.5, 0)
+            assert env.space_mode == "uniform" and env.proprioception
+            assert len(env.possible_agents) == 6
+        assert changed.options == dataclasses.replace(options, max_births=9)
+        assert changed.max_births == 9 and changed.birth_radius == 1.5
+    finally:
+        for env in (by_record, by_keywords, changed):
+            env.close()
+    with pytest.raises(TypeError, match="PopulationEnv\\(\\) got an unexpected keyword argument "
+                                        "'bogus'"):
+        PopulationEnv(bogus=1)  # type: ignore[call-arg]
+    with pytest.raises(TypeError, match="options must be a PopulationOptions"):
+        PopulationEnv(options={"max_births": 3})  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="max_births must be an integer >= 1"):
+        PopulationOptions(max_births=0)

@@ -6,7 +6,8 @@ and velocities) and ``revolve_env/Locomotion-v0`` (RoboGen's sensors) with Gymna
 """
 
 from revolve_env.envs.locomotion import LocomotionEnv
-from revolve_env.envs.population import PopulationEnv, population_env
+from revolve_env.envs.population import PopulationEnv, PopulationOptions, population_env
 from revolve_env.registration import LOCOMOTION_ID, LOCOMOTION_V1_ID
 
-__all__ = ["LOCOMOTION_ID", "LOCOMOTION_V1_ID", "LocomotionEnv", "PopulationEnv", "population_env"]
+__all__ = ["LOCOMOTION_ID", "LOCOMOTION_V1_ID", "LocomotionEnv", "PopulationEnv",
+           "PopulationOptions", "population_env"]

@@ -120,52 +120,63 @@ each a ``Robot`` or a mapping with keys ``robot`` and optional ``position``, ``c
 ``yaw``. Other option keys are ignored (PettingZoo's API test passes arbitrary ones).
 
 ## Arguments (of :class:`PopulationEnv` and :func:`population_env`)
+``PopulationEnv(initial_robots=None, setting=None, options=None, *, render_mode=None,
+**keywords)``: ``setting`` (a :class:`~revolve_env.setting.Setting`) is where and how robots
+are simulated (world: engine, terrain, timings; task; conditions; insertion and fitness window),
+``options`` (a :class:`PopulationOptions`) the env's own options; the keywords are a thin
+convenience that changes one part of either (the env's defaults where neither is given), so
+``PopulationEnv(max_births=50, engine="pybullet")`` still reads as it did. An unknown keyword is
+a TypeError.
+
 | Keyword             | Default  | Meaning                                                     |
 |---------------------|----------|-------------------------------------------------------------|
-| max_births          | 1000     | size of ``possible_agents``: the ids 0 .. max_births - 1    |
 | initial_robots      | None     | robots added by ``reset`` (see Reset)                       |
+| setting             | None     | a :class:`~revolve_env.setting.Setting`: world (engine,     |
+|                     |          | terrain, timings), task, conditions, insertion and fitness  |
+|                     |          | window at once; a keyword below given beside it changes     |
+|                     |          | that part (its conditions keep their reset noise, 0)        |
+| options             | None     | a :class:`PopulationOptions`: the options marked (o) below  |
+|                     |          | at once; a keyword given beside it changes that option      |
 | render_mode         | None     | "rgb_array"                                                 |
-| render_view         | "top"    | "top" (straight down) or "chase" (oblique), whole arena     |
-| render_size         | (480, 360) | image width and height. Pixels                            |
+| max_births (o)      | 1000     | size of ``possible_agents``: the ids 0 .. max_births - 1    |
+| render_view (o)     | "top"    | "top" (straight down) or "chase" (oblique), whole arena     |
+| render_size (o)     | (480, 360) | image width and height. Pixels                            |
+| maturity_age (o)    | 15.0     | age from which ``is_mature`` holds. Seconds                 |
+| birth_radius (o)    | 2.0      | random births lie within this distance of the origin. m     |
+| birth_clearance (o) | 0.02     | gap kept between footprints at birth. Metres                |
+| max_placement_tries (o) | 200  | random draws in the birth disc before placing outside it    |
+| trajectory_stride (o) | 1      | control periods between trajectory samples                  |
+| trajectory_length (o) | None   | samples of its trajectory kept per robot, its latest (0:    |
+|                     |          | none); None: its whole life (memory grows with its age)     |
+| max_cycles (o)      | None     | truncate every robot after this many steps (None: never)    |
+| limits (o)          | None     | validation limits (:class:`~revolve_env.body.Limits`)       |
+|                     |          | and the sizes of the uniform spaces (None: Table 1)         |
+| space_mode (o)      | "exact"  | "exact" or "uniform" (see Spaces)                           |
+| proprioception (o)  | False    | observe hinge angles and velocities                         |
+| lifecycle (o)       | None     | births and deaths inside a step (see the module doc)        |
+| reset_noise_scale (o) | None   | half-width of the uniform noise on newborns' hinge start    |
+|                     |          | angles (rad) and speeds (rad/s); None: the conditions'      |
+|                     |          | when given, else 0.1; 0: at rest (see Birth placement)      |
+| max_steps           | None     | deprecated name of ``max_cycles``                           |
 | insertion_time      | None     | not scored after birth. Seconds; None: the setting's, 3.0   |
-| maturity_age        | 15.0     | age from which ``is_mature`` holds. Seconds                 |
 | fitness_window      | None     | sliding window of the fitness. Seconds; None: the setting's |
 |                     |          | ``seconds``, 12.0                                           |
-| birth_radius        | 2.0      | random births lie within this distance of the origin. m     |
-| birth_clearance     | 0.02     | gap kept between footprints at birth. Metres                |
-| max_placement_tries | 200      | random draws in the birth disc before placing outside it    |
-| trajectory_stride   | 1        | control periods between trajectory samples                  |
-| trajectory_length   | None     | samples of its trajectory kept per robot, its latest (0:    |
-|                     |          | none); None: its whole life (memory grows with its age)     |
-| max_cycles          | None     | truncate every robot after this many steps (None: never)    |
-| max_steps           | None     | deprecated name of ``max_cycles``                           |
 | control_period      | None     | time per env step. Seconds (a multiple of the timestep);    |
 |                     |          | None: world_config's (1/60 s by default)                    |
 | world_config        | None     | a :class:`~revolve_env.world.WorldConfig` (physics)         |
-| limits              | None     | validation limits (:class:`~revolve_env.body.Limits`)       |
-|                     |          | and the sizes of the uniform spaces (None: Table 1)         |
-| space_mode          | "exact"  | "exact" or "uniform" (see Spaces)                           |
-| proprioception      | False    | observe hinge angles and velocities                         |
-| lifecycle           | None     | births and deaths inside a step (see the module doc)        |
 | engine              | None     | "mujoco" or "pybullet"; None: world_config's (mujoco)       |
 | conditions          | None     | heading, jitter and noise of newborns (see Conditions);     |
 |                     |          | None: :data:`ONLINE_CONDITIONS` with reset noise 0.1        |
-| reset_noise_scale   | None     | half-width of the uniform noise on newborns' hinge start    |
-|                     |          | angles (rad) and speeds (rad/s); None: the conditions'      |
-|                     |          | when given, else 0.1; 0: at rest (see Birth placement)      |
 | task                | None     | what robots are rewarded for (:func:`~revolve_env.tasks.    |
 |                     |          | make_task`: a task, a name, a table); None: Locomotion      |
 | terrain             | None     | "flat", "rugged", "crater", "bowl", a table; None: flat     |
-| setting             | None     | a :class:`~revolve_env.setting.Setting`: world (engine,     |
-|                     |          | terrain, timings), task, conditions, insertion and fitness  |
-|                     |          | window at once; a keyword above given beside it changes     |
-|                     |          | that part (its conditions keep their reset noise, 0)        |
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any, Literal
+from typing import Any, Literal, Unpack
 
 import numpy as np
 from gymnasium import spaces
@@ -174,11 +185,17 @@ from numpy.typing import ArrayLike, NDArray
 from pettingzoo import ParallelEnv
 
 from revolve_env.body.robot import Robot
-from revolve_env.body.validate import Limits
 from revolve_env.conditions import EvaluationConditions, with_reset_noise
 from revolve_env.envs.agent_spaces import AgentSpaces, SpaceMode
 from revolve_env.envs.arena import arena_frame, arena_pixels
-from revolve_env.envs.arguments import check_arguments, max_cycles_of, world_config_of
+from revolve_env.envs.arguments import (
+    PopulationKeywords,
+    PopulationOptions,
+    check_arguments,
+    max_cycles_of,
+    split_keywords,
+    world_config_of,
+)
 from revolve_env.envs.births import BirthRules, initial_births, next_robot_id, plan_birth
 from revolve_env.envs.living import Living
 from revolve_env.envs.members import Controller, LifeClock, Member, sensor_bounds
@@ -188,12 +205,11 @@ from revolve_env.envs.roster import Roster
 from revolve_env.fitness import DEFAULT_WINDOW
 from revolve_env.setting import Setting, env_parts
 from revolve_env.status import RobotStatus, agent_name
-from revolve_env.tasks import Task, make_task
-from revolve_env.terrain import Terrain
-from revolve_env.world import World, WorldConfig
+from revolve_env.tasks import make_task
+from revolve_env.world import World
 
-__all__ = ["ONLINE_CONDITIONS", "Controller", "Lifecycle", "PopulationEnv", "SpaceMode",
-           "footprint_radius", "population_env", "sensor_bounds"]
+__all__ = ["ONLINE_CONDITIONS", "Controller", "Lifecycle", "PopulationEnv", "PopulationKeywords",
+           "PopulationOptions", "SpaceMode", "footprint_radius", "population_env", "sensor_bounds"]
 
 ONLINE_CONDITIONS = EvaluationConditions(heading="random")
 """The population env's default conditions: random headings, no jitter, no noise (as always)."""
@@ -291,71 +307,73 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
 
     def __init__(
         self,
-        max_births: int = 1000,
         initial_robots: Sequence[Robot | Mapping[str, Any]] | None = None,
-        render_mode: Literal["rgb_array"] | None = None,
-        render_view: Literal["top", "chase"] = "top",
-        render_size: tuple[int, int] = (480, 360),
-        insertion_time: float | None = None,
-        maturity_age: float = 15.0,
-        fitness_window: float | None = None,
-        birth_radius: float = 2.0,
-        birth_clearance: float = 0.02,
-        max_placement_tries: int = 200,
-        trajectory_stride: int = 1,
-        trajectory_length: int | None = None,
-        max_cycles: int | None = None,
-        max_steps: int | None = None,
-        control_period: float | None = None,
-        world_config: WorldConfig | None = None,
-        limits: Limits | None = None,
-        space_mode: SpaceMode = "exact",
-        proprioception: bool = False,
-        lifecycle: Lifecycle | None = None,
-        engine: str | None = None,
-        conditions: EvaluationConditions | None = None,
-        task: Task | str | Mapping[str, Any] | None = None,
-        terrain: Terrain | str | Mapping[str, Any] | None = None,
-        reset_noise_scale: float | None = None,
         setting: Setting | None = None,
+        options: PopulationOptions | None = None,
+        *,
+        render_mode: Literal["rgb_array"] | None = None,
+        **keywords: Unpack[PopulationKeywords],
     ) -> None:
-        max_cycles = max_cycles_of(max_cycles, max_steps)
+        """Make the env (the arguments: the module doc's table).
+
+        Args:
+            initial_robots: Robots added by ``reset`` (see Reset).
+            setting: Where and how robots are simulated (world, task, conditions, insertion,
+                fitness window); None: the env's defaults.
+            options: The env's own options (:class:`PopulationOptions`); None: the defaults.
+            render_mode: ``"rgb_array"`` or None.
+            **keywords: Options or parts of the setting, changed (the table's keywords).
+
+        Raises:
+            TypeError: an unknown keyword, or an argument of the wrong type.
+            ValueError: a bad value (named).
+        """
+        option_keywords, rest = split_keywords(keywords, type(self).__name__)
+        max_steps = rest.pop("max_steps", None)
+        if max_steps is not None:  # the deprecated name (a DeprecationWarning)
+            option_keywords["max_cycles"] = max_cycles_of(option_keywords.get("max_cycles"),
+                                                          max_steps)
+        base = options if options is not None else PopulationOptions()
+        if not isinstance(base, PopulationOptions):
+            raise TypeError(f"options must be a PopulationOptions, got {type(base).__name__}")
+        self.options = opts = dataclasses.replace(base, **option_keywords)
+        conditions: EvaluationConditions | None = rest.get("conditions")
         given = conditions is not None or setting is not None
-        world_config, task, conditions = env_parts(setting, world_config, task, conditions)
+        world_config, task, conditions = env_parts(setting, rest.get("world_config"),
+                                                   rest.get("task"), conditions)
+        insertion_time: float | None = rest.get("insertion_time")
         if insertion_time is None:
             insertion_time = 3.0 if setting is None else setting.insertion
+        fitness_window: float | None = rest.get("fitness_window")
         if fitness_window is None:
             fitness_window = DEFAULT_WINDOW if setting is None else setting.seconds
         conditions = conditions if conditions is not None else ONLINE_CONDITIONS
-        times = {"insertion_time": insertion_time, "maturity_age": maturity_age,
-                 "birth_radius": birth_radius, "birth_clearance": birth_clearance}
-        check_arguments(max_births, render_mode, render_view, render_size, times, fitness_window,
-                         max_placement_tries, trajectory_stride, max_cycles, space_mode, lifecycle,
-                         conditions)
-        conditions = with_reset_noise(conditions, reset_noise_scale, conditions_given=given)
-        self.config = config = world_config_of(world_config, control_period, engine, terrain,
-                                             birth_radius)
-        self.task, self.max_births = make_task(task), max_births
+        check_arguments(render_mode, insertion_time, fitness_window, conditions)
+        conditions = with_reset_noise(conditions, opts.reset_noise_scale, conditions_given=given)
+        self.config = config = world_config_of(world_config, rest.get("control_period"),
+                                               rest.get("engine"), rest.get("terrain"),
+                                               opts.birth_radius)
+        self.task, self.max_births = make_task(task), opts.max_births
         self.initial_robots = None if initial_robots is None else list(initial_robots)
-        self.render_mode, self.render_view = render_mode, render_view
-        self.render_size = (int(render_size[0]), int(render_size[1]))
-        self.insertion_time, self.maturity_age = float(insertion_time), float(maturity_age)
-        self.birth_radius, self.birth_clearance = float(birth_radius), float(birth_clearance)
-        self.max_placement_tries, self.trajectory_stride = max_placement_tries, trajectory_stride
-        if trajectory_length is not None and (isinstance(trajectory_length, bool) or not (
-                isinstance(trajectory_length, int) and trajectory_length >= 0)):
-            raise ValueError(f"trajectory_length must be an integer >= 0 or None, got "
-                             f"{trajectory_length!r}")
-        self.trajectory_length = trajectory_length
-        self.fitness_window, self.max_cycles = float(fitness_window), max_cycles
-        self.limits = limits
-        self.space_mode: SpaceMode = space_mode
-        self.proprioception = bool(proprioception)
-        self.lifecycle, self.conditions = lifecycle, conditions
+        self.render_mode, self.render_view = render_mode, opts.render_view
+        self.render_size = (int(opts.render_size[0]), int(opts.render_size[1]))
+        self.insertion_time, self.maturity_age = float(insertion_time), float(opts.maturity_age)
+        self.birth_radius = float(opts.birth_radius)
+        self.birth_clearance = float(opts.birth_clearance)
+        self.max_placement_tries, self.trajectory_stride = (opts.max_placement_tries,
+                                                            opts.trajectory_stride)
+        self.trajectory_length = opts.trajectory_length
+        self.fitness_window, self.max_cycles = float(fitness_window), opts.max_cycles
+        self.limits = opts.limits
+        self.space_mode: SpaceMode = opts.space_mode
+        self.proprioception = bool(opts.proprioception)
+        self.lifecycle: Lifecycle | None = opts.lifecycle
+        self.conditions = conditions
         self.metadata = {**self.metadata, "render_fps": round(1.0 / config.control_period)}
-        self._rules = BirthRules(self.birth_radius, self.birth_clearance, max_placement_tries,
-                                 conditions, limits, config.terrain)
-        self._spaces = AgentSpaces(max_births, space_mode, self.proprioception, limits, config)
+        self._rules = BirthRules(self.birth_radius, self.birth_clearance, opts.max_placement_tries,
+                                 conditions, opts.limits, config.terrain)
+        self._spaces = AgentSpaces(opts.max_births, opts.space_mode, self.proprioception,
+                                   opts.limits, config)
         self.possible_agents: list[str] = self._spaces.possible_agents
         if config.brain_stride != 1:
             raise ValueError(f"brain_period ({config.brain_period} s) other than the control "
@@ -363,8 +381,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
                              "held targets would not survive births, deaths and snapshots); "
                              "use it with evaluate or the single-robot env")
         clock = LifeClock.of(config.control_period, self.insertion_time, self.maturity_age)
-        living = Living(self.fitness_window, trajectory_stride, clock, self._spaces, self.task,
-                        trajectory_length)
+        living = Living(self.fitness_window, opts.trajectory_stride, clock, self._spaces, self.task,
+                        opts.trajectory_length)
         self._roster = Roster(config, clock, living, self._spaces, conditions.actuator_noise,
                               conditions.sensor_noise)
         self._statuses: dict[int, RobotStatus] = {}

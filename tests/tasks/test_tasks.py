@@ -17,7 +17,7 @@ from evolution.learning import CandidateEvaluation, RandomSearchLearner
 from evolution.learning.sb3 import _make_env
 from revolve_env import evaluate, example
 from revolve_env.body.parts import light_inputs
-from revolve_env.envs.population import PopulationEnv
+from revolve_env.envs.population import PopulationEnv, PopulationKeywords
 from revolve_env.fitness import fitness_terms
 from revolve_env.setting import Setting, SettingKeywords
 from revolve_env.tasks import (
@@ -250,6 +250,8 @@ def test_the_package_exports_the_task_keywords() -> None:
     import inspect
 
     # evaluate and evaluate_many take it as a part of their setting (Setting.of's keywords)
-    for fn in (Setting.of, PopulationEnv.__init__, revolve_env.LocomotionEnv.__init__):
+    for fn in (Setting.of, revolve_env.LocomotionEnv.__init__):
         assert "task" in inspect.signature(fn).parameters
-    assert "task" in SettingKeywords.__annotations__
+    # PopulationEnv takes it among its keywords (a part of its setting)
+    for keywords in (SettingKeywords, PopulationKeywords):
+        assert "task" in keywords.__annotations__
