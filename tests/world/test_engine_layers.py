@@ -16,8 +16,8 @@ OWNERS = {
     # scene it compiles, the batched scenes, the ground and the frames take it from there
     "mujoco": ["revolve_env/world/mujoco_gl.py"],
 }
-MUJOCO_USERS = ["revolve_env/world/mujoco_backend.py", "revolve_env/world/mujoco_batch.py",
-                "revolve_env/world/mujoco_scene.py",
+MUJOCO_USERS = ["revolve_env/world/compiled.py", "revolve_env/world/mujoco_backend.py",
+                "revolve_env/world/mujoco_batch.py", "revolve_env/world/mujoco_scene.py",
                 "revolve_env/world/mujoco_scenes.py", "revolve_env/world/mujoco_terrain.py",
                 "revolve_env/world/mujoco_view.py"]
 

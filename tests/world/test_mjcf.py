@@ -103,11 +103,13 @@ def test_evaluation_mjcf_is_the_model_evaluate_steps(monkeypatch: pytest.MonkeyP
     stepped: list[bytes] = []
 
     class Recording(World):
-        def step(self, n: int = 1) -> None:
-            if not stepped:  # evaluate's world is isolated: the robot's scene of its own
-                (scene,) = self.backend._scenes.values()  # type: ignore[attr-defined]
-                stepped.append(_mjb(scene._model))
-            super().step(n)
+        def add_robot(self, *args: Any, **kwargs: Any) -> int:
+            handle = super().add_robot(*args, **kwargs)
+            # evaluate's world is isolated: the robot's scene of its own, compiled as stepped (by
+            # World.step or by the compiled rollout, which steps that scene's own model)
+            (scene,) = self.backend._scenes.values()  # type: ignore[attr-defined]
+            stepped.append(_mjb(scene._model))
+            return handle
 
     monkeypatch.setattr(evaluation, "World", Recording)
     turned = EvaluationConditions(heading="random", position_jitter=0.3)

@@ -222,7 +222,7 @@ def test_a_failing_mj_step_in_an_isolated_world_is_contained_as_in_a_world_alone
 
     def run() -> tuple[np.ndarray, str | None]:
         with World(MJ, isolated=True) as world:
-            calm = world.add_robot(spider())
+            calm = world.add_robot(snake())  # another model: the scenes are not one mujoco.batch
             bad = world.add_robot(spider())
             path = []
             for i in range(20):
