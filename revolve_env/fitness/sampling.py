@@ -108,7 +108,7 @@ def shaking(v_every_period: NDArray[np.float64] | float,
     """
     fine = np.asarray(v_every_period, dtype=np.float64)
     coarse = np.asarray(v_pose, dtype=np.float64)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # a tiny coarse path
         ratio = np.where(fine <= 0.0, 1.0, fine / coarse)
     out: NDArray[np.float64] = np.where(coarse <= 0.0, np.where(fine <= 0.0, 1.0, np.inf),
                                         ratio)
