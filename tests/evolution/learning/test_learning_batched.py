@@ -32,9 +32,9 @@ def test_a_batched_generation_gives_the_numbers_of_one_by_one(
     calls: list[int] = []
     many = revolve_env.evaluation.evaluate_many
 
-    def counted(robots: Any, **kwargs: Any) -> Any:
+    def counted(robots: Any, *args: Any, **kwargs: Any) -> Any:
         calls.append(len(robots))
-        return many(robots, **kwargs)
+        return many(robots, *args, **kwargs)
 
     monkeypatch.setattr(revolve_env.evaluation, "evaluate_many", counted)
     robot = EXAMPLES["spider"]()
