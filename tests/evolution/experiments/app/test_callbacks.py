@@ -4,6 +4,7 @@ events carry (on the fast physics stand-ins of ``experiment_fakes``)."""
 from __future__ import annotations
 
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -123,6 +124,11 @@ def test_a_resumed_online_run_continues_its_curves_without_the_replay(tmp_path: 
         experiments.run(config, out, combine(tensorboard, killer(33)), evaluator=SERIAL,
                         world_factory=fake_world)
     first = [step for step, _ in _scalars(tb / "run0")["population/size"]]
+    # TensorBoard reads a run's event files in the order of their names: the second they were
+    # opened, then a process-wide counter compared as text ("10" < "9"). A resume in the same
+    # second as the kill (only a test is that fast) could be read first and the killed run's
+    # points dropped as orphans, so the resumed file opens a second later, as a user's would.
+    time.sleep(1.1)
     events: list[ProgressEvent] = []
     with TensorBoardLogger(tb) as tensorboard:
         experiments.resume(out, combine(tensorboard, events.append), evaluator=SERIAL,
