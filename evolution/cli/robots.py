@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import stat
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -257,56 +256,28 @@ def no_db(args: argparse.Namespace) -> None:
                        "robot of a results database: give --db DIR too")
 
 
-_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISSOCK, "a socket"),
-          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"))
-
-
 def robot_file(name: str) -> tuple[Robot, str]:
     """A robot JSON file or an example name (:func:`resolve_robot`'s rule), and a short name.
 
-    A file is read once, without waiting (a FIFO opens at once and is then refused) and at most
-    :data:`~revolve_env.body.serialize.MAX_JSON_BYTES` + 1 bytes of it (the rule of a results
-    folder's files), then parsed as :func:`~revolve_env.body.serialize.load` would: a FIFO, a
-    device or a folder given as the robot is one line, not a hang.
+    A file is read by :func:`~revolve_env.body.serialize.load`: without waiting (a FIFO opens at
+    once and is then refused) and at most :data:`~revolve_env.body.serialize.MAX_JSON_BYTES` + 1
+    bytes of it, so a FIFO, a device or a folder given as the robot is one line, not a hang.
     """
     from revolve_env.body.errors import RobotError
     from revolve_env.body.examples import resolve_robot
-    from revolve_env.body.serialize import MAX_JSON_BYTES, from_json
+    from revolve_env.body.serialize import NotARegularFileError, load
 
     path = Path(name)
     try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
-    except FileNotFoundError:
-        fd = None  # an example's name, or resolve_robot's one line for a missing file
-    except OSError as error:
-        raise CliError(f"cannot read the robot file {name}: {error.strerror or error}") from None
-    try:
-        if fd is None:
-            return resolve_robot(name)
-        mode = os.fstat(fd).st_mode
-        if not stat.S_ISREG(mode):
-            kind = next((text for test, text in _KINDS if test(mode)), "not a file")
-            raise CliError(f"the robot file {name} is {kind}, not a regular file")
-        raw = os.read(fd, MAX_JSON_BYTES + 1)
-        chunk = raw
-        while chunk and len(raw) <= MAX_JSON_BYTES:  # os.read may return less than asked
-            chunk = os.read(fd, MAX_JSON_BYTES + 1 - len(raw))
-            raw += chunk
-        if len(raw) > MAX_JSON_BYTES:  # load's rules and words: UTF-8, at most the bound
-            raise RobotError(f"file is larger than the {MAX_JSON_BYTES} bytes a robot can take",
-                             rule="json-size")
         try:
-            text = raw.decode("utf-8")
-        except UnicodeDecodeError as exc:
-            raise RobotError(f"not UTF-8 text: byte {raw[exc.start]:#04x} at offset {exc.start} "
-                             f"cannot be decoded ({exc.reason})", rule="json-encoding") from None
-        return from_json(text), path.stem
+            return load(path), path.stem
+        except FileNotFoundError:  # an example's name, or resolve_robot's one line for no file
+            return resolve_robot(name)
+    except NotARegularFileError as error:
+        raise CliError(f"the robot file {name} is {error.kind}, not a regular file") from None
     except RobotError as error:
         raise CliError(f"{name}: {error}") from None
     except ValueError as error:
         raise CliError(str(error)) from None
     except OSError as error:
         raise CliError(f"cannot read the robot file {name}: {error.strerror or error}") from None
-    finally:
-        if fd is not None:
-            os.close(fd)

@@ -31,6 +31,7 @@ import json
 import math
 import os
 import re
+import stat
 from collections.abc import Mapping
 from dataclasses import fields
 from itertools import accumulate
@@ -53,6 +54,7 @@ __all__ = [
     "MAX_JSON_DEPTH",
     "SCHEMA",
     "SCHEMA_VERSION",
+    "NotARegularFileError",
     "from_dict",
     "from_json",
     "load",
@@ -432,6 +434,18 @@ def from_json(text: str | bytes, limits: Limits | None = None, *, check: bool = 
     return from_dict(data, limits, check=check)
 
 
+_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISSOCK, "a socket"),
+          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"))
+
+
+class NotARegularFileError(OSError):
+    """A robot file that is not a regular file; ``kind`` says what it is (``"a FIFO"``...)."""
+
+    def __init__(self, kind: str, name: str) -> None:
+        super().__init__(f"{name} is {kind}, not a regular file")
+        self.kind = kind
+
+
 def load(
     path: str | os.PathLike[str], limits: Limits | None = None, *, check: bool = True
 ) -> Robot:
@@ -441,11 +455,20 @@ def load(
         RobotError: as :func:`from_json`, with the file name in a note (``__notes__``); also
             for a file that is not UTF-8 (rule ``json-encoding``) or larger than
             :data:`MAX_JSON_BYTES` (``json-size``, refused before it is read).
+        NotARegularFileError: a folder, FIFO, socket or device (an ``OSError``; a FIFO is
+            refused, never waited on).
         OSError: the file cannot be read.
     """
     name = os.fspath(path)
     try:
-        with open(path, "rb") as f:
+        # Opened without waiting, so a FIFO opens at once and is refused below, not read.
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+        mode = os.fstat(fd).st_mode
+        if not stat.S_ISREG(mode):
+            os.close(fd)
+            kind = next((text for test, text in _KINDS if test(mode)), "not a file")
+            raise NotARegularFileError(kind, name)
+        with os.fdopen(fd, "rb") as f:
             raw = f.read(MAX_JSON_BYTES + 1)  # never more, whatever the file's size
         if len(raw) > MAX_JSON_BYTES:
             raise RobotError(f"file is larger than the {MAX_JSON_BYTES} bytes a robot can take",
