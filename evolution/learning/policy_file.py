@@ -35,7 +35,6 @@ import json
 import os
 import pickle
 import re
-import stat
 import sys
 from collections.abc import Mapping
 from pathlib import Path
@@ -45,6 +44,7 @@ import numpy as np
 
 from evolution.learning.base import same_body
 from evolution.learning.sb3 import PolicyAgent
+from revolve_env.body.files import FileTooLargeError, NotARegularFileError, read_bounded
 from revolve_env.body.robot import Layer, Robot
 from revolve_env.body.serialize import from_json, to_json
 from revolve_env.rl import ObservationNormalization
@@ -244,24 +244,15 @@ def load_policy(path: str | os.PathLike[str], robot: Robot, digest: str | None =
 
 
 def _read_bounded(name: str) -> bytes:
-    """At most :data:`MAX_BYTES` + 1 bytes of a regular file (a FIFO is refused, not waited on)."""
+    """The bytes of a regular file of at most :data:`MAX_BYTES` (a FIFO refused, not waited on)."""
     try:
-        fd = os.open(name, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0)
-                     | getattr(os, "O_BINARY", 0))
+        return read_bounded(name, MAX_BYTES)
+    except NotARegularFileError as error:
+        raise PolicyFileError(f"policy file {name} is {error.kind}, not a regular file") from None
+    except FileTooLargeError:
+        raise PolicyFileError(f"policy file {name} is larger than {MAX_BYTES} bytes") from None
     except OSError as error:
         raise PolicyFileError(f"policy file {name}: {error.strerror or error}") from error
-    try:
-        st = os.fstat(fd)
-        if not stat.S_ISREG(st.st_mode):
-            raise PolicyFileError(f"policy file {name} is not a regular file")
-        if st.st_size > MAX_BYTES:
-            raise PolicyFileError(f"policy file {name} is larger than {MAX_BYTES} bytes")
-        with os.fdopen(os.dup(fd), "rb") as f:
-            return f.read(MAX_BYTES + 1)
-    except OSError as error:
-        raise PolicyFileError(f"policy file {name}: {error.strerror or error}") from error
-    finally:
-        os.close(fd)
 
 
 def policy_from_bytes(name: str, blob: bytes, robot: Robot, digest: str | None = None, *,

@@ -31,12 +31,12 @@ import json
 import math
 import os
 import re
-import stat
 from collections.abc import Mapping
 from dataclasses import fields
 from itertools import accumulate
 from typing import Any, TypeVar
 
+from revolve_env.body.files import FileTooLargeError, NotARegularFileError, read_text
 from revolve_env.body.robot import (
     Activation,
     Connection,
@@ -398,9 +398,13 @@ def _decode(text: str | bytes) -> str:
     try:
         return bytes(text).decode(json.detect_encoding(text))
     except UnicodeDecodeError as exc:
-        raise RobotError(f"not UTF-8 text: byte {exc.object[exc.start]:#04x} at offset "
-                         f"{exc.start} cannot be decoded ({exc.reason})",
-                         rule="json-encoding") from None
+        raise _encoding_error(exc) from None
+
+
+def _encoding_error(exc: UnicodeDecodeError) -> RobotError:
+    """The one-line error of bytes that do not decode, naming the first bad byte."""
+    return RobotError(f"not UTF-8 text: byte {exc.object[exc.start]:#04x} at offset {exc.start} "
+                      f"cannot be decoded ({exc.reason})", rule="json-encoding")
 
 
 def from_json(text: str | bytes, limits: Limits | None = None, *, check: bool = True) -> Robot:
@@ -434,18 +438,6 @@ def from_json(text: str | bytes, limits: Limits | None = None, *, check: bool = 
     return from_dict(data, limits, check=check)
 
 
-_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISSOCK, "a socket"),
-          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"))
-
-
-class NotARegularFileError(OSError):
-    """A robot file that is not a regular file; ``kind`` says what it is (``"a FIFO"``...)."""
-
-    def __init__(self, kind: str, name: str) -> None:
-        super().__init__(f"{name} is {kind}, not a regular file")
-        self.kind = kind
-
-
 def load(
     path: str | os.PathLike[str], limits: Limits | None = None, *, check: bool = True
 ) -> Robot:
@@ -456,28 +448,18 @@ def load(
             for a file that is not UTF-8 (rule ``json-encoding``) or larger than
             :data:`MAX_JSON_BYTES` (``json-size``, refused before it is read).
         NotARegularFileError: a folder, FIFO, socket or device (an ``OSError``; a FIFO is
-            refused, never waited on).
+            refused, never waited on: :func:`revolve_env.body.files.read_bounded`'s rule).
         OSError: the file cannot be read.
     """
     name = os.fspath(path)
     try:
-        # Opened without waiting, so a FIFO opens at once and is refused below, not read.
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
-        mode = os.fstat(fd).st_mode
-        if not stat.S_ISREG(mode):
-            os.close(fd)
-            kind = next((text for test, text in _KINDS if test(mode)), "not a file")
-            raise NotARegularFileError(kind, name)
-        with os.fdopen(fd, "rb") as f:
-            raw = f.read(MAX_JSON_BYTES + 1)  # never more, whatever the file's size
-        if len(raw) > MAX_JSON_BYTES:
-            raise RobotError(f"file is larger than the {MAX_JSON_BYTES} bytes a robot can take",
-                             rule="json-size")
         try:
-            text = raw.decode("utf-8")
+            text = read_text(path, MAX_JSON_BYTES)
+        except FileTooLargeError:
+            raise RobotError(f"file is larger than the {MAX_JSON_BYTES} bytes a robot can take",
+                             rule="json-size") from None
         except UnicodeDecodeError as exc:
-            raise RobotError(f"not UTF-8 text: byte {raw[exc.start]:#04x} at offset {exc.start} "
-                             f"cannot be decoded ({exc.reason})", rule="json-encoding") from None
+            raise _encoding_error(exc) from None
         return from_json(text, limits, check=check)
     except RobotError as exc:
         # A note, not the message: `revolve show/export` put the file at the start of their

@@ -40,6 +40,12 @@ from pathlib import Path, PurePosixPath
 from typing import TYPE_CHECKING, Any, Protocol
 
 from evolution.experiments.loop.errors import ConfigError, StoreError
+from revolve_env.body.files import (
+    FileTooLargeError,
+    NotARegularFileError,
+    file_kind,
+    read_bounded,
+)
 
 if TYPE_CHECKING:
     from evolution.experiments.loop.config import ExperimentConfig
@@ -67,11 +73,6 @@ MAX_SETTINGS_BYTES = 2**20
 SQLITE_SIDECARS = ("-wal", "-shm", "-journal")
 """Suffixes of the files SQLite keeps beside a database, which it opens by itself."""
 
-_READ_FLAGS = (os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
-               | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0))
-"""Open without following a final symbolic link and without waiting on a FIFO's writer."""
-
-
 class _Queries(Protocol):
     """What :func:`refuse_pickled` needs of a store.
 
@@ -83,23 +84,25 @@ class _Queries(Protocol):
     def query(self, sql: str, params: Sequence[Any] = ...) -> list[tuple[Any, ...]]: ...
 
 
-def _kind(mode: int) -> str:
-    """What a file that is not a regular one is, for messages."""
-    for test, name in ((stat.S_ISLNK, "a symbolic link"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
-                       (stat.S_ISDIR, "a folder"), (stat.S_ISSOCK, "a socket"),
-                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device")):
-        if test(mode):
-            return name
-    return "not a regular file"
+def _not_regular(path: Path, what: str, kind: str) -> StoreError:
+    return StoreError(f"the {what} {path} is {kind}, not a regular file; a results folder's "
+                      "files are read only as regular files inside it")
+
+
+def _too_large(path: Path, what: str, size: int | None, max_bytes: int) -> StoreError:
+    """``size`` ``None``: the file grew past the bound while it was read."""
+    if size is None:
+        return StoreError(f"the {what} {path} is larger than the {max_bytes} bytes a {what} may "
+                          "be; refused")
+    return StoreError(f"the {what} {path} is {size} bytes, larger than the {max_bytes} bytes a "
+                      f"{what} may be; refused unread")
 
 
 def _check_stat(path: Path, what: str, st: os.stat_result, max_bytes: int) -> None:
     if not stat.S_ISREG(st.st_mode):
-        raise StoreError(f"the {what} {path} is {_kind(st.st_mode)}, not a regular file; a "
-                         "results folder's files are read only as regular files inside it")
+        raise _not_regular(path, what, file_kind(st.st_mode))
     if st.st_size > max_bytes:
-        raise StoreError(f"the {what} {path} is {st.st_size} bytes, larger than the "
-                         f"{max_bytes} bytes a {what} may be; refused unread")
+        raise _too_large(path, what, st.st_size, max_bytes)
 
 
 def check_regular(path: Path, what: str, max_bytes: int) -> None:
@@ -138,9 +141,10 @@ def check_database(path: Path) -> None:
 def read_file(folder: Path, relative: str, what: str, max_bytes: int) -> bytes:
     """The bytes of ``folder / relative``: a regular file inside it, at most ``max_bytes``.
 
-    The file is opened without following a symbolic link and without waiting (a FIFO opens at
-    once and is then refused), its kind and size are checked on the open file before a byte is
-    read, and no more than ``max_bytes`` are read.
+    The file is read by :func:`revolve_env.body.files.read_bounded`, without following a
+    symbolic link: opened without waiting (a FIFO opens at once and is then refused), its kind
+    and size are checked on the open file before a byte is read, and no more than ``max_bytes``
+    are read.
 
     Raises:
         StoreError: as :func:`inside`, or missing or unreadable, or not a regular file, or
@@ -148,31 +152,13 @@ def read_file(folder: Path, relative: str, what: str, max_bytes: int) -> bytes:
     """
     path = inside(folder, relative, what)
     try:
-        fd = os.open(path, _READ_FLAGS)
-    except OSError as error:
-        if os.path.islink(path):
-            raise StoreError(f"the {what} {path} is a symbolic link, not a regular file; a "
-                             "results folder's files are read only as regular files inside "
-                             "it") from None
-        raise StoreError(f"cannot read the {what} {path}: {error.strerror or error}") from None
-    try:
-        _check_stat(path, what, os.fstat(fd), max_bytes)
-        chunks, left = [], max_bytes + 1
-        while left > 0:
-            chunk = os.read(fd, min(left, 2**24))
-            if not chunk:
-                break
-            chunks.append(chunk)
-            left -= len(chunk)
+        return read_bounded(path, max_bytes, follow_links=False)
+    except NotARegularFileError as error:
+        raise _not_regular(path, what, error.kind) from None
+    except FileTooLargeError as error:
+        raise _too_large(path, what, error.size, max_bytes) from None
     except OSError as error:
         raise StoreError(f"cannot read the {what} {path}: {error.strerror or error}") from None
-    finally:
-        os.close(fd)
-    blob = b"".join(chunks)
-    if len(blob) > max_bytes:  # it grew after the check
-        raise StoreError(f"the {what} {path} is larger than the {max_bytes} bytes a {what} may "
-                         "be; refused")
-    return blob
 
 
 def output_folder(folder: Path, relative: str) -> Path:
@@ -190,8 +176,8 @@ def output_folder(folder: Path, relative: str) -> Path:
     if not os.path.lexists(path):
         return path
     if not stat.S_ISDIR(os.lstat(path).st_mode):
-        raise StoreError(f"the output folder {path} is {_kind(os.lstat(path).st_mode)}, not a "
-                         "folder; remove it or write elsewhere")
+        raise StoreError(f"the output folder {path} is {file_kind(os.lstat(path).st_mode)}, not "
+                         "a folder; remove it or write elsewhere")
     for parent, dirs, files in os.walk(path):
         for name in (*dirs, *files):
             entry = Path(parent) / name

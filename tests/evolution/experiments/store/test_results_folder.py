@@ -13,7 +13,9 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import pickle
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -237,6 +239,38 @@ def test_a_policy_for_another_body_is_refused_before_anything_is_built(tmp_path:
     save_policy(agent, path)
     with pytest.raises(PolicyFileError, match="another body"):
         load_policy(path, EXAMPLES["gecko"]())
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs FIFOs")
+def test_a_policy_file_that_is_not_a_regular_bounded_file_is_one_line_not_a_hang(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A FIFO, a folder, a device or an oversize file as the policy: refused before parsing."""
+    from evolution.learning import PolicyFileError, load_policy, policy_file
+
+    robot = EXAMPLES["spider"]()
+    fifo, folder, big = (tmp_path / f"{n}.safetensors" for n in ("fifo", "folder", "big"))
+    os.mkfifo(fifo)
+    folder.mkdir()
+    big.write_bytes(b"\0" * 4)
+    # Were the FIFO opened to be read, it would wait for a writer: one comes after a minute,
+    # so that a regression fails on its message instead of hanging the suite.
+    rescue = threading.Timer(60, lambda: os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK)))
+    rescue.start()
+    try:
+        with pytest.raises(PolicyFileError) as error:
+            load_policy(fifo, robot)
+    finally:
+        rescue.cancel()
+    assert str(error.value) == f"policy file {fifo} is a FIFO, not a regular file"
+    with pytest.raises(PolicyFileError) as error:
+        load_policy(folder, robot)
+    assert str(error.value) == f"policy file {folder} is a folder, not a regular file"
+    monkeypatch.setattr(policy_file, "MAX_BYTES", 3)
+    with pytest.raises(PolicyFileError) as error:
+        load_policy(big, robot)
+    assert str(error.value) == f"policy file {big} is larger than 3 bytes"
+    with pytest.raises(PolicyFileError, match=r"^policy file \S+missing\S+: No such file"):
+        load_policy(tmp_path / "missing.safetensors", robot)
 
 
 # -- snapshots ------------------------------------------------------------------------------------
