@@ -44,14 +44,16 @@ def all_calm(s: BodyStates, screen: Screen) -> bool:
 
     A conservative screen of every robot at once: False may still find no blown robot. A NaN
     makes the maximum NaN and the comparison False; the screen's limits are 0.1 % inside the
-    blow-up limits, so rounding near them cannot hide a blow-up. Needs at least one robot.
+    blow-up limits, so rounding near them cannot hide a blow-up. The core's orientation has no
+    limit (a rotation's entries are in [-1, 1]) but must be finite, as :func:`reason` requires.
+    Needs at least one robot.
     """
     x = np.concatenate((s.core_vel.reshape(-1), s.core_angvel.reshape(-1), s.joint_vel,
                         s.core_pos.reshape(-1), s.joint_pos))
     np.abs(x, out=x)
     x *= screen.inverse
     return bool(_max(x) <= 1.0 and _min(s.core_pos[:, 2]) >= -0.999
-                and not np.count_nonzero(s.diverged))
+                and not np.count_nonzero(s.diverged) and all_finite(s.core_rot))
 
 
 def reason(s: BodyStates, row: int, joints: slice, c: WorldConfig, time: float) -> str | None:
