@@ -314,10 +314,15 @@ class TaskWindows:
                 if sampling is not None:
                     held &= sampling
                 last, last_signal = self.ring.last()
-                pose = position[:, :2].copy()
-                pose[held] = last[held]
-                if signal is not None and last_signal is not None:
-                    signal = np.where(held, last_signal, signal)
+                if held.all():  # every robot holds (one robot between its samples)
+                    pose = last
+                    if signal is not None and last_signal is not None:
+                        signal = last_signal
+                else:
+                    pose = position[:, :2].copy()
+                    pose[held] = last[held]
+                    if signal is not None and last_signal is not None:
+                        signal = np.where(held, last_signal, signal)
         self.ring.push(time, pose, sampling, signal)
         return self.ring.current()
 
