@@ -145,6 +145,8 @@ class FitnessWindows:
         seq, cap = self._seq, self.capacity
         if seq > self._start and t < self._t[(seq - 1) % cap]:
             raise ValueError(f"time {t} s is before the previous sample")
+        if sampling is not None and sampling.all():
+            sampling = None  # every robot: the same columns, without the masks
         cols = self._cols if sampling is None else np.flatnonzero(sampling)
         x, y = xy[cols, 0], xy[cols, 1]
         if not (math.isfinite(float(np.add.reduce(x)) + float(np.add.reduce(y)))
