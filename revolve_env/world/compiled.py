@@ -305,7 +305,8 @@ class WorldStep:
         states = np.empty(self._size)
         sensors = np.empty(self._inputs)
         outcome = self._outcomes[self._run.step(targets, self._start, states, sensors)]
-        self._backend.stepped(outcome, self._substeps)
+        # the backend replays what needs a replay; an unsettled state is a stepped one to it
+        self._backend.stepped("calm" if outcome == "unsettled" else outcome, self._substeps)
         if outcome in ("replay", "restart"):
             return outcome, None, None, None
         n = self._n
