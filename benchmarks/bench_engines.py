@@ -11,11 +11,12 @@ Each comparison prints whether the replay ended bit for bit where the env did (i
 same model, state and controls).
 
 1. ``single``: the spider in the single-robot env (``Locomotion-v0``, the robot's own brain) over
-   raw MuJoCo, and MuJoCo over pybullet per CPU second (the env).
+   raw MuJoCo (and the same env with its world stepped by the NumPy rules instead of the compiled
+   world step), and MuJoCo over pybullet per CPU second (the env).
 2. ``evaluate``: ``revolve_env.evaluate`` of the spider (3 s insertion + 12 s) over raw MuJoCo,
    and MuJoCo over pybullet.
 3. ``crowd``: the population env with ``--robots`` random robots in one world (restored from one
-   snapshot before every timing, so each timing steps the same ``--seconds``), the same two ratios.
+   snapshot before every timing, so each timing steps the same ``--seconds``), the same ratios.
 4. ``rank``: ``--rank-robots`` random robots (``evolution.random_robot``) evaluated on both
    engines (3 s insertion + 12 s): Spearman's rank correlation of their fitness, blow-ups and
    NaNs counted per engine.
@@ -85,13 +86,16 @@ AIMS: dict[str, tuple[float, str]] = {}
 
 @contextlib.contextmanager
 def numpy_rules() -> Iterator[None]:
-    """Evaluations inside take the NumPy path (the compiled rollout declines)."""
-    original = compiled.rollout
+    """Evaluations inside take the NumPy path (the compiled rollout declines), and so do the
+    worlds that first step inside (the compiled world step declines; a world keeps its path)."""
+    original, step = compiled.rollout, compiled.world_step
     compiled.rollout = lambda *a, **k: None  # type: ignore[assignment]
+    compiled.world_step = lambda *a, **k: None
     try:
         yield
     finally:
         compiled.rollout = original  # type: ignore[assignment]
+        compiled.world_step = step
 
 
 def alternate(sides: dict[str, Callable[[], float]], repeats: int) -> dict[str, float]:
@@ -192,9 +196,16 @@ def env_cpu(env: gym.Env[Any, Any]) -> float:
     return time.process_time() - cpu
 
 
+def numpy_cpu(env: gym.Env[Any, Any]) -> float:
+    """:func:`env_cpu` with the world stepped by the NumPy rules."""
+    with numpy_rules():
+        return env_cpu(env)
+
+
 def single(seconds: float, repeats: int) -> None:
     robot = example("spider")
     envs = {e: make_single(robot, e, seconds) for e in ENGINES}
+    slow = make_single(robot, "mujoco", seconds)
     mj = envs["mujoco"]
     mj.reset(seed=0)
     world: World = mj.unwrapped._world  # type: ignore[attr-defined]
@@ -206,15 +217,18 @@ def single(seconds: float, repeats: int) -> None:
     best = alternate({
         "env mujoco": lambda: env_cpu(mj),
         "raw mujoco": raw.run,
+        "env mujoco NumPy rules": lambda: numpy_cpu(slow),
         "env pybullet": lambda: env_cpu(envs["pybullet"]),
     }, repeats)
+    slow.close()
     for env in envs.values():
         env.close()
     print(f"spider, Locomotion-v0, {seconds:g} simulated s, best CPU of {repeats}: "
           + ", ".join(f"{k} {v:.3f} s" for k, v in best.items()) + f" (replay {check})")
     AIMS["Locomotion env stepping / raw mj_step"] = (best["env mujoco"] / best["raw mujoco"],
                                                      "<= 1.2x (the aim is Locomotion-v1's)")
-    print(f"  env/raw MuJoCo {best['env mujoco'] / best['raw mujoco']:.2f}x; "
+    print(f"  env/raw MuJoCo {best['env mujoco'] / best['raw mujoco']:.2f}x (NumPy rules "
+          f"{best['env mujoco NumPy rules'] / best['raw mujoco']:.2f}x); "
           f"MuJoCo env {best['env pybullet'] / best['env mujoco']:.2f}x faster than pybullet "
           f"per CPU second; raw MuJoCo {seconds / best['raw mujoco']:.0f} sim s per CPU s")
 
@@ -365,13 +379,15 @@ def crowd(n: int, seconds: float, repeats: int) -> tuple[float, float]:
         return env
 
     envs = {e: make(e) for e in ENGINES}
+    with numpy_rules():  # its world keeps the NumPy rules
+        slow = envs["mujoco NumPy rules"] = make("mujoco")
     mj = envs["mujoco"]
     ticks = round(seconds / mj.config.control_period)
     start = mj.snapshot()
 
     def run_env(engine: str) -> float:
         env = envs[engine]
-        if env is mj:
+        if env is mj or env is slow:
             env.restore(start)
         cpu = time.process_time()
         for _ in range(ticks):
@@ -388,6 +404,7 @@ def crowd(n: int, seconds: float, repeats: int) -> tuple[float, float]:
     best = alternate({
         "env mujoco": lambda: run_env("mujoco"),
         "raw mujoco": raw.run,
+        "env mujoco NumPy rules": lambda: run_env("mujoco NumPy rules"),
         "env pybullet": lambda: run_env("pybullet"),
     }, repeats)
     lost = n - len(mj.agents)
@@ -395,7 +412,8 @@ def crowd(n: int, seconds: float, repeats: int) -> tuple[float, float]:
         env.close()
     print(f"{n} random robots in one world, {seconds:g} simulated s, best CPU of {repeats}: "
           + ", ".join(f"{k} {v:.3f} s" for k, v in best.items()) + f" (replay {check})")
-    print(f"  population env/raw MuJoCo {best['env mujoco'] / best['raw mujoco']:.2f}x; MuJoCo "
+    print(f"  population env/raw MuJoCo {best['env mujoco'] / best['raw mujoco']:.2f}x "
+          f"(NumPy rules {best['env mujoco NumPy rules'] / best['raw mujoco']:.2f}x); MuJoCo "
           f"{best['env pybullet'] / best['env mujoco']:.2f}x faster than pybullet per CPU second; "
           f"MuJoCo {seconds / best['env mujoco']:.1f}x real time on one core; "
           f"{lost} robots lost to blow-ups in MuJoCo")

@@ -47,3 +47,25 @@ class Rollout:
     def state(self, index: int) -> tuple[NDArray[np.float64], NDArray[np.float64],
                                          NDArray[np.float64], NDArray[np.float64],
                                          NDArray[np.float64], NDArray[np.float64]]: ...
+
+CALM: int
+UNSETTLED: int
+REPLAY: int
+RESTART: int
+
+class WorldStep:
+    def __init__(self, model: int, data: int, substeps: int, control_period: float,
+                 servo_k: float, max_velocity: float, gravity: float,
+                 imu_high: NDArray[np.float64], light: NDArray[np.float64], light_range: float,
+                 root_body: NDArray[np.int64], root_qpos: NDArray[np.int64],
+                 root_dof: NDArray[np.int64], hinge_qpos: NDArray[np.int64],
+                 hinge_dof: NDArray[np.int64], joint_start: NDArray[np.int64],
+                 input_start: NDArray[np.int64], n_inputs: int, ctrl_qpos: NDArray[np.int64],
+                 touch_body: NDArray[np.int64], touch_dest: NDArray[np.int64],
+                 light_body: NDArray[np.int64], light_row: NDArray[np.int64],
+                 light_dest: NDArray[np.int64], light_point: NDArray[np.float64],
+                 light_facing: NDArray[np.float64], screen: NDArray[np.float64]) -> None: ...
+    @property
+    def states_size(self) -> int: ...
+    def step(self, targets: NDArray[np.float64], start: NDArray[np.float64],
+             states: NDArray[np.float64], sensors: NDArray[np.float64]) -> int: ...

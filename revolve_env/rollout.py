@@ -24,7 +24,6 @@ rules are the world's.
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Sequence
 
 import numpy as np
@@ -315,10 +314,15 @@ class TaskWindows:
                 if sampling is not None:
                     held &= sampling
                 last, last_signal = self.ring.last()
-                pose = position[:, :2].copy()
-                pose[held] = last[held]
-                if signal is not None and last_signal is not None:
-                    signal = np.where(held, last_signal, signal)
+                if held.all():  # every robot holds (one robot between its samples)
+                    pose = last
+                    if signal is not None and last_signal is not None:
+                        signal = last_signal
+                else:
+                    pose = position[:, :2].copy()
+                    pose[held] = last[held]
+                    if signal is not None and last_signal is not None:
+                        signal = np.where(held, last_signal, signal)
         self.ring.push(time, pose, sampling, signal)
         return self.ring.current()
 
@@ -369,9 +373,19 @@ def rollout(
     """
     if compile_it and sensor_noise <= 0 and actuator_noise <= 0:
         paths = compiled.rollout(world, robots, starts, insertion_ticks, evaluation_ticks, signal,
-                                 joints, threads, functools.partial(rollout, compile_it=False))
+                                 joints, threads)
         if paths is not None:
-            return paths
+            redo = [i for i, p in enumerate(paths) if p is None]
+            if redo:  # the NumPy path replays and reports what turned non-finite
+                with World(world.config, isolated=True) as again:
+                    redone = rollout(again, [robots[i] for i in redo], [starts[i] for i in redo],
+                                     insertion_ticks, evaluation_ticks,
+                                     [np.random.default_rng(0) for _ in redo], 0.0, 0.0, signal,
+                                     None if joints is None else [joints[i] for i in redo],
+                                     compile_it=False)
+                for i, result in zip(redo, redone, strict=True):
+                    paths[i] = result
+            return [p for p in paths if p is not None]
     n = len(robots)
     run = Rollout(world)
     handles = [run.add(robot, start.position, start.yaw, network=robot, relayout=False)

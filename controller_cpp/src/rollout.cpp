@@ -1,4 +1,5 @@
-// The compiled rollout of an evaluation on MuJoCo (module revolve_env._rollout).
+// The compiled rollout on MuJoCo (module revolve_env._rollout): a whole evaluation (Rollout), and
+// one control period of a whole world (WorldStep).
 //
 // A whole evaluation (insertion, then the fitness window) of robots that each live in a MuJoCo
 // scene of their own (an isolated world), with no Python per control period: RoboGen's servo law,
@@ -15,6 +16,13 @@
 // a robot whose state turns non-finite, whose brain's outputs are not finite or whose mj_step
 // fails stops for good (FALLBACK), and Python evaluates it again on the NumPy path, which replays
 // and reports such periods as ever.
+//
+// WorldStep is one control period of every robot of one MuJoCo scene (a World that the envs step
+// period by period): the servo law on the world's targets, the substeps, the body states, the
+// sensors and the blow-up screen's calm test in one call, by the same rules (the functions below
+// are the one home of each rule for both). What is rare stays in Python as in Rollout: a period
+// whose physics fails or turns non-finite is replayed by MujocoBackend, a failed screen is judged
+// robot by robot by blowups.reason.
 #include <mujoco/mujoco.h>
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
@@ -137,7 +145,78 @@ struct Light {
     int body;  // -1: on the core (reads the core's pose)
     int dest;
     double point[3], facing[3];
+    int row = 0;  // WorldStep: the robot whose core it is on (body -1)
 };
+
+// The rules of one control period, the one home of each for Rollout and WorldStep.
+
+// RoboGen's servo law (World.step): the commanded velocity of an active hinge at angle q.
+inline double servo_velocity(double k, double target, double q, double vmax) {
+    return np_min(np_max(k * (target - q), -vmax), vmax);
+}
+
+// World._sense's IMU of one core (sensing.imu_readings, saturated at IMU_HIGH); prev: the core's
+// velocity one control period ago.
+inline void imu_values(const mjData* d, int root_body, int root_dof, const double prev[3], const Settings& s,
+                       double out[6]) {
+    const double* R = d->xmat + 9 * root_body;
+    const double* v = d->qvel + root_dof;
+    double rows[6], imu[6];
+    for (int k = 0; k < 3; ++k) rows[k] = (v[k] - prev[k]) * s.inv_period;
+    rows[2] += s.gravity;
+    einsum_product(R, v + 3, rows + 3);  // the core's angular velocity in the world frame
+    imu_product(rows, R, imu);
+    for (int k = 0; k < 6; ++k) out[k] = np_min(np_max(imu[k], -s.imu_high[k]), s.imu_high[k]);
+}
+
+// MujocoBackend._touching_now: which bodies of the scene touch anything (touched: one per body).
+inline void mark_contacts(const mjModel* m, const mjData* d, std::vector<char>& touched) {
+    std::fill(touched.begin(), touched.end(), 0);
+    for (int c = 0; c < d->ncon; ++c) {
+        touched[m->geom_bodyid[d->contact[c].geom[0]]] = 1;
+        touched[m->geom_bodyid[d->contact[c].geom[1]]] = 1;
+    }
+}
+
+// What one light sensor reads (World._sense: a sensor on a core reads the core's pose).
+inline double light_reading(const mjData* d, int root_qpos, int root_body, const Light& L, const Settings& s) {
+    const double* pos = L.body < 0 ? d->qpos + root_qpos : d->xpos + 3 * L.body;
+    const double* M = d->xmat + 9 * (L.body < 0 ? root_body : L.body);
+    return light_value(pos, M, L.point, L.facing, s.light, s.light_range);
+}
+
+// blowups.Screen's per-entry limits (inverses) of one robot's entries.
+struct ScreenView {
+    const double *vel, *spin, *hinge_vel, *pos, *hinge_pos;
+};
+
+// blowups.all_calm for one robot: every entry within its screen, the core above -0.999 m; w: the
+// core's angular velocity in the world frame. A NaN fails (a conjunction: the order is free).
+inline bool calm(const mjData* d, int root_qpos, int root_dof, const double w[3], const int* hinge_qpos,
+                 const int* hinge_dof, int J, const ScreenView& sc) {
+    const double* v = d->qvel + root_dof;
+    const double* p = d->qpos + root_qpos;
+    bool ok = true;
+    for (int i = 0; i < 3; ++i) ok &= std::fabs(v[i]) * sc.vel[i] <= 1.0;
+    for (int i = 0; i < 3; ++i) ok &= std::fabs(w[i]) * sc.spin[i] <= 1.0;
+    for (int i = 0; i < J; ++i) ok &= std::fabs(d->qvel[hinge_dof[i]]) * sc.hinge_vel[i] <= 1.0;
+    for (int i = 0; i < 3; ++i) ok &= std::fabs(p[i]) * sc.pos[i] <= 1.0;
+    for (int i = 0; i < J; ++i) ok &= std::fabs(d->qpos[hinge_qpos[i]]) * sc.hinge_pos[i] <= 1.0;
+    return ok && p[2] >= -0.999;
+}
+
+enum Physics { kStepped = 0, kNonFinite = 1, kFailed = 2 };
+
+// The substeps of a control period. MujocoBackend.step looks at the state once, after the last
+// substep (each = false); Rollout stops at the first non-finite substep (each = true).
+inline Physics physics(const mjModel* m, mjData* d, int substeps, bool each) {
+    for (int k = 0; k < substeps; ++k) {
+        if (!guarded_step(m, d)) return kFailed;
+        if (each && (!finite(d->qpos, m->nq) || !finite(d->qvel, m->nv))) return kNonFinite;
+    }
+    if (!each && (!finite(d->qvel, m->nv) || !finite(d->qpos, m->nq))) return kNonFinite;
+    return kStepped;
+}
 
 // One robot in its own scene: its model and data (owned by Python), where to find it in them,
 // its brain, and its evaluation so far.
@@ -216,13 +295,10 @@ class Rollout {
     double light_signal(const Robot& r) const {
         const double* core = r.d->qpos + r.root_qpos;
         if (r.lights.empty()) return falloff_value(core, s_.light, s_.light_range);
-        const double* R = r.d->xmat + 9 * r.root_body;
         double best = 0.0;
         bool first = true;
         for (const Light& L : r.lights) {
-            const double* pos = L.body < 0 ? core : r.d->xpos + 3 * L.body;
-            const double* M = L.body < 0 ? R : r.d->xmat + 9 * L.body;
-            const double v = light_value(pos, M, L.point, L.facing, s_.light, s_.light_range);
+            const double v = light_reading(r.d, r.root_qpos, r.root_body, L, s_);
             best = first ? v : np_max(best, v);  // np.maximum.reduceat: NaN wins
             first = false;
         }
@@ -241,46 +317,22 @@ class Rollout {
     // World._sense for one robot (sensing.imu_readings, light_intensity; backend touching).
     void sense(Robot& r) {
         double* out = r.inputs.data();
-        const double* R = r.d->xmat + 9 * r.root_body;
-        const double* v = r.d->qvel + r.root_dof;
-        double rows[6], imu[6];
-        for (int k = 0; k < 3; ++k) rows[k] = (v[k] - r.prev_vel[k]) * s_.inv_period;
-        rows[2] += s_.gravity;
-        angvel(r, rows + 3);
-        imu_product(rows, R, imu);
-        for (int k = 0; k < 6; ++k) out[k] = np_min(np_max(imu[k], -s_.imu_high[k]), s_.imu_high[k]);
+        imu_values(r.d, r.root_body, r.root_dof, r.prev_vel, s_, out);
         if (!r.touch_body.empty()) {
-            std::fill(r.touched.begin(), r.touched.end(), 0);
-            const mjData* d = r.d;
-            for (int c = 0; c < d->ncon; ++c) {
-                r.touched[r.m->geom_bodyid[d->contact[c].geom[0]]] = 1;
-                r.touched[r.m->geom_bodyid[d->contact[c].geom[1]]] = 1;
-            }
+            mark_contacts(r.m, r.d, r.touched);
             for (std::size_t k = 0; k < r.touch_body.size(); ++k) {
                 out[r.touch_dest[k]] = r.touched[r.touch_body[k]] ? 1.0 : 0.0;
             }
         }
-        for (const Light& L : r.lights) {
-            const double* pos = L.body < 0 ? r.d->qpos + r.root_qpos : r.d->xpos + 3 * L.body;
-            const double* M = L.body < 0 ? R : r.d->xmat + 9 * L.body;
-            out[L.dest] = light_value(pos, M, L.point, L.facing, s_.light, s_.light_range);
-        }
+        for (const Light& L : r.lights) out[L.dest] = light_reading(r.d, r.root_qpos, r.root_body, L, s_);
     }
 
-    // blowups.all_calm for one robot: every entry within its screen, the core above -0.999 m.
+    // blowups.all_calm for one robot (its Screen(1, hinges).inverse).
     static bool calm(const Robot& r, const double* w) {
         const double* sc = r.screen.data();
-        const double* v = r.d->qvel + r.root_dof;
-        const double* p = r.d->qpos + r.root_qpos;
         const int J = static_cast<int>(r.hinge_qpos.size());
-        int k = 0;
-        bool ok = true;
-        for (int i = 0; i < 3; ++i) ok &= std::fabs(v[i]) * sc[k++] <= 1.0;
-        for (int i = 0; i < 3; ++i) ok &= std::fabs(w[i]) * sc[k++] <= 1.0;
-        for (int i = 0; i < J; ++i) ok &= std::fabs(r.d->qvel[r.hinge_dof[i]]) * sc[k++] <= 1.0;
-        for (int i = 0; i < 3; ++i) ok &= std::fabs(p[i]) * sc[k++] <= 1.0;
-        for (int i = 0; i < J; ++i) ok &= std::fabs(r.d->qpos[r.hinge_qpos[i]]) * sc[k++] <= 1.0;
-        return ok && p[2] >= -0.999;
+        return ::calm(r.d, r.root_qpos, r.root_dof, w, r.hinge_qpos.data(), r.hinge_dof.data(), J,
+                      ScreenView{sc, sc + 3, sc + 6, sc + 6 + J, sc + 9 + J});
     }
 
     // One control period; false when the robot stopped (its status says why).
@@ -301,20 +353,12 @@ class Rollout {
                 r.targets[i] = np_min(np_max(r.outputs[i], -1.0), 1.0) * s_.target_scale;
             }
         }
-        // RoboGen's servo law (World.step).
         for (int i = 0; i < n_out; ++i) {
-            const double q = d->qpos[r.hinge_qpos[r.active[i]]];
-            d->ctrl[i] = np_min(np_max(s_.servo_k * (r.targets[i] - q), -s_.max_velocity), s_.max_velocity);
+            d->ctrl[i] = servo_velocity(s_.servo_k, r.targets[i], d->qpos[r.hinge_qpos[r.active[i]]], s_.max_velocity);
         }
         for (int k = 0; k < 3; ++k) r.prev_vel[k] = d->qvel[r.root_dof + k];
-        for (int k = 0; k < s_.substeps; ++k) {
-            // A non-finite state is the NumPy path's to replay and report (MujocoBackend._replay).
-            if (!guarded_step(m, d) || !finite(d->qpos, m->nq) || !finite(d->qvel, m->nv)) {
-                r.status = kFallback;
-                return false;
-            }
-        }
-        if (!finite(d->qacc_warmstart, m->nv)) {
+        // A non-finite state is the NumPy path's to replay and report (MujocoBackend._replay).
+        if (physics(m, d, s_.substeps, true) != kStepped || !finite(d->qacc_warmstart, m->nv)) {
             r.status = kFallback;
             return false;
         }
@@ -363,6 +407,95 @@ class Rollout {
         if (i < 0 || i >= static_cast<int>(robots_.size())) throw std::out_of_range("no such robot");
         return robots_[i];
     }
+};
+
+// One control period of every robot of one MuJoCo scene (World.step on MujocoBackend), with the
+// world's sensors and blow-up screen after it. The scene's model and data belong to Python; a
+// WorldStep is made again whenever they or the robots change (a birth, a death, a restore).
+class WorldStep {
+   public:
+    // What a period left for Python: all calm; a failed screen (blowups.reason judges each robot);
+    // a non-finite state or a failed mj_step (MujocoBackend replays the period from `start`).
+    enum Outcome : int { kCalm = 0, kUnsettled = 1, kReplay = 2, kRestart = 3 };
+
+    Settings s_;
+    const mjModel* m_ = nullptr;
+    mjData* d_ = nullptr;
+    int n_ = 0, J_ = 0, n_inputs_ = 0;
+    std::vector<int> root_body_, root_qpos_, root_dof_, hinge_qpos_, hinge_dof_, joint_start_, input_start_;
+    std::vector<int> ctrl_qpos_;  // qpos of the hinge of each actuator (World's active_index)
+    std::vector<int> touch_body_, touch_dest_;
+    std::vector<Light> lights_;
+    std::vector<double> screen_;  // blowups.Screen(n, J).inverse
+    std::vector<char> touched_;
+
+    int state_size() const { return mj_stateSize(m_, kSaved); }
+
+    // The flat layout of `states`: core_pos (n, 3), core_rot (n, 3, 3), core_vel (n, 3),
+    // core_angvel (n, 3), joint_pos (J,), joint_vel (J,), then the cores' velocities before the
+    // period (n, 3): BodyStates' fields and the IMU's previous velocities.
+    std::size_t states_size() const { return static_cast<std::size_t>(21 * n_ + 2 * J_); }
+
+    int step(const double* targets, double* start, double* states, double* sensors) {
+        const mjModel* m = m_;
+        mjData* d = d_;
+        for (int i = 0; i < m->nu; ++i) {
+            d->ctrl[i] = servo_velocity(s_.servo_k, targets[i], d->qpos[ctrl_qpos_[i]], s_.max_velocity);
+        }
+        double* pos = states;
+        double* rot = pos + 3 * n_;
+        double* vel = rot + 9 * n_;
+        double* spin = vel + 3 * n_;
+        double* jpos = spin + 3 * n_;
+        double* jvel = jpos + J_;
+        double* prev = jvel + J_;
+        for (int r = 0; r < n_; ++r) std::memcpy(prev + 3 * r, d->qvel + root_dof_[r], 3 * sizeof(double));
+        mj_getState(m, d, start, kSaved);  // the period's start, should it need a replay
+        Physics outcome;
+        {
+            mjfLogHandler outer = _mjPRIVATE_setTlsLogHandler(&on_log);
+            outcome = physics(m, d, s_.substeps, false);
+            _mjPRIVATE_setTlsLogHandler(outer);
+        }
+        if (outcome == kFailed) return kRestart;
+        if (outcome == kNonFinite) return kReplay;
+        mj_kinematics(m, d);  // the poses of the state now (MujocoBackend.read)
+        for (int r = 0; r < n_; ++r) {
+            std::memcpy(pos + 3 * r, d->qpos + root_qpos_[r], 3 * sizeof(double));
+            std::memcpy(rot + 9 * r, d->xmat + 9 * root_body_[r], 9 * sizeof(double));
+            std::memcpy(vel + 3 * r, d->qvel + root_dof_[r], 3 * sizeof(double));
+            einsum_product(d->xmat + 9 * root_body_[r], d->qvel + root_dof_[r] + 3, spin + 3 * r);
+        }
+        for (int j = 0; j < J_; ++j) {
+            jpos[j] = d->qpos[hinge_qpos_[j]];
+            jvel[j] = d->qvel[hinge_dof_[j]];
+        }
+        // World._sense
+        for (int r = 0; r < n_; ++r) imu_values(d, root_body_[r], root_dof_[r], prev + 3 * r, s_, sensors + input_start_[r]);
+        if (!touch_body_.empty()) {
+            mark_contacts(m, d, touched_);
+            for (std::size_t k = 0; k < touch_body_.size(); ++k) {
+                sensors[touch_dest_[k]] = touched_[touch_body_[k]] ? 1.0 : 0.0;
+            }
+        }
+        for (const Light& L : lights_) {
+            sensors[L.dest] = light_reading(d, root_qpos_[L.row], root_body_[L.row], L, s_);
+        }
+        // World._check_blow_ups' screen
+        const double* sc = screen_.data();
+        bool ok = true;
+        for (int r = 0; r < n_ && ok; ++r) {
+            const int j0 = joint_start_[r], J = joint_start_[r + 1] - j0;
+            const ScreenView view{sc + 3 * r, sc + 3 * n_ + 3 * r, sc + 6 * n_ + j0, sc + 6 * n_ + J_ + 3 * r,
+                                  sc + 9 * n_ + J_ + j0};
+            ok = calm(d, root_qpos_[r], root_dof_[r], spin + 3 * r, hinge_qpos_.data() + j0, hinge_dof_.data() + j0, J,
+                      view);
+        }
+        return ok ? kCalm : kUnsettled;
+    }
+
+    // mjSTATE_TIME | QPOS | QVEL | WARMSTART: MujocoBackend's _SAVED, what a replay starts from.
+    static constexpr int kSaved = mjSTATE_TIME | mjSTATE_QPOS | mjSTATE_QVEL | mjSTATE_WARMSTART;
 };
 
 template <typename T>
@@ -456,6 +589,106 @@ int add(Rollout& ro, std::uintptr_t model, std::uintptr_t data, int root_body, i
     r.path.reserve(3 * (ro.s_.evaluation_ticks + 1));
     ro.robots_.push_back(std::move(r));
     return static_cast<int>(ro.robots_.size()) - 1;
+}
+
+using Out = nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+
+void make_world_step(WorldStep* self, std::uintptr_t model, std::uintptr_t data, int substeps, double control_period,
+                     double servo_k, double max_velocity, double gravity, Vec<double> imu_high, Vec<double> light,
+                     double light_range, Vec<std::int64_t> root_body, Vec<std::int64_t> root_qpos,
+                     Vec<std::int64_t> root_dof, Vec<std::int64_t> hinge_qpos, Vec<std::int64_t> hinge_dof,
+                     Vec<std::int64_t> joint_start, Vec<std::int64_t> input_start, int n_inputs,
+                     Vec<std::int64_t> ctrl_qpos, Vec<std::int64_t> touch_body, Vec<std::int64_t> touch_dest,
+                     Vec<std::int64_t> light_body, Vec<std::int64_t> light_row, Vec<std::int64_t> light_dest,
+                     Mat3 light_point, Mat3 light_facing, Vec<double> screen) {
+    WorldStep w;
+    w.m_ = reinterpret_cast<const mjModel*>(model);
+    w.d_ = reinterpret_cast<mjData*>(data);
+    if (w.m_ == nullptr || w.d_ == nullptr) throw nb::value_error("null MuJoCo model or data");
+    const mjModel* m = w.m_;
+    if (substeps < 1 || !(control_period > 0) || imu_high.shape(0) != 6 || light.shape(0) != 3) {
+        throw nb::value_error("bad world step settings");
+    }
+    Settings& s = w.s_;
+    s.substeps = substeps;
+    s.control_period = control_period;
+    s.inv_period = 1.0 / control_period;
+    s.servo_k = servo_k;
+    s.max_velocity = max_velocity;
+    s.gravity = gravity;
+    for (int i = 0; i < 6; ++i) s.imu_high[i] = imu_high(i);
+    for (int i = 0; i < 3; ++i) s.light[i] = light(i);
+    s.light_range = light_range;
+    w.root_body_ = ints(root_body);
+    w.root_qpos_ = ints(root_qpos);
+    w.root_dof_ = ints(root_dof);
+    w.n_ = static_cast<int>(w.root_body_.size());
+    if (w.root_qpos_.size() != w.root_body_.size() || w.root_dof_.size() != w.root_body_.size()) {
+        throw nb::value_error("root arrays differ in length");
+    }
+    check_index(w.root_body_, m->nbody, "root body");
+    for (int r = 0; r < w.n_; ++r) {
+        if (w.root_qpos_[r] < 0 || w.root_qpos_[r] + 7 > m->nq || w.root_dof_[r] < 0 || w.root_dof_[r] + 6 > m->nv) {
+            throw nb::value_error("a robot's root is not in the model");
+        }
+    }
+    w.hinge_qpos_ = ints(hinge_qpos);
+    w.hinge_dof_ = ints(hinge_dof);
+    w.J_ = static_cast<int>(w.hinge_qpos_.size());
+    if (w.hinge_dof_.size() != w.hinge_qpos_.size()) throw nb::value_error("hinge addresses differ in length");
+    check_index(w.hinge_qpos_, m->nq, "hinge qpos");
+    check_index(w.hinge_dof_, m->nv, "hinge dof");
+    w.joint_start_ = ints(joint_start);
+    w.input_start_ = ints(input_start);
+    if (static_cast<int>(w.joint_start_.size()) != w.n_ + 1 || w.joint_start_[0] != 0 ||
+        w.joint_start_[w.n_] != w.J_ || static_cast<int>(w.input_start_.size()) != w.n_) {
+        throw nb::value_error("bad robot offsets");
+    }
+    for (int r = 0; r < w.n_; ++r) {
+        if (w.joint_start_[r + 1] < w.joint_start_[r] || w.input_start_[r] < 0 || w.input_start_[r] + 6 > n_inputs) {
+            throw nb::value_error("bad robot offsets");
+        }
+    }
+    w.n_inputs_ = n_inputs;
+    w.ctrl_qpos_ = ints(ctrl_qpos);
+    if (static_cast<int>(w.ctrl_qpos_.size()) != m->nu) throw nb::value_error("one actuator per active hinge expected");
+    check_index(w.ctrl_qpos_, m->nq, "actuator qpos");
+    w.touch_body_ = ints(touch_body);
+    w.touch_dest_ = ints(touch_dest);
+    check_index(w.touch_body_, m->nbody, "touch body");
+    check_index(w.touch_dest_, n_inputs, "touch input");
+    if (w.touch_body_.size() != w.touch_dest_.size()) throw nb::value_error("touch arrays differ in length");
+    const std::size_t k = light_body.shape(0);
+    if (light_row.shape(0) != k || light_dest.shape(0) != k || light_point.shape(0) != k ||
+        light_facing.shape(0) != k) {
+        throw nb::value_error("light arrays differ in length");
+    }
+    for (std::size_t i = 0; i < k; ++i) {
+        Light L{static_cast<int>(light_body(i)), static_cast<int>(light_dest(i)), {}, {},
+                static_cast<int>(light_row(i))};
+        if (L.body < -1 || L.body >= m->nbody || L.dest < 0 || L.dest >= n_inputs || L.row < 0 || L.row >= w.n_) {
+            throw nb::value_error("light sensor out of range");
+        }
+        for (int j = 0; j < 3; ++j) {
+            L.point[j] = light_point(i, j);
+            L.facing[j] = light_facing(i, j);
+        }
+        w.lights_.push_back(L);
+    }
+    if (screen.shape(0) != static_cast<std::size_t>(9 * w.n_ + 2 * w.J_)) throw nb::value_error("bad screen");
+    w.screen_.assign(screen.data(), screen.data() + screen.shape(0));
+    w.touched_.assign(m->nbody, 0);
+    new (self) WorldStep(std::move(w));
+}
+
+int world_step(WorldStep& w, Vec<double> targets, Out start, Out states, Out sensors) {
+    if (targets.shape(0) != static_cast<std::size_t>(w.m_->nu) ||
+        start.shape(0) != static_cast<std::size_t>(w.state_size()) || states.shape(0) != w.states_size() ||
+        sensors.shape(0) != static_cast<std::size_t>(w.n_inputs_)) {
+        throw nb::value_error("world step arrays of the wrong size");
+    }
+    nb::gil_scoped_release release;
+    return w.step(targets.data(), start.data(), states.data(), sensors.data());
 }
 
 nb::ndarray<nb::numpy, double> copy_array(const double* src, std::size_t n, std::vector<std::size_t> shape) {
@@ -559,6 +792,22 @@ NB_MODULE(_rollout, mod) {
                                       copy_array(jp.data(), J, {J}), copy_array(jv.data(), J, {J}));
             },
             nb::arg("index"), "(core_pos, core_rot, core_vel, core_angvel, joint_pos, joint_vel) now.");
+
+    nb::class_<WorldStep>(mod, "WorldStep", "One control period of every robot of a MuJoCo scene, in C++.")
+        .def("__init__", &make_world_step, nb::arg("model"), nb::arg("data"), nb::arg("substeps"),
+             nb::arg("control_period"), nb::arg("servo_k"), nb::arg("max_velocity"), nb::arg("gravity"),
+             nb::arg("imu_high"), nb::arg("light"), nb::arg("light_range"), nb::arg("root_body"),
+             nb::arg("root_qpos"), nb::arg("root_dof"), nb::arg("hinge_qpos"), nb::arg("hinge_dof"),
+             nb::arg("joint_start"), nb::arg("input_start"), nb::arg("n_inputs"), nb::arg("ctrl_qpos"),
+             nb::arg("touch_body"), nb::arg("touch_dest"), nb::arg("light_body"), nb::arg("light_row"),
+             nb::arg("light_dest"), nb::arg("light_point"), nb::arg("light_facing"), nb::arg("screen"))
+        .def_prop_ro("states_size", &WorldStep::states_size, "Entries of step()'s states array.")
+        .def("step", &world_step, nb::arg("targets"), nb::arg("start"), nb::arg("states"), nb::arg("sensors"),
+             "One control period (GIL released); CALM, UNSETTLED, REPLAY or RESTART.");
+    mod.attr("CALM") = static_cast<int>(WorldStep::kCalm);
+    mod.attr("UNSETTLED") = static_cast<int>(WorldStep::kUnsettled);
+    mod.attr("REPLAY") = static_cast<int>(WorldStep::kReplay);
+    mod.attr("RESTART") = static_cast<int>(WorldStep::kRestart);
 
     // The kernels over n rows, checked against NumPy's at import (revolve_env.world.compiled).
     mod.def(

@@ -68,6 +68,8 @@ class FitnessWindows:
         self._first = np.zeros(0, dtype=np.int64)  # each robot's first sample (_NONE: none)
         self._last = np.zeros(0, dtype=np.int64)  # and last one
         self._cols = np.zeros(0, dtype=np.intp)  # every column
+        self._all_started = True  # every robot has a sample (push's common case)
+        self._rows_now: tuple[Any, ...] | None = None  # _rows() until the next change
 
     _NONE: ClassVar[int] = int(np.iinfo(np.int64).max)  # no sample yet
 
@@ -91,6 +93,8 @@ class FitnessWindows:
         self._first = np.concatenate((self._first, np.full(count, self._NONE, dtype=np.int64)))
         self._last = np.concatenate((self._last, np.full(count, -1, dtype=np.int64)))
         self._cols = np.arange(len(self))
+        self._all_started = count == 0 and self._all_started
+        self._rows_now = None
 
     def remove(self, keep: NDArray[np.bool_]) -> None:
         """Keep only the robots where ``keep`` is True (the others' columns go)."""
@@ -101,12 +105,16 @@ class FitnessWindows:
         self._first = self._first[keep]
         self._last = self._last[keep]
         self._cols = np.arange(len(self))
+        self._all_started = bool((self._first != self._NONE).all())
+        self._rows_now = None
 
     def reset(self) -> None:
         """Forget every sample of every robot (the robots stay, as if just added)."""
         self._seq = self._start = 0
         self._first[:] = self._NONE
         self._last[:] = -1
+        self._all_started = len(self) == 0
+        self._rows_now = None
 
     # -- samples ------------------------------------------------------------------------------
     def push(self, t: float, xy: NDArray[np.float64], sampling: NDArray[np.bool_] | None = None,
@@ -137,18 +145,26 @@ class FitnessWindows:
         seq, cap = self._seq, self.capacity
         if seq > self._start and t < self._t[(seq - 1) % cap]:
             raise ValueError(f"time {t} s is before the previous sample")
+        if sampling is not None and sampling.all():
+            sampling = None  # every robot: the same columns, without the masks
         cols = self._cols if sampling is None else np.flatnonzero(sampling)
         x, y = xy[cols, 0], xy[cols, 1]
         if not (math.isfinite(float(np.add.reduce(x)) + float(np.add.reduce(y)))
                 or (np.isfinite(x).all() and np.isfinite(y).all())):
             raise ValueError("positions of robots that sample must be finite")
-        started = self._first[cols] != self._NONE
-        path = np.zeros(cols.shape[0])
-        if started.any():
-            on = cols[started]
-            prev = self._last[on] % cap
-            path[started] = self._path[prev, on] + hypot(x[started] - self._xy[prev, on, 0],
-                                                          y[started] - self._xy[prev, on, 1])
+        every = sampling is None and self._all_started  # the common case, without masks
+        if every:
+            prev = self._last % cap
+            path = self._path[prev, cols] + hypot(x - self._xy[prev, cols, 0],
+                                                  y - self._xy[prev, cols, 1])
+        else:
+            started = self._first[cols] != self._NONE
+            path = np.zeros(cols.shape[0])
+            if started.any():
+                on = cols[started]
+                prev = self._last[on] % cap
+                path[started] = self._path[prev, on] + hypot(x[started] - self._xy[prev, on, 0],
+                                                              y[started] - self._xy[prev, on, 1])
         if seq > self._start and t == self._t[(seq - 1) % cap] and \
                 not (self._last[cols] == seq - 1).any():
             # The latest sample time again, for robots not sampled then (a birth between two
@@ -172,9 +188,12 @@ class FitnessWindows:
             if signal is None:
                 raise ValueError("these windows keep a signal: push needs one")
             self._sig[row, cols] = signal[cols]
-        self._first[cols[~started]] = seq
+        if not every:
+            self._first[cols[~started]] = seq
+            self._all_started = bool((self._first != self._NONE).all())
         self._last[cols] = seq
         self._seq = seq + 1
+        self._rows_now = None
         if path.shape[0] and float(np.maximum.reduce(path)) > 1e3:
             self._rebase(cols[path > 1e3])
 
@@ -203,13 +222,20 @@ class FitnessWindows:
     # -- windows ------------------------------------------------------------------------------
     def _rows(self) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp],
                              NDArray[np.int64], NDArray[np.bool_]]:
-        """Ring rows of every robot's first and last sample, its column, samples, any sample."""
-        cap = self.capacity
-        lo = np.maximum(self._first, self._start)
-        count = np.maximum(self._last - lo + 1, 0)
-        some = count > 0
-        return (np.where(some, lo, 0) % cap, np.where(some, self._last, 0) % cap,
-                np.arange(len(self)), count, some)
+        """Ring rows of every robot's first and last sample, its column, samples, any sample.
+
+        Kept until the windows change (between a step's :meth:`current` and the next step's
+        :meth:`last`); the sample counts (given out in :class:`Window`) read-only.
+        """
+        if self._rows_now is None:
+            cap = self.capacity
+            lo = np.maximum(self._first, self._start)
+            count = np.maximum(self._last - lo + 1, 0)
+            count.flags.writeable = False
+            some = count > 0
+            self._rows_now = (np.where(some, lo, 0) % cap, np.where(some, self._last, 0) % cap,
+                              self._cols, count, some)
+        return self._rows_now
 
     def ends(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
                             NDArray[np.int64]]:
@@ -315,6 +341,7 @@ class FitnessWindows:
             self._sig = np.zeros((cap, n))
         self._t[:k_all] = times
         self._start, self._seq = 0, k_all
+        self._rows_now, self._all_started = None, False  # the masked push until all are read
         for col, (t, xy, path, sig) in enumerate(windows):
             k = t.shape[0]
             if not np.array_equal(times[k_all - k:], t):
@@ -325,6 +352,7 @@ class FitnessWindows:
             if self._sig is not None:
                 self._sig[k_all - k:k_all, col] = sig
             self._first[col], self._last[col] = (k_all - k, k_all - 1) if k else (self._NONE, -1)
+        self._all_started = bool((self._first != self._NONE).all())
 
 
 class SlidingWindowFitness:

@@ -11,12 +11,20 @@ Python decides what they decide rarely: a robot whose screen fails waits until
 :func:`~revolve_env.world.blowups.reason` has judged it, and a robot whose physics or brain turns
 non-finite is evaluated again on the NumPy path (which replays and reports it as ever).
 
+:class:`WorldStep` (made by :func:`world_step`) is one control period of every robot of a MuJoCo
+:class:`~revolve_env.world.World` of one scene, as the envs step it period by period: the servo
+law on the world's targets, the substeps, the body states, every sensor value and the blow-up
+screen's calm test in one call (the same rules' code in C++ as the rollout's). Python keeps the
+rest: the targets, the brains (one call of the batch controller), a period that needs a replay
+(:meth:`~revolve_env.world.mujoco_backend.MujocoBackend.stepped`) and the judgement of a failed
+screen.
+
 The only module that imports the extension. It is used only where it gives the NumPy path's
 numbers: the extension must be built against the very ``mujoco`` that is imported, and its
 kernels must round as NumPy's do here (checked once per process on random data: NumPy's matrix
 products are OpenBLAS's, which fuse or not by CPU). Otherwise, or when it was not built (no
-compiler or no ``mujoco`` wheel at install time), :func:`rollout` returns None and the caller
-takes the NumPy path; the reason is logged once.
+compiler or no ``mujoco`` wheel at install time), :func:`rollout` and :func:`world_step` return
+None and the caller takes the NumPy path; the reason is logged once.
 """
 
 from __future__ import annotations
@@ -25,21 +33,25 @@ import functools
 import importlib
 import logging
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from types import ModuleType
-from typing import Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from revolve_env.body.robot import Robot
 from revolve_env.brain._registry import as_spec
-from revolve_env.world.backend import BodyStates
+from revolve_env.world.backend import BodyStates, PhysicsBackend
 from revolve_env.world.blowups import Screen, reason
+from revolve_env.world.config import WorldConfig
+from revolve_env.world.robot_state import Layout, RobotState
 from revolve_env.world.sensing import IMU_HIGH, imu_readings, light_falloff, light_intensity
-from revolve_env.world.world import World
 
-__all__ = ["SIGNALS", "Path", "available", "rollout"]
+if TYPE_CHECKING:
+    from revolve_env.world.mujoco_backend import RawScene
+
+__all__ = ["SIGNALS", "Path", "WorldStep", "available", "rollout", "world_step"]
 
 _log = logging.getLogger(__name__)
 
@@ -50,7 +62,30 @@ without one) and the blow-up reason."""
 SIGNALS = ("light",)
 """The task signals the compiled rollout records (:mod:`revolve_env.world.signals`)."""
 
-Rerun = Callable[..., list[Path]]
+
+
+class Evaluating(Protocol):
+    """What :func:`rollout` needs of a :class:`~revolve_env.world.World`.
+
+    (World imports this module, so it is named here by what it does.)
+    """
+
+    config: WorldConfig
+
+    @property
+    def engine(self) -> str: ...
+    @property
+    def handles(self) -> tuple[int, ...]: ...
+    @property
+    def backend(self) -> PhysicsBackend: ...
+    def add_robot(self, robot: Robot, position: tuple[float, float] = ...,
+                  yaw: float = ...) -> int: ...
+    def n_inputs(self, handle: int) -> int: ...
+    def n_outputs(self, handle: int) -> int: ...
+    def set_hinge_state(self, handle: int, angles: NDArray[np.float64],
+                        velocities: NDArray[np.float64]) -> None: ...
+    def blow_up(self, handle: int) -> str | None: ...
+    def plan(self, handle: int) -> tuple[RobotState, NDArray[np.float64]]: ...
 
 
 @functools.cache
@@ -112,15 +147,17 @@ def available() -> bool:
     return _extension() is not None
 
 
-def rollout(world: World, robots: Sequence[Robot], starts: Sequence[Any], insertion_ticks: int,
-            evaluation_ticks: int, signal: str | None,
+def rollout(world: Evaluating, robots: Sequence[Robot], starts: Sequence[Any],
+            insertion_ticks: int, evaluation_ticks: int, signal: str | None,
             joints: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]] | None] | None,
-            threads: int, rerun: Rerun) -> list[Path] | None:
+            threads: int) -> list[Path | None] | None:
     """``evaluation._rollout`` without noise, compiled; None where it does not apply.
 
     It applies to an empty isolated MuJoCo ``world`` and a task without a signal or with one of
     :data:`SIGNALS`, when the extension is usable (:func:`available`); then it adds the robots
-    to ``world`` (spent afterwards: close it) and returns what the NumPy path would, bit for bit.
+    to ``world`` (spent afterwards: close it) and returns what the NumPy path would, bit for bit,
+    but None for each robot that the NumPy path must evaluate again (its physics or its brain's
+    outputs turned non-finite: that path replays and reports it).
 
     Args:
         world: An empty ``World(config, isolated=True)``.
@@ -131,14 +168,13 @@ def rollout(world: World, robots: Sequence[Robot], starts: Sequence[Any], insert
         signal: The task's signal, None or one of :data:`SIGNALS`.
         joints: Per robot, its active hinges' start angles and speeds (None: at rest).
         threads: Threads to spread the robots over (>= 1); the numbers do not depend on it.
-        rerun: ``evaluation._rollout`` on the NumPy path, with its arguments: evaluates the robots
-            the extension hands back (non-finite physics or brain outputs).
 
     Raises:
         ValueError: a network whose inputs or outputs do not match its body.
     """
+    scenes = getattr(world.backend, "scenes", None)
     if ((signal is not None and signal not in SIGNALS) or world.engine != "mujoco" or world.handles
-            or not any(k.__name__ == "MujocoScenes" for k in type(world.backend).__mro__)):
+            or scenes is None):
         return None
     ext = _extension()
     if ext is None:
@@ -161,13 +197,10 @@ def rollout(world: World, robots: Sequence[Robot], starts: Sequence[Any], insert
                       math.radians(c.range_deg), c.gravity, IMU_HIGH,
                       np.asarray(c.light_position, dtype=np.float64), float(c.light_range),
                       signal == "light")
-    # The world's own bookkeeping of each robot and its scene (this package's private parts).
-    states = [world._robots[h] for h in handles]  # noqa: SLF001
-    scenes = world.backend._scene_list()  # type: ignore[attr-defined]  # noqa: SLF001
-    prev_vel = world._prev_vel  # noqa: SLF001
     redo = [i for i, h in enumerate(handles) if world.blow_up(h) is not None]  # blown at birth
-    for i, (s, scene, spec) in enumerate(zip(states, scenes, specs, strict=True)):
-        _add(run, s, scene, spec, Screen(1, s.n_joints, c).inverse, prev_vel[i], c.brain_dt)
+    for h, scene, spec in zip(handles, scenes(), specs, strict=True):
+        s, prev_vel = world.plan(h)
+        _add(run, s, scene, spec, Screen(1, s.n_joints, c).inverse, prev_vel, c.brain_dt)
     reasons: list[str | None] = [None] * n
     while True:
         run.run(max(1, int(threads)))
@@ -180,40 +213,128 @@ def rollout(world: World, robots: Sequence[Robot], starts: Sequence[Any], insert
             reasons[i] = reason(now, 0, slice(0, angles.shape[0]), c, run.time(i))
             run.resume(i, reasons[i] is not None)
     redo += [i for i in range(n) if run.status(i) == ext.FALLBACK and i not in redo]
-    out: list[Path] = []
+    out: list[Path | None] = []
     for i in range(n):
         path = run.path(i)
         path.setflags(write=False)
-        out.append((path, run.signal(i), reasons[i]))
-    if redo:
-        with World(c, isolated=True) as again:
-            redone = rerun(again, [robots[i] for i in redo], [starts[i] for i in redo],
-                           insertion_ticks, evaluation_ticks,
-                           [np.random.default_rng(0) for _ in redo], 0.0, 0.0, signal,
-                           None if joints is None else [joints[i] for i in redo])
-        for i, result in zip(redo, redone, strict=True):
-            out[i] = result
+        out.append(None if i in redo else (path, run.signal(i), reasons[i]))
     return out
 
 
-def _add(run: Any, s: Any, scene: Any, spec: Any, screen: NDArray[np.float64],
+def _add(run: Any, s: RobotState, scene: Any, spec: Any, screen: NDArray[np.float64],
          prev_vel: NDArray[np.float64], brain_dt: float) -> None:
     """Hand one robot (its world bookkeeping ``s``, its MuJoCo scene, its network) to ``run``."""
     def ints(a: Any) -> NDArray[np.int64]:
         return np.ascontiguousarray(np.asarray(a).reshape(-1), dtype=np.int64)
 
-    m, d = scene._model, scene._data  # noqa: SLF001
+    raw: RawScene = scene.raw_scene()
     root = s.light_links == 0
     bodies = np.full(s.light_links.shape[0], -1, dtype=np.int64)  # -1: the core's pose
     if (~root).any():
         bodies[~root] = scene.link_index(0, s.light_links[~root])
     touch = scene.link_index(0, s.touch_links) if s.touch_links.size else np.zeros(0)
-    run.add(m._address, d._address, int(scene._root_bodies[0]),  # noqa: SLF001
-            int(scene._root_qpos[0]), int(scene._root_dofs[0]),  # noqa: SLF001
-            ints(scene._hinge_qpos), ints(scene._hinge_dofs), ints(s.active_local),  # noqa: SLF001
+    run.add(raw.model, raw.data, int(raw.root_bodies[0]), int(raw.root_qpos[0]),
+            int(raw.root_dofs[0]), ints(raw.hinge_qpos), ints(raw.hinge_dofs), ints(s.active_local),
             int(s.n_inputs), ints(touch), ints(s.touch_local), bodies, ints(s.light_local),
             np.ascontiguousarray(s.light_position, dtype=np.float64).reshape(-1, 3),
             np.ascontiguousarray(s.light_direction, dtype=np.float64).reshape(-1, 3),
             np.ascontiguousarray(screen), np.ascontiguousarray(prev_vel, dtype=np.float64),
             spec.kinds, spec.neuron_params, spec.src, spec.dst, spec.weight,
             int(spec.n_inputs), int(spec.n_outputs), float(brain_dt))
+
+
+class WorldStep:
+    """One control period of every robot of a MuJoCo world in C++ (:meth:`World.step`).
+
+    RoboGen's servo law on the world's targets, the substeps, the body states, every robot's
+    sensor values and the blow-up screen's calm test, by the rules of the NumPy path (the same
+    bits). Made by :func:`world_step` for one scene and one layout of the robots: good while
+    :meth:`current` and no robot was born or died.
+    """
+
+    def __init__(self, ext: ModuleType, backend: object, raw: RawScene, layout: Layout,
+                 screen: Screen, c: WorldConfig) -> None:
+        def ints(a: Any) -> NDArray[np.int64]:
+            return np.ascontiguousarray(np.asarray(a).reshape(-1), dtype=np.int64)
+
+        n, joints = layout.n, int(raw.hinge_qpos.shape[0])
+        roots = layout.light_root_rows.shape[0]
+        links = layout.light_link_ids.shape[0]
+        self._run = ext.WorldStep(
+            raw.model, raw.data, c.substeps, c.control_period, c.servo_gain / c.control_period,
+            c.max_velocity, c.gravity, IMU_HIGH, np.asarray(c.light_position, dtype=np.float64),
+            float(c.light_range), ints(raw.root_bodies), ints(raw.root_qpos),
+            ints(raw.root_dofs), ints(raw.hinge_qpos), ints(raw.hinge_dofs),
+            ints(layout.joint_offsets), ints(layout.input_offsets[:-1]), layout.n_inputs,
+            ints(raw.hinge_qpos[layout.active_index]), ints(layout.touch_ids),
+            ints(layout.touch_dest),
+            np.concatenate((np.full(roots, -1, dtype=np.int64), ints(layout.light_link_ids))),
+            np.concatenate((ints(layout.light_root_rows), np.zeros(links, dtype=np.int64))),
+            ints(layout.light_dest),
+            np.ascontiguousarray(layout.light_points.reshape(-1, 3)),
+            np.ascontiguousarray(layout.light_facings.reshape(-1, 3)),
+            np.ascontiguousarray(screen.inverse, dtype=np.float64))
+        self._backend: Any = backend
+        self._version = raw.version
+        self._outcomes = ("calm", "unsettled", "replay", "restart")
+        self._start = raw.start
+        self._diverged = raw.diverged
+        self.any_diverged = bool(raw.diverged.any())
+        self._size = int(self._run.states_size)
+        self._inputs = layout.n_inputs
+        k = 3 * n
+        self._cuts = (k, 4 * k, 5 * k, 6 * k, 6 * k + joints, 6 * k + 2 * joints)
+        self._n = n
+        self._substeps = c.substeps
+
+    def current(self) -> bool:
+        """Whether the backend still steps the scene this was made for (deaths compiled first)."""
+        return bool(self._backend.scene_version() == self._version)
+
+    def period(self, targets: NDArray[np.float64]) -> tuple[str, BodyStates | None,
+                                                              NDArray[np.float64] | None,
+                                                              NDArray[np.float64] | None]:
+        """Step the world one control period towards ``targets`` (radians, flat layout).
+
+        Returns:
+            The outcome ("calm"; "unsettled": a robot may have blown up; "replay" or "restart":
+            the backend has replayed the period, :meth:`MujocoBackend.stepped`), then for "calm"
+            and "unsettled" every robot's state now, the cores' velocities before the period
+            (n, 3) and every robot's sensor values (read-only), else None three times.
+        """
+        states = np.empty(self._size)
+        sensors = np.empty(self._inputs)
+        outcome = self._outcomes[self._run.step(targets, self._start, states, sensors)]
+        # the backend replays what needs a replay; an unsettled state is a stepped one to it
+        self._backend.stepped("calm" if outcome == "unsettled" else outcome, self._substeps)
+        if outcome in ("replay", "restart"):
+            return outcome, None, None, None
+        n = self._n
+        a, b, c, d, e, f = self._cuts
+        now = BodyStates(states[:a].reshape(n, 3), states[a:b].reshape(n, 3, 3),
+                         states[b:c].reshape(n, 3), states[c:d].reshape(n, 3), states[d:e],
+                         states[e:f], self._diverged)
+        sensors.flags.writeable = False
+        return outcome, now, states[f:].reshape(n, 3), sensors
+
+
+def world_step(c: WorldConfig, backend: object, layout: Layout, screen: Screen) -> WorldStep | None:
+    """The compiled step of a world's robots (:class:`WorldStep`), None where it does not apply.
+
+    It applies to a MuJoCo world of one scene (not an isolated one) with robots, when the
+    extension is usable (:func:`available`).
+
+    Args:
+        c: The world's settings.
+        backend: The world's physics backend.
+        layout: The world's index arrays over its robots.
+        screen: The world's blow-up screen of them.
+    """
+    raw_scene = getattr(backend, "raw_scene", None)
+    if c.engine != "mujoco" or raw_scene is None or not layout.n:
+        return None
+    ext = _extension()
+    if ext is None:
+        return None
+    raw: RawScene = raw_scene()
+    return WorldStep(ext, backend, raw, layout, screen, c)

@@ -31,7 +31,7 @@ from revolve_env.world.mujoco_scene import SERVO_KV, RobotLayout, robot_layout
 from revolve_env.world.mujoco_view import View, Viewer
 from revolve_env.world.opengl import HOW_TO, RenderUnavailableError, has_display, render_problem
 
-__all__ = ["SERVO_KV", "MujocoBackend"]
+__all__ = ["SERVO_KV", "MujocoBackend", "RawScene"]
 
 _XYZ = np.arange(3)
 _STATE = int(mujoco.mjtState.mjSTATE_INTEGRATION)
@@ -59,6 +59,39 @@ class _Views:
 
 def _all_finite(a: NDArray[np.float64]) -> bool:
     return math.isfinite(float(np.add.reduce(a, axis=None))) or bool(np.isfinite(a).all())
+
+
+@dataclass(frozen=True, eq=False)
+class RawScene:
+    """A compiled scene as C code steps it (:meth:`MujocoBackend.raw_scene`).
+
+    Valid while :meth:`MujocoBackend.scene_version` gives ``version``: a compile, a death, a new
+    ``MjData`` or a robot found diverged makes another.
+
+    Attributes:
+        model: The ``mjModel*`` address.
+        data: The ``mjData*`` address.
+        version: Which scene this is.
+        root_bodies: (n,) each robot's root body.
+        root_qpos: (n,) each robot's free joint's first qpos.
+        root_dofs: (n,) and first dof.
+        hinge_qpos: Every robot's hinges' qpos, robots in order (``BodyStates.joint_pos``).
+        hinge_dofs: Their dofs.
+        start: Where a period's start (time, qpos, qvel, warm start) is saved for its replay.
+        diverged: (n,) robots the backend found non-finite and put at rest
+            (``BodyStates.diverged``).
+    """
+
+    model: int
+    data: int
+    version: int
+    root_bodies: NDArray[np.intp]
+    root_qpos: NDArray[np.intp]
+    root_dofs: NDArray[np.intp]
+    hinge_qpos: NDArray[np.intp]
+    hinge_dofs: NDArray[np.intp]
+    start: NDArray[np.float64]
+    diverged: NDArray[np.bool_]
 
 
 @dataclass(eq=False)  # identity: the arrays below have no truth value
@@ -97,6 +130,7 @@ class MujocoBackend:
         self.config = config
         self._robots: dict[int, _Robot] = {}
         self._next_key = 0
+        self._version = 0  # see scene_version()
         self._closed = False
         self._view: View | None = None
         self._viewer: Viewer | None = Viewer() if gui else None
@@ -105,6 +139,7 @@ class MujocoBackend:
 
     # -- scene ----------------------------------------------------------------------------------
     def _new_scene(self) -> None:
+        self._version += 1
         self._spec = scene.scene_spec(self.config)
         self._deaths_pending = False  # see remove()
         self._model = self._spec.compile()
@@ -208,6 +243,7 @@ class MujocoBackend:
         self._read_qvel = np.concatenate((self._root_lin.ravel(), self._root_ang.ravel(),
                                           self._hinge_dofs))
         self._future = None  # a death changes where the survivors' bodies will be
+        self._version += 1
 
     # -- robots -------------------------------------------------------------------------------
     def add(self, model: RobotModel, position: tuple[float, float, float], yaw: float) -> int:
@@ -265,16 +301,46 @@ class MujocoBackend:
         mujoco.mj_getState(m, d, v.start, _SAVED)  # the period's start, should it diverge
         try:
             mujoco.mj_step(m, d, substeps)
-            finite = _all_finite(v.qvel) and _all_finite(v.qpos)
+            stepped = "calm" if _all_finite(v.qvel) and _all_finite(v.qpos) else "replay"
         except mujoco.FatalError:
-            # A non-finite state reached a later physics step's collision pass: its bounding boxes
-            # overlap everything and exhaust MuJoCo's arena. The data may be half-updated.
-            self._data = mujoco.MjData(m)
-            self._data.ctrl[:] = d.ctrl
-            finite = False
-        if not finite:
-            self._replay(v.start.copy(), substeps)
+            stepped = "restart"
+        self.stepped(stepped, substeps)
         self._kinematics_fresh = False
+
+    # -- the compiled step (revolve_env.world.compiled) ------------------------------------------
+    def scene_version(self) -> int:
+        """Which compiled scene steps now (deaths pending compiled first): see :class:`RawScene`."""
+        self._sync()
+        return self._version
+
+    def raw_scene(self) -> RawScene:
+        """The compiled scene for C code that steps it (the servos' torque limit set first)."""
+        self._sync()
+        if self._torque != self.config.max_torque:
+            self._torque = self.config.max_torque
+            self._model.actuator_forcerange[:] = (-self._torque, self._torque)
+        return RawScene(self._model._address, self._data._address, self._version,
+                        self._root_bodies, self._root_qpos, self._root_dofs, self._hinge_qpos,
+                        self._hinge_dofs, self._views().start, self._diverged)
+
+    def stepped(self, outcome: str, substeps: int) -> None:
+        """After a control period of ``substeps`` stepped from the state saved in its start.
+
+        ``outcome``: "calm" (a finite state, its body poses computed), "replay" (a state that
+        is not finite) or "restart" (``mj_step`` failed: the data may be half-updated); the last
+        two replay the period (:meth:`_replay`).
+        """
+        if outcome != "calm":
+            start = self._views().start.copy()
+            if outcome == "restart":
+                # A non-finite state reached a later physics step's collision pass: its bounding
+                # boxes overlap everything and exhaust MuJoCo's arena.
+                d = self._data
+                self._data = mujoco.MjData(self._model)
+                self._data.ctrl[:] = d.ctrl
+                self._version += 1
+            self._replay(start, substeps)
+        self._kinematics_fresh = outcome == "calm"
         self._touching = None
 
     def _views(self) -> _Views:
@@ -331,6 +397,7 @@ class MujocoBackend:
         d.qvel[r.dofs] = 0.0
         d.qacc_warmstart[r.dofs] = 0.0
         r.diverged = True
+        self._version += 1  # a new diverged array (RawScene)
         diverged = self._diverged.copy()  # a new array: earlier reads keep what they saw
         diverged[list(self._robots.values()).index(r)] = True
         diverged.flags.writeable = False

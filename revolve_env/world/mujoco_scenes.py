@@ -49,6 +49,10 @@ class MujocoScenes(IsolatedBackend):
         scenes: list[MujocoBackend] = list(self._scenes.values())  # type: ignore[arg-type]
         return scenes
 
+    def scenes(self) -> list[MujocoBackend]:
+        """The robots' scenes, in order (for C code that steps them: their ``raw_scene()``)."""
+        return self._scene_list()
+
     def _changed(self) -> None:
         super()._changed()
         self._layout_scenes()

@@ -160,7 +160,8 @@ class Layout:
 
     Flat arrays: every robot's hinge targets (``n_outputs`` active hinges, controller output
     order) and sensor values (``n_inputs``, controller input order) one robot after the other;
-    ``output_offsets`` and ``input_offsets`` (``n + 1`` entries) delimit each robot's part.
+    ``output_offsets`` and ``input_offsets`` (``n + 1`` entries) delimit each robot's part, as
+    ``joint_offsets`` does its hinges in ``BodyStates.joint_pos``.
     Sensors: the IMU's six values of every robot start its part; touch halves and light
     sensors are listed with their place in the flat sensor values (``*_dest``). The light
     sensors on a core come first and read the core's pose (``light_root_rows``); those on other
@@ -174,6 +175,7 @@ class Layout:
     active_index: NDArray[np.intp] = field(default_factory=_empty_ints)  # into joint_pos
     output_offsets: NDArray[np.intp] = field(default_factory=lambda: np.zeros(1, dtype=_INTP))
     output_rows: NDArray[np.intp] = field(default_factory=_empty_ints)  # robot of each target
+    joint_offsets: NDArray[np.intp] = field(default_factory=lambda: np.zeros(1, dtype=_INTP))
     input_offsets: NDArray[np.intp] = field(default_factory=lambda: np.zeros(1, dtype=_INTP))
     imu_dest: NDArray[np.intp] = field(default_factory=lambda: np.zeros((0, IMU_VALUES),
                                                                          dtype=_INTP))
@@ -207,7 +209,7 @@ def layout(states: Sequence[RobotState], backend: PhysicsBackend) -> Layout:
     link: list[tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64],
                      NDArray[np.float64]]] = []
     joint = inputs = 0
-    in_offsets, out_offsets = [0], [0]
+    in_offsets, out_offsets, joint_offsets = [0], [0], [0]
     for row, s in enumerate(states):
         s.row = row
         s.joint_start = joint
@@ -226,6 +228,7 @@ def layout(states: Sequence[RobotState], backend: PhysicsBackend) -> Layout:
                          backend.link_index(s.key, s.light_links[~on_root]),
                          s.light_position[~on_root], s.light_direction[~on_root]))
         joint += s.n_joints
+        joint_offsets.append(joint)
         inputs += s.n_inputs
         in_offsets.append(inputs)
         out_offsets.append(out_offsets[-1] + s.n_outputs)
@@ -242,7 +245,8 @@ def layout(states: Sequence[RobotState], backend: PhysicsBackend) -> Layout:
     facings = vectors([r[3] for r in root] + [r[3] for r in link])
     return Layout(
         n=len(states), active_index=cat(active), output_offsets=_ints(out_offsets),
-        output_rows=cat(out_rows), input_offsets=input_offsets,
+        output_rows=cat(out_rows), joint_offsets=_ints(joint_offsets),
+        input_offsets=input_offsets,
         imu_dest=input_offsets[:-1, None] + np.arange(IMU_VALUES, dtype=_INTP),
         touch_dest=cat(touch_dest), touch_ids=cat(touch_ids),
         light_dest=cat([r[0] for r in root] + [r[0] for r in link]),

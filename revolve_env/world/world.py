@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from revolve_env.body.robot import Robot
 from revolve_env.body.serialize import to_json
+from revolve_env.world import compiled
 from revolve_env.world.backend import BodyStates, PhysicsBackend, SnapshotMismatchError
 from revolve_env.world.blowups import Screen, all_calm, reason
 from revolve_env.world.config import WorldConfig
@@ -100,6 +101,9 @@ class World:
         # every robot's IMU and sensor values, computed on demand once per control period
         self._imu: NDArray[np.float64] | None = None
         self._sensors: NDArray[np.float64] | None = None
+        # The compiled step of the robots now (None: not made yet), unless the NumPy path steps
+        self._compiled: compiled.WorldStep | None = None
+        self._numpy_path = False
 
     def reset(self) -> None:
         """Remove every robot and restart the simulation from time 0 with the same engine.
@@ -175,6 +179,15 @@ class World:
         """Number of robots in the physics engine plus the ground (for leak checks)."""
         self._check_open()
         return self._backend.body_count()
+
+    def plan(self, handle: int) -> tuple[RobotState, NDArray[np.float64]]:
+        """A robot's record and its core's velocity one control period ago (metres per second).
+
+        The record (its sensor plan and hinges) is the world's own: for compiled code that steps
+        the robot, to read only.
+        """
+        state = self._state(handle)
+        return state, self._prev_vel[state.row].copy()
 
     def _state(self, handle: int) -> RobotState:
         self._check_open()
@@ -343,6 +356,7 @@ class World:
         self._prev_vel = self._now.core_vel.copy()
         self._imu = None
         self._sensors = None
+        self._compiled = None  # made again for the robots now
 
     def _output_slice(self, state: RobotState) -> slice:
         offsets = self._layout.output_offsets
@@ -452,6 +466,8 @@ class World:
         k = c.servo_gain / c.control_period
         active = self._layout.active_index
         for _ in range(n):
+            if not self._numpy_path and self._robots and self._compiled_period():
+                continue
             if active.size:
                 # RoboGen's servo law, for every active hinge of every robot at once.
                 q = self._now.joint_pos[active]
@@ -466,6 +482,35 @@ class World:
                 self._imu = None
                 self._sensors = None
                 self._check_blow_ups()
+
+    def _compiled_period(self) -> bool:
+        """One control period in the compiled step (:class:`compiled.WorldStep`).
+
+        The same numbers as the NumPy path of :meth:`step`; False where it does not apply
+        (nothing done then).
+        """
+        run = self._compiled
+        if run is None or not run.current():
+            run = compiled.world_step(self.config, self._backend, self._layout, self._screen)
+            if run is None:
+                self._numpy_path = True
+                return False
+            self._compiled = run
+        outcome, now, prev_vel, sensors = run.period(self._targets)
+        self._time += self.config.control_period
+        self._imu = None
+        if now is None or prev_vel is None:  # replayed by the backend: read as ever
+            self._prev_vel = self._now.core_vel
+            self._now = self._backend.read()
+            self._sensors = None
+            self._check_blow_ups()
+            return True
+        self._prev_vel, self._now, self._sensors = prev_vel, now, sensors
+        if outcome != "calm" or run.any_diverged:
+            for state in self._robots.values():
+                if state.blow_up is None:
+                    self._flag(state, self._check_blow_up(state))
+        return True
 
     # -- blow-ups -----------------------------------------------------------------------------
     def _check_blow_ups(self) -> None:
