@@ -17,9 +17,13 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
+from evolution.learning import CandidateEvaluation
+from evolution.learning.params import evaluate_params
 from revolve_env import Setting
 from revolve_env.body.examples import EXAMPLES
 from revolve_env.body.robot import Robot
+from revolve_env.brain import get_params, param_bounds
+from revolve_env.evaluation import evaluate_many
 from revolve_env.world import World, WorldConfig, engines
 from revolve_env.world.backend import EngineUnavailableError
 from revolve_env.world.config import DEFAULT_ENGINE
@@ -131,3 +135,44 @@ def test_a_diverged_world_is_put_at_rest_alone_and_reported(_: None) -> None:
     assert np.array_equal(after[1], before[1])  # at rest where its period started
     assert np.isfinite(poisoned).all()
     assert np.array_equal(poisoned[[0, 2]], clean[[0, 2]])  # the batch's other worlds untouched
+
+
+def _candidates(robot: Robot, n: int, rng: np.random.Generator) -> list[NDArray[np.float64]]:
+    low, high = param_bounds(robot).T
+    inborn = get_params(robot)
+    # around the inborn controller (a learner's search), so that most candidates walk
+    return [np.clip(inborn + rng.normal(0.0, 0.15, inborn.shape) * (high - low), low, high)
+            for _ in range(n)]
+
+
+@pytest.mark.parametrize("_", [pytest.param(None, marks=stepping)])
+def test_fitness_ranks_of_200_candidates_of_3_bodies_agree_with_cpu_mujoco(_: None) -> None:
+    """The Training Center's route (``evaluate_params``: one batch per body) on both engines."""
+    _warp()
+    from scipy.stats import spearmanr
+
+    rng = np.random.default_rng(30)
+    fitness: dict[str, list[float]] = {"mujoco": [], WARP: []}
+    for name, n in (("spider", 67), ("gecko", 67), ("snake", 66)):
+        robot = EXAMPLES[name]()
+        candidates = _candidates(robot, n, rng)
+        for engine in fitness:
+            evaluation = CandidateEvaluation(insertion=0.25, seconds=1.0, engine=engine)
+            values, _ = evaluate_params(robot, candidates, 0, evaluation)
+            fitness[engine] += values.tolist()
+    rho = spearmanr(fitness["mujoco"], fitness[WARP]).statistic
+    print(f"Spearman rho over 200 candidates of 3 bodies: {rho:.4f}")
+    assert rho >= 0.95
+
+
+@pytest.mark.parametrize("_", [pytest.param(None, marks=stepping)])
+def test_each_example_walker_is_within_5_percent_of_cpu_mujoco(_: None) -> None:
+    _warp()
+    robots = [build() for build in EXAMPLES.values()]
+    setting = {"insertion": 0.25, "seconds": 1.0}
+    cpu = [r.fitness for r in evaluate_many(robots, engine="mujoco", **setting)]  # type: ignore[arg-type]
+    warp = [r.fitness for r in evaluate_many(robots, engine=WARP, **setting)]  # type: ignore[arg-type]
+    for name, a, b in zip(EXAMPLES, cpu, warp, strict=True):
+        print(f"{name}: CPU MuJoCo {a:.5f}, Warp {b:.5f} ({(b - a) / a:+.2%})")
+    for a, b in zip(cpu, warp, strict=True):
+        assert a > 0.0 and abs(b - a) <= 0.05 * abs(a)
