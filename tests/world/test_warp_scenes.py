@@ -12,6 +12,7 @@ The refusals and the engine's record run in the default suite (no Warp step).
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import numpy as np
 import pytest
@@ -176,3 +177,46 @@ def test_each_example_walker_is_within_5_percent_of_cpu_mujoco(_: None) -> None:
         print(f"{name}: CPU MuJoCo {a:.5f}, Warp {b:.5f} ({(b - a) / a:+.2%})")
     for a, b in zip(cpu, warp, strict=True):
         assert a > 0.0 and abs(b - a) <= 0.05 * abs(a)
+
+
+@pytest.mark.parametrize("_", [pytest.param(None, marks=stepping)])
+def test_a_batch_out_of_room_for_contacts_gets_more_and_steps_again(
+        _: None, monkeypatch: pytest.MonkeyPatch) -> None:
+    _warp()
+    from revolve_env.world import warp_scenes
+
+    robots = [EXAMPLES["spider"]() for _ in range(2)] + [EXAMPLES["sensor_crawler"]()]
+    ample = _run(WARP, robots, 8)
+    rooms: list[tuple[int, int]] = []
+    put = warp_scenes.WarpScenes._put  # noqa: SLF001
+
+    def spy(self: warp_scenes.WarpScenes, group: Any, states: Any) -> None:
+        rooms.append(group.room)
+        put(self, group, states)
+
+    monkeypatch.setattr(warp_scenes, "_FIRST_ROOM", (1, 4))  # a contact, 4 constraint rows
+    monkeypatch.setattr(warp_scenes.WarpScenes, "_put", spy)
+    tight = _run(WARP, robots, 8)
+    assert rooms[:2] == [(1, 4), (1, 4)] and len(rooms) > 2  # both batches grew
+    assert max(ncon for ncon, _ in rooms) > 1
+    for a, b in zip(tight, ample, strict=True):  # the periods stepped again: no contact lost
+        assert np.abs(a - b).max() < 1e-6
+
+
+@pytest.mark.parametrize("_", [pytest.param(None, marks=stepping)])
+def test_the_native_vector_env_runs_on_warp_as_on_cpu_mujoco(_: None) -> None:
+    _warp()
+    from revolve_env.envs.vector import LocomotionVectorEnv
+
+    observations = {}
+    for engine in ("mujoco", WARP):
+        envs = LocomotionVectorEnv(3, robot=EXAMPLES["spider"](), engine=engine,
+                                   proprioception=True)
+        obs, _ = envs.reset(seed=0)
+        actions = np.random.default_rng(0).uniform(-1, 1, (10, *envs.action_space.shape))
+        for action in actions:
+            obs, reward, terminated, truncated, _ = envs.step(action.astype(np.float32))
+        assert not (terminated.any() or truncated.any())
+        observations[engine] = obs
+        envs.close()
+    assert np.abs(observations[WARP] - observations["mujoco"]).max() < 1e-2
