@@ -15,7 +15,12 @@ periods of 4 physics steps):
   ``rl.make_vec_env`` gives PPO.
 * ``SB3 DummyVecEnv``: today's route before this benchmark, ``DummyVecEnv`` of ``Monitor``-ed
   single envs (``rl.VecEnvConfig(batched=False)``).
-* ``MuJoCo Warp (GPU)``: not built (no GPU was lent to this work): printed as such.
+* ``MuJoCo Warp``: the native vector env on ``engine="mujoco_warp"`` (its N copies the worlds of
+  one Warp batch, float32, on the device Warp picks), printed only where ``mujoco_warp`` imports
+  (the ``warp`` extra). Without a GPU Warp runs on the CPU, which the row says ("no GPU: Warp on
+  CPU"), and only for N <= 64 (a physics step costs ~0.1 s of Python launching ~900 kernels,
+  plus ~1 ms per world there). Its set-up includes compiling Warp's kernels the first time
+  (minutes on a CPU; then Warp's cache, ``~/.cache/warp``).
 
 Each figure is robot-steps (control periods of one robot) per second, of wall time and of this
 process's CPU time; the set-up (model compiles, resets) is timed apart. Then CMA-ES infancy of
@@ -27,11 +32,13 @@ Usage::
 
     python benchmarks/bench_batch.py --quick          # small N, short runs (a shared 2-core box)
     python benchmarks/bench_batch.py --device-check   # N = 1, 16, 256, 4096; one markdown table
+    python benchmarks/bench_batch.py --quick --warp-only   # MuJoCo Warp's rows alone
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import math
 import platform
 import time
@@ -147,6 +154,24 @@ def native(robot: Robot, n: int, steps: int, threads: int) -> Rate:
                     n, steps, sb3=False)
 
 
+def warp_device() -> str | None:
+    """The device MuJoCo Warp would step on (``"cuda:0"``, ``"cpu"``); None: not installed."""
+    if importlib.util.find_spec("mujoco_warp") is None:
+        return None
+    import warp
+
+    return str(warp.get_preferred_device())
+
+
+def on_warp(robot: Robot, n: int, steps: int) -> Rate:
+    """The native vector env on MuJoCo Warp (its copies: the worlds of one Warp batch)."""
+    from revolve_env.envs.vector import LocomotionVectorEnv
+
+    return env_rate(lambda: LocomotionVectorEnv(n, robot=robot, engine="mujoco_warp",
+                                                proprioception=True),
+                    n, steps, sb3=False)
+
+
 def via_sb3(robot: Robot, n: int, steps: int, batched: bool) -> Rate:
     from revolve_env import rl
 
@@ -194,6 +219,9 @@ def main() -> None:
     parser.add_argument("--device-check", action="store_true",
                         help="N = 1, 16, 256, 4096 and one table to paste into the docs")
     parser.add_argument("--steps", type=int, default=None, help="control periods per row")
+    parser.add_argument("--warp-only", action="store_true",
+                        help="only the MuJoCo Warp rows and the native vector env on 1 thread "
+                             "beside them (no infancy)")
     args = parser.parse_args()
     if args.quick:
         sizes, steps, env_limit = [1, 16, 64], args.steps or 60, 64
@@ -202,6 +230,10 @@ def main() -> None:
         sizes, steps, env_limit = [1, 16, 256, 4096], args.steps or 200, 256
         budgets = [(119.0, 1.0, 6.0), (480.0, 3.0, 12.0)]
     robots = {"spider": spider(), "20-part random": twenty_part_robot()}
+    device = warp_device()
+    gpu = device is not None and device != "cpu"
+    warp_route = ("MuJoCo Warp: not installed (the warp extra)" if device is None else
+                  f"MuJoCo Warp on {device}" if gpu else "MuJoCo Warp (no GPU: Warp on CPU)")
     print(f"# bench_batch: {platform.processor() or platform.machine()}, "
           f"{time.strftime('%Y-%m-%d')}, {steps} control periods per row")
     print("robot-steps per second (wall | CPU of this process), set-up wall seconds\n")
@@ -210,10 +242,13 @@ def main() -> None:
     for name, robot in robots.items():
         for n in sizes:
             rows: list[tuple[str, str]] = []
-            for threads in (1, 2):
+            for threads in () if args.warp_only else (1, 2):
                 rows.append((f"raw mujoco.batch, {threads} thr",
                              _fmt(raw_batch(robot, n, steps, threads))))
-            if n <= env_limit:
+            if args.warp_only:
+                if n <= env_limit:
+                    rows.append(("native vector env, 1 thr", _fmt(native(robot, n, steps, 1))))
+            elif n <= env_limit:
                 for threads in (1, 2):
                     rows.append((f"native vector env, {threads} thr",
                                  _fmt(native(robot, n, steps, threads))))
@@ -227,9 +262,16 @@ def main() -> None:
                               "SB3 DummyVecEnv of single envs"):
                     rows.append((route, _fmt(None, f"not run: N > {env_limit} (set-up "
                                                    "compiles a model per robot)")))
-            rows.append(("MuJoCo Warp (GPU)", _fmt(None, "no GPU lent")))
+            if device is None:
+                rows.append((warp_route, _fmt(None, "pip install '.[warp]'")))
+            elif gpu or n <= 64:
+                rows.append((warp_route, _fmt(on_warp(robot, n, steps))))
+            else:
+                rows.append((warp_route, _fmt(None, "not run: N > 64 on Warp's CPU")))
             for route, cells in rows:
-                print(f"| {name} | {n} | {route} {cells}")
+                print(f"| {name} | {n} | {route} {cells}", flush=True)
+    if args.warp_only:
+        return
     print("\nInfancy (one spider): evaluations, CPU s, wall s, best fitness (m)\n")
     print("| learner | evaluations | CPU s | wall s | best fitness |")
     print("|---|---|---|---|---|")

@@ -26,7 +26,7 @@ from pathlib import Path
 
 PACKAGES = ("revolve_env", "evolution")
 
-EXTRAS = {"revolve_env.envs.rllib": "ray.rllib"}
+EXTRAS = {"revolve_env.envs.rllib": "ray.rllib", "revolve_env.world.warp_scenes": "mujoco_warp"}
 """Modules of an optional extra and the library they need: left out where it cannot be imported."""
 
 

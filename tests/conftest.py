@@ -10,7 +10,10 @@ must be empty at the end; anything left there fails the run, named. pytest's own
 folder (``torchinductor_<user>``, made when an optimizer is made): it goes into the session's
 folder under a name of its own and is deleted with it; Ray keeps its sessions' logs in a
 folder of its own (``RAY_TMPDIR``, short: its sockets' paths must stay under 108 characters),
-deleted at the end, once the tests have shut Ray down.
+deleted at the end, once the tests have shut Ray down. Warp (the MuJoCo Warp engine's tests) keeps
+a folder per thread for the precompiled headers of the kernels it compiles on the CPU
+(``wp_pch_*``, a ``TemporaryDirectory`` it removes only at exit): deleted with the rest, not
+counted as left.
 
 Under pytest-xdist (``-n``), each worker is a session of its own: it takes back the variables
 as they were before the controller set them, then makes its own folder (so each worker starts
@@ -33,6 +36,7 @@ import pytest
 _KEY = pytest.StashKey[Path]()
 _TORCH_CACHE = "torch-compiler-cache"
 _RAY = "ray"
+_WARP_PCH = "wp_pch_"
 _SET = ("TMPDIR", "TORCHINDUCTOR_CACHE_DIR", "RAY_TMPDIR")
 _BEFORE = "REVOLVE_TESTS_ENVIRONMENT"
 """The variables of :data:`_SET` as the first session found them (JSON), for xdist's workers."""
@@ -70,7 +74,8 @@ def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
     # This process's own multiprocessing folder is removed by multiprocessing when it exits.
     own = multiprocessing.process.current_process()._config.get("tempdir")  # type: ignore[attr-defined]
     mine = {_TORCH_CACHE, _RAY} | ({Path(own).name} if own else set())
-    left = sorted(p.name for p in folder.iterdir() if p.name not in mine)
+    left = sorted(p.name for p in folder.iterdir()
+                  if p.name not in mine and not p.name.startswith(_WARP_PCH))
     for path in folder.iterdir():
         if own is None or path != Path(own):
             shutil.rmtree(path, ignore_errors=True) if path.is_dir() else path.unlink()

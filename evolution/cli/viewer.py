@@ -284,7 +284,9 @@ def _timing_arguments(p: argparse.ArgumentParser, help_seconds: str,
     p.add_argument("--fps", type=number(float, 0.0, strict=True, high=MAX_FPS), default=15.0,
                    help=f"frames per simulated second, at most {MAX_FPS:g} (one per control "
                         "period; a GIF plays at most 50)")
-    p.add_argument("--engine", choices=revolve_env.ENGINES,
+    # the engines whose world holds a robot as an env does (not MuJoCo Warp's isolated worlds)
+    p.add_argument("--engine", choices=[e for e in revolve_env.ENGINES
+                                        if revolve_env.engine(e).shared_world],
                    help="physics engine (default: the stored one, else mujoco)")
     p.add_argument("--size", type=frame_size, default="480x360", metavar="WxH",
                    help="frame width and height, pixels")

@@ -26,7 +26,8 @@ __all__ = ["ENGINES", "PHYSICS_REVISIONS", "TABLE", "Capability", "Engine",
            "EngineUnavailableError", "capable", "engine", "make_backend", "require_engine",
            "with_engine"]
 
-Capability = Literal["gui", "exact_restore", "isolated_exact", "offscreen_gl"]
+Capability = Literal["gui", "exact_restore", "isolated_exact", "offscreen_gl", "shared_world",
+                     "deterministic"]
 """The yes/no capabilities of an :class:`Engine`."""
 
 
@@ -59,9 +60,15 @@ class Engine:
         offscreen_gl: Whether its pictures are drawn with OpenGL, whose offscreen backend must
             be chosen before the package is imported (:mod:`revolve_env.envs.offscreen`); False:
             a renderer of its own that needs no display.
+        shared_world: Whether robots can share one scene and meet (``World(config)`` without
+            ``isolated``); False: isolated worlds only (a robot per world), the rest refused.
+        deterministic: Whether the same inputs give the same numbers bit for bit, run after run
+            and at any batch size; False: float32 worlds whose numbers depend on the batch and
+            the device (what :attr:`isolated_exact` False also says of a robot's result).
         threads: CPU threads one backend steps with (a process pool may run ``cores / threads``
             workers).
-        device: Where the physics runs (``"cpu"``).
+        device: Where the physics runs (``"cpu"``; ``"warp"``: the device Warp picks, a GPU
+            when one is present, else the CPU).
     """
 
     name: str
@@ -76,6 +83,8 @@ class Engine:
     exact_restore: bool
     isolated_exact: bool = True
     offscreen_gl: bool = False
+    shared_world: bool = True
+    deterministic: bool = True
     threads: int = 1
     device: str = "cpu"
 
@@ -99,6 +108,14 @@ TABLE: tuple[Engine, ...] = (
     Engine("mujoco", "revolve_env.world.mujoco_backend", "MujocoBackend",
            "revolve_env.world.mujoco_batch:MujocoBatchScenes", package="mujoco", pip="mujoco",
            extra="mujoco", revision=2, gui=True, exact_restore=True, offscreen_gl=True),
+    # MuJoCo Warp 1: MuJoCo's model (the same scenes, built on the CPU) stepped in float32 on
+    # Warp's device, copies of one body as the worlds of one batch (docs/engines.md, "MuJoCo
+    # Warp"). Never the default: its numbers are not CPU MuJoCo's and depend on the batch.
+    Engine("mujoco_warp", "revolve_env.world.mujoco_backend", "MujocoBackend",
+           "revolve_env.world.warp_scenes:WarpScenes", package="mujoco_warp",
+           pip="mujoco-warp warp-lang", extra="warp", revision=1, gui=False, exact_restore=False,
+           isolated_exact=False, offscreen_gl=True, shared_world=False, deterministic=False,
+           device="warp"),
 )
 """Every engine this package runs; the first is the reference."""
 
@@ -188,15 +205,22 @@ def make_backend(config: WorldConfig, *, gui: bool = False, isolated: bool = Fal
         ValueError: unknown engine name.
         EngineUnavailableError: its package is not installed.
         RuntimeError: a GUI window was asked of an engine (or an isolated world) that has none,
-            or the engine could not start (e.g. a GUI without a display).
+            a shared world of an engine without one, or the engine could not start (e.g. a GUI
+            without a display).
     """
     record = require_engine(config.engine)
     if gui and (isolated or not record.gui):
         why = ("an isolated world has no GUI window (its robots are in separate scenes)"
                if isolated else
-               f"the {record.name!r} engine has no GUI window in revolve-env; use "
-               "render_mode='rgb_array'")
+               f"the {record.name!r} engine has no GUI window in revolve-env (its capability "
+               "gui is False); use render_mode='rgb_array'")
         raise RuntimeError(why)
+    if not isolated and not record.shared_world:
+        raise RuntimeError(
+            f"the {record.name!r} engine steps isolated worlds only (its capability shared_world "
+            "is False): use World(config, isolated=True), evaluate/evaluate_many, the vector env "
+            f"or the Training Center, or an engine with shared worlds "
+            f"({', '.join(capable('shared_world'))})")
     scene = _load(record, f"{record.module}:{record.backend}")
     if not isolated:
         return scene(config, gui=gui)

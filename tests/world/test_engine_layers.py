@@ -15,11 +15,14 @@ OWNERS = {
     # one module imports MuJoCo, once its OpenGL backend is chosen (issue 31); the backend, the
     # scene it compiles, the batched scenes, the ground and the frames take it from there
     "mujoco": ["revolve_env/world/mujoco_gl.py"],
+    # MuJoCo Warp and Warp itself: its isolated scenes (the warp extra)
+    "mujoco_warp": ["revolve_env/world/warp_scenes.py"],
+    "warp": ["revolve_env/world/warp_scenes.py"],
 }
 MUJOCO_USERS = ["revolve_env/world/compiled.py", "revolve_env/world/mujoco_backend.py",
                 "revolve_env/world/mujoco_batch.py", "revolve_env/world/mujoco_scene.py",
                 "revolve_env/world/mujoco_scenes.py", "revolve_env/world/mujoco_terrain.py",
-                "revolve_env/world/mujoco_view.py"]
+                "revolve_env/world/mujoco_view.py", "revolve_env/world/warp_scenes.py"]
 
 
 def _imported(path: Path) -> set[str]:
@@ -54,9 +57,10 @@ def test_a_world_loads_only_the_engine_it_uses() -> None:
     code = (
         "import sys\n"
         "from revolve_env.world import World, WorldConfig\n"
-        "loaded = {m for m in ('pybullet', 'mujoco') if m in sys.modules}\n"
+        "loaded = {m for m in ('pybullet', 'mujoco', 'warp', 'mujoco_warp') if m in sys.modules}\n"
         "assert not loaded, loaded\n"
         "World(WorldConfig(engine='pybullet')).close()\n"
         "assert 'pybullet' in sys.modules and 'mujoco' not in sys.modules\n"
+        "assert 'warp' not in sys.modules and 'mujoco_warp' not in sys.modules\n"
     )
     subprocess.run([sys.executable, "-c", code], cwd=ROOT, check=True, capture_output=True)

@@ -21,12 +21,15 @@ INSTALLED = [e.name for e in engines.TABLE if importlib.util.find_spec(e.package
 
 def test_names_and_revisions_are_read_off_the_one_table() -> None:
     names = [e.name for e in engines.TABLE]
-    assert engines.ENGINES == revolve_env.ENGINES == tuple(names) == ("pybullet", "mujoco")
+    assert engines.ENGINES == revolve_env.ENGINES == tuple(names) == ("pybullet", "mujoco",
+                                                                       "mujoco_warp")
     assert len(set(names)) == len(names)
-    assert engines.PHYSICS_REVISIONS == revolve_env.PHYSICS_REVISIONS == {"pybullet": 2,
-                                                                            "mujoco": 2}
+    assert engines.PHYSICS_REVISIONS == revolve_env.PHYSICS_REVISIONS == {
+        "pybullet": 2, "mujoco": 2, "mujoco_warp": 1}
     assert engines.capable("gui") == ("pybullet", "mujoco")
     assert engines.capable("exact_restore") == ("mujoco",)
+    assert engines.capable("shared_world") == engines.capable("deterministic") == (
+        "pybullet", "mujoco")
 
 
 def test_every_record_names_a_backend_that_exists() -> None:
@@ -42,11 +45,16 @@ def test_every_record_names_a_backend_that_exists() -> None:
 @pytest.mark.parametrize("name", INSTALLED)
 def test_the_flags_are_what_the_backends_do(name: str) -> None:
     record = engines.engine(name)
-    with World(WorldConfig(engine=name)) as world:
-        assert world.exact_restore is record.exact_restore
-        if not record.exact_restore:
-            with pytest.raises(NotImplementedError):
-                world.snapshot()
+    if record.shared_world:
+        with World(WorldConfig(engine=name)) as world:
+            assert world.exact_restore is record.exact_restore
+            if not record.exact_restore:
+                with pytest.raises(NotImplementedError):
+                    world.snapshot()
+    else:
+        with pytest.raises(RuntimeError, match=f"the {name!r} engine steps isolated worlds only "
+                                               r"\(its capability shared_world is False\)"):
+            World(WorldConfig(engine=name))
     if not record.gui:
         with pytest.raises(RuntimeError, match=f"the {name!r} engine has no GUI window"):
             World(WorldConfig(engine=name), gui=True)
@@ -58,7 +66,7 @@ def test_the_flags_are_what_the_backends_do(name: str) -> None:
 
 def test_unknown_and_missing_engines_are_one_line(monkeypatch: pytest.MonkeyPatch) -> None:
     with pytest.raises(ValueError, match=r"^unknown physics engine 'ode': choose one of pybullet, "
-                                         r"mujoco$"):
+                                         r"mujoco, mujoco_warp$"):
         engines.require_engine("ode")
     with pytest.raises(ValueError, match="unknown physics engine 'ode'"):
         engines.with_engine(WorldConfig(), "ode")
