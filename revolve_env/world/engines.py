@@ -208,7 +208,7 @@ def make_backend(config: WorldConfig, *, gui: bool = False, isolated: bool = Fal
             a shared world of an engine without one, or the engine could not start (e.g. a GUI
             without a display).
     """
-    record = require_engine(config.engine)
+    record = engine(config.engine)  # what it lacks is refused first, installed or not
     if gui and (isolated or not record.gui):
         why = ("an isolated world has no GUI window (its robots are in separate scenes)"
                if isolated else
@@ -221,6 +221,7 @@ def make_backend(config: WorldConfig, *, gui: bool = False, isolated: bool = Fal
             "is False): use World(config, isolated=True), evaluate/evaluate_many, the vector env "
             f"or the Training Center, or an engine with shared worlds "
             f"({', '.join(capable('shared_world'))})")
+    require_engine(record.name)
     scene = _load(record, f"{record.module}:{record.backend}")
     if not isolated:
         return scene(config, gui=gui)

@@ -366,13 +366,13 @@ class ExperimentConfig:
                                    else "the start disc: evaluation.position_jitter")
             except TerrainError as error:
                 raise ConfigError(f"world.terrain: {error}") from None
-        physics = revolve_env.with_engine(revolve_env.WorldConfig(), self.world.engine)
         if self.mode == "online" and not revolve_env.engine(self.world.engine).shared_world:
             shared = [e for e in revolve_env.ENGINES if revolve_env.engine(e).shared_world]
             raise ConfigError(
                 f"world.engine {self.world.engine!r} steps isolated worlds only (its capability "
                 f"shared_world is False): an online run needs one world of every robot "
                 f"({', '.join(shared)}); offline runs evaluate on it")
+        physics = revolve_env.with_engine(revolve_env.WorldConfig(), self.world.engine)
         period = physics.control_period
         if self.evaluation_time < period:
             raise ConfigError(f"evaluation_time must cover one control period ({period:.6g} s "
