@@ -450,11 +450,20 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         return np.minimum(np.maximum(action, -1.0), 1.0)
 
     def _get_obs(self) -> NDArray[np.float64]:
-        assert self._world is not None
+        world = self._world
+        assert world is not None
         # the world's arrays: of its one robot
-        obs = self._world.sensor_values().copy()
+        if self._blow_up is None and self.proprioception and self.sensor_noise <= 0:
+            # Finite and without noise, the hinge values' saturation (hinge_values) is the clip
+            # below (the same bounds): clipped once, the same numbers.
+            obs = np.concatenate((world.sensor_values(), world.hinge_angles(),
+                                  world.hinge_velocities()))
+            if _all_finite(obs):
+                return np.minimum(np.maximum(obs, self._obs_low, out=obs), self._obs_high,
+                                  out=obs)
+        obs = world.sensor_values().copy()
         if self.proprioception:
-            obs = np.concatenate((obs, *hinge_values(self._world)))
+            obs = np.concatenate((obs, *hinge_values(world)))
         if self._blow_up is not None or not _all_finite(obs):
             return np.zeros(len(self._obs_low))
         obs = add_sensor_noise(obs, self.sensor_noise, self.np_random, self._obs_low,

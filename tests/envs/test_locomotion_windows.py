@@ -91,3 +91,20 @@ def test_the_float_window_is_the_default_and_a_limit_case_zeroes_some_steps() ->
         done = terminated or truncated
     env.close()
     assert any(fitness) and not all(fitness)  # the limit's branch is taken, and not always
+
+
+def test_an_infinite_hinge_speed_is_saturated_as_before_not_zeroed() -> None:
+    """The one-clip observation falls back to the hinge values' own saturation when a hinge
+    value is not finite (the old rule: saturate the hinges, then zero only a non-finite obs)."""
+    env = gym.make("revolve_env/Locomotion-v1", **SHORT)
+    env.reset(seed=0)
+    inner: Any = env.unwrapped
+    world = inner._world
+    speeds = world.hinge_velocities().copy()
+    speeds[0] = np.inf
+    world.hinge_velocities = lambda: speeds
+    obs = inner._get_obs()
+    n, limit = len(speeds), world.config.max_angular_speed
+    assert obs[-n] == limit
+    assert np.array_equal(obs[-n + 1:], np.clip(speeds[1:], -limit, limit))
+    env.close()
