@@ -144,7 +144,7 @@ class Replay:
         self.final = np.zeros(0)
 
     def record(self, world: World) -> None:
-        """Log ``world``'s targets before each of its control periods from now on."""
+        """Log ``world``'s targets before each of its control periods until :meth:`stop`."""
         step = world.step
 
         def logged(n: int = 1) -> None:
@@ -153,6 +153,15 @@ class Replay:
                 step(1)
 
         world.step = logged  # type: ignore[method-assign]
+
+    @staticmethod
+    def stop(world: World) -> None:
+        """Stop logging ``world``'s targets: the periods recorded so far are the replay's.
+
+        Left logging, the timed runs of the env would pay for the log and grow the replay (each
+        run of the env adding its periods to the raw side's).
+        """
+        del world.step
 
     def run(self) -> float:
         """CPU seconds of the bare replay (its end state in :attr:`final`)."""
@@ -216,7 +225,8 @@ def single(seconds: float, repeats: int) -> None:
     world: World = mj.unwrapped._world  # type: ignore[attr-defined]
     raw = Replay(world)
     raw.record(world)
-    env_cpu(mj)  # the recording run (untimed); env_cpu's own reset makes a fresh world
+    env_cpu(mj)  # the recording run (untimed); env_cpu's own reset restarts the world
+    raw.stop(world)
     raw.run()
     check = raw.same_as(world)
     best = alternate({
@@ -407,6 +417,7 @@ def crowd(n: int, seconds: float, repeats: int) -> tuple[float, float]:
     raw.record(mj.world)
     for _ in range(ticks):
         mj.step({})
+    raw.stop(mj.world)
     raw.run()
     check = raw.same_as(mj.world)
     best = alternate({
