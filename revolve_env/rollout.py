@@ -13,6 +13,8 @@ population env). It sits above ``world/``, ``brain/``, ``fitness/`` and ``tasks/
 * :class:`TaskWindows` is the task's sliding windows of those robots: their poses at the task's
   pose rate (held in between, :mod:`revolve_env.fitness.sampling`), one ring buffer
   (:class:`~revolve_env.fitness.FitnessWindows`) and the task's score of them.
+* :class:`RobotWindow` is the same window of ONE robot (the single-robot env's) in Python floats:
+  the numbers of a :class:`TaskWindows` of one column, bit for bit, without its arrays.
 * :func:`rollout` is a whole evaluation of brain-driven robots, each in its own scene: the
   trajectory (and signal) of every robot over the evaluation, as :func:`revolve_env.evaluate`
   scores it.
@@ -24,6 +26,8 @@ rules are the world's.
 
 from __future__ import annotations
 
+import math
+from collections import deque
 from collections.abc import Sequence
 
 import numpy as np
@@ -34,13 +38,22 @@ from revolve_env.body.robot import Robot
 from revolve_env.brain import BatchController
 from revolve_env.brain.spec import NetworkSpec
 from revolve_env.conditions import Start, add_actuator_noise, add_sensor_noise
-from revolve_env.fitness import FitnessWindows, Window, trajectory_window
+from revolve_env.fitness import FitnessTerms, FitnessWindows, Window, trajectory_window
 from revolve_env.fitness.sampling import pose_due, pose_stride
-from revolve_env.tasks import Task, TaskError, pose_rate, score
+from revolve_env.fitness.terms import TIME_EPS
+from revolve_env.tasks import (
+    DirectedLocomotion,
+    LightFollowing,
+    Locomotion,
+    Task,
+    TaskError,
+    pose_rate,
+    score,
+)
 from revolve_env.world import World, compiled
 from revolve_env.world.signals import SignalReader, signal_reader
 
-__all__ = ["Rollout", "TaskWindows", "rollout", "score_paths", "task_pose_stride"]
+__all__ = ["RobotWindow", "Rollout", "TaskWindows", "rollout", "score_paths", "task_pose_stride"]
 
 
 def task_pose_stride(task: Task, control_period: float) -> int:
@@ -329,6 +342,139 @@ class TaskWindows:
     def score(self, window: Window) -> NDArray[np.float64]:
         """The task's fitness of every robot's ``window``. Metres (the shipped tasks)."""
         return score(self.task, window)
+
+
+class RobotWindow:
+    """The task's sliding window of ONE robot, in Python floats (the single-robot env's).
+
+    What a :class:`TaskWindows` of one column gives, bit for bit (the same floating-point
+    operations in the same order, on floats instead of arrays of one): the robot is sampled from
+    the end of its insertion on, its pose every :attr:`stride` control periods, holding its last
+    pose (and signal) in between; samples older than ``window`` seconds leave; the path length is
+    a running sum, rebased past 1 km. The shipped tasks are scored in floats; any other task
+    through :func:`~revolve_env.tasks.score` of :meth:`current` (a :class:`Window` of one robot).
+
+    Args:
+        task: What the robot is scored on.
+        window: The window's length. Seconds.
+        control_period: The world's control period. Seconds.
+        insertion_steps: Control periods of the robot's life before it is scored.
+
+    Raises:
+        TaskError: the task's pose rate does not fit the control period.
+    """
+
+    def __init__(self, task: Task, window: float, control_period: float,
+                 insertion_steps: int) -> None:
+        self.task = task
+        self.window = float(window)
+        self.insertion_steps = insertion_steps
+        self.stride = task_pose_stride(task, control_period)
+        self.signal = task.signal is not None
+        # Samples in the window, oldest first: (time s, x m, y m, path m, signal).
+        self._samples: deque[tuple[float, float, float, float, float]] = deque()
+
+    def __len__(self) -> int:
+        """Samples in the window."""
+        return len(self._samples)
+
+    def clear(self) -> None:
+        """No samples."""
+        self._samples.clear()
+
+    def holds(self, age: int) -> bool:
+        """Whether a robot ``age`` control periods old holds its last pose now (no new one)."""
+        since = age - self.insertion_steps
+        return self.stride > 1 and since > 0 and since % self.stride != 0
+
+    def push(self, time: float, x: float, y: float, age: int, signal: float | None) -> None:
+        """Sample the robot now (it holds its last pose and signal between pose samples).
+
+        Args:
+            time: Simulated time now (not before the previous sample). Seconds.
+            x: The core's position now (ignored while the robot holds). Metres.
+            y: Likewise. Metres.
+            age: Control periods since the robot's birth.
+            signal: The task's signal now (None: the task has none; ignored while it holds).
+
+        Raises:
+            ValueError: a time before the previous one, or a non-finite time or position.
+        """
+        samples = self._samples
+        if self.holds(age):
+            x, y, held = self.last()
+            if signal is not None and self.signal:
+                signal = held
+        time = float(time)
+        if not math.isfinite(time):
+            raise ValueError(f"time must be finite, got {time}")
+        if samples and time < samples[-1][0]:
+            raise ValueError(f"time {time} s is before the previous sample")
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise ValueError("positions of robots that sample must be finite")
+        if self.signal and signal is None:
+            raise ValueError("these windows keep a signal: push needs one")
+        if samples:
+            _, px, py, pp, _ = samples[-1]
+            path = pp + math.hypot(x - px, y - py)
+            horizon = time - self.window - TIME_EPS  # drop samples that left the window
+            while samples and samples[0][0] < horizon:
+                samples.popleft()
+        else:
+            path = 0.0
+        samples.append((time, x, y, path, signal if self.signal and signal is not None else 0.0))
+        if path > 1e3:  # keep the running sum small so that differences stay exact
+            base = samples[0][3]
+            self._samples = deque((t, sx, sy, p - base, sg) for t, sx, sy, p, sg in samples)
+
+    def last(self) -> tuple[float, float, float]:
+        """The latest sample's x, y (metres) and signal (zeros without a sample)."""
+        if not self._samples:
+            return 0.0, 0.0, 0.0
+        _, x, y, _, signal = self._samples[-1]
+        return x, y, signal
+
+    def current(self) -> Window:
+        """The window now as arrays of one robot (zeros but ``samples`` below two samples)."""
+        samples = self._samples
+        count = np.array([len(samples)], dtype=np.int64)
+        count.flags.writeable = False
+        first, last = (samples[0], samples[-1]) if len(samples) >= 2 else ((0.0,) * 5,) * 2
+        t0, x0, y0, p0, g0 = first
+        t1, x1, y1, p1, g1 = last
+        return Window(np.array([[x0, y0]]), np.array([[x1, y1]]), np.array([p1 - p0]),
+                      np.array([math.hypot(x1 - x0, y1 - y0)]),
+                      count, np.array([g0]) if self.signal else None,
+                      np.array([g1]) if self.signal else None, np.array([t1 - t0]))
+
+    def terms(self) -> FitnessTerms:
+        """The task's fitness of the window now, its path length ``v`` and displacement ``s``.
+
+        Metres (the shipped tasks); all 0 below two samples.
+        """
+        samples = self._samples
+        if len(samples) < 2:
+            return FitnessTerms(0.0, 0.0, 0.0)
+        t0, x0, y0, p0, g0 = samples[0]
+        t1, x1, y1, p1, g1 = samples[-1]
+        v, s = p1 - p0, math.hypot(x1 - x0, y1 - y0)
+        task = self.task
+        kind = type(task)
+        if kind is Locomotion:
+            assert isinstance(task, Locomotion)
+            f = v + task.s_weight * s
+            if task.limit is not None:
+                duration = t1 - t0
+                if f >= task.limit * duration or duration <= 0.0:
+                    f = 0.0
+        elif kind is DirectedLocomotion:
+            assert isinstance(task, DirectedLocomotion)
+            f = (x1 - x0) * math.cos(task.heading) + (y1 - y0) * math.sin(task.heading)
+        elif kind is LightFollowing:
+            f = g1 - g0
+        else:
+            f = float(score(task, self.current())[0])
+        return FitnessTerms(f, v, s)
 
 
 def _noisy_inputs(world: World, values: NDArray[np.float64], columns: list[int],

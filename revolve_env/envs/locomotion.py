@@ -41,7 +41,7 @@ from revolve_env.episode_length import (
 )
 from revolve_env.evaluation import start_generator
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, Window
-from revolve_env.rollout import Rollout, TaskWindows
+from revolve_env.rollout import RobotWindow, Rollout, TaskWindows
 from revolve_env.setting import Setting, env_parts
 from revolve_env.tasks import BaseTask, Task, make_task
 from revolve_env.terrain import Terrain
@@ -318,6 +318,10 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self._start = np.zeros(3)
         # The task's window of the robot (TaskError: a pose rate that does not fit).
         self._windows = TaskWindows(self.task, self.fitness_window, dt, self._insertion_steps)
+        # The same window in floats (no arrays per step); False: the one-column TaskWindows
+        # above, to the same numbers bit for bit (tests and benchmarks compare the two paths).
+        self._window = RobotWindow(self.task, self.fitness_window, dt, self._insertion_steps)
+        self._fast_windows = True
         self._signal: SignalReader | None = None
         self._terms = FitnessTerms(0.0, 0.0, 0.0)
         self._step_count = 0
@@ -353,9 +357,9 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self._signal = signal_reader(self.task.signal, [self.robot], self._world)
         self._windows.clear()
         self._windows.add(1)
+        self._window.clear()
         if self._insertion_steps == 0:  # the evaluation starts right away, from here
-            self._windows.push(0.0, self._world.core_position(self._handle).reshape(1, 3),
-                               np.zeros(1, dtype=np.int64), None, self._signal_now())
+            self._sample(0.0, self._world.core_position(self._handle).reshape(1, 3))
         self._terms = FitnessTerms(0.0, 0.0, 0.0)
         self._step_count = 0
         self._blow_up = None
@@ -390,11 +394,10 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self._step_count += 1
 
         self._blow_up = None if blown is None else world.blow_up(self._handle)
-        window = None
+        window: Window | bool = False
         if self._step_count >= self._insertion_steps and self._blow_up is None:
             # between pose samples the robot holds its last one: no reward
-            window = self._windows.push(world.time, world.states.core_pos,
-                                        np.array([self._step_count]), None, self._signal_now())
+            window = self._sample(world.time, world.states.core_pos)
         reward = self._get_reward(window)
         terminated = self._blow_up is not None
         truncated = not terminated and self._step_count >= self._total_steps
@@ -447,11 +450,20 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         return np.minimum(np.maximum(action, -1.0), 1.0)
 
     def _get_obs(self) -> NDArray[np.float64]:
-        assert self._world is not None
+        world = self._world
+        assert world is not None
         # the world's arrays: of its one robot
-        obs = self._world.sensor_values().copy()
+        if self._blow_up is None and self.proprioception and self.sensor_noise <= 0:
+            # Finite and without noise, the hinge values' saturation (hinge_values) is the clip
+            # below (the same bounds): clipped once, the same numbers.
+            obs = np.concatenate((world.sensor_values(), world.hinge_angles(),
+                                  world.hinge_velocities()))
+            if _all_finite(obs):
+                return np.minimum(np.maximum(obs, self._obs_low, out=obs), self._obs_high,
+                                  out=obs)
+        obs = world.sensor_values().copy()
         if self.proprioception:
-            obs = np.concatenate((obs, *hinge_values(self._world)))
+            obs = np.concatenate((obs, *hinge_values(world)))
         if self._blow_up is not None or not _all_finite(obs):
             return np.zeros(len(self._obs_low))
         obs = add_sensor_noise(obs, self.sensor_noise, self.np_random, self._obs_low,
@@ -465,18 +477,43 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         assert self._world is not None
         return self._signal.read(self._world)
 
-    def _get_reward(self, window: Window | None) -> float:
-        """The step's reward from the robot's ``window`` after it (None: not sampled)."""
+    def _sample(self, time: float, position: NDArray[np.float64]) -> Window | bool:
+        """Sample the robot's window at ``time`` (seconds) at its core ``position`` (1, 3).
+
+        Returns:
+            The window after it (the general path), or True (the float path: in
+            :attr:`_window`).
+        """
+        if not self._fast_windows:
+            return self._windows.push(time, position, np.array([self._step_count]), None,
+                                      self._signal_now())
+        assert self._world is not None
+        signal = None
+        if self._signal is not None:  # a held pose keeps its signal too: nothing to read
+            signal = 0.0 if self._window.holds(self._step_count) else \
+                float(self._signal.read(self._world)[0])
+        x, y = position[0, :2].tolist()
+        self._window.push(time, x, y, self._step_count, signal)
+        return True
+
+    def _get_reward(self, window: Window | bool) -> float:
+        """The step's reward from the robot's ``window`` after it.
+
+        ``window``: False when not sampled; True when in :attr:`_window` (the float path).
+        """
         previous = self._terms.fitness
         if self._blow_up is not None:
             self._terms = FitnessTerms(0.0, 0.0, 0.0)
-        elif window is not None:
+        elif window is True:
+            self._terms = self._window.terms()
+        elif not isinstance(window, bool):
             f = self._windows.score(window)
             self._terms = FitnessTerms(float(f[0]), float(window.v[0]), float(window.s[0]))
         if self._gain:
             return self._terms.fitness - previous
-        if window is None:
-            window = self._windows.ring.current()
+        if isinstance(window, bool):
+            window = self._window.current() if self._fast_windows else \
+                self._windows.ring.current()
         return float(self.task.reward(window, np.array([self._terms.fitness]),
                                       np.array([previous]))[0])
 
