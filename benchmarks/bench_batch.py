@@ -27,12 +27,18 @@ Usage::
 
     python benchmarks/bench_batch.py --quick          # small N, short runs (a shared 2-core box)
     python benchmarks/bench_batch.py --device-check   # N = 1, 16, 256, 4096; one markdown table
+    python benchmarks/bench_batch.py --setup 16 256 1024  # the vector env's set-up alone
+
+``--setup``: wall and CPU seconds of ``LocomotionVectorEnv(N, robot=spider)`` and its first
+``reset`` (every copy's model built and compiled, the world's arrays laid out), per N, and the CPU
+per robot: flat in N when the set-up is linear.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import os
 import platform
 import time
 from collections.abc import Callable, Iterator
@@ -158,6 +164,17 @@ def via_sb3(robot: Robot, n: int, steps: int, batched: bool) -> Rate:
     return env_rate(make, n, steps, sb3=True)
 
 
+def setup_time(n: int) -> tuple[float, float]:
+    """Wall and CPU seconds of the native vector env of ``n`` spiders and its first reset."""
+    from revolve_env.envs.vector import LocomotionVectorEnv
+
+    with _clock() as spent:
+        venv = LocomotionVectorEnv(n, robot=spider(), engine="mujoco", proprioception=True)
+        venv.reset(seed=0)
+    venv.close()
+    return spent[0], spent[1]
+
+
 def one_by_one(task: EvalTask) -> EvalOutcome:
     """evaluate_task, which the evaluators cannot batch (so each candidate goes alone)."""
     return evaluate_task(task)
@@ -194,7 +211,18 @@ def main() -> None:
     parser.add_argument("--device-check", action="store_true",
                         help="N = 1, 16, 256, 4096 and one table to paste into the docs")
     parser.add_argument("--steps", type=int, default=None, help="control periods per row")
+    parser.add_argument("--setup", type=int, nargs="+", default=None, metavar="N",
+                        help="only the native vector env's set-up time for these N")
     args = parser.parse_args()
+    if args.setup:
+        setup_time(2)  # imports and first-call costs, untimed
+        print(f"native vector env set-up, spider, load average {os.getloadavg()[0]:.1f}")
+        for n in args.setup:
+            wall, cpu = setup_time(n)
+            print(f"N = {n:5d}: set-up {wall:8.2f} s wall, {cpu:8.2f} s CPU, "
+                  f"{1e3 * cpu / n:6.1f} ms CPU per robot", flush=True)
+        print(f"load average at the end {os.getloadavg()[0]:.1f}")
+        return
     if args.quick:
         sizes, steps, env_limit = [1, 16, 64], args.steps or 60, 64
         budgets = [(119.0, 1.0, 6.0)]
