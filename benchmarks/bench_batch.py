@@ -180,22 +180,36 @@ def one_by_one(task: EvalTask) -> EvalOutcome:
     return evaluate_task(task)
 
 
-def infancy(budget: float, insertion: float, seconds: float) -> list[str]:
-    """CMA-ES popsize 16 on the spider: one by one vs batched, CPU seconds and the results."""
+def infancy(budget: float, insertion: float, seconds: float, repeats: int = 2) -> list[str]:
+    """CMA-ES popsize 16 on the spider: one by one vs batched, CPU seconds and the results.
+
+    The sides alternate ``repeats`` times after an untimed run of each (the process's one-time
+    costs: imports, the compiled rollout's kernel check), each keeping its least CPU time.
+    """
     lines = []
     results = {}
-    for name, function in (("one by one", one_by_one), ("batched", evaluate_task)):
-        evaluation = CandidateEvaluation(insertion=insertion, seconds=seconds, engine="mujoco",
-                                         function=function)
-        learner = CMAESLearner(popsize=16, evaluation=evaluation)
-        with _clock() as spent:
-            result = learner.learn(spider(), budget, np.random.default_rng(0))
-        results[name] = result
+    best: dict[str, tuple[float, float]] = {}
+    routes = (("one by one", one_by_one), ("batched", evaluate_task))
+    for attempt in range(repeats + 1):
+        for name, function in routes:
+            evaluation = CandidateEvaluation(insertion=insertion, seconds=seconds,
+                                             engine="mujoco", function=function)
+            learner = CMAESLearner(popsize=16, evaluation=evaluation)
+            with _clock() as spent:
+                result = learner.learn(spider(), budget, np.random.default_rng(0))
+            results[name] = result
+            if attempt and spent[1] < best.get(name, (math.inf, math.inf))[1]:
+                best[name] = (spent[0], spent[1])
+    for name, _ in routes:
+        result = results[name]
+        wall, cpu = best[name]
         lines.append(f"| CMA-ES popsize 16, budget {budget:g} s ({insertion:g} + {seconds:g} s "
-                     f"per candidate), {name} | {result.evaluations} | {spent[1]:.2f} | "
-                     f"{spent[0]:.2f} | {result.best_fitness:.6f} |")
+                     f"per candidate), {name} | {result.evaluations} | {cpu:.2f} | "
+                     f"{wall:.2f} | {result.best_fitness:.6f} |")
     same = results["one by one"].fitness == results["batched"].fitness
-    lines.append(f"(same fitness of every candidate on both routes: {same})")
+    ratio = best["one by one"][1] / best["batched"][1]
+    lines.append(f"(same fitness of every candidate on both routes: {same}; one by one / "
+                 f"batched CPU {ratio:.2f}x, least of {repeats} after an untimed run each)")
     return lines
 
 
@@ -211,6 +225,8 @@ def main() -> None:
     parser.add_argument("--device-check", action="store_true",
                         help="N = 1, 16, 256, 4096 and one table to paste into the docs")
     parser.add_argument("--steps", type=int, default=None, help="control periods per row")
+    parser.add_argument("--infancy-only", action="store_true",
+                        help="only the CMA-ES infancy rows (budgets 119 s and 480 s)")
     parser.add_argument("--setup", type=int, nargs="+", default=None, metavar="N",
                         help="only the native vector env's set-up time for these N")
     args = parser.parse_args()
@@ -229,6 +245,11 @@ def main() -> None:
     else:
         sizes, steps, env_limit = [1, 16, 256, 4096], args.steps or 200, 256
         budgets = [(119.0, 1.0, 6.0), (480.0, 3.0, 12.0)]
+    if args.infancy_only:
+        print(f"load average {os.getloadavg()[0]:.1f}")
+        _infancy_table(budgets)
+        print(f"load average at the end {os.getloadavg()[0]:.1f}")
+        return
     robots = {"spider": spider(), "20-part random": twenty_part_robot()}
     print(f"# bench_batch: {platform.processor() or platform.machine()}, "
           f"{time.strftime('%Y-%m-%d')}, {steps} control periods per row")
@@ -258,12 +279,16 @@ def main() -> None:
             rows.append(("MuJoCo Warp (GPU)", _fmt(None, "no GPU lent")))
             for route, cells in rows:
                 print(f"| {name} | {n} | {route} {cells}")
+    _infancy_table(budgets)
+
+
+def _infancy_table(budgets: list[tuple[float, float, float]]) -> None:
     print("\nInfancy (one spider): evaluations, CPU s, wall s, best fitness (m)\n")
     print("| learner | evaluations | CPU s | wall s | best fitness |")
     print("|---|---|---|---|---|")
     for budget, insertion, seconds in budgets:
         for line in infancy(budget, insertion, seconds):
-            print(line)
+            print(line, flush=True)
 
 
 if __name__ == "__main__":
