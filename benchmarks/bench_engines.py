@@ -14,6 +14,12 @@ same model, state and controls).
    raw MuJoCo, and MuJoCo over pybullet per CPU second (the env).
 2. ``evaluate``: ``revolve_env.evaluate`` of the spider (3 s insertion + 12 s) over raw MuJoCo,
    and MuJoCo over pybullet.
+   ``offline``: ``--offline-robots`` random robots (a generation) through ``evaluate_many``,
+   ``evaluate`` one by one, the NumPy rules and 2 threads, over raw MuJoCo replaying each alone
+   per robot-second. The raw side starts from the compiled model at its first control period;
+   two more sides say what a call pays that it does not: ``evaluate_many`` of one control
+   period (validation, the models' assembly and compiles, the rollout's set-up) and raw MuJoCo
+   with its own compile of the exported model (``MjModel.from_xml_string`` of the scene's MJCF).
 3. ``crowd``: the population env with ``--robots`` random robots in one world (restored from one
    snapshot before every timing, so each timing steps the same ``--seconds``), the same two ratios.
 4. ``rank``: ``--rank-robots`` random robots (``evolution.random_robot``) evaluated on both
