@@ -106,12 +106,27 @@ Usage::
     python benchmarks/bench_rl.py --figure docs/figures/rl_curves.png --json rl.json
     python benchmarks/bench_rl.py --from-json docs/figures/rl_curves.json   # table, no training
     python benchmarks/bench_rl.py --robots spider --modes targets --seeds 1 --steps 100000
+    python benchmarks/bench_rl.py --routes --seeds 0 1 2 --steps 100000   # batched vs not
+
+``--routes`` (issue 30's aim: PPO through ``rl.make_vec_env`` in less wall time) trains the same
+PPO (``rl.make_ppo``, the first robot and mode, ``--engine`` default MuJoCo here) once per seed
+on each route, the sides alternating seed by seed: ``rl.VecEnvConfig(batched=False)``
+(``DummyVecEnv`` of ``Monitor``-ed single envs, the route before the native vector env) and the
+default ``batched=True`` (:class:`~revolve_env.envs.sb3_vector.NativeVecEnv`). No evaluation
+callback: per run it prints the wall and CPU seconds of the whole ``learn``, the part of them
+spent stepping the envs (the inner ``VecEnv``'s ``reset`` and ``step_wait``: everything the env
+route does, resets and model builds included) and the rest (PPO: the policy's forward passes,
+``VecNormalize``, the updates), and the mean training episode return (the fitness gain of
+SB3's last 100 episodes, metres) at every quarter of the run and at the end, to judge "the same
+learning curve" (the two routes are meant to be the same steps bit for bit).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import sys
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -257,6 +272,103 @@ def train(robot_name: str, mode: str, seed: int, args: argparse.Namespace) -> Cu
     return curve
 
 
+class _Timed:
+    """Wall and CPU seconds spent inside methods ``names`` of ``owner`` (wrapped in place)."""
+
+    def __init__(self, owner: Any, *names: str) -> None:
+        self.wall = self.cpu = 0.0
+        for name in names:
+            setattr(owner, name, self._timed(getattr(owner, name)))
+
+    def _timed(self, method: Any) -> Any:
+        def timed(*args: Any, **kwargs: Any) -> Any:
+            w, c = time.perf_counter(), time.process_time()
+            try:
+                return method(*args, **kwargs)
+            finally:
+                self.wall += time.perf_counter() - w
+                self.cpu += time.process_time() - c
+        return timed
+
+
+class _Returns(BaseCallback):
+    """The mean return of SB3's episode buffer at given steps (metres)."""
+
+    def __init__(self, marks: list[int]) -> None:
+        super().__init__()
+        self.marks, self.seen = marks, {}  # type: dict[int, float]
+
+    def _mean(self) -> float:
+        buffer = self.model.ep_info_buffer
+        return float(np.mean([e["r"] for e in buffer])) if buffer else float("nan")
+
+    def _on_step(self) -> bool:
+        for mark in self.marks:
+            if mark not in self.seen and self.num_timesteps >= mark:
+                self.seen[mark] = self._mean()
+        return True
+
+    def _on_training_end(self) -> None:
+        self.seen[self.num_timesteps] = self._mean()
+
+
+def route_run(robot_name: str, mode: str, seed: int, batched: bool,
+              args: argparse.Namespace) -> dict[str, Any]:
+    """One PPO run through ``rl.make_vec_env`` on one route: times, returns, final weights."""
+    config = rl.VecEnvConfig(batched=batched)
+    venv = rl.make_vec_env(revolve_env.example(robot_name), config, seed=seed, action=mode,
+                           engine=args.engine)
+    inner: VecEnv = venv.venv if hasattr(venv, "venv") else venv
+    timer = _Timed(inner, "reset", "step_wait")
+    model = rl.make_ppo(venv, seed=seed)
+    updates = _Timed(model, "train")
+    marks = [args.steps * k // 4 for k in (1, 2, 3)]
+    returns = _Returns(marks)
+    w, c = time.perf_counter(), time.process_time()
+    model.learn(total_timesteps=args.steps, callback=returns)
+    wall, cpu = time.perf_counter() - w, time.process_time() - c
+    venv.close()
+    weights = torch.cat([p.detach().flatten() for p in model.policy.parameters()])
+    return {"wall": wall, "cpu": cpu, "env_wall": timer.wall, "env_cpu": timer.cpu,
+            "update_wall": updates.wall,
+            "returns": dict(sorted(returns.seen.items())), "weights": weights}
+
+
+def routes(args: argparse.Namespace) -> None:
+    """``--routes``: PPO's wall time with the native vector env vs ``DummyVecEnv``."""
+    robot, mode = args.robots[0], args.modes[0]
+    load = os.getloadavg()
+    print(f"PPO {args.steps} steps, {robot}, {mode}, {args.engine}, rl.make_vec_env's defaults "
+          f"(4 envs, 0.5 + 2.5 s episodes), torch threads {torch.get_num_threads()}; load "
+          f"average at the start {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}", flush=True)
+    names = {False: "DummyVecEnv", True: "native"}
+    runs: dict[tuple[int, bool], dict[str, Any]] = {}
+    for seed in args.seeds:
+        for batched in (False, True):
+            r = runs[seed, batched] = route_run(robot, mode, seed, batched, args)
+            curve = ", ".join(f"{k / 1000:g} k {v:.3f}" for k, v in r["returns"].items())
+            rest = r["wall"] - r["env_wall"] - r["update_wall"]
+            print(f"  seed {seed} {names[batched]:11s}: wall {r['wall']:7.1f} s, CPU "
+                  f"{r['cpu']:7.1f} s; env stepping wall {r['env_wall']:6.1f} s (CPU "
+                  f"{r['env_cpu']:6.1f} s), PPO's updates {r['update_wall']:6.1f} s, the rest "
+                  f"(policy, VecNormalize, buffer) {rest:6.1f} s; mean episode return (m) "
+                  f"{curve}", flush=True)
+        a, b = runs[seed, False], runs[seed, True]
+        a["same"] = bool(torch.equal(a.pop("weights"), b.pop("weights")))
+    print(f"load average at the end {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
+    for seed in args.seeds:
+        a, b = runs[seed, False], runs[seed, True]
+        print(f"seed {seed}: DummyVecEnv / native wall {a['wall'] / b['wall']:.2f}x, CPU "
+              f"{a['cpu'] / b['cpu']:.2f}x, env stepping wall {a['env_wall'] / b['env_wall']:.2f}x"
+              f"; final policy weights identical: {a['same']}")
+    total = {k: sum(runs[s, k]["wall"] for s in args.seeds) for k in (False, True)}
+    env = {k: sum(runs[s, k]["env_wall"] for s in args.seeds) for k in (False, True)}
+    print(f"all seeds: wall {total[False]:.1f} s vs {total[True]:.1f} s -> "
+          f"{total[False] / total[True]:.2f}x less with the native vector env (aim >= 3x); env "
+          f"stepping {env[False]:.1f} s vs {env[True]:.1f} s ({env[False] / env[True]:.2f}x); "
+          f"PPO's own part {total[False] - env[False]:.1f} s vs {total[True] - env[True]:.1f} s")
+
+
 def table(curves: list[Curve]) -> None:
     print()
     print(f"{'robot':7s} {'mode':8s} {'seed':>4s} {'f@100k':>7s} {'f end':>6s} {'CPG':>5s} "
@@ -363,8 +475,16 @@ def main() -> None:
     parser.add_argument("--json", type=Path, default=None, help="write the curves (JSON)")
     parser.add_argument("--from-json", type=Path, default=None,
                         help="no training: print the table and plot the curves of --json's file")
+    parser.add_argument("--routes", action="store_true",
+                        help="PPO's wall time through rl.make_vec_env, native vector env vs "
+                             "DummyVecEnv (batched=False), seed by seed (see the module doc)")
     args = parser.parse_args()
     torch.set_num_threads(1)
+    if args.routes:
+        if "--engine" not in sys.argv:
+            args.engine = "mujoco"  # the native vector env's batch is MuJoCo's
+        routes(args)
+        return
 
     curves = []
     if args.from_json is not None:

@@ -101,14 +101,9 @@ class NativeVecEnv(VecEnv):
     @staticmethod
     def _infos(info: dict[str, Any], ids: Iterable[int]) -> list[dict[str, Any]]:
         """The single env's info dicts of envs ``ids`` from the vector env's arrays."""
-        out = []
-        for i in ids:
-            entry: dict[str, Any] = {}
-            for key in INFO_KEYS:
-                value = info[key][i]
-                entry[key] = value.item() if isinstance(value, np.generic) else value
-            out.append(entry)
-        return out
+        # one tolist() per key (Python scalars, as item() gives them) instead of one per entry
+        columns = [(key, info[key].tolist()) for key in INFO_KEYS]
+        return [{key: column[i] for key, column in columns} for i in ids]
 
     def close(self) -> None:
         """Release the vector env's world."""

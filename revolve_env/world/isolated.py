@@ -60,7 +60,7 @@ class IsolatedBackend:
         self._next_key += 1
         self._scenes[key] = scene
         self._outputs[key] = model.n_outputs
-        self._changed()
+        self._grown(key)
         return key
 
     def remove(self, key: int) -> None:
@@ -73,6 +73,14 @@ class IsolatedBackend:
         """After a birth or death: link ids are void; subclasses rebuild their arrays."""
         self._links = []
         self._runs = None
+
+    def _grown(self, key: int) -> None:
+        """After the birth of robot ``key`` (the last scene).
+
+        As any change, unless a subclass extends its arrays by the new scene alone (then N
+        births cost O(N), not O(N^2)).
+        """
+        self._changed()
 
     def set_hinges(self, key: int, hinges: NDArray[np.intp], angles: NDArray[np.float64],
                    velocities: NDArray[np.float64]) -> None:

@@ -56,6 +56,7 @@ class MujocoBatchScenes(MujocoScenes):
         self._batch: mujoco.batch.Batch | None = None
         self._batch_scenes: list[MujocoBackend] = []
         self._synced = True  # every scene's MjData holds its state (not only the batch's row)
+        self._batch_due = False  # the scenes changed since the batch was made (or found unfit)
         self._digests: dict[int, str] = {}  # id(scene) -> its model's digest
         self._touch: dict[int, bool] = {}  # key -> a robot with touch sensors
         super().__init__(config)
@@ -85,17 +86,23 @@ class MujocoBatchScenes(MujocoScenes):
         self._touch.pop(key, None)
         super().remove(key)
 
-    def set_hinges(self, key: int, hinges: NDArray[np.intp], angles: NDArray[np.float64],
-                   velocities: NDArray[np.float64]) -> None:
-        self._sync()
-        super().set_hinges(key, hinges, angles, velocities)
-
     def reset(self) -> None:
         self._batch = None
         self._batch_scenes = []
         self._synced = True
         self._digests.clear()
         super().reset()
+
+    def _drop_batch(self) -> None:
+        """The scenes changed: the batch (if any) is made anew at the next step.
+
+        Made at the step rather than at every change, so that N births cost O(N), not N
+        batches of 1, 2, ..., N simulations.
+        """
+        self._sync()
+        self._batch = None
+        self._batch_scenes = []
+        self._batch_due = True
 
     def render(self, width: int, height: int, target: tuple[float, float, float],
                distance: float, yaw_deg: float, pitch_deg: float) -> NDArray[np.uint8]:
@@ -104,11 +111,29 @@ class MujocoBatchScenes(MujocoScenes):
 
     def _layout_scenes(self) -> None:
         super()._layout_scenes()  # from the scenes' MjData: add/remove/set_hinges synced them
-        self._batch = None
-        self._batch_scenes = []
+        self._drop_batch()
+
+    def _grown(self, key: int) -> None:
+        super()._grown(key)
+        self._drop_batch()
+
+    def set_hinges(self, key: int, hinges: NDArray[np.intp], angles: NDArray[np.float64],
+                   velocities: NDArray[np.float64]) -> None:
+        self._sync()
+        super().set_hinges(key, hinges, angles, velocities)
+        self._drop_batch()
+
+    def _make_batch(self) -> None:
+        """One ``mujoco.batch`` of every scene, when they all hold one model without touch."""
+        self._batch_due = False
         scenes = self._scene_list()
         if len(scenes) < 2 or any(self._touch.values()):
             return
+        m = scenes[0]._model
+        sizes = (m.nq, m.nv, m.nu, m.nbody, m.ngeom)
+        if any((s._model.nq, s._model.nv, s._model.nu, s._model.nbody, s._model.ngeom) != sizes
+               for s in scenes):
+            return  # not one model (no digest needed to say so)
         digests = set()
         for scene in scenes:
             digest = self._digests.get(id(scene))
@@ -117,7 +142,6 @@ class MujocoBatchScenes(MujocoScenes):
             digests.add(digest)
         live = {id(s) for s in scenes}
         self._digests = {k: v for k, v in self._digests.items() if k in live}
-        m = scenes[0]._model
         head = int(mujoco.mjtState.mjSTATE_TIME | mujoco.mjtState.mjSTATE_QPOS
                    | mujoco.mjtState.mjSTATE_QVEL | mujoco.mjtState.mjSTATE_ACT
                    | mujoco.mjtState.mjSTATE_HISTORY)
@@ -137,14 +161,17 @@ class MujocoBatchScenes(MujocoScenes):
 
     # -- stepping -------------------------------------------------------------------------------
     def set_joint_velocities(self, velocities: NDArray[np.float64], max_torque: float) -> None:
-        if max_torque != self._torque and self._batch is not None:
+        if max_torque != self._torque:
             self._sync()  # the batch holds a copy of the model: made anew with the new limit
             super().set_joint_velocities(velocities, max_torque)
-            self._layout_scenes()
+            self._digests.clear()  # the models changed
+            self._drop_batch()
             return
         super().set_joint_velocities(velocities, max_torque)
 
     def step(self, substeps: int) -> None:
+        if self._batch_due:
+            self._make_batch()
         batch = self._batch
         if batch is None:
             super().step(substeps)
@@ -182,6 +209,7 @@ class MujocoBatchScenes(MujocoScenes):
             scene._data = d = mujoco.MjData(m)  # a failed step may have left it half-updated
             mujoco.mj_setState(m, d, batch.state[i], _INTEGRATION)  # its controls among them
             scene._replay(start[i].copy(), substeps)
+            self._rebind(i, scene)  # the step plan of the loop, should the batch be dropped
             d = scene._data
             mujoco.mj_kinematics(m, d)
             mujoco.mj_getState(m, d, batch.state[i], _INTEGRATION)
@@ -198,7 +226,7 @@ class MujocoBatchScenes(MujocoScenes):
         batch = self._batch
         if batch is None:
             return super().link_poses(ids)
-        rows = {key: row for row, key in enumerate(self._scenes)}
+        rows = self._rows  # the batch's rows are the scenes' (a change drops the batch)
         nbody = batch.model.nbody
         flat = np.array([rows[key] * nbody + inner for key, inner in
                          (self._links[i] for i in ids.tolist())], dtype=np.intp)

@@ -57,54 +57,120 @@ class MujocoScenes(IsolatedBackend):
         super()._changed()
         self._layout_scenes()
 
+    def _grown(self, key: int) -> None:
+        super()._changed()  # IsolatedBackend's part: the link table
+        scene = self._scenes[key]
+        assert isinstance(scene, MujocoBackend)
+        self._append_scene(key, scene)
+
     def _layout_scenes(self) -> None:
         """Each scene's places in the shared buffers; the state now gathered into them."""
-        scenes = self._scene_list()
-        sizes = [mujoco.mj_stateSize(s._model, _SAVED) for s in scenes]
-        starts = np.concatenate(([0], np.cumsum(sizes, dtype=np.intp)))
-        self._states = (np.zeros(int(starts[-1])), np.zeros(int(starts[-1])))
-        self._rot = np.zeros((len(scenes), 9))
-        pos, lin, ang, hq, hd = [], [], [], [], []
-        outputs = 0
-        self._plan = []
-        for i, s in enumerate(scenes):
-            m, d = s._model, s._data
-            base = int(starts[i]) + 1  # _SAVED: time, qpos, qvel, warm start
-            q0, v0 = base + int(s._root_qpos[0]), base + m.nq + int(s._root_dofs[0])
-            pos.append(q0 + np.arange(3))  # a free joint's body sits at its first three qpos
-            lin.append(v0 + np.arange(3))
-            ang.append(v0 + 3 + np.arange(3))
-            hq.append(base + s._hinge_qpos)
-            hd.append(base + m.nq + s._hinge_dofs)
-            nu = m.nu
-            views = tuple(buf[starts[i]:starts[i + 1]] for buf in self._states)
-            root = int(s._root_bodies[0])
-            self._plan.append((m, d, d.ctrl, outputs, outputs + nu, views, d.xmat[root]))
-            outputs += nu
-            mujoco.mj_kinematics(m, d)
-            s._kinematics_fresh = True
-            for view in views:
-                mujoco.mj_getState(m, d, view, _SAVED)
-            self._rot[i] = d.xmat[root]
+        self._buffers = (np.zeros(0), np.zeros(0))  # the state buffers, with room to grow
+        self._rot_buffer = np.zeros((0, 9))
+        self._spans: list[tuple[int, int]] = []  # each scene's place in the state buffers
+        self._rows: dict[int, int] = {}  # key -> the scene's row
+        # read()'s gather by field (positions, velocities, angular velocities, hinges, hinge
+        # speeds), each over every scene
+        self._fields = tuple(np.zeros(0, dtype=np.intp) for _ in range(5))
+        self._diverged = np.zeros(0, dtype=bool)
+        self._plan: list[tuple[mujoco.MjModel, mujoco.MjData, NDArray[np.float64], int, int,
+                               tuple[NDArray[np.float64], NDArray[np.float64]],
+                               NDArray[np.float64]]] = []
+        self._n_outputs = 0
+        for key, scene in self._scenes.items():
+            assert isinstance(scene, MujocoBackend)
+            self._append_scene(key, scene)
+        if not self._scenes:
+            self._laid_out()
 
-        def cat(parts: list[NDArray[np.intp]], width: int) -> NDArray[np.intp]:
-            return (np.concatenate(parts) if parts else np.zeros(0, dtype=np.intp)).astype(
-                np.intp).reshape((-1, width) if width else -1)
+    def _fit(self, size: int, rows: int) -> None:
+        """Room for ``size`` state entries and ``rows`` scenes (doubling: N births cost O(N))."""
+        if size > self._buffers[0].shape[0]:
+            grown = max(size, 2 * self._buffers[0].shape[0])
+            buffers = (np.zeros(grown), np.zeros(grown))
+            for new, old in zip(buffers, self._buffers, strict=True):
+                new[:old.shape[0]] = old
+            self._buffers = buffers
+            self._plan = [(m, d, ctrl, a, b, (buffers[0][lo:hi], buffers[1][lo:hi]), xmat)
+                          for (m, d, ctrl, a, b, _, xmat), (lo, hi)
+                          in zip(self._plan, self._spans, strict=True)]
+        if rows > self._rot_buffer.shape[0]:
+            rot = np.zeros((max(rows, 2 * self._rot_buffer.shape[0]), 9))
+            rot[:self._rot_buffer.shape[0]] = self._rot_buffer
+            self._rot_buffer = rot
 
-        self._hinge_qpos = cat(hq, 0)
-        # read()'s one gather: positions, velocities, angular velocities, hinges, hinge speeds
-        self._gather = np.concatenate([cat(pos, 0), cat(lin, 0), cat(ang, 0), self._hinge_qpos,
-                                       cat(hd, 0)])
-        self._diverged = np.array([bool(s._diverged[0]) for s in scenes], dtype=bool)
+    def _append_scene(self, key: int, s: MujocoBackend) -> None:
+        """Scene ``s`` (robot ``key``) after the others in the buffers; its state gathered."""
+        m, d = s._model, s._data
+        i = len(self._plan)
+        lo = self._spans[-1][1] if self._spans else 0
+        hi = lo + mujoco.mj_stateSize(m, _SAVED)
+        self._fit(hi, i + 1)
+        base = lo + 1  # _SAVED: time, qpos, qvel, warm start
+        q0, v0 = base + int(s._root_qpos[0]), base + m.nq + int(s._root_dofs[0])
+        three = np.arange(3, dtype=np.intp)
+        parts = (q0 + three,  # a free joint's body sits at its first three qpos
+                 v0 + three, v0 + 3 + three, base + s._hinge_qpos, base + m.nq + s._hinge_dofs)
+        self._fields = tuple(np.concatenate((f, p.astype(np.intp)))
+                             for f, p in zip(self._fields, parts, strict=True))
+        views = (self._buffers[0][lo:hi], self._buffers[1][lo:hi])
+        root = int(s._root_bodies[0])
+        a = self._n_outputs
+        self._n_outputs += m.nu
+        self._plan.append((m, d, d.ctrl, a, self._n_outputs, views, d.xmat[root]))
+        self._spans.append((lo, hi))
+        self._rows[key] = i
+        self._diverged = np.append(self._diverged, bool(s._diverged[0]))
+        self._gather_scene(i, s)
+        self._laid_out()
+
+    def _rebind(self, i: int, s: MujocoBackend) -> None:
+        """Scene ``i``'s step plan on its MjData now (after its data was made anew)."""
+        m, _, _, a, b, views, _ = self._plan[i]
+        d = s._data
+        self._plan[i] = (m, d, d.ctrl, a, b, views, d.xmat[int(s._root_bodies[0])])
+
+    def _gather_scene(self, i: int, s: MujocoBackend) -> None:
+        """Scene ``i``'s state now into both state buffers, and its core's orientation."""
+        m, d = s._model, s._data
+        mujoco.mj_kinematics(m, d)
+        s._kinematics_fresh = True
+        for view in self._plan[i][5]:
+            mujoco.mj_getState(m, d, view, _SAVED)
+        self._rot_buffer[i] = d.xmat[int(s._root_bodies[0])]
+
+    def _laid_out(self) -> None:
+        """The arrays over every scene, after the scenes changed."""
+        n, size = len(self._plan), self._spans[-1][1] if self._spans else 0
+        self._states = (self._buffers[0][:size], self._buffers[1][:size])
+        self._rot = self._rot_buffer[:n]
+        self._gather: NDArray[np.intp] | None = None  # read()'s, made when read
         self._diverged.flags.writeable = False
         self._sensor_plans: dict[int, tuple[NDArray[np.intp],
                                             list[tuple[mujoco.MjData, NDArray[np.intp]]],
                                             NDArray[np.intp], int]] = {}
 
+    def _gathered(self) -> tuple[NDArray[np.intp], int]:
+        """read()'s one gather and the number of hinges.
+
+        The gather: positions, velocities, angular velocities, hinges, hinge speeds.
+        """
+        if self._gather is None:
+            self._gather = np.concatenate(self._fields)
+        return self._gather, self._fields[3].shape[0]
+
     def set_hinges(self, key: int, hinges: NDArray[np.intp], angles: NDArray[np.float64],
                    velocities: NDArray[np.float64]) -> None:
         super().set_hinges(key, hinges, angles, velocities)
-        self._layout_scenes()  # the shared state buffers gather the new state
+        i = self._rows[key]  # the shared state buffers gather its new state
+        scene = self._scenes[key]
+        assert isinstance(scene, MujocoBackend)
+        self._rebind(i, scene)
+        self._gather_scene(i, scene)
+        diverged = self._diverged.copy()
+        diverged[i] = bool(scene._diverged[0])
+        self._diverged = diverged
+        self._laid_out()
 
     # -- stepping -------------------------------------------------------------------------------
     def set_joint_velocities(self, velocities: NDArray[np.float64], max_torque: float) -> None:
@@ -171,8 +237,9 @@ class MujocoScenes(IsolatedBackend):
         self._diverged = diverged
 
     def read(self) -> BodyStates:
-        g = self._states[self._parity][self._gather]  # one fresh array for every field
-        n, j = self._rot.shape[0], self._hinge_qpos.shape[0]
+        gather, j = self._gathered()
+        g = self._states[self._parity][gather]  # one fresh array for every field
+        n = self._rot.shape[0]
         rot = self._rot.reshape(-1, 3, 3).copy()
         return BodyStates(
             core_pos=g[:3 * n].reshape(n, 3), core_rot=rot,

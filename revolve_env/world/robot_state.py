@@ -199,22 +199,41 @@ class Layout:
 
 
 def layout(states: Sequence[RobotState], backend: PhysicsBackend) -> Layout:
-    """Number the robots' rows and hinges and build the index arrays (sets ``row``, ...)."""
+    """Number the robots' rows and hinges and build the index arrays (sets ``row``, ...).
+
+    Array operations over all robots, plus a loop over those with touch or light sensors only
+    (in row order, as ``backend.link_index`` numbers them): a world that gains its robots one
+    by one rebuilds this at every birth, so its per-robot Python must stay small.
+    """
     if not states:
         return Layout()
-    active, out_rows = [], []
-    touch_dest, touch_ids = [], []
+    n = len(states)
+    joints = np.fromiter((s.n_joints for s in states), _INTP, n)
+    in_offsets = np.zeros(n + 1, dtype=_INTP)
+    np.cumsum(np.fromiter((s.model.n_inputs for s in states), _INTP, n), out=in_offsets[1:])
+    out_offsets = np.zeros(n + 1, dtype=_INTP)
+    np.cumsum(np.fromiter((len(s.model.active_links) for s in states), _INTP, n),
+              out=out_offsets[1:])
+    joint_offsets = np.zeros(n + 1, dtype=_INTP)
+    np.cumsum(joints, out=joint_offsets[1:])
+    joint_starts = joint_offsets[:-1]
+    for row, (s, start) in enumerate(zip(states, joint_starts.tolist(), strict=True)):
+        s.row = row
+        s.joint_start = start
+    locals_ = [s.active_local for s in states]
+    sizes = np.fromiter((a.shape[0] for a in locals_), _INTP, n)
+    active = (np.concatenate(locals_) + np.repeat(joint_starts, sizes)).astype(_INTP)
+    out_rows = np.repeat(np.arange(n, dtype=_INTP), np.diff(out_offsets))
+    touch_dest: list[NDArray[np.intp]] = []
+    touch_ids: list[NDArray[np.intp]] = []
     root: list[tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64],
                      NDArray[np.float64]]] = []
     link: list[tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64],
                      NDArray[np.float64]]] = []
-    joint = inputs = 0
-    in_offsets, out_offsets, joint_offsets = [0], [0], [0]
     for row, s in enumerate(states):
-        s.row = row
-        s.joint_start = joint
-        active.append(joint + s.active_local)
-        out_rows.append(np.full(s.n_outputs, row, dtype=_INTP))
+        if not (s.touch_links.size or s.light_links.size):
+            continue
+        inputs = int(in_offsets[row])
         if s.touch_links.size:
             touch_dest.append(inputs + s.touch_local)
             touch_ids.append(backend.link_index(s.key, s.touch_links))
@@ -227,12 +246,7 @@ def layout(states: Sequence[RobotState], backend: PhysicsBackend) -> Layout:
             link.append((inputs + s.light_local[~on_root],
                          backend.link_index(s.key, s.light_links[~on_root]),
                          s.light_position[~on_root], s.light_direction[~on_root]))
-        joint += s.n_joints
-        joint_offsets.append(joint)
-        inputs += s.n_inputs
-        in_offsets.append(inputs)
-        out_offsets.append(out_offsets[-1] + s.n_outputs)
-    input_offsets = _ints(in_offsets)
+    input_offsets = in_offsets
 
     def cat(parts: list[NDArray[np.intp]]) -> NDArray[np.intp]:
         return np.concatenate(parts).astype(_INTP) if parts else _empty_ints()
@@ -244,9 +258,8 @@ def layout(states: Sequence[RobotState], backend: PhysicsBackend) -> Layout:
     points = vectors([r[2] for r in root] + [r[2] for r in link])
     facings = vectors([r[3] for r in root] + [r[3] for r in link])
     return Layout(
-        n=len(states), active_index=cat(active), output_offsets=_ints(out_offsets),
-        output_rows=cat(out_rows), joint_offsets=_ints(joint_offsets),
-        input_offsets=input_offsets,
+        n=n, active_index=active, output_offsets=out_offsets,
+        output_rows=out_rows, joint_offsets=joint_offsets, input_offsets=input_offsets,
         imu_dest=input_offsets[:-1, None] + np.arange(IMU_VALUES, dtype=_INTP),
         touch_dest=cat(touch_dest), touch_ids=cat(touch_ids),
         light_dest=cat([r[0] for r in root] + [r[0] for r in link]),

@@ -14,6 +14,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize  # noqa: 
 
 from revolve_env import rl  # noqa: E402
 from revolve_env.envs.sb3_vector import NativeVecEnv  # noqa: E402
+from revolve_env.envs.vector import INFO_KEYS  # noqa: E402
 
 SHORT = {"insertion_time": 0.1, "evaluation_time": 0.25}  # 21 steps per episode
 
@@ -41,7 +42,8 @@ def test_native_steps_are_dummy_vec_envs_bit_for_bit() -> None:
         assert np.array_equal(o1, o2) and np.array_equal(r1, r2) and np.array_equal(d1, d2)
         assert r1.dtype == r2.dtype
         for a, b in zip(i1, i2, strict=True):
-            assert a["fitness"] == b["fitness"]
+            for key in INFO_KEYS:  # the single env's values, of its types
+                assert a[key] == b[key] and type(a[key]) is type(b[key]), key
             assert a["TimeLimit.truncated"] == b["TimeLimit.truncated"]
             assert ("terminal_observation" in a) == ("terminal_observation" in b)
             if "episode" in b:

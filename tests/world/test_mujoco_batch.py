@@ -93,3 +93,86 @@ def test_other_models_and_touch_sensors_fall_back_to_the_loop() -> None:
     touch.close()
     with pytest.raises(ValueError, match="threads must be an integer >= 1"):
         MujocoBatchScenes(CONFIG, threads=0)
+
+
+def _births_and_deaths(world: World, robots: list[Robot]) -> list[np.ndarray]:
+    """Births one by one, a hinge reset, steps, a death, more births and steps: every period."""
+    rng = np.random.default_rng(1)
+    out = []
+
+    def period() -> None:
+        world.set_all_targets(rng.uniform(-1, 1, world.targets.shape))
+        world.step(1)
+        s = world.states
+        out.append(np.concatenate((s.core_pos.ravel(), s.core_rot.ravel(), s.core_vel.ravel(),
+                                   s.core_angvel.ravel(), s.joint_pos, s.joint_vel,
+                                   world.sensor_values(), world.blown_up.astype(float))))
+
+    handles = [world.add_robot(r, (0.1 * i, 0.0)) for i, r in enumerate(robots[:3])]
+    n = world.n_outputs(handles[1])
+    world.set_hinge_state(handles[1], np.full(n, 0.3), np.full(n, -0.5))
+    for _ in range(6):
+        period()
+    world.remove_robot(handles[0])
+    for i, r in enumerate(robots[3:]):
+        world.add_robot(r, (0.0, 0.1 * i), 0.2 * i)
+    for _ in range(6):
+        period()
+    return out
+
+
+@pytest.mark.parametrize("kind", ["copies", "mixed"])
+def test_births_extend_the_arrays_as_a_whole_relayout_would(
+        kind: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    # A birth appends its scene to the shared buffers (and drops the batch until the next
+    # step) instead of laying every scene out again: the same numbers, period by period.
+    spider, light = EXAMPLES["spider"](), _light_off_the_core()
+    robots = [spider] * 5 if kind == "copies" else [spider, light, spider, light, spider]
+    new = World(CONFIG, isolated=True)
+    a = _births_and_deaths(new, robots)
+    new.close()
+    monkeypatch.setattr(MujocoScenes, "_grown", lambda self, key: self._changed())
+    monkeypatch.setattr(MujocoBatchScenes, "set_hinges", _relayout_after_hinges)
+    old = World(CONFIG, isolated=True)
+    b = _births_and_deaths(old, robots)
+    old.close()
+    assert len(a) == len(b) == 12
+    for t, (x, y) in enumerate(zip(a, b, strict=True)):
+        assert np.array_equal(x, y), f"period {t} differs"
+
+
+def _relayout_after_hinges(self: MujocoBatchScenes, key: int, hinges: np.ndarray,
+                           angles: np.ndarray, velocities: np.ndarray) -> None:
+    """set_hinges as before: every scene laid out again."""
+    self._sync()
+    MujocoScenes.set_hinges(self, key, hinges, angles, velocities)
+    self._layout_scenes()
+
+
+def test_n_births_make_one_batch_and_no_whole_relayout(monkeypatch: pytest.MonkeyPatch) -> None:
+    import mujoco  # noqa: PLC0415
+
+    made: list[int] = []
+    relayouts: list[int] = []
+    batch = mujoco.batch.Batch
+
+    def counted(model: mujoco.MjModel, nsim: int, **kwargs: object) -> mujoco.batch.Batch:
+        made.append(nsim)
+        return batch(model, nsim=nsim, **kwargs)
+
+    whole = MujocoScenes._layout_scenes
+
+    def spied(self: MujocoScenes) -> None:
+        relayouts.append(len(self._scenes))
+        whole(self)
+
+    monkeypatch.setattr(mujoco.batch, "Batch", counted)
+    monkeypatch.setattr(MujocoScenes, "_layout_scenes", spied)
+    with World(CONFIG, isolated=True) as world:
+        spider = EXAMPLES["spider"]()
+        handles = [world.add_robot(spider) for _ in range(6)]
+        for h in handles:
+            world.set_hinge_state(h, np.full(8, 0.1), np.zeros(8))
+        world.step(2)
+        assert made == [6]  # one batch, made at the first step
+        assert relayouts == [0]  # the empty world's only
