@@ -19,7 +19,7 @@ def _loop_layout(states: list[RobotState], backend: Any) -> Layout:
     """The layout as it was built before: one robot after the other."""
     active, out_rows, touch_dest, touch_ids, root, link = [], [], [], [], [], []
     joint = inputs = 0
-    in_offsets, out_offsets = [0], [0]
+    in_offsets, out_offsets, joint_offsets = [0], [0], [0]
     for row, s in enumerate(states):
         active.append(joint + s.active_local)
         out_rows.append(np.full(s.n_outputs, row, dtype=np.intp))
@@ -36,6 +36,7 @@ def _loop_layout(states: list[RobotState], backend: Any) -> Layout:
                          backend.link_index(s.key, s.light_links[~on_root]),
                          s.light_position[~on_root], s.light_direction[~on_root]))
         joint += s.n_joints
+        joint_offsets.append(joint)
         inputs += s.n_inputs
         in_offsets.append(inputs)
         out_offsets.append(out_offsets[-1] + s.n_outputs)
@@ -52,6 +53,7 @@ def _loop_layout(states: list[RobotState], backend: Any) -> Layout:
     return Layout(
         n=len(states), active_index=cat(active),
         output_offsets=np.asarray(out_offsets, dtype=np.intp), output_rows=cat(out_rows),
+        joint_offsets=np.asarray(joint_offsets, dtype=np.intp),
         input_offsets=offsets, imu_dest=offsets[:-1, None] + np.arange(IMU_VALUES),
         touch_dest=cat(touch_dest), touch_ids=cat(touch_ids),
         light_dest=cat([r[0] for r in root] + [r[0] for r in link]),
