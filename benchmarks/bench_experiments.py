@@ -39,6 +39,7 @@ judged from runs of >= 1000 births).
 from __future__ import annotations
 
 import argparse
+import calendar
 import dataclasses
 import math
 import os
@@ -91,7 +92,16 @@ def main() -> None:
                         help="RSS growth per birth from this many births on")
     parser.add_argument("--floor-samples", type=int, default=12,
                         help="robots (offline) or worlds (online) the floor is measured on")
+    parser.add_argument("--deadline", default=None, metavar="HH:MM",
+                        help="stop a run at its first commit point after this UTC time and "
+                             "report the births it committed")
+    parser.add_argument("--given", nargs="*", default=[], metavar="NAME=MS@BIRTHS",
+                        help="an experiment's CPU per birth measured by another run of this "
+                             "benchmark (ms over that many births), for the study's projection")
+    parser.add_argument("--given-alive", type=float, default=0.0,
+                        help="online --given: the mean robots alive of that run")
     args = parser.parse_args()
+    deadline = None if args.deadline is None else _utc_today(args.deadline)
     cores = args.workers or os.cpu_count() or 1
     function = constant_evaluate if args.engine_only else evaluate_task
     print(f"load average at the start {_load()}")
@@ -112,39 +122,59 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as tmp, LocalEvaluator(cores, function) as evaluator:
             events: list[ProgressEvent] = []
             rss: list[float] = []
+            spent: list[float] = []  # the process's CPU at each commit point. Seconds
 
             def seen(event: ProgressEvent, events: list[ProgressEvent] = events,
-                     rss: list[float] = rss) -> None:
+                     rss: list[float] = rss, spent: list[float] = spent) -> None:
                 if not event.replaying and not event.finished:
                     events.append(event)
                     rss.append(rss_mb())
+                    spent.append(time.process_time())
+                    if deadline is not None and time.time() >= deadline:
+                        raise _Deadline
 
             start = time.perf_counter()
             cpu = time.process_time()
+            stopped = ""
             try:
                 experiments.run(config, Path(tmp) / "out", seen, evaluator=evaluator)
             except ImportError as error:
                 print(f"{name:<12} unavailable: {error}")
                 continue
+            except _Deadline:
+                stopped = f" (stopped at --deadline {args.deadline} UTC)"
+            # Up to the last commit point (a run stopped at the deadline: the work after it is
+            # lost, as a killed run's).
             wall = time.perf_counter() - start
-            cpu = time.process_time() - cpu
+            cpu = spent[-1] - cpu
+            births = events[-1].births
+            config = config.replace(births=births)
             if cores == 1 and not args.engine_only and config.world.engine == "mujoco":
                 db = Path(tmp) / "out" / "results.sqlite"
                 floors.append(_floor_line(name, config, db, events, cpu, args.floor_samples))
+                print(floors[-1], flush=True)
         memory.append(_memory_line(name, events, rss, args.memory_after))
-        rate = args.births / wall * 60
+        print(memory[-1], flush=True)
+        rate = births / wall * 60
         speed = events[-1].sim_time / wall
         # On 2 cores: offline runs use every core for evaluations (scaled from `cores` here);
         # online worlds are one process each, two runs side by side.
         rate_2_cores = rate * 2 / cores if config.mode == "offline" else rate * 2
         hours = STUDY_RUNS * STUDY_BIRTHS / rate_2_cores / 60
         total_hours += hours
-        per_birth = f"{cpu / args.births * 1e3:.0f}" if cores == 1 else "n/a"
+        per_birth = f"{cpu / births * 1e3:.0f}" if cores == 1 else "n/a"
         if cores == 1:
             alive = [e.population_size for e in events]
             measured[name] = (config, cpu, sum(alive) / max(1, len(alive)))
-        print(f"{name:<12} {args.births:>6} {wall:>8.1f} {rate:>11.1f} {speed:>12.1f} "
-              f"{hours:>18.1f} {per_birth:>13}", flush=True)
+        print(f"{name:<12} {births:>6} {wall:>8.1f} {rate:>11.1f} {speed:>12.1f} "
+              f"{hours:>18.1f} {per_birth:>13}{stopped}", flush=True)
+    for given in args.given:
+        name, _, figures = given.partition("=")
+        ms, _, births_text = figures.partition("@")
+        config = preset(name, births=int(births_text), runs=1)
+        measured[name] = (config, float(ms) / 1e3 * config.births, float(args.given_alive))
+        print(f"{name:<12} given: {float(ms):.0f} ms CPU per birth over {config.births} births "
+              "(another run of this benchmark)")
     print(f"\nfull study ({len(args.only)} experiments x {STUDY_RUNS} runs x "
           f"{STUDY_BIRTHS} births, 2 cores): {total_hours:.0f} h = {total_hours / 24:.1f} days")
     if floors:
@@ -158,6 +188,17 @@ def main() -> None:
     if measured:
         _project(measured)
     print(f"\nload average at the end {_load()}")
+
+
+class _Deadline(Exception):
+    """A run reached --deadline (raised at a commit point: nothing after it is lost)."""
+
+
+def _utc_today(hhmm: str) -> float:
+    """Today's ``HH:MM`` UTC as a Unix time. Seconds."""
+    now = time.gmtime()
+    hours, minutes = (int(x) for x in hhmm.split(":"))
+    return calendar.timegm((now.tm_year, now.tm_mon, now.tm_mday, hours, minutes, 0, 0, 0, 0))
 
 
 def _load() -> str:
@@ -195,6 +236,10 @@ def run_robot_seconds_simulated(config: ExperimentConfig,
 def _floor_line(name: str, config: ExperimentConfig, db: Path,
                 events: Sequence[ProgressEvent], cpu: float, samples: int) -> str:
     """The run's CPU per birth, its floor and their ratio, in one line."""
+    simulated = run_robot_seconds_simulated(config, events)
+    births = events[-1].births
+    if simulated <= 0:
+        return f"  {name:<12} no simulated time committed: no floor"
     with Store.open(db) as store:
         robots = {r.robot_id: r.genome for r in store.robots(0)}
         snapshots = store.population_snapshots(0)
@@ -202,8 +247,6 @@ def _floor_line(name: str, config: ExperimentConfig, db: Path,
         rate, what = _raw_offline_rate(config, robots, samples)
     else:
         rate, what = _raw_online_rate(config, robots, snapshots, samples)
-    simulated = run_robot_seconds_simulated(config, events)
-    births = events[-1].births
     floor = simulated / rate
     return (f"  {name:<12} {1e3 * cpu / births:7.0f} ms CPU per birth, floor "
             f"{1e3 * floor / births:7.0f} ms ({simulated:.3g} robot-s at {rate:.0f} robot-s per "
