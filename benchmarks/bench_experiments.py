@@ -3,7 +3,8 @@
 Usage::
 
     python benchmarks/bench_experiments.py [--births 45] [--workers 0] [--engine-only]
-        [--physics pybullet|mujoco] [--only scenario1 scenario3]
+        [--physics pybullet|mujoco] [--only scenario1 scenario3] [--memory-after 300]
+        [--floor-samples 12]
 
 Runs each of the five experiments for ``--births`` births (fresh temporary results directory)
 and prints births per minute; with ``--workers 1`` (everything in this process) also the CPU
@@ -13,6 +14,17 @@ SQLite). The estimate of the full study (5 experiments x 30 runs x 3000 births) 
 offline experiments keep all cores busy with evaluations and online runs go side by side, one
 per core.
 
+With ``--workers 1`` on MuJoCo it prints each run's CPU per birth next to its *floor* (issue 28):
+the robot-seconds the run simulated (offline: births x 15 s; online: the robots alive between
+commit points x the simulated time between them) divided by raw MuJoCo's robot-seconds per CPU
+second, measured after the run in this process on the project's own exported models of the
+run's robots (offline: ``--floor-samples`` of its robots spread over its births, each evaluation
+recorded and replayed bare, as ``bench_engines.py`` does; online: worlds of the populations
+alive at ``--floor-samples`` commit points spread over the run, 5 s each), and their ratio (aim
+<= 1.25x). Every run also prints its resident memory's growth per birth from
+``--memory-after`` births on (RSS at every commit point; aim online <= 20 KB per birth), and the
+load average at the start and the end.
+
 With ``--workers 1`` it also prints, per experiment, the calibration's estimate of the CPU per
 birth (:func:`evolution.experiments.app.estimate.calibrate`, what ``revolve study`` prints before
 it starts: robots alive and robot-seconds per CPU second) beside the measured one, and projects
@@ -20,19 +32,29 @@ the paper's study from the measured runs onto 2 cores and a 64-core Ray cluster
 (:func:`evolution.experiments.app.estimate.estimate`: a run is the unit of parallelism, one run per
 core, online runs first; an experiment not measured takes the cost of a measured one of its
 mode). The measured run's own length matters: evolved robots grow,
-so a run of 300 births is cheaper per birth than one of 3000.
+so a run of 300 births is cheaper per birth than one of 3000 (the aim, <= 7 h on 2 cores, is
+judged from runs of >= 1000 births).
 """
 
 from __future__ import annotations
 
 import argparse
+import calendar
 import dataclasses
 import math
 import os
+import sys
 import tempfile
 import time
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout
+
+from bench_engines import Replay, numpy_rules, record_evaluate
+from bench_memory import rss_mb, slope
 
 from evolution import experiments
 from evolution.evaluation import EvalOutcome, EvalTask, LocalEvaluator, evaluate_task
@@ -45,6 +67,9 @@ from evolution.experiments.app.estimate import (
     run_cpu_seconds,
 )
 from evolution.experiments.loop.registry import PAPER_SCENARIOS
+from evolution.experiments.loop.run import ProgressEvent, decode
+from evolution.experiments.store.database import Store
+from revolve_env import population_env
 from revolve_env.body.serialize import to_json
 
 STUDY_RUNS, STUDY_BIRTHS = 30, 3000
@@ -63,14 +88,30 @@ def main() -> None:
     parser.add_argument("--only", nargs="*", default=list(PAPER_SCENARIOS))
     parser.add_argument("--physics", choices=("pybullet", "mujoco"), default=None,
                         help="the physics engine (default: each config's)")
+    parser.add_argument("--memory-after", type=int, default=300,
+                        help="RSS growth per birth from this many births on")
+    parser.add_argument("--floor-samples", type=int, default=12,
+                        help="robots (offline) or worlds (online) the floor is measured on")
+    parser.add_argument("--deadline", default=None, metavar="HH:MM",
+                        help="stop a run at its first commit point after this UTC time and "
+                             "report the births it committed")
+    parser.add_argument("--given", nargs="*", default=[], metavar="NAME=MS@BIRTHS",
+                        help="an experiment's CPU per birth measured by another run of this "
+                             "benchmark (ms over that many births), for the study's projection")
+    parser.add_argument("--given-alive", type=float, default=0.0,
+                        help="online --given: the mean robots alive of that run")
     args = parser.parse_args()
+    deadline = None if args.deadline is None else _utc_today(args.deadline)
     cores = args.workers or os.cpu_count() or 1
     function = constant_evaluate if args.engine_only else evaluate_task
+    print(f"load average at the start {_load()}")
     print(f"{'experiment':<12} {'births':>6} {'wall s':>8} {'births/min':>11} {'sim s/wall s':>12}"
           f" {'study h (2 cores)':>18} {'CPU ms/birth':>13}")
     total_hours = 0.0
     # name -> (config, CPU seconds, mean robots alive at the commit points)
     measured: dict[str, tuple[ExperimentConfig, float, float]] = {}
+    floors: list[str] = []
+    memory: list[str] = []
     for name in args.only:
         # One run: births per minute and CPU per birth count that run's births (the shipped
         # configs' 30 runs would run side by side, 30 times the births of the rate printed).
@@ -79,33 +120,214 @@ def main() -> None:
             config = config.replace(world=dataclasses.replace(config.world,
                                                               engine=args.physics))
         with tempfile.TemporaryDirectory() as tmp, LocalEvaluator(cores, function) as evaluator:
-            events: list[Any] = []
+            events: list[ProgressEvent] = []
+            rss: list[float] = []
+            spent: list[float] = []  # the process's CPU at each commit point. Seconds
+
+            def seen(event: ProgressEvent, events: list[ProgressEvent] = events,
+                     rss: list[float] = rss, spent: list[float] = spent) -> None:
+                if not event.replaying and not event.finished:
+                    events.append(event)
+                    rss.append(rss_mb())
+                    spent.append(time.process_time())
+                    if deadline is not None and time.time() >= deadline:
+                        raise _Deadline
+
             start = time.perf_counter()
             cpu = time.process_time()
+            stopped = ""
             try:
-                experiments.run(config, Path(tmp) / "out", events.append, evaluator=evaluator)
+                experiments.run(config, Path(tmp) / "out", seen, evaluator=evaluator)
             except ImportError as error:
                 print(f"{name:<12} unavailable: {error}")
                 continue
+            except _Deadline:
+                stopped = f" (stopped at --deadline {args.deadline} UTC)"
+            # Up to the last commit point (a run stopped at the deadline: the work after it is
+            # lost, as a killed run's).
             wall = time.perf_counter() - start
-            cpu = time.process_time() - cpu
-        rate = args.births / wall * 60
+            cpu = spent[-1] - cpu
+            births = events[-1].births
+            config = config.replace(births=births)
+            if cores == 1 and not args.engine_only and config.world.engine == "mujoco":
+                db = Path(tmp) / "out" / "results.sqlite"
+                floors.append(_floor_line(name, config, db, events, cpu, args.floor_samples))
+                print(floors[-1], flush=True)
+        memory.append(_memory_line(name, events, rss, args.memory_after))
+        print(memory[-1], flush=True)
+        rate = births / wall * 60
         speed = events[-1].sim_time / wall
         # On 2 cores: offline runs use every core for evaluations (scaled from `cores` here);
         # online worlds are one process each, two runs side by side.
         rate_2_cores = rate * 2 / cores if config.mode == "offline" else rate * 2
         hours = STUDY_RUNS * STUDY_BIRTHS / rate_2_cores / 60
         total_hours += hours
-        per_birth = f"{cpu / args.births * 1e3:.0f}" if cores == 1 else "n/a"
+        per_birth = f"{cpu / births * 1e3:.0f}" if cores == 1 else "n/a"
         if cores == 1:
-            alive = [e.population_size for e in events if not e.replaying]
+            alive = [e.population_size for e in events]
             measured[name] = (config, cpu, sum(alive) / max(1, len(alive)))
-        print(f"{name:<12} {args.births:>6} {wall:>8.1f} {rate:>11.1f} {speed:>12.1f} "
-              f"{hours:>18.1f} {per_birth:>13}")
+        print(f"{name:<12} {births:>6} {wall:>8.1f} {rate:>11.1f} {speed:>12.1f} "
+              f"{hours:>18.1f} {per_birth:>13}{stopped}", flush=True)
+    for given in args.given:
+        name, _, figures = given.partition("=")
+        ms, _, births_text = figures.partition("@")
+        config = preset(name, births=int(births_text), runs=1)
+        measured[name] = (config, float(ms) / 1e3 * config.births, float(args.given_alive))
+        print(f"{name:<12} given: {float(ms):.0f} ms CPU per birth over {config.births} births "
+              "(another run of this benchmark)")
     print(f"\nfull study ({len(args.only)} experiments x {STUDY_RUNS} runs x "
           f"{STUDY_BIRTHS} births, 2 cores): {total_hours:.0f} h = {total_hours / 24:.1f} days")
+    if floors:
+        print("\nCPU per birth against its floor (the robot-seconds the run simulated over raw "
+              "MuJoCo's robot-seconds per CPU second on the run's own robots, this process; "
+              "aim <= 1.25x):")
+        print(*floors, sep="\n")
+    print(f"\nresident memory (RSS) after {args.memory_after} births (aim online <= 20 KB per "
+          "birth):")
+    print(*memory, sep="\n")
     if measured:
         _project(measured)
+    print(f"\nload average at the end {_load()}")
+
+
+class _Deadline(Exception):
+    """A run reached --deadline (raised at a commit point: nothing after it is lost)."""
+
+
+def _utc_today(hhmm: str) -> float:
+    """Today's ``HH:MM`` UTC as a Unix time. Seconds."""
+    now = time.gmtime()
+    hours, minutes = (int(x) for x in hhmm.split(":"))
+    return calendar.timegm((now.tm_year, now.tm_mon, now.tm_mday, hours, minutes, 0, 0, 0, 0))
+
+
+def _load() -> str:
+    """The 1, 5 and 15 minute load averages of this machine."""
+    return " ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
+def _memory_line(name: str, events: Sequence[ProgressEvent], rss: Sequence[float],
+                 after: int) -> str:
+    """RSS growth per birth over the commit points from ``after`` births on. KB per birth."""
+    points = [(e.births, r) for e, r in zip(events, rss, strict=True) if e.births >= after]
+    if len(points) < 2 or points[-1][0] == points[0][0]:
+        return f"  {name:<12} fewer than two commit points after {after} births"
+    (b0, r0), (b1, r1) = points[0], points[-1]
+    fit = slope([b for b, _ in points], [r for _, r in points])
+    return (f"  {name:<12} {1e3 * fit:7.1f} KB per birth (least squares), "
+            f"{1e3 * (r1 - r0) / (b1 - b0):7.1f} end minus start (births {b0} -> {b1}: "
+            f"{r0:.1f} -> {r1:.1f} MB)")
+
+
+def run_robot_seconds_simulated(config: ExperimentConfig,
+                                events: Sequence[ProgressEvent]) -> float:
+    """Robot-seconds a measured run simulated. Robot-seconds.
+
+    Offline: one evaluation per birth. Online: between two commit points the world lives from
+    the first one's simulated time to the second's with the robots alive at the first (births
+    and deaths fall on the commit points' conception ticks).
+    """
+    if config.mode == "offline":
+        return events[-1].births * config.seconds_per_evaluation
+    return sum(a.population_size * (b.sim_time - a.sim_time)
+               for a, b in zip(events, events[1:], strict=False))
+
+
+def _floor_line(name: str, config: ExperimentConfig, db: Path,
+                events: Sequence[ProgressEvent], cpu: float, samples: int) -> str:
+    """The run's CPU per birth, its floor and their ratio, in one line."""
+    simulated = run_robot_seconds_simulated(config, events)
+    births = events[-1].births
+    if simulated <= 0:
+        return f"  {name:<12} no simulated time committed: no floor"
+    with Store.open(db) as store:
+        robots = {r.robot_id: r.genome for r in store.robots(0)}
+        snapshots = store.population_snapshots(0)
+    if config.mode == "offline":
+        rate, what = _raw_offline_rate(config, robots, samples)
+    else:
+        rate, what = _raw_online_rate(config, robots, snapshots, samples)
+    floor = simulated / rate
+    return (f"  {name:<12} {1e3 * cpu / births:7.0f} ms CPU per birth, floor "
+            f"{1e3 * floor / births:7.0f} ms ({simulated:.3g} robot-s at {rate:.0f} robot-s per "
+            f"CPU-s of raw MuJoCo, {what}): {cpu / floor:.2f}x")
+
+
+def _spread(count: int, items: int) -> list[int]:
+    """``count`` indices spread evenly over ``items`` (each once)."""
+    return sorted({int(i) for i in np.linspace(0, items - 1, min(count, items))})
+
+
+def _raw_offline_rate(config: ExperimentConfig, robots: dict[int, str],
+                      samples: int) -> tuple[float, str]:
+    """Raw MuJoCo's robot-seconds per CPU second on robots of the run, evaluated as it did.
+
+    Each sampled robot's evaluation (insertion + window, seed 0) is recorded on the NumPy path
+    and replayed bare (:class:`bench_engines.Replay`: one ``mj_step`` call and the servo law per
+    control period), best CPU of two.
+    """
+    ids = sorted(robots)
+    chosen = [ids[i] for i in _spread(samples, len(ids))]
+    seconds = raw = 0.0
+    for robot_id in chosen:
+        replay, check = record_evaluate(decode(robots[robot_id]), config.evaluation_time,
+                                        config.insertion, seed=robot_id,
+                                        conditions=config.evaluation)
+        if check != "exact":
+            raise RuntimeError(f"robot {robot_id}'s raw replay is {check}")
+        seconds += config.seconds_per_evaluation
+        raw += min(replay.run(), replay.run())
+    return seconds / raw, f"{len(chosen)} of its robots x {config.seconds_per_evaluation:g} s"
+
+
+_WORLD_SECONDS = 5.0
+"""Simulated seconds of each online world the floor replays."""
+
+
+def _raw_online_rate(config: ExperimentConfig, robots: dict[int, str],
+                     snapshots: Sequence[tuple[int, float, list[tuple[int, float | None]]]],
+                     samples: int) -> tuple[float, str]:
+    """Raw MuJoCo's robot-seconds per CPU second on worlds of the run's own populations.
+
+    At ``samples`` commit points spread over the run, the robots alive then are put in one
+    population env (the run's settings, 1.2 m apart on a grid), left 0.5 s to land, then
+    stepped :data:`_WORLD_SECONDS` with the world's targets recorded and replayed bare
+    (best CPU of two).
+    """
+    robot_seconds = raw = 0.0
+    chosen = [snapshots[i] for i in _spread(samples, len(snapshots))]
+    for _, _, members in chosen:
+        alive = [decode(robots[robot_id]) for robot_id, _ in members]
+        side = math.ceil(math.sqrt(len(alive)))
+        initial = [{"robot": r, "position": (1.2 * (i % side), 1.2 * (i // side)), "yaw": 0.0}
+                   for i, r in enumerate(alive)]
+        env = population_env(engine="mujoco", initial_robots=initial, max_births=len(alive),
+                             insertion_time=0.0, limits=config.evolution.limits,
+                             conditions=config.evaluation, task=config.fitness_task(),
+                             terrain=config.world.terrain_spec, trajectory_length=0)
+        try:
+            env.reset(seed=0)
+            ticks = round(_WORLD_SECONDS / float(env.config.control_period))
+            with numpy_rules():
+                for _ in range(30):
+                    env.advance({})
+                replay = Replay(env.world)
+                replay.record(env.world)
+                for _ in range(ticks):
+                    env.advance({})
+            if len(replay.targets) != ticks:
+                raise RuntimeError(f"the world stepped {len(replay.targets)} recorded periods "
+                                   f"of {ticks}: the env no longer steps through World.step")
+            replay.run()
+            check = replay.same_as(env.world)
+            if check != "exact":
+                raise RuntimeError(f"the raw replay of a world of {len(alive)} robots is {check}")
+            robot_seconds += len(alive) * _WORLD_SECONDS
+            raw += min(replay.run(), replay.run())
+        finally:
+            env.close()
+    return robot_seconds / raw, (f"{len(chosen)} worlds of its populations x "
+                                 f"{_WORLD_SECONDS:g} s")
 
 
 def _measured_cost(config: ExperimentConfig, cpu: float, alive: float) -> BirthCost:
@@ -157,6 +379,9 @@ def _project(measured: dict[str, tuple[ExperimentConfig, float, float]]) -> None
     print(f"\nthe paper's study ({len(study_costs)} experiments x {STUDY_RUNS} runs x "
           f"{STUDY_BIRTHS} births) from the measured CPU per birth; longest run "
           f"{longest / 3600:.2f} h:")
+    shortest = min(config.births for config, _, _ in measured.values())
+    print(f"  (from runs of {shortest} births or more; the aim, <= 7 h on 2 cores, is judged on "
+          "runs of >= 1000 births: evolved robots grow)")
     for cores in (2, 64):
         result = estimate(work, study_costs, cores)
         waves = math.ceil(len(work) / cores)

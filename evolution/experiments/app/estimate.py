@@ -130,6 +130,8 @@ class ExperimentEstimate:
         births: Births left, all its runs together.
         robot_seconds: Robot-seconds left to simulate, all its runs together.
         cpu_seconds: CPU time left, all its runs together. Seconds.
+        wall_seconds: When its last run ends, from the study's start, its runs scheduled with
+            the others' as the study runs them (0 with no run left). Seconds.
     """
 
     name: str
@@ -138,6 +140,7 @@ class ExperimentEstimate:
     births: int
     robot_seconds: float
     cpu_seconds: float
+    wall_seconds: float = 0.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -176,7 +179,8 @@ class StudyEstimate:
                        f"{_robot_seconds(e.robot_seconds)} ({c.mode}, {c.engine}: {per_birth} "
                        f"per birth) at {c.rate:.0f} robot-s per CPU-s (from {c.sample}), "
                        f"{1e3 * c.cpu_per_birth:.0f} ms CPU per birth: "
-                       f"{e.cpu_seconds / 3600:.2f} CPU-h")
+                       f"{e.cpu_seconds / 3600:.2f} CPU-h, its last run done after "
+                       f"{_hours(e.wall_seconds)} ({e.wall_seconds / 3600:.2f} h)")
         out.append(f"  total {_robot_seconds(sum(e.robot_seconds for e in self.experiments))}, "
                    f"{self.cpu_seconds / 3600:.2f} CPU-h: about {_hours(self.wall_seconds)} on "
                    f"{self.workers} worker(s) (calibration took {self.calibration_cpu:.1f} s CPU)")
@@ -352,14 +356,18 @@ def estimate(work: Sequence[RunWork], costs: Mapping[str, BirthCost], workers: i
     names = list(dict.fromkeys(w.experiment for w in work))
     per_run = [(w, run_cpu_seconds(w, costs[w.experiment])) for w in work]
     free = [0.0] * max(1, workers)
-    for _, seconds in sorted(per_run, key=lambda p: p[0].config.mode != "online"):
-        heapq.heapreplace(free, free[0] + seconds)
+    ends = dict.fromkeys(names, 0.0)  # when each experiment's last run ends. Seconds
+    for w, seconds in sorted(per_run, key=lambda p: p[0].config.mode != "online"):
+        if seconds > 0:  # a finished run takes no worker
+            end = free[0] + seconds
+            heapq.heapreplace(free, end)
+            ends[w.experiment] = max(ends[w.experiment], end)
     experiments = tuple(
         ExperimentEstimate(
             name, costs[name], sum(w.experiment == name for w, _ in per_run),
             sum(max(0, w.config.births - w.done) for w, _ in per_run if w.experiment == name),
             sum(run_robot_seconds(w, costs[name]) for w, _ in per_run if w.experiment == name),
-            sum(s for w, s in per_run if w.experiment == name))
+            sum(s for w, s in per_run if w.experiment == name), ends[name])
         for name in names)
     return StudyEstimate(experiments, max(1, workers), max(free), calibration_cpu)
 

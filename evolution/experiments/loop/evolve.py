@@ -86,6 +86,7 @@ from numpy.typing import NDArray
 
 from evolution.evaluation import EvalOutcome, EvalTask, Evaluator, make_evaluator
 from evolution.experiments.loop.config import ConfigError, ExperimentConfig, as_config
+from evolution.experiments.loop.heap import release_freed_memory
 from evolution.experiments.loop.offline import OfflineMode
 from evolution.experiments.loop.online import OnlineMode
 from evolution.experiments.loop.online_world import PopulationWorld
@@ -417,6 +418,9 @@ class Evolution:
         with self._stopping_on_error():
             for observer in self._observers:
                 observer.stepped(self, step)
+        # The step's models, snapshot and records are freed now: their pages go back to the
+        # system, so a long run's memory stays flat (see heap's module doc).
+        release_freed_memory()
         if self.done:
             self._stop("finished")
         return step

@@ -128,7 +128,11 @@ def test_estimate_only_prints_the_estimate_and_writes_nothing(
     # online: the robots alive measured at the run's start (min_alive 2 here), not assumed
     alive = float(per_experiment[2].split("(online, mujoco: ")[1].split(" robots alive x 1 s")[0])
     assert 2 <= alive <= 30
-    hours = [float(line.split(": ")[-1].removesuffix(" CPU-h")) for line in per_experiment]
+    hours = [float(line.split(": ")[-1].split(" CPU-h")[0]) for line in per_experiment]
+    # each experiment's projected hours on the 2 workers: when its last run is done
+    ends = [float(line.split("its last run done after ")[1].split("(")[1].removesuffix(" h)"))
+            for line in per_experiment]
+    assert all(end > 0 for end in ends)
     total = lines[start + 6]
     assert total.startswith("  total ") and "on 2 worker(s)" in total
     assert float(total.split("), ")[1].split()[0]) == pytest.approx(sum(hours), abs=0.03)

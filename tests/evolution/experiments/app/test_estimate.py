@@ -79,7 +79,17 @@ def test_runs_are_scheduled_one_per_worker_online_first() -> None:
     three = estimate(work, costs, workers=3)
     assert three.wall_seconds == 800.0 and three.cpu_seconds == 2 * 800 + 8 * 100
     # 2 workers: 800 s of online each, then four offline runs each.
-    assert estimate(work, costs, workers=2).wall_seconds == 1200.0
+    two = estimate(work, costs, workers=2)
+    assert two.wall_seconds == 1200.0
+    # Each experiment's projected hours: when its last run ends (the online runs first).
+    assert [(e.name, e.wall_seconds) for e in two.experiments] == [
+        ("scenario1", 1200.0), ("scenario3", 800.0)]
+    assert [e.wall_seconds for e in three.experiments] == [800.0, 800.0]
+    # A finished run takes no worker: the others start at once.
+    done = RunWork("scenario3", online.config, done=online.config.births)
+    late = estimate([done, done, offline], costs, workers=1)
+    assert [(e.name, e.wall_seconds) for e in late.experiments] == [
+        ("scenario3", 0.0), ("scenario1", 100.0)]
     # Offline first would have been 1200 s on 3 workers: the order is the study's.
     assert estimate(work, costs, workers=64).wall_seconds == 800.0
     assert [(e.name, e.runs, e.births, e.robot_seconds) for e in three.experiments] == [
@@ -88,10 +98,12 @@ def test_runs_are_scheduled_one_per_worker_online_first() -> None:
     lines = three.lines()
     assert lines[0] == ("  scenario1: 8 run(s), 800 births, 1.2e+04 robot-s (3.33 robot-h) "
                         "(offline, mujoco: 15 s per birth) at 15 robot-s per CPU-s (from given), "
-                        "1000 ms CPU per birth: 0.22 CPU-h")
+                        "1000 ms CPU per birth: 0.22 CPU-h, its last run done after 13 min "
+                        "(0.22 h)")
     assert lines[1] == ("  scenario3: 2 run(s), 230 births, 3e+04 robot-s (8.33 robot-h) "
                         "(online, mujoco: 10.0 robots alive x 15 s per birth) at 19 robot-s per "
-                        "CPU-s (from given), 8000 ms CPU per birth: 0.44 CPU-h")
+                        "CPU-s (from given), 8000 ms CPU per birth: 0.44 CPU-h, its last run "
+                        "done after 13 min (0.22 h)")
     assert lines[2].startswith("  total 4.2e+04 robot-s (11.7 robot-h), 0.67 CPU-h: about "
                                "13 min on 3 worker(s)")
     assert lines[3].startswith("  (an estimate: it assumes the robots of a run's first")
