@@ -187,7 +187,7 @@ def test_results_of_another_physics_revision_are_not_continued(tmp_path: Path) -
     with sqlite3.connect(db_path) as db:
         db.execute("DELETE FROM meta WHERE key = 'physics'")
     with Store.open(db_path) as store:
-        assert store.physics_revisions == {"pybullet": 1, "mujoco": 1}
+        assert store.physics_revisions == dict.fromkeys(revolve_env.PHYSICS_REVISIONS, 1)
     with pytest.raises(StoreError, match="made with mujoco physics revision 1, and this "
                                          "version of revolve-env steps mujoco as revision 2"):
         check_resumable(db_path)
