@@ -109,6 +109,14 @@ class WarpScenes(MujocoScenes):
     # -- the scenes' MjData and the worlds -----------------------------------------------------
     def _layout_scenes(self) -> None:
         super()._layout_scenes()  # from the scenes' MjData: the callers synced them
+        self._scenes_changed()
+
+    def _grown(self, key: int) -> None:
+        super()._grown(key)  # the new scene appended to the buffers (add synced the others)
+        self._scenes_changed()
+
+    def _scenes_changed(self) -> None:
+        """After a birth, a death or a hinge reset: the batches are made anew at the next step."""
         self._groups = None
         self._on_device = False
         scenes = self._scene_list()
@@ -143,6 +151,7 @@ class WarpScenes(MujocoScenes):
                    velocities: NDArray[np.float64]) -> None:
         self._sync()
         super().set_hinges(key, hinges, angles, velocities)
+        self._scenes_changed()
 
     def reset(self) -> None:
         self._on_device = False
