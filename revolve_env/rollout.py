@@ -41,15 +41,7 @@ from revolve_env.conditions import Start, add_actuator_noise, add_sensor_noise
 from revolve_env.fitness import FitnessTerms, FitnessWindows, Window, trajectory_window
 from revolve_env.fitness.sampling import pose_due, pose_stride
 from revolve_env.fitness.terms import TIME_EPS
-from revolve_env.tasks import (
-    DirectedLocomotion,
-    LightFollowing,
-    Locomotion,
-    Task,
-    TaskError,
-    pose_rate,
-    score,
-)
+from revolve_env.tasks import Task, TaskError, pose_rate, score
 from revolve_env.world import World, compiled
 from revolve_env.world.signals import SignalReader, signal_reader
 
@@ -351,8 +343,8 @@ class RobotWindow:
     operations in the same order, on floats instead of arrays of one): the robot is sampled from
     the end of its insertion on, its pose every :attr:`stride` control periods, holding its last
     pose (and signal) in between; samples older than ``window`` seconds leave; the path length is
-    a running sum, rebased past 1 km. The shipped tasks are scored in floats; any other task
-    through :func:`~revolve_env.tasks.score` of :meth:`current` (a :class:`Window` of one robot).
+    a running sum, rebased past 1 km. The task scores :meth:`current` (a :class:`Window` of one
+    robot) by its own rule (:func:`~revolve_env.tasks.score`).
 
     Args:
         task: What the robot is scored on.
@@ -455,26 +447,9 @@ class RobotWindow:
         samples = self._samples
         if len(samples) < 2:
             return FitnessTerms(0.0, 0.0, 0.0)
-        t0, x0, y0, p0, g0 = samples[0]
-        t1, x1, y1, p1, g1 = samples[-1]
-        v, s = p1 - p0, math.hypot(x1 - x0, y1 - y0)
-        task = self.task
-        kind = type(task)
-        if kind is Locomotion:
-            assert isinstance(task, Locomotion)
-            f = v + task.s_weight * s
-            if task.limit is not None:
-                duration = t1 - t0
-                if f >= task.limit * duration or duration <= 0.0:
-                    f = 0.0
-        elif kind is DirectedLocomotion:
-            assert isinstance(task, DirectedLocomotion)
-            f = (x1 - x0) * math.cos(task.heading) + (y1 - y0) * math.sin(task.heading)
-        elif kind is LightFollowing:
-            f = g1 - g0
-        else:
-            f = float(score(task, self.current())[0])
-        return FitnessTerms(f, v, s)
+        window = self.current()  # scored by the task's own rule (its one home)
+        return FitnessTerms(float(score(self.task, window)[0]), float(window.v[0]),
+                            float(window.s[0]))
 
 
 def _noisy_inputs(world: World, values: NDArray[np.float64], columns: list[int],
