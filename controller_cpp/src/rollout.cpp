@@ -591,6 +591,25 @@ int add(Rollout& ro, std::uintptr_t model, std::uintptr_t data, int root_body, i
     return static_cast<int>(ro.robots_.size()) - 1;
 }
 
+// The physics settings both the rollout and the world step take (their one home), checked:
+// `what` names the caller's settings in the error.
+void set_physics(Settings& s, int substeps, double control_period, double servo_k, double max_velocity,
+                 double gravity, const Vec<double>& imu_high, const Vec<double>& light, double light_range,
+                 const char* what) {
+    if (substeps < 1 || !(control_period > 0) || imu_high.shape(0) != 6 || light.shape(0) != 3) {
+        throw nb::value_error(what);
+    }
+    s.substeps = substeps;
+    s.control_period = control_period;
+    s.inv_period = 1.0 / control_period;
+    s.servo_k = servo_k;
+    s.max_velocity = max_velocity;
+    s.gravity = gravity;
+    for (int i = 0; i < 6; ++i) s.imu_high[i] = imu_high(i);
+    for (int i = 0; i < 3; ++i) s.light[i] = light(i);
+    s.light_range = light_range;
+}
+
 using Out = nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 
 void make_world_step(WorldStep* self, std::uintptr_t model, std::uintptr_t data, int substeps, double control_period,
@@ -606,19 +625,8 @@ void make_world_step(WorldStep* self, std::uintptr_t model, std::uintptr_t data,
     w.d_ = reinterpret_cast<mjData*>(data);
     if (w.m_ == nullptr || w.d_ == nullptr) throw nb::value_error("null MuJoCo model or data");
     const mjModel* m = w.m_;
-    if (substeps < 1 || !(control_period > 0) || imu_high.shape(0) != 6 || light.shape(0) != 3) {
-        throw nb::value_error("bad world step settings");
-    }
-    Settings& s = w.s_;
-    s.substeps = substeps;
-    s.control_period = control_period;
-    s.inv_period = 1.0 / control_period;
-    s.servo_k = servo_k;
-    s.max_velocity = max_velocity;
-    s.gravity = gravity;
-    for (int i = 0; i < 6; ++i) s.imu_high[i] = imu_high(i);
-    for (int i = 0; i < 3; ++i) s.light[i] = light(i);
-    s.light_range = light_range;
+    set_physics(w.s_, substeps, control_period, servo_k, max_velocity, gravity, imu_high, light, light_range,
+                "bad world step settings");
     w.root_body_ = ints(root_body);
     w.root_qpos_ = ints(root_qpos);
     w.root_dof_ = ints(root_dof);
@@ -720,24 +728,16 @@ NB_MODULE(_rollout, mod) {
             [](Rollout* self, int insertion_ticks, int evaluation_ticks, int brain_stride, int substeps,
                double control_period, double servo_k, double max_velocity, double target_scale, double gravity,
                Vec<double> imu_high, Vec<double> light, double light_range, bool light_signal) {
-                if (insertion_ticks < 0 || evaluation_ticks < 1 || brain_stride < 1 || substeps < 1 ||
-                    !(control_period > 0) || imu_high.shape(0) != 6 || light.shape(0) != 3) {
+                if (insertion_ticks < 0 || evaluation_ticks < 1 || brain_stride < 1) {
                     throw nb::value_error("bad rollout settings");
                 }
                 Settings s;
+                set_physics(s, substeps, control_period, servo_k, max_velocity, gravity, imu_high, light,
+                            light_range, "bad rollout settings");
                 s.insertion_ticks = insertion_ticks;
                 s.evaluation_ticks = evaluation_ticks;
                 s.brain_stride = brain_stride;
-                s.substeps = substeps;
-                s.control_period = control_period;
-                s.inv_period = 1.0 / control_period;
-                s.servo_k = servo_k;
-                s.max_velocity = max_velocity;
                 s.target_scale = target_scale;
-                s.gravity = gravity;
-                for (int i = 0; i < 6; ++i) s.imu_high[i] = imu_high(i);
-                for (int i = 0; i < 3; ++i) s.light[i] = light(i);
-                s.light_range = light_range;
                 s.light_signal = light_signal;
                 new (self) Rollout(s);
             },
