@@ -967,12 +967,31 @@ class EnvStep {
 
 using Obs = nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 
-void make_env_step(EnvStep* self, WorldStep& world, int n_act, int n_inputs, Vec<std::int64_t> active,
+// EnvStep with the arrays it keeps between steps (held, so they stay valid): the world's targets, the
+// brain's outputs, the backend's start state and the step's outputs (reward, fitness, v, s, x, y).
+struct BoundEnvStep : EnvStep {
+    Out targets, outputs, start, out;
+
+    void check() const {
+        if (targets.shape(0) != static_cast<std::size_t>(w->m_->nu) ||
+            (brain_driven && outputs.shape(0) != static_cast<std::size_t>(n_out)) ||
+            start.shape(0) != static_cast<std::size_t>(w->state_size()) || out.shape(0) != 6) {
+            throw nb::value_error("env step arrays of the wrong size");
+        }
+    }
+};
+
+void make_env_step(BoundEnvStep* self, WorldStep& world, Out targets, Out outputs, Out start, Out out, int n_act,
+                   int n_inputs, Vec<std::int64_t> active,
                    bool proprioception, Vec<double> low, Vec<double> high, double target_scale, int task_kind,
                    double s_weight, double limit, double cos_h, double sin_h, double window, int insertion,
                    int stride, Vec<std::int64_t> signal_inputs, nb::object network, double brain_dt, int brain_stride) {
-    EnvStep e;
+    BoundEnvStep e;
     e.w = &world;
+    e.targets = targets;
+    e.outputs = outputs;
+    e.start = start;
+    e.out = out;
     e.n_act = n_act;
     e.n_out = world.m_->nu;
     e.n_in = n_inputs;
@@ -1029,23 +1048,21 @@ void make_env_step(EnvStep* self, WorldStep& world, int n_act, int n_inputs, Vec
         e.brain_driven = true;
         e.inputs.assign(n_inputs, 0.0);
     }
-    new (self) EnvStep(std::move(e));
+    e.check();
+    new (self) BoundEnvStep(std::move(e));
 }
 
 template <typename A>
-int env_step(EnvStep& e, nb::ndarray<const A, nb::ndim<1>, nb::c_contig, nb::device::cpu> action, Obs obs,
-             Out targets, Out outputs, Out start, Out states, Out sensors, Out out, long periods, long age,
-             double time) {
-    WorldStep& w = *e.w;
-    if (obs.shape(0) != static_cast<std::size_t>(e.n_obs) || targets.shape(0) != static_cast<std::size_t>(w.m_->nu) ||
-        outputs.shape(0) != (e.brain_driven ? static_cast<std::size_t>(e.n_out) : outputs.shape(0)) ||
-        start.shape(0) != static_cast<std::size_t>(w.state_size()) || states.shape(0) != w.states_size() ||
-        sensors.shape(0) != static_cast<std::size_t>(w.n_inputs_) || out.shape(0) != 6) {
+int env_step(BoundEnvStep& e, nb::ndarray<const A, nb::ndim<1>, nb::c_contig, nb::device::cpu> action, Obs obs,
+             Out states, Out sensors, long periods, long age, double time) {
+    const WorldStep& w = *e.w;
+    if (obs.shape(0) != static_cast<std::size_t>(e.n_obs) || states.shape(0) != w.states_size() ||
+        sensors.shape(0) != static_cast<std::size_t>(w.n_inputs_)) {
         throw nb::value_error("env step arrays of the wrong size");
     }
     nb::gil_scoped_release release;
-    return e.step(action.data(), action.shape(0), obs.data(), targets.data(), outputs.data(), start.data(),
-                  states.data(), sensors.data(), out.data(), periods, age, time);
+    return e.step(action.data(), action.shape(0), obs.data(), e.targets.data(), e.outputs.data(), e.start.data(),
+                  states.data(), sensors.data(), e.out.data(), periods, age, time);
 }
 
 }  // namespace
@@ -1202,48 +1219,50 @@ NB_MODULE(_rollout, mod) {
         "sensing.light_intensity.");
 
     // Locomotion's step (LocomotionEnv on MuJoCo) and its window, for revolve_env.world.compiled.EnvStep.
-    nb::class_<EnvStep>(mod, "EnvStep", "One step of the single-robot env on a WorldStep, in C++.")
-        .def("__init__", &make_env_step, nb::keep_alive<1, 2>(), nb::arg("world"), nb::arg("n_act"),
+    nb::class_<BoundEnvStep>(mod, "EnvStep", "One step of the single-robot env on a WorldStep, in C++.")
+        .def("__init__", &make_env_step, nb::keep_alive<1, 2>(), nb::arg("world"), nb::arg("targets").noconvert(),
+             nb::arg("outputs").noconvert(), nb::arg("start").noconvert(), nb::arg("out").noconvert(), nb::arg("n_act"),
              nb::arg("n_inputs"), nb::arg("active"), nb::arg("proprioception"), nb::arg("low"), nb::arg("high"),
              nb::arg("target_scale"), nb::arg("task_kind"), nb::arg("s_weight"), nb::arg("limit"),
              nb::arg("cos_h"), nb::arg("sin_h"), nb::arg("window"), nb::arg("insertion"), nb::arg("stride"),
              nb::arg("signal_inputs"), nb::arg("network").none(), nb::arg("brain_dt"), nb::arg("brain_stride"))
         .def("step", &env_step<float>, nb::arg("action").noconvert(), nb::arg("obs").noconvert(),
-             nb::arg("targets").noconvert(), nb::arg("outputs").noconvert(), nb::arg("start").noconvert(),
-             nb::arg("states").noconvert(), nb::arg("sensors").noconvert(), nb::arg("out").noconvert(),
-             nb::arg("periods"), nb::arg("age"), nb::arg("time"),
-             "One env step (GIL released): DONE, BAD_ACTION, BRAIN_DIVERGED or the period's outcome.")
+             nb::arg("states").noconvert(), nb::arg("sensors").noconvert(), nb::arg("periods"), nb::arg("age"),
+             nb::arg("time"),
+             "One env step (GIL released): ENV_DONE, ENV_BAD_ACTION, ENV_BRAIN_DIVERGED or the period's outcome.")
         .def("step", &env_step<double>, nb::arg("action").noconvert(), nb::arg("obs").noconvert(),
-             nb::arg("targets").noconvert(), nb::arg("outputs").noconvert(), nb::arg("start").noconvert(),
-             nb::arg("states").noconvert(), nb::arg("sensors").noconvert(), nb::arg("out").noconvert(),
-             nb::arg("periods"), nb::arg("age"), nb::arg("time"))
+             nb::arg("states").noconvert(), nb::arg("sensors").noconvert(), nb::arg("periods"), nb::arg("age"),
+             nb::arg("time"))
         .def(
-            "set_world", [](EnvStep& e, WorldStep& w) {
-                if (w.n_ != 1 || w.n_inputs_ != e.n_in || w.m_->nu != e.n_out || w.J_ != e.w->J_) {
+            "set_world", [](BoundEnvStep& e, WorldStep& w, Out start) {
+                if (w.n_ != 1 || w.n_inputs_ != e.n_in || w.m_->nu != e.n_out || w.J_ != e.w->J_ ||
+                    start.shape(0) != static_cast<std::size_t>(w.state_size())) {
                     throw nb::value_error("another world's step");
                 }
                 e.w = &w;
+                e.start = start;
             },
-            nb::keep_alive<1, 2>(), nb::arg("world"), "Step this world's step from now on (a remade scene).")
+            nb::keep_alive<1, 2>(), nb::arg("world"), nb::arg("start").noconvert(),
+            "Step this world's step (its backend's start buffer) from now on (a remade scene).")
         .def_prop_rw(
-            "terms", [](EnvStep& e) { return nb::make_tuple(e.terms[0], e.terms[1], e.terms[2]); },
-            [](EnvStep& e, std::tuple<double, double, double> t) {
+            "terms", [](BoundEnvStep& e) { return nb::make_tuple(e.terms[0], e.terms[1], e.terms[2]); },
+            [](BoundEnvStep& e, std::tuple<double, double, double> t) {
                 e.terms[0] = std::get<0>(t);
                 e.terms[1] = std::get<1>(t);
                 e.terms[2] = std::get<2>(t);
             },
             "The task's fitness, v and s after the last step (metres).")
-        .def("window_holds", [](EnvStep& e, long age) { return e.window.holds(age); }, nb::arg("age"))
+        .def("window_holds", [](BoundEnvStep& e, long age) { return e.window.holds(age); }, nb::arg("age"))
         .def(
             "window_push",
-            [](EnvStep& e, double time, double x, double y, long age, std::optional<double> signal) {
+            [](BoundEnvStep& e, double time, double x, double y, long age, std::optional<double> signal) {
                 return e.window.push(time, x, y, age, signal.has_value(), signal.value_or(0.0));
             },
             nb::arg("time"), nb::arg("x"), nb::arg("y"), nb::arg("age"), nb::arg("signal").none(),
             "RobotWindow.push; 0, or why not (1: time not finite, 2: before the last, 3: position, 4: signal).")
         .def(
             "window_terms",
-            [](EnvStep& e) {
+            [](BoundEnvStep& e) {
                 double t[3];
                 e.window.terms(e.rule, t);
                 return nb::make_tuple(t[0], t[1], t[2]);
@@ -1251,15 +1270,15 @@ NB_MODULE(_rollout, mod) {
             "The task's fitness, v and s of the window now (zeros below two samples).")
         .def(
             "window_last",
-            [](EnvStep& e) {
+            [](BoundEnvStep& e) {
                 const EnvWindow::Sample s = e.window.last();
                 return nb::make_tuple(s.x, s.y, s.signal);
             })
-        .def("window_len", [](EnvStep& e) { return e.window.samples.size(); })
-        .def("window_clear", [](EnvStep& e) { e.window.samples.clear(); });
-    mod.attr("DONE") = static_cast<int>(EnvStep::kDone);
-    mod.attr("BAD_ACTION") = static_cast<int>(EnvStep::kBadAction);
-    mod.attr("BRAIN_DIVERGED") = static_cast<int>(EnvStep::kBrainDiverged);
+        .def("window_len", [](BoundEnvStep& e) { return e.window.samples.size(); })
+        .def("window_clear", [](BoundEnvStep& e) { e.window.samples.clear(); });
+    mod.attr("ENV_DONE") = static_cast<int>(EnvStep::kDone);
+    mod.attr("ENV_BAD_ACTION") = static_cast<int>(EnvStep::kBadAction);
+    mod.attr("ENV_BRAIN_DIVERGED") = static_cast<int>(EnvStep::kBrainDiverged);
     mod.def(
         "py_hypots",
         [](Vec<double> a, Vec<double> b) {

@@ -388,17 +388,17 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         if fast is not None and self._blow_up is None and self._step_count < self._total_steps:
             run = self._run
             assert run is not None
-            outputs = run.outputs if self.controller == "brain" else None
             try:
-                code = fast.step(action, self._obs, outputs, run.periods, self._step_count + 1)
+                code = fast.step(action, self._obs, run.periods, self._step_count + 1)
             except TypeError:  # not a 1-D float array: as the general step reads it
                 code = fast.step(np.asarray(action, dtype=np.float64).reshape(-1), self._obs,
-                                 outputs, run.periods, self._step_count + 1)
+                                 run.periods, self._step_count + 1)
             if code == fast.done:  # all of it: the world, the window, the observation
                 run.periods += 1
                 n = self._step_count = self._step_count + 1
+                # (the task's terms are the compiled step's, fast.terms: self._terms is set
+                # from them when Python finishes a step)
                 reward, f, v, s, x, y = fast.out.tolist()
-                self._terms = FitnessTerms(f, v, s)
                 return self._obs.copy(), reward, False, n >= self._total_steps, {
                     "fitness": f, "fitness_v": v, "fitness_s": s, "reward_fitness": reward,
                     "time": n * self.config.control_period,
@@ -516,7 +516,9 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
             state.joint_start + state.active_local, self.proprioception, self._obs_low,
             self._obs_high, self._rule, self.fitness_window, self._insertion_steps,
             self._robot_window.stride, signal.astype(np.intp),
-            self.robot if self.controller == "brain" else None, world.compiled_step())
+            self.robot if self.controller == "brain" else None,
+            self._run.outputs if self.controller == "brain" and self._run is not None else None,
+            world.compiled_step())
 
     @property
     def _brain_out(self) -> NDArray[np.float64]:

@@ -19,6 +19,12 @@ rest: the targets, the brains (one call of the batch controller), a period that 
 (:meth:`~revolve_env.world.mujoco_backend.MujocoBackend.stepped`) and the judgement of a failed
 screen.
 
+:class:`EnvStep` (made by :func:`env_step`) is one step of the single-robot env
+(:class:`~revolve_env.envs.LocomotionEnv`) on such a world in one call: the action (or the
+robot's brain), the period above, the task's window of the robot and the shipped task's fitness,
+the reward and the observation. Python finishes a step only at events (a bad action, a brain
+that diverges, a period that is not calm, an observation that is not finite).
+
 The only module that imports the extension. It is used only where it gives the NumPy path's
 numbers: the extension must be built against the very ``mujoco`` that is imported, and its
 kernels must round as NumPy's do here (checked once per process on random data: NumPy's matrix
@@ -288,6 +294,7 @@ class WorldStep:
         self._n = n
         self._substeps = c.substeps
         self.size = self._size
+        self._queue: list[Buffers] = []
 
     @property
     def extension_step(self) -> Any:
@@ -337,6 +344,49 @@ class WorldStep:
                          states[e:f], self._diverged)
         sensors.flags.writeable = False
         return outcome, now, states[f:].reshape(n, 3), sensors
+
+    def buffers(self) -> Buffers:
+        """Fresh arrays for one period and the views of them that :meth:`finished` hands out.
+
+        The states and sensors the extension writes, made :data:`BATCH` periods at a time: one
+        allocation and one slicing for all, so that a period pays neither (each period's arrays
+        are still its own: the world's states are replaced, never changed).
+        """
+        queue = self._queue
+        if not queue:
+            k, n = BATCH, self._n
+            a, b, c, d, e, f = self._cuts
+            states, sensors = np.empty((k, self._size)), np.empty((k, self._inputs))
+            read = sensors.view()
+            read.flags.writeable = False
+            queue.extend(zip(states, sensors, states[:, :a].reshape(k, n, 3),
+                             states[:, a:b].reshape(k, n, 3, 3), states[:, b:c].reshape(k, n, 3),
+                             states[:, c:d].reshape(k, n, 3), states[:, d:e], states[:, e:f],
+                             states[:, f:].reshape(k, n, 3), read, strict=True))
+            queue.reverse()
+        return queue.pop()
+
+    def finished(self, code: int, views: Buffers
+                 ) -> tuple[str, BodyStates | None, NDArray[np.float64] | None,
+                            NDArray[np.float64] | None]:
+        """:meth:`finish` of a period whose arrays came from :meth:`buffers` (the same result)."""
+        outcome = self._outcomes[code]
+        # the backend replays what needs a replay; an unsettled state is a stepped one to it
+        self._backend.stepped("calm" if outcome == "unsettled" else outcome, self._substeps)
+        if outcome in ("replay", "restart"):
+            return outcome, None, None, None
+        _, _, pos, rot, vel, spin, joints, speeds, prev_vel, sensors = views
+        return outcome, BodyStates(pos, rot, vel, spin, joints, speeds, self._diverged), \
+            prev_vel, sensors
+
+
+BATCH = 64
+"""Periods whose arrays :meth:`WorldStep.buffers` makes at once."""
+
+Buffers = tuple[NDArray[np.float64], ...]
+""":meth:`WorldStep.buffers`: the states and sensors to write, then the views of them:
+core_pos, core_rot, core_vel, core_angvel, joint_pos, joint_vel, the velocities before the
+period and the sensor values (read-only)."""
 
 
 def world_step(c: WorldConfig, backend: object, layout: Layout, screen: Screen) -> WorldStep | None:
@@ -451,7 +501,7 @@ class EnvStep:
                  n_inputs: int, active: NDArray[np.intp], proprioception: bool,
                  low: NDArray[np.float64], high: NDArray[np.float64], rule: TaskRule,
                  window: float, insertion: int, stride: int, signal_inputs: NDArray[np.intp],
-                 network: Robot | None) -> None:
+                 network: Robot | None, outputs: NDArray[np.float64] | None) -> None:
         c = world.config
         spec = None
         if network is not None:
@@ -459,8 +509,13 @@ class EnvStep:
             spec = (s.kinds, s.neuron_params, s.src, s.dst, s.weight, int(s.n_inputs),
                     int(s.n_outputs))
         kind, s_weight, limit, cos_h, sin_h = rule
+        self.out = np.zeros(6)
+        """After a step done here: its reward, the task's fitness, v, s (metres) and the core's
+        x, y (metres)."""
         self._ext = ext.EnvStep(
-            run.extension_step, n_act, n_inputs, np.asarray(active, dtype=np.int64),
+            run.extension_step, world.compiled_targets(),
+            np.zeros(0) if outputs is None else outputs, run.start, self.out, n_act, n_inputs,
+            np.asarray(active, dtype=np.int64),
             proprioception, np.ascontiguousarray(low, dtype=np.float64),
             np.ascontiguousarray(high, dtype=np.float64), math.radians(c.range_deg), kind,
             s_weight, limit, cos_h, sin_h, window, insertion, stride,
@@ -469,14 +524,10 @@ class EnvStep:
         self._world = world
         self._run = run
         self._dt = c.control_period
-        self._inputs = n_inputs
-        self._no_outputs = np.zeros(0)
-        self.out = np.zeros(6)
-        """After a step done here: its reward, the task's fitness, v, s (metres) and the core's
-        x, y (metres)."""
-        self.done = ext.DONE
-        self.bad_action = ext.BAD_ACTION
-        self.brain_diverged = ext.BRAIN_DIVERGED
+        self._step = self._ext.step
+        self.done = ext.ENV_DONE
+        self.bad_action = ext.ENV_BAD_ACTION
+        self.brain_diverged = ext.ENV_BRAIN_DIVERGED
 
     @property
     def terms(self) -> tuple[float, float, float]:
@@ -494,37 +545,31 @@ class EnvStep:
 
     def adopt(self, run: WorldStep) -> None:
         """Step the world's new compiled step (its scene remade by a replay) from now on."""
-        self._ext.set_world(run.extension_step)
+        self._ext.set_world(run.extension_step, run.start)
         self._run = run
 
-    def step(self, action: Any, obs: NDArray[np.float64], outputs: NDArray[np.float64] | None,
-             periods: int, age: int) -> int:
+    def step(self, action: Any, obs: NDArray[np.float64], periods: int, age: int) -> int:
         """One env step towards ``action``; ``obs`` (the previous observation) becomes the new one.
 
         Args:
             action: The env's action (a 1-D C-contiguous float32 or float64 array; TypeError
                 for anything else: the caller's general path takes it).
             obs: The env's observation array (float64): the brain reads its sensor part.
-            outputs: The brain's outputs (held between its steps; None without a brain).
             periods: Control periods stepped in the episode before this one.
             age: The env's step count after this step.
 
         Returns:
             :attr:`done` (all done: :attr:`out`, ``obs`` and the world are the step's),
             :attr:`bad_action` (nothing done: the action has the wrong shape or is not finite),
-            :attr:`brain_diverged` (the brain stepped and wrote ``outputs``; nothing else), or
+            :attr:`brain_diverged` (the brain stepped and wrote its outputs; nothing else), or
             the world's period outcome, 0-3 (the world has stepped, the env's part is left).
         """
         world, run = self._world, self._run
-        states = np.empty(run.size)
-        sensors = np.empty(self._inputs)
-        code: int = self._ext.step(action, obs, world.compiled_targets(),
-                                   self._no_outputs if outputs is None else outputs, run.start,
-                                   states, sensors, self.out, periods, age,
-                                   world.time + self._dt)
+        views = run.buffers()
+        code: int = self._step(action, obs, views[0], views[1], periods, age,
+                               world.time + self._dt)
         if code >= 0:
-            outcome, now, prev_vel, values = run.finish(code % 10, states, sensors)
-            world.compiled_stepped(run, outcome, now, prev_vel, values)
+            world.compiled_stepped(run, *run.finished(code % 10, views))
         return code
 
 
@@ -532,7 +577,7 @@ def env_step(world: Stepping, n_act: int, n_inputs: int, active: NDArray[np.intp
              proprioception: bool, low: NDArray[np.float64], high: NDArray[np.float64],
              rule: TaskRule, window: float, insertion: int, stride: int,
              signal_inputs: NDArray[np.intp], network: Robot | None,
-             run: WorldStep | None) -> EnvStep | None:
+             outputs: NDArray[np.float64] | None, run: WorldStep | None) -> EnvStep | None:
     """The compiled step of the single-robot env (:class:`EnvStep`), None where it does not apply.
 
     It applies to a world of one robot stepped by a compiled ``run`` (:class:`WorldStep`, of the
@@ -553,13 +598,15 @@ def env_step(world: Stepping, n_act: int, n_inputs: int, active: NDArray[np.intp
         signal_inputs: The robot's light sensors' entries in its sensor values (the task
             signal "light"; empty: the light at the core).
         network: The robot whose network drives it (None: the action drives).
+        outputs: The brain's outputs, which the step keeps (held between its steps; None
+            without a brain).
         run: The world's compiled step (None: the NumPy path steps it).
     """
     ext = _extension()
     if ext is None or run is None or run.any_diverged or run._n != 1 or not hypot_exact():
         return None
     return EnvStep(ext, world, run, n_act, n_inputs, active, proprioception, low, high, rule,
-                   window, insertion, stride, signal_inputs, network)
+                   window, insertion, stride, signal_inputs, network, outputs)
 
 
 @functools.cache

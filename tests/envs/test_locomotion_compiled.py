@@ -221,7 +221,7 @@ def test_the_compiled_window_is_robot_windows(task: Task, rate: float, window: f
         state, _ = world.plan(handle)
         run = compiled.env_step(world, 8, 6, state.joint_start + state.active_local, True,
                                 -np.ones(22), np.ones(22), rule, window, insertion,
-                                theirs.stride, np.zeros(0, dtype=np.intp), None,
+                                theirs.stride, np.zeros(0, dtype=np.intp), None, None,
                                 world.compiled_step())
         assert run is not None
         ours = run.window
