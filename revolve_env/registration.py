@@ -27,6 +27,12 @@ would go on with:
   which is never scored). ``gym.make`` refuses that with a one-line ``ValueError`` naming the
   ``max_episode_steps`` to pass instead (the check is :class:`TimeLimitFits`, a wrapper the
   registration adds after the ``TimeLimit``); ``max_episode_steps=-1`` removes the limit.
+
+``gym.make``'s layers stay what Gymnasium makes them (``TimeLimitFits``, ``TimeLimit``,
+``OrderEnforcing``, ``PassiveEnvChecker``, the env), but once the lower three have nothing left
+to check (the env reset, the env checker's first step seen) :class:`TimeLimitFits` steps the env
+directly and applies the ``TimeLimit``'s count and truncation itself, as it would: the same
+results and wrapper state, three Python calls fewer per step (a tenth of a step's overhead).
 """
 
 from __future__ import annotations
