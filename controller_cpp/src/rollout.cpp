@@ -711,7 +711,6 @@ nb::ndarray<nb::numpy, double> copy_array(const double* src, std::size_t n, std:
     return nb::ndarray<nb::numpy, double>(buf, shape.size(), shape.data(), owner);
 }
 
-
 // ---- Locomotion's step: LocomotionEnv's one robot, one env step in one call ------------------------------
 //
 // EnvStep is one step of revolve_env.envs.locomotion.LocomotionEnv on MuJoCo: the action's check and clip
