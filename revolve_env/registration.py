@@ -27,15 +27,22 @@ would go on with:
   which is never scored). ``gym.make`` refuses that with a one-line ``ValueError`` naming the
   ``max_episode_steps`` to pass instead (the check is :class:`TimeLimitFits`, a wrapper the
   registration adds after the ``TimeLimit``); ``max_episode_steps=-1`` removes the limit.
+
+``gym.make``'s layers stay what Gymnasium makes them (``TimeLimitFits``, ``TimeLimit``,
+``OrderEnforcing``, ``PassiveEnvChecker``, the env), but once the lower three have nothing left
+to check (the env reset, the env checker's first step seen) :class:`TimeLimitFits` steps the env
+directly and applies the ``TimeLimit``'s count and truncation itself, as it would: the same
+results and wrapper state, three Python calls fewer per step (a tenth of a step's overhead).
 """
 
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import Any, SupportsFloat
 
 import gymnasium
 from gymnasium.envs.registration import EnvSpec, WrapperSpec
+from gymnasium.wrappers import OrderEnforcing, PassiveEnvChecker, TimeLimit
 
 from revolve_env.episode_length import (
     DEFAULT_CONTROL_PERIOD,
@@ -81,6 +88,45 @@ class TimeLimitFits(gymnasium.Wrapper[Any, Any, Any, Any],
         gymnasium.Wrapper.__init__(self, env)
         check_time_limit(env.spec.max_episode_steps if env.spec is not None else None,
                          env.unwrapped)
+        self._layers = _plain_layers(env)
+
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+        """The env's step through ``gym.make``'s layers, as they would take it.
+
+        Once the layers below have nothing left to check (the env was reset, the env checker
+        has seen a step), the step goes to the env directly and the ``TimeLimit``'s count and
+        truncation are applied here, as that wrapper applies them: the same results, the same
+        wrapper state, without three Python calls per step.
+        """
+        layers = self._layers
+        if layers is None or self.env is not layers[0] or not layers[1]._has_reset or \
+                not (layers[2].checked_step and layers[2].checked_data_reuse):
+            return self.env.step(action)
+        limit: Any = layers[0]
+        obs, reward, terminated, truncated, info = layers[3].step(action)
+        limit._elapsed_steps += 1
+        if limit._elapsed_steps >= limit._max_episode_steps:
+            truncated = True
+        return obs, reward, terminated, truncated, info
+
+
+def _plain_layers(env: gymnasium.Env[Any, Any]) -> tuple[Any, Any, Any, Any] | None:
+    """``gym.make``'s TimeLimit, OrderEnforcing and PassiveEnvChecker over the env, or None.
+
+    Exactly those types, with the state their steps keep in Gymnasium 1.
+    """
+    limit = env
+    order = getattr(limit, "env", None)
+    checker = getattr(order, "env", None)
+    inner = getattr(checker, "env", None)
+    if (type(limit) is TimeLimit and type(order) is OrderEnforcing
+            and type(checker) is PassiveEnvChecker and inner is not None
+            and inner is env.unwrapped and all(hasattr(w, a) for w, a in (
+                (limit, "_elapsed_steps"), (limit, "_max_episode_steps"),
+                (order, "_has_reset"), (checker, "checked_step"),
+                (checker, "checked_data_reuse")))):
+        return limit, order, checker, inner
+    return None
 
 
 def register_envs() -> None:

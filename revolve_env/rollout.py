@@ -41,11 +41,21 @@ from revolve_env.conditions import Start, add_actuator_noise, add_sensor_noise
 from revolve_env.fitness import FitnessTerms, FitnessWindows, Window, trajectory_window
 from revolve_env.fitness.sampling import pose_due, pose_stride
 from revolve_env.fitness.terms import TIME_EPS
-from revolve_env.tasks import Task, TaskError, pose_rate, score
+from revolve_env.tasks import (
+    BaseTask,
+    DirectedLocomotion,
+    LightFollowing,
+    Locomotion,
+    Task,
+    TaskError,
+    pose_rate,
+    score,
+)
 from revolve_env.world import World, compiled
 from revolve_env.world.signals import SignalReader, signal_reader
 
-__all__ = ["RobotWindow", "Rollout", "TaskWindows", "rollout", "score_paths", "task_pose_stride"]
+__all__ = ["RobotWindow", "Rollout", "TaskWindows", "rollout", "score_paths", "task_pose_stride",
+           "task_rule"]
 
 
 def task_pose_stride(task: Task, control_period: float) -> int:
@@ -58,6 +68,29 @@ def task_pose_stride(task: Task, control_period: float) -> int:
         return pose_stride(pose_rate(task), control_period)
     except ValueError as error:
         raise TaskError(f"task {task.name!r}: {error}") from None
+
+
+def task_rule(task: Task) -> compiled.TaskRule | None:
+    """``task``'s fitness rule for the compiled env step (:class:`compiled.EnvStep`), or None.
+
+    The shipped tasks rewarded by their fitness gain (:class:`~revolve_env.tasks.Locomotion`,
+    :class:`~revolve_env.tasks.DirectedLocomotion`, :class:`~revolve_env.tasks.LightFollowing`,
+    not a subclass: a user's class may score otherwise); their Python rules are the reference,
+    and the compiled ones give their bits (tests).
+    """
+    kind = type(task)
+    if kind.reward is not BaseTask.reward:
+        return None
+    if kind is Locomotion:
+        assert isinstance(task, Locomotion)
+        limit = math.nan if task.limit is None else task.limit
+        return 0, task.s_weight, limit, 1.0, 0.0
+    if kind is DirectedLocomotion:
+        assert isinstance(task, DirectedLocomotion)
+        return 1, 0.0, math.nan, math.cos(task.heading), math.sin(task.heading)
+    if kind is LightFollowing:
+        return 2, 0.0, math.nan, 1.0, 0.0
+    return None
 
 
 def _entries(offsets: NDArray[np.intp], rows: list[int]) -> NDArray[np.intp]:

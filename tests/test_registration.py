@@ -139,3 +139,31 @@ def test_v0_is_kept_for_older_code_and_v1_is_current() -> None:
         warnings.simplefilter("always")
         gym.make(LOCOMOTION_ID, **SHORT).close()
     assert revolve_env.LOCOMOTION_V1_ID == LOCOMOTION_V1_ID
+
+
+def test_the_wrappers_shortcut_keeps_their_state_and_truncation() -> None:
+    """gym.make's layers under the registration's wrapper: the same episode with and without
+    the shortcut, the TimeLimit's count and its truncation (at the env's own end here: a limit
+    before it is refused), the order enforcer as Gymnasium has them."""
+    env = gym.make(LOCOMOTION_V1_ID, **SHORT)
+    with pytest.raises(gym.error.ResetNeeded):
+        env.step(env.action_space.sample())  # the order enforcer
+    env.close()
+    runs = []
+    for shortcut in (True, False):
+        env = gym.make(LOCOMOTION_V1_ID, max_episode_steps=105, insertion_time=0.25,
+                       evaluation_time=1.5)
+        if not shortcut:
+            env._layers = None  # type: ignore[attr-defined]
+        assert env._layers is not None or not shortcut  # type: ignore[attr-defined]
+        env.reset(seed=0)
+        steps, done = [], False
+        while not done:
+            out = env.step(np.full(env.action_space.shape, 0.5, dtype=np.float32))
+            steps.append((out[0].tobytes(), out[1:4],
+                          env.get_wrapper_attr("_elapsed_steps")))
+            done = out[2] or out[3]
+        runs.append((steps, env.get_wrapper_attr("_elapsed_steps")))
+        env.close()
+    assert runs[0] == runs[1]
+    assert runs[0][1] == 105 and runs[0][0][-1][1][2] is True

@@ -26,14 +26,19 @@
 #include <mujoco/mujoco.h>
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
+#include <nanobind/stl/optional.h>
+#include <nanobind/stl/tuple.h>
 #include <nanobind/stl/vector.h>
 
 #include <atomic>
+#include <cfloat>
 #include <cmath>
 #include <csetjmp>
 #include <cstdint>
 #include <cstring>
+#include <deque>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -706,6 +711,359 @@ nb::ndarray<nb::numpy, double> copy_array(const double* src, std::size_t n, std:
     return nb::ndarray<nb::numpy, double>(buf, shape.size(), shape.data(), owner);
 }
 
+// ---- Locomotion's step: LocomotionEnv's one robot, one env step in one call ------------------------------
+//
+// EnvStep is one step of revolve_env.envs.locomotion.LocomotionEnv on MuJoCo: the action's check and clip
+// to the world's targets (World._write_targets), or the robot's brain (revolve::BatchController, stepped
+// every brain_stride periods on the previous observation's sensor values), the world's period (WorldStep),
+// the task's fitness window of the robot (revolve_env.rollout.RobotWindow: poses at the task's stride,
+// the same floating-point operations in the same order), the shipped tasks' fitness (tasks.Locomotion,
+// DirectedLocomotion, LightFollowing: the Python rules are the reference, compared bit for bit by the
+// tests), the reward (the fitness gain) and the observation (sensors, then the active hinges' angles and
+// speeds, clipped to the observation's bounds). What is rare stays in Python: a bad action, a brain whose
+// outputs are not finite, a period that is not calm or an observation that is not finite return early
+// and the env finishes the step on its general path (with this window, see the window_* methods).
+
+// CPython's math.hypot of two numbers (Modules/mathmodule.c: vector_norm, 3.10 and 3.11), which the
+// fitness windows use; not the C library's hypot (they differ in the last bit now and then). Checked
+// against math.hypot on random data at import (revolve_env.world.compiled).
+double py_hypot(double a, double b) {
+    double vec[2] = {std::fabs(a), std::fabs(b)};
+    const bool found_nan = std::isnan(vec[0]) || std::isnan(vec[1]);
+    double max = 0.0;
+    for (double x : vec) {
+        if (x > max) max = x;
+    }
+    if (std::isinf(max)) return max;
+    if (found_nan) return NAN;
+    if (max == 0.0) return max;
+    int max_e;
+    std::frexp(max, &max_e);
+    double rescale = 1.0;
+    if (max_e < -1023) {  // subnormals: to normals first
+        for (double& x : vec) x /= DBL_MIN;
+        rescale = DBL_MIN;
+        max /= DBL_MIN;
+        std::frexp(max, &max_e);
+    }
+    const double T27 = 134217729.0;
+    double x, t, hi, lo, oldcsum, csum = 1.0, frac1 = 0.0, frac2 = 0.0, frac3 = 0.0;
+    const double scale = std::ldexp(1.0, -max_e);
+    for (double v : vec) {
+        x = v * scale;
+        t = x * T27;
+        hi = t - (t - x);
+        lo = x - hi;
+        x = hi * hi;
+        oldcsum = csum;
+        csum += x;
+        frac1 += (oldcsum - csum) + x;
+        x = 2.0 * hi * lo;
+        oldcsum = csum;
+        csum += x;
+        frac2 += (oldcsum - csum) + x;
+        frac3 += lo * lo;
+    }
+    const double h = std::sqrt(csum - 1.0 + (frac1 + frac2 + frac3));
+    x = h;
+    t = x * T27;
+    hi = t - (t - x);
+    lo = x - hi;
+    x = -hi * hi;
+    oldcsum = csum;
+    csum += x;
+    frac1 += (oldcsum - csum) + x;
+    x = -2.0 * hi * lo;
+    oldcsum = csum;
+    csum += x;
+    frac2 += (oldcsum - csum) + x;
+    x = -lo * lo;
+    oldcsum = csum;
+    csum += x;
+    frac3 += (oldcsum - csum) + x;
+    x = csum - 1.0 + (frac1 + frac2 + frac3);
+    return rescale * ((h + x / (2.0 * h)) / scale);
+}
+
+// A shipped task's fitness of a window (tasks.Locomotion, DirectedLocomotion, LightFollowing).
+struct TaskRule {
+    enum Kind : int { kLocomotion = 0, kDirected = 1, kLight = 2 };
+    int kind = kLocomotion;
+    double s_weight = 0, limit = 0, cos_h = 1, sin_h = 0;
+    bool has_limit = false;
+
+    double fitness(double dx, double dy, double v, double s, double duration, double g0, double g1) const {
+        if (kind == kDirected) return dx * cos_h + dy * sin_h;
+        if (kind == kLight) return g1 - g0;
+        double f = v + s_weight * s;  // fitness.terms.speed_fitness
+        if (has_limit) {
+            if (f >= limit * duration) f = 0.0;
+            if (duration <= 0.0) f = 0.0;
+        }
+        return f;
+    }
+};
+
+// revolve_env.rollout.RobotWindow: one robot's window of pose samples, oldest first.
+class EnvWindow {
+   public:
+    struct Sample {
+        double t, x, y, path, signal;
+    };
+    enum Push : int { kPushed = 0, kBadTime = 1, kEarly = 2, kBadPosition = 3, kNoSignal = 4 };
+
+    double window = 0;
+    int insertion = 0, stride = 1;
+    bool signal = false;
+    std::deque<Sample> samples;
+
+    bool holds(long age) const {
+        const long since = age - insertion;
+        return stride > 1 && since > 0 && since % stride != 0;
+    }
+
+    Sample last() const { return samples.empty() ? Sample{0, 0, 0, 0, 0} : samples.back(); }
+
+    int push(double time, double x, double y, long age, bool has_signal, double sig) {
+        if (holds(age)) {
+            const Sample held = last();
+            x = held.x;
+            y = held.y;
+            if (has_signal && signal) sig = held.signal;
+        }
+        if (!std::isfinite(time)) return kBadTime;
+        if (!samples.empty() && time < samples.back().t) return kEarly;
+        if (!(std::isfinite(x) && std::isfinite(y))) return kBadPosition;
+        if (signal && !has_signal) return kNoSignal;
+        double path = 0.0;
+        if (!samples.empty()) {
+            const Sample& p = samples.back();
+            path = p.path + py_hypot(x - p.x, y - p.y);
+            const double horizon = time - window - 1e-9;  // fitness.terms.TIME_EPS
+            while (!samples.empty() && samples.front().t < horizon) samples.pop_front();
+        }
+        samples.push_back(Sample{time, x, y, path, signal && has_signal ? sig : 0.0});
+        if (path > 1e3) {  // keep the running sum small so that differences stay exact
+            const double base = samples.front().path;
+            for (Sample& s : samples) s.path -= base;
+        }
+        return kPushed;
+    }
+
+    // (fitness, v, s) of the window now; zeros below two samples.
+    void terms(const TaskRule& rule, double out[3]) const {
+        if (samples.size() < 2) {
+            out[0] = out[1] = out[2] = 0.0;
+            return;
+        }
+        const Sample& a = samples.front();
+        const Sample& b = samples.back();
+        const double dx = b.x - a.x, dy = b.y - a.y;
+        const double v = b.path - a.path;
+        const double s = py_hypot(dx, dy);
+        out[0] = rule.fitness(dx, dy, v, s, b.t - a.t, a.signal, b.signal);
+        out[1] = v;
+        out[2] = s;
+    }
+};
+
+class EnvStep {
+   public:
+    // What step() did: all of it (kDone), or it stopped for Python: a bad action (nothing done), a brain
+    // whose outputs are not finite (the brain stepped, nothing else), or the world's period outcome
+    // (WorldStep::Outcome: the period done, the env's part left to Python).
+    enum Code : int { kDone = 10, kBadAction = -1, kBrainDiverged = -2 };
+
+    WorldStep* w = nullptr;
+    bool brain_driven = false, proprioception = false;
+    int n_act = 0, n_out = 0, n_in = 0, n_obs = 0, brain_stride = 1;
+    double target_scale = 0;
+    std::vector<int> active;         // index of each active hinge in the world's joint arrays
+    std::vector<double> low, high;   // the observation's bounds
+    std::vector<int> signal_inputs;  // the light signal: the robot's light sensors' inputs
+    std::unique_ptr<revolve::BatchController> brain;
+    std::vector<double> inputs;
+    TaskRule rule;
+    EnvWindow window;
+    double terms[3] = {0, 0, 0};  // the task's fitness, v, s after the last step (metres)
+
+    double light_signal(const double* sensors, const double* core) const {
+        if (signal_inputs.empty()) return falloff_value(core, w->s_.light, w->s_.light_range);
+        double best = sensors[signal_inputs[0]];
+        for (std::size_t k = 1; k < signal_inputs.size(); ++k) best = np_max(best, sensors[signal_inputs[k]]);
+        return best;
+    }
+
+    // One env step. action: n_act values (any; checked here); obs: the previous observation (the brain
+    // reads its sensor part), overwritten by the new one when done; targets: the world's targets
+    // (radians); outputs: the brain's outputs (held between its steps); start, states, sensors: as
+    // WorldStep::step; out: reward, fitness, v, s, x, y. periods: control periods stepped before;
+    // age: the env's step count after this step; time: the world's time after it (seconds).
+    template <typename A>
+    int step(const A* action, std::size_t n, double* obs, double* targets, double* outputs, double* start,
+             double* states, double* sensors, double* out, long periods, long age, double time) {
+        if (static_cast<int>(n) != n_act) return kBadAction;
+        for (std::size_t i = 0; i < n; ++i) {
+            if (!std::isfinite(static_cast<double>(action[i]))) return kBadAction;
+        }
+        const int nu = w->m_->nu;
+        if (brain_driven) {  // the action is checked and ignored: the brain drives
+            if (periods % brain_stride == 0) {
+                std::memcpy(inputs.data(), obs, n_in * sizeof(double));
+                brain->step(inputs.data(), outputs);
+                if (!finite(outputs, n_out)) return kBrainDiverged;
+            }
+            for (int i = 0; i < nu; ++i) targets[i] = np_min(np_max(outputs[i], -1.0), 1.0) * target_scale;
+        } else {  // LocomotionEnv._checked, then World._write_targets (the same clip again)
+            for (int i = 0; i < nu; ++i) {
+                const double a = np_min(np_max(static_cast<double>(action[i]), -1.0), 1.0);
+                targets[i] = np_min(np_max(a, -1.0), 1.0) * target_scale;
+            }
+        }
+        const int outcome = w->step(targets, start, states, sensors);
+        if (outcome != WorldStep::kCalm) return outcome;
+        const int n_rob = w->n_;
+        const double* pos = states;
+        const double* jpos = states + 18 * n_rob;
+        const double* jvel = jpos + w->J_;
+        // LocomotionEnv._get_obs: finite, then clipped to the bounds (else Python's rules)
+        double* o = obs;
+        bool ok = true;
+        for (int i = 0; i < n_in; ++i) ok &= std::isfinite(sensors[i]);
+        if (proprioception) {
+            for (int i : active) ok &= std::isfinite(jpos[i]) && std::isfinite(jvel[i]);
+        }
+        if (!ok) return outcome;
+        // LocomotionEnv._sample and _get_reward
+        const double previous = terms[0];
+        if (age >= window.insertion) {
+            double sig = 0.0;
+            if (window.signal) sig = window.holds(age) ? 0.0 : light_signal(sensors, pos);
+            if (window.push(time, pos[0], pos[1], age, window.signal, sig) != EnvWindow::kPushed) return outcome;
+            window.terms(rule, terms);
+        }
+        out[0] = terms[0] - previous;
+        out[1] = terms[0];
+        out[2] = terms[1];
+        out[3] = terms[2];
+        out[4] = pos[0];
+        out[5] = pos[1];
+        int k = 0;
+        for (int i = 0; i < n_in; ++i, ++k) o[k] = np_min(np_max(sensors[i], low[k]), high[k]);
+        if (proprioception) {
+            for (int i : active) {
+                o[k] = np_min(np_max(jpos[i], low[k]), high[k]);
+                ++k;
+            }
+            for (int i : active) {
+                o[k] = np_min(np_max(jvel[i], low[k]), high[k]);
+                ++k;
+            }
+        }
+        return kDone;
+    }
+};
+
+using Obs = nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+
+// EnvStep with the arrays it keeps between steps (held, so they stay valid): the world's targets, the
+// brain's outputs, the backend's start state and the step's outputs (reward, fitness, v, s, x, y).
+struct BoundEnvStep : EnvStep {
+    Out targets, outputs, start, out;
+
+    void check() const {
+        if (targets.shape(0) != static_cast<std::size_t>(w->m_->nu) ||
+            (brain_driven && outputs.shape(0) != static_cast<std::size_t>(n_out)) ||
+            start.shape(0) != static_cast<std::size_t>(w->state_size()) || out.shape(0) != 6) {
+            throw nb::value_error("env step arrays of the wrong size");
+        }
+    }
+};
+
+void make_env_step(BoundEnvStep* self, WorldStep& world, Out targets, Out outputs, Out start, Out out, int n_act,
+                   int n_inputs, Vec<std::int64_t> active,
+                   bool proprioception, Vec<double> low, Vec<double> high, double target_scale, int task_kind,
+                   double s_weight, double limit, double cos_h, double sin_h, double window, int insertion,
+                   int stride, Vec<std::int64_t> signal_inputs, nb::object network, double brain_dt, int brain_stride) {
+    BoundEnvStep e;
+    e.w = &world;
+    e.targets = targets;
+    e.outputs = outputs;
+    e.start = start;
+    e.out = out;
+    e.n_act = n_act;
+    e.n_out = world.m_->nu;
+    e.n_in = n_inputs;
+    e.active = ints(active);
+    check_index(e.active, world.J_, "active hinge");
+    e.proprioception = proprioception;
+    e.n_obs = n_inputs + (proprioception ? 2 * static_cast<int>(e.active.size()) : 0);
+    if (world.n_ != 1 || n_inputs != world.n_inputs_ || static_cast<int>(e.active.size()) != e.n_out ||
+        low.shape(0) != static_cast<std::size_t>(e.n_obs) || high.shape(0) != low.shape(0) || task_kind < 0 ||
+        task_kind > 2 || window <= 0 || insertion < 0 || stride < 1 || brain_stride < 1) {
+        throw nb::value_error("bad env step settings");
+    }
+    e.low.assign(low.data(), low.data() + low.shape(0));
+    e.high.assign(high.data(), high.data() + high.shape(0));
+    e.target_scale = target_scale;
+    e.rule.kind = task_kind;
+    e.rule.s_weight = s_weight;
+    e.rule.has_limit = !std::isnan(limit);
+    e.rule.limit = limit;
+    e.rule.cos_h = cos_h;
+    e.rule.sin_h = sin_h;
+    e.window.window = window;
+    e.window.insertion = insertion;
+    e.window.stride = stride;
+    e.window.signal = task_kind == TaskRule::kLight;
+    e.signal_inputs = ints(signal_inputs);
+    check_index(e.signal_inputs, n_inputs, "light input");
+    e.brain_stride = brain_stride;
+    if (!network.is_none()) {  // (kinds, params, src, dst, weight, n_inputs, n_outputs) of as_spec
+        auto kinds = nb::cast<Vec<std::int8_t>>(network[0]);
+        auto params = nb::cast<nb::ndarray<const double, nb::ndim<2>, nb::c_contig>>(network[1]);
+        auto src = nb::cast<Vec<std::int32_t>>(network[2]);
+        auto dst = nb::cast<Vec<std::int32_t>>(network[3]);
+        auto weight = nb::cast<Vec<double>>(network[4]);
+        const auto net_in = nb::cast<std::int64_t>(network[5]);
+        const auto net_out = nb::cast<std::int64_t>(network[6]);
+        if (net_in != n_inputs || net_out != e.n_out || params.shape(0) != kinds.shape(0) ||
+            params.shape(1) != revolve::kParamColumns || src.shape(0) != dst.shape(0) ||
+            src.shape(0) != weight.shape(0)) {
+            throw nb::value_error("the network does not fit the body");
+        }
+        revolve::NetworkView v;
+        v.n_neurons = static_cast<std::int64_t>(kinds.shape(0));
+        v.n_inputs = net_in;
+        v.n_outputs = net_out;
+        v.kinds = kinds.data();
+        v.neuron_params = params.data();
+        v.n_connections = static_cast<std::int64_t>(src.shape(0));
+        v.src = src.data();
+        v.dst = dst.data();
+        v.weight = weight.data();
+        e.brain = std::make_unique<revolve::BatchController>(brain_dt);
+        e.brain->add(v);
+        e.brain_driven = true;
+        e.inputs.assign(n_inputs, 0.0);
+    }
+    e.check();
+    new (self) BoundEnvStep(std::move(e));
+}
+
+template <typename A>
+int env_step(BoundEnvStep& e, nb::ndarray<const A, nb::ndim<1>, nb::c_contig, nb::device::cpu> action, Obs obs,
+             Out states, Out sensors, long periods, long age, double time) {
+    const WorldStep& w = *e.w;
+    if (obs.shape(0) != static_cast<std::size_t>(e.n_obs) || states.shape(0) != w.states_size() ||
+        sensors.shape(0) != static_cast<std::size_t>(w.n_inputs_)) {
+        throw nb::value_error("env step arrays of the wrong size");
+    }
+    nb::gil_scoped_release release;
+    return e.step(action.data(), action.shape(0), obs.data(), e.targets.data(), e.outputs.data(), e.start.data(),
+                  states.data(), sensors.data(), e.out.data(), periods, age, time);
+}
+
 }  // namespace
 
 NB_MODULE(_rollout, mod) {
@@ -858,4 +1216,76 @@ NB_MODULE(_rollout, mod) {
         },
         nb::arg("pos"), nb::arg("rot"), nb::arg("point"), nb::arg("facing"), nb::arg("light"), nb::arg("light_range"),
         "sensing.light_intensity.");
+
+    // Locomotion's step (LocomotionEnv on MuJoCo) and its window, for revolve_env.world.compiled.EnvStep.
+    nb::class_<BoundEnvStep>(mod, "EnvStep", "One step of the single-robot env on a WorldStep, in C++.")
+        .def("__init__", &make_env_step, nb::keep_alive<1, 2>(), nb::arg("world"), nb::arg("targets").noconvert(),
+             nb::arg("outputs").noconvert(), nb::arg("start").noconvert(), nb::arg("out").noconvert(), nb::arg("n_act"),
+             nb::arg("n_inputs"), nb::arg("active"), nb::arg("proprioception"), nb::arg("low"), nb::arg("high"),
+             nb::arg("target_scale"), nb::arg("task_kind"), nb::arg("s_weight"), nb::arg("limit"),
+             nb::arg("cos_h"), nb::arg("sin_h"), nb::arg("window"), nb::arg("insertion"), nb::arg("stride"),
+             nb::arg("signal_inputs"), nb::arg("network").none(), nb::arg("brain_dt"), nb::arg("brain_stride"))
+        .def("step", &env_step<float>, nb::arg("action").noconvert(), nb::arg("obs").noconvert(),
+             nb::arg("states").noconvert(), nb::arg("sensors").noconvert(), nb::arg("periods"), nb::arg("age"),
+             nb::arg("time"),
+             "One env step (GIL released): ENV_DONE, ENV_BAD_ACTION, ENV_BRAIN_DIVERGED or the period's outcome.")
+        .def("step", &env_step<double>, nb::arg("action").noconvert(), nb::arg("obs").noconvert(),
+             nb::arg("states").noconvert(), nb::arg("sensors").noconvert(), nb::arg("periods"), nb::arg("age"),
+             nb::arg("time"))
+        .def(
+            "set_world", [](BoundEnvStep& e, WorldStep& w, Out start) {
+                if (w.n_ != 1 || w.n_inputs_ != e.n_in || w.m_->nu != e.n_out || w.J_ != e.w->J_ ||
+                    start.shape(0) != static_cast<std::size_t>(w.state_size())) {
+                    throw nb::value_error("another world's step");
+                }
+                e.w = &w;
+                e.start = start;
+            },
+            nb::keep_alive<1, 2>(), nb::arg("world"), nb::arg("start").noconvert(),
+            "Step this world's step (its backend's start buffer) from now on (a remade scene).")
+        .def_prop_rw(
+            "terms", [](BoundEnvStep& e) { return nb::make_tuple(e.terms[0], e.terms[1], e.terms[2]); },
+            [](BoundEnvStep& e, std::tuple<double, double, double> t) {
+                e.terms[0] = std::get<0>(t);
+                e.terms[1] = std::get<1>(t);
+                e.terms[2] = std::get<2>(t);
+            },
+            "The task's fitness, v and s after the last step (metres).")
+        .def("window_holds", [](BoundEnvStep& e, long age) { return e.window.holds(age); }, nb::arg("age"))
+        .def(
+            "window_push",
+            [](BoundEnvStep& e, double time, double x, double y, long age, std::optional<double> signal) {
+                return e.window.push(time, x, y, age, signal.has_value(), signal.value_or(0.0));
+            },
+            nb::arg("time"), nb::arg("x"), nb::arg("y"), nb::arg("age"), nb::arg("signal").none(),
+            "RobotWindow.push; 0, or why not (1: time not finite, 2: before the last, 3: position, 4: signal).")
+        .def(
+            "window_terms",
+            [](BoundEnvStep& e) {
+                double t[3];
+                e.window.terms(e.rule, t);
+                return nb::make_tuple(t[0], t[1], t[2]);
+            },
+            "The task's fitness, v and s of the window now (zeros below two samples).")
+        .def(
+            "window_last",
+            [](BoundEnvStep& e) {
+                const EnvWindow::Sample s = e.window.last();
+                return nb::make_tuple(s.x, s.y, s.signal);
+            })
+        .def("window_len", [](BoundEnvStep& e) { return e.window.samples.size(); })
+        .def("window_clear", [](BoundEnvStep& e) { e.window.samples.clear(); });
+    mod.attr("ENV_DONE") = static_cast<int>(EnvStep::kDone);
+    mod.attr("ENV_BAD_ACTION") = static_cast<int>(EnvStep::kBadAction);
+    mod.attr("ENV_BRAIN_DIVERGED") = static_cast<int>(EnvStep::kBrainDiverged);
+    mod.def(
+        "py_hypots",
+        [](Vec<double> a, Vec<double> b) {
+            const std::size_t n = a.shape(0);
+            if (b.shape(0) != n) throw nb::value_error("a and b differ in length");
+            std::vector<double> out(n);
+            for (std::size_t k = 0; k < n; ++k) out[k] = py_hypot(a(k), b(k));
+            return copy_array(out.data(), n, {n});
+        },
+        nb::arg("a"), nb::arg("b"), "math.hypot of each pair, as CPython computes it.");
 }

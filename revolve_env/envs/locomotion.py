@@ -23,6 +23,7 @@ from gymnasium import spaces
 from numpy.typing import NDArray
 
 from revolve_env.body.examples import resolve_robot
+from revolve_env.body.parts import light_inputs
 from revolve_env.body.robot import Layer, Robot
 from revolve_env.body.validate import Limits
 from revolve_env.cameras import Camera, check_size, make_camera
@@ -41,11 +42,11 @@ from revolve_env.episode_length import (
 )
 from revolve_env.evaluation import start_generator
 from revolve_env.fitness import DEFAULT_WINDOW, FitnessTerms, Window
-from revolve_env.rollout import RobotWindow, Rollout, TaskWindows
+from revolve_env.rollout import RobotWindow, Rollout, TaskWindows, task_rule
 from revolve_env.setting import Setting, env_parts
 from revolve_env.tasks import BaseTask, Task, make_task
 from revolve_env.terrain import Terrain
-from revolve_env.world import World, WorldConfig, with_engine
+from revolve_env.world import World, WorldConfig, compiled, with_engine
 from revolve_env.world.signals import SignalReader, signal_reader
 
 __all__ = ["LocomotionEnv"]
@@ -225,6 +226,11 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 60}  # noqa: RUF012 (gymnasium API)
+    #: Whether an episode steps in the compiled env step where it applies (MuJoCo, the extension
+    #: usable, no noise, ``action="targets"``, a shipped task rewarded by its gain, no window):
+    #: one C++ call per step to the same numbers; False: the general Python step (tests and
+    #: benchmarks compare the two).
+    _fast_step = True
 
     def __init__(
         self,
@@ -320,8 +326,12 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self._windows = TaskWindows(self.task, self.fitness_window, dt, self._insertion_steps)
         # The same window in floats (no arrays per step); False: the one-column TaskWindows
         # above, to the same numbers bit for bit (tests and benchmarks compare the two paths).
-        self._window = RobotWindow(self.task, self.fitness_window, dt, self._insertion_steps)
+        self._robot_window = RobotWindow(self.task, self.fitness_window, dt, self._insertion_steps)
+        self._window: RobotWindow | compiled.CompiledWindow = self._robot_window
         self._fast_windows = True
+        # The episode's compiled step (None: the general step); the task's rule for it.
+        self._fast: compiled.EnvStep | None = None
+        self._rule = task_rule(self.task) if self._gain else None
         self._signal: SignalReader | None = None
         self._terms = FitnessTerms(0.0, 0.0, 0.0)
         self._step_count = 0
@@ -357,6 +367,8 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self._signal = signal_reader(self.task.signal, [self.robot], self._world)
         self._windows.clear()
         self._windows.add(1)
+        self._fast = self._compiled_step()
+        self._window = self._robot_window if self._fast is None else self._fast.window
         self._window.clear()
         if self._insertion_steps == 0:  # the evaluation starts right away, from here
             self._sample(0.0, self._world.core_position(self._handle).reshape(1, 3))
@@ -372,13 +384,42 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self, action: NDArray[np.float32]
     ) -> tuple[NDArray[np.float64], float, bool, bool, dict[str, Any]]:
         """Act for one ``control_period`` (seconds); the reward is the fitness gain, in metres."""
+        fast = self._fast
+        if fast is not None and self._blow_up is None and self._step_count < self._total_steps:
+            run = self._run
+            assert run is not None
+            try:
+                code = fast.step(action, self._obs, run.periods, self._step_count + 1)
+            except TypeError:  # not a 1-D float array: as the general step reads it
+                code = fast.step(np.asarray(action, dtype=np.float64).reshape(-1), self._obs,
+                                 run.periods, self._step_count + 1)
+            if code == fast.done:  # all of it: the world, the window, the observation
+                run.periods += 1
+                n = self._step_count = self._step_count + 1
+                # (the task's terms are the compiled step's, fast.terms: self._terms is set
+                # from them when Python finishes a step)
+                reward, f, v, s, x, y = fast.out.tolist()
+                return self._obs.copy(), reward, False, n >= self._total_steps, {
+                    "fitness": f, "fitness_v": v, "fitness_s": s, "reward_fitness": reward,
+                    "time": n * self.config.control_period,
+                    "evaluating": n >= self._insertion_steps, "x_position": x, "y_position": y,
+                    "blow_up": None}
+            if code != fast.bad_action:  # an event: the env's part in Python
+                return self._finish_fast(fast, code)
+        return self._step(action)
+
+    def _step(
+        self, action: NDArray[np.float32]
+    ) -> tuple[NDArray[np.float64], float, bool, bool, dict[str, Any]]:
+        """:meth:`step` on the general path (the NumPy rules and Python floats)."""
         if self._world is None:
             raise RuntimeError("call reset() before step()")
         if self._blow_up is not None or self._step_count >= self._total_steps:
             raise RuntimeError("the episode is over; call reset()")
-        world, run = self._world, self._run
+        run = self._run
         assert run is not None
         act = self._checked(np.asarray(action, dtype=np.float64).reshape(-1))
+        assert self._fast is None, "the compiled step took a valid action"
         # RoboGen's sensors only (not the hinges) are the brain's inputs
         values = self._obs[: self._n_inputs] if run.thinking else None
         if self.controller == "agent":
@@ -391,6 +432,31 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
                 run.think(values)
             targets = (1.0 + act[:n]) * run.outputs + act[n:]
             blown = run.period(None, (None, targets), self.actuator_noise, self.np_random)
+        return self._finish(blown)
+
+    def _finish_fast(self, fast: compiled.EnvStep, code: int
+                     ) -> tuple[NDArray[np.float64], float, bool, bool, dict[str, Any]]:
+        """A step the compiled step stopped in (``code``): the rest on the general path."""
+        world, run = self._world, self._run
+        assert world is not None and run is not None
+        if code == fast.brain_diverged:  # the brain stepped; its targets flag the robot
+            world.set_all_targets(run.outputs)
+            world.step(1)
+        run.periods += 1
+        self._terms = FitnessTerms(*fast.terms)
+        out = self._finish(run.blown())
+        fast.terms = (self._terms.fitness, self._terms.v, self._terms.s)
+        if not fast.current():  # a replay remade the scene: step the new one
+            again = world.compiled_step()
+            assert again is not None, "a MuJoCo world keeps its compiled step"
+            fast.adopt(again)
+        return out
+
+    def _finish(self, blown: NDArray[np.bool_] | None
+                ) -> tuple[NDArray[np.float64], float, bool, bool, dict[str, Any]]:
+        """The env's part of a step after the world's period (``blown``: its blow-up screen)."""
+        world = self._world
+        assert world is not None
         self._step_count += 1
 
         self._blow_up = None if blown is None else world.blow_up(self._handle)
@@ -423,6 +489,7 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         if self._world is not None:
             self._world.close()
             self._world = None
+        self._fast = None
 
     # -- private -----------------------------------------------------------------------------------
     def _make_world(self) -> World:
@@ -432,6 +499,26 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
             except RuntimeError as exc:
                 warnings.warn(f"render_mode='human' without a window: {exc}", stacklevel=3)
         return World(self.config)
+
+    def _compiled_step(self) -> compiled.EnvStep | None:
+        """The episode's compiled step, None where the general step must take it."""
+        world = self._world
+        assert world is not None
+        if (not (self._fast_step and self._fast_windows) or self._rule is None
+                or self.action_mode != "targets" or self.sensor_noise > 0
+                or self.actuator_noise > 0 or self.render_mode == "human"
+                or world.blow_up(self._handle) is not None):
+            return None
+        state, _ = world.plan(self._handle)
+        signal = light_inputs(self.robot) if self.task.signal is not None else np.zeros(0)
+        return compiled.env_step(
+            world, self._n_outputs, self._n_inputs,
+            state.joint_start + state.active_local, self.proprioception, self._obs_low,
+            self._obs_high, self._rule, self.fitness_window, self._insertion_steps,
+            self._robot_window.stride, signal.astype(np.intp),
+            self.robot if self.controller == "brain" else None,
+            self._run.outputs if self.controller == "brain" and self._run is not None else None,
+            world.compiled_step())
 
     @property
     def _brain_out(self) -> NDArray[np.float64]:
@@ -505,14 +592,15 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         if self._blow_up is not None:
             self._terms = FitnessTerms(0.0, 0.0, 0.0)
         elif window is True:
-            self._terms = self._window.terms()
+            terms = self._window.terms()
+            self._terms = terms if isinstance(terms, FitnessTerms) else FitnessTerms(*terms)
         elif not isinstance(window, bool):
             f = self._windows.score(window)
             self._terms = FitnessTerms(float(f[0]), float(window.v[0]), float(window.s[0]))
         if self._gain:
             return self._terms.fitness - previous
         if isinstance(window, bool):
-            window = self._window.current() if self._fast_windows else \
+            window = self._robot_window.current() if self._fast_windows else \
                 self._windows.ring.current()
         return float(self.task.reward(window, np.array([self._terms.fitness]),
                                       np.array([previous]))[0])

@@ -19,6 +19,12 @@ rest: the targets, the brains (one call of the batch controller), a period that 
 (:meth:`~revolve_env.world.mujoco_backend.MujocoBackend.stepped`) and the judgement of a failed
 screen.
 
+:class:`EnvStep` (made by :func:`env_step`) is one step of the single-robot env
+(:class:`~revolve_env.envs.LocomotionEnv`) on such a world in one call: the action (or the
+robot's brain), the period above, the task's window of the robot and the shipped task's fitness,
+the reward and the observation. Python finishes a step only at events (a bad action, a brain
+that diverges, a period that is not calm, an observation that is not finite).
+
 The only module that imports the extension. It is used only where it gives the NumPy path's
 numbers: the extension must be built against the very ``mujoco`` that is imported, and its
 kernels must round as NumPy's do here (checked once per process on random data: NumPy's matrix
@@ -51,7 +57,8 @@ from revolve_env.world.sensing import IMU_HIGH, imu_readings, light_falloff, lig
 if TYPE_CHECKING:
     from revolve_env.world.mujoco_backend import RawScene
 
-__all__ = ["SIGNALS", "Path", "WorldStep", "available", "rollout", "world_step"]
+__all__ = ["SIGNALS", "EnvStep", "Path", "TaskRule", "WorldStep", "available", "env_step",
+           "hypot_exact", "rollout", "world_step"]
 
 _log = logging.getLogger(__name__)
 
@@ -286,6 +293,18 @@ class WorldStep:
         self._cuts = (k, 4 * k, 5 * k, 6 * k, 6 * k + joints, 6 * k + 2 * joints)
         self._n = n
         self._substeps = c.substeps
+        self.size = self._size
+        self._queue: list[Buffers] = []
+
+    @property
+    def extension_step(self) -> Any:
+        """The extension's own world step (for :class:`EnvStep`)."""
+        return self._run
+
+    @property
+    def start(self) -> NDArray[np.float64]:
+        """The backend's buffer of the period's start state (a replay starts from it)."""
+        return self._start
 
     def current(self) -> bool:
         """Whether the backend still steps the scene this was made for (deaths compiled first)."""
@@ -304,7 +323,16 @@ class WorldStep:
         """
         states = np.empty(self._size)
         sensors = np.empty(self._inputs)
-        outcome = self._outcomes[self._run.step(targets, self._start, states, sensors)]
+        return self.finish(self._run.step(targets, self._start, states, sensors), states, sensors)
+
+    def finish(self, code: int, states: NDArray[np.float64], sensors: NDArray[np.float64]
+               ) -> tuple[str, BodyStates | None, NDArray[np.float64] | None,
+                          NDArray[np.float64] | None]:
+        """:meth:`period`'s result from the extension's outcome ``code`` and the arrays it filled.
+
+        (The env's step, :class:`EnvStep`, runs the period inside its own call.)
+        """
+        outcome = self._outcomes[code]
         # the backend replays what needs a replay; an unsettled state is a stepped one to it
         self._backend.stepped("calm" if outcome == "unsettled" else outcome, self._substeps)
         if outcome in ("replay", "restart"):
@@ -316,6 +344,49 @@ class WorldStep:
                          states[e:f], self._diverged)
         sensors.flags.writeable = False
         return outcome, now, states[f:].reshape(n, 3), sensors
+
+    def buffers(self) -> Buffers:
+        """Fresh arrays for one period and the views of them that :meth:`finished` hands out.
+
+        The states and sensors the extension writes, made :data:`BATCH` periods at a time: one
+        allocation and one slicing for all, so that a period pays neither (each period's arrays
+        are still its own: the world's states are replaced, never changed).
+        """
+        queue = self._queue
+        if not queue:
+            k, n = BATCH, self._n
+            a, b, c, d, e, f = self._cuts
+            states, sensors = np.empty((k, self._size)), np.empty((k, self._inputs))
+            read = sensors.view()
+            read.flags.writeable = False
+            queue.extend(zip(states, sensors, states[:, :a].reshape(k, n, 3),
+                             states[:, a:b].reshape(k, n, 3, 3), states[:, b:c].reshape(k, n, 3),
+                             states[:, c:d].reshape(k, n, 3), states[:, d:e], states[:, e:f],
+                             states[:, f:].reshape(k, n, 3), read, strict=True))
+            queue.reverse()
+        return queue.pop()
+
+    def finished(self, code: int, views: Buffers
+                 ) -> tuple[str, BodyStates | None, NDArray[np.float64] | None,
+                            NDArray[np.float64] | None]:
+        """:meth:`finish` of a period whose arrays came from :meth:`buffers` (the same result)."""
+        outcome = self._outcomes[code]
+        # the backend replays what needs a replay; an unsettled state is a stepped one to it
+        self._backend.stepped("calm" if outcome == "unsettled" else outcome, self._substeps)
+        if outcome in ("replay", "restart"):
+            return outcome, None, None, None
+        _, _, pos, rot, vel, spin, joints, speeds, prev_vel, sensors = views
+        return outcome, BodyStates(pos, rot, vel, spin, joints, speeds, self._diverged), \
+            prev_vel, sensors
+
+
+BATCH = 64
+"""Periods whose arrays :meth:`WorldStep.buffers` makes at once."""
+
+Buffers = tuple[NDArray[np.float64], ...]
+""":meth:`WorldStep.buffers`: the states and sensors to write, then the views of them:
+core_pos, core_rot, core_vel, core_angvel, joint_pos, joint_vel, the velocities before the
+period and the sensor values (read-only)."""
 
 
 def world_step(c: WorldConfig, backend: object, layout: Layout, screen: Screen) -> WorldStep | None:
@@ -338,3 +409,219 @@ def world_step(c: WorldConfig, backend: object, layout: Layout, screen: Screen) 
         return None
     raw: RawScene = raw_scene()
     return WorldStep(ext, backend, raw, layout, screen, c)
+
+
+TaskRule = tuple[int, float, float, float, float]
+"""A shipped task's fitness rule for :class:`EnvStep`: (kind: 0 ``Locomotion``, 1
+``DirectedLocomotion``, 2 ``LightFollowing``; ``s_weight``; ``limit``, NaN for none; the cosine
+and sine of the heading), as :func:`revolve_env.rollout.task_rule` makes it."""
+
+
+class Windowing(Protocol):
+    """The window :class:`EnvStep` keeps, as :class:`revolve_env.rollout.RobotWindow` offers it."""
+
+    def window_holds(self, age: int) -> bool: ...
+    def window_push(self, time: float, x: float, y: float, age: int,
+                    signal: float | None) -> int: ...
+    def window_terms(self) -> tuple[float, float, float]: ...
+    def window_last(self) -> tuple[float, float, float]: ...
+    def window_len(self) -> int: ...
+    def window_clear(self) -> None: ...
+
+
+class CompiledWindow:
+    """The compiled step's window of its robot, with :class:`~revolve_env.rollout.RobotWindow`'s.
+
+    For the steps that Python finishes: the same samples, the same numbers.
+    """
+
+    def __init__(self, ext: Windowing) -> None:
+        self._ext = ext
+
+    def __len__(self) -> int:
+        """Samples in the window."""
+        return int(self._ext.window_len())
+
+    def clear(self) -> None:
+        """No samples."""
+        self._ext.window_clear()
+
+    def holds(self, age: int) -> bool:
+        """Whether a robot ``age`` control periods old holds its last pose now (no new one)."""
+        return bool(self._ext.window_holds(age))
+
+    def push(self, time: float, x: float, y: float, age: int, signal: float | None) -> None:
+        """:meth:`RobotWindow.push <revolve_env.rollout.RobotWindow.push>`: the same errors."""
+        why = self._ext.window_push(time, x, y, age, signal)
+        if why == 1:
+            raise ValueError(f"time must be finite, got {time}")
+        if why == 2:
+            raise ValueError(f"time {time} s is before the previous sample")
+        if why == 3:
+            raise ValueError("positions of robots that sample must be finite")
+        if why == 4:
+            raise ValueError("these windows keep a signal: push needs one")
+
+    def last(self) -> tuple[float, float, float]:
+        """The latest sample's x, y (metres) and signal (zeros without a sample)."""
+        x, y, signal = self._ext.window_last()
+        return x, y, signal
+
+    def terms(self) -> tuple[float, float, float]:
+        """The task's fitness, v and s of the window now (metres; zeros below two samples)."""
+        f, v, s = self._ext.window_terms()
+        return f, v, s
+
+
+class Stepping(Protocol):
+    """What :class:`EnvStep` needs of a :class:`~revolve_env.world.World` (it imports this)."""
+
+    config: WorldConfig
+
+    @property
+    def time(self) -> float: ...
+    def compiled_targets(self) -> NDArray[np.float64]: ...
+    def compiled_stepped(self, run: WorldStep, outcome: str, now: BodyStates | None,
+                         prev_vel: NDArray[np.float64] | None,
+                         sensors: NDArray[np.float64] | None) -> None: ...
+
+
+class EnvStep:
+    """One step of the single-robot env (:class:`~revolve_env.envs.LocomotionEnv`) in C++.
+
+    In one call: the action's check and clip to the world's targets (or the robot's brain, stepped
+    every ``brain_stride`` periods on the observation's sensor values), the world's period
+    (:class:`WorldStep`), the task's window of the robot (:attr:`window`, the rules of
+    :class:`~revolve_env.rollout.RobotWindow`), the shipped task's fitness and the reward (its
+    gain), and the observation, written into the env's own array. :meth:`step` says when it
+    stopped early for Python (see there). Made by :func:`env_step`.
+    """
+
+    def __init__(self, ext: ModuleType, world: Stepping, run: WorldStep, n_act: int,
+                 n_inputs: int, active: NDArray[np.intp], proprioception: bool,
+                 low: NDArray[np.float64], high: NDArray[np.float64], rule: TaskRule,
+                 window: float, insertion: int, stride: int, signal_inputs: NDArray[np.intp],
+                 network: Robot | None, outputs: NDArray[np.float64] | None) -> None:
+        c = world.config
+        spec = None
+        if network is not None:
+            s = as_spec(network)
+            spec = (s.kinds, s.neuron_params, s.src, s.dst, s.weight, int(s.n_inputs),
+                    int(s.n_outputs))
+        kind, s_weight, limit, cos_h, sin_h = rule
+        self.out = np.zeros(6)
+        """After a step done here: its reward, the task's fitness, v, s (metres) and the core's
+        x, y (metres)."""
+        self._ext = ext.EnvStep(
+            run.extension_step, world.compiled_targets(),
+            np.zeros(0) if outputs is None else outputs, run.start, self.out, n_act, n_inputs,
+            np.asarray(active, dtype=np.int64),
+            proprioception, np.ascontiguousarray(low, dtype=np.float64),
+            np.ascontiguousarray(high, dtype=np.float64), math.radians(c.range_deg), kind,
+            s_weight, limit, cos_h, sin_h, window, insertion, stride,
+            np.asarray(signal_inputs, dtype=np.int64), spec, c.brain_dt, c.brain_stride)
+        self.window = CompiledWindow(self._ext)
+        self._world = world
+        self._run = run
+        self._dt = c.control_period
+        self._step = self._ext.step
+        self.done = ext.ENV_DONE
+        self.bad_action = ext.ENV_BAD_ACTION
+        self.brain_diverged = ext.ENV_BRAIN_DIVERGED
+
+    @property
+    def terms(self) -> tuple[float, float, float]:
+        """The task's fitness, v and s the last step left (metres)."""
+        f, v, s = self._ext.terms
+        return f, v, s
+
+    @terms.setter
+    def terms(self, value: tuple[float, float, float]) -> None:
+        self._ext.terms = value
+
+    def current(self) -> bool:
+        """Whether the world's compiled step is still the one this steps."""
+        return self._run.current()
+
+    def adopt(self, run: WorldStep) -> None:
+        """Step the world's new compiled step (its scene remade by a replay) from now on."""
+        self._ext.set_world(run.extension_step, run.start)
+        self._run = run
+
+    def step(self, action: Any, obs: NDArray[np.float64], periods: int, age: int) -> int:
+        """One env step towards ``action``; ``obs`` (the previous observation) becomes the new one.
+
+        Args:
+            action: The env's action (a 1-D C-contiguous float32 or float64 array; TypeError
+                for anything else: the caller's general path takes it).
+            obs: The env's observation array (float64): the brain reads its sensor part.
+            periods: Control periods stepped in the episode before this one.
+            age: The env's step count after this step.
+
+        Returns:
+            :attr:`done` (all done: :attr:`out`, ``obs`` and the world are the step's),
+            :attr:`bad_action` (nothing done: the action has the wrong shape or is not finite),
+            :attr:`brain_diverged` (the brain stepped and wrote its outputs; nothing else), or
+            the world's period outcome, 0-3 (the world has stepped, the env's part is left).
+        """
+        world, run = self._world, self._run
+        views = run.buffers()
+        code: int = self._step(action, obs, views[0], views[1], periods, age,
+                               world.time + self._dt)
+        if code >= 0:
+            world.compiled_stepped(run, *run.finished(code % 10, views))
+        return code
+
+
+def env_step(world: Stepping, n_act: int, n_inputs: int, active: NDArray[np.intp],
+             proprioception: bool, low: NDArray[np.float64], high: NDArray[np.float64],
+             rule: TaskRule, window: float, insertion: int, stride: int,
+             signal_inputs: NDArray[np.intp], network: Robot | None,
+             outputs: NDArray[np.float64] | None, run: WorldStep | None) -> EnvStep | None:
+    """The compiled step of the single-robot env (:class:`EnvStep`), None where it does not apply.
+
+    It applies to a world of one robot stepped by a compiled ``run`` (:class:`WorldStep`, of the
+    world now, not diverged) when :func:`hypot_exact` holds here.
+
+    Args:
+        world: The env's world, its robot added.
+        n_act: The action's length.
+        n_inputs: The robot's sensor values.
+        active: Its active hinges' entries in the world's joint arrays (output order).
+        proprioception: Whether the hinges' angles and speeds follow the sensors.
+        low: The observation's lower bounds.
+        high: Its upper bounds.
+        rule: The task's fitness rule (:data:`TaskRule`).
+        window: The window's length. Seconds.
+        insertion: Control periods before the window samples.
+        stride: Control periods between two pose samples.
+        signal_inputs: The robot's light sensors' entries in its sensor values (the task
+            signal "light"; empty: the light at the core).
+        network: The robot whose network drives it (None: the action drives).
+        outputs: The brain's outputs, which the step keeps (held between its steps; None
+            without a brain).
+        run: The world's compiled step (None: the NumPy path steps it).
+    """
+    ext = _extension()
+    if ext is None or run is None or run.any_diverged or run._n != 1 or not hypot_exact():
+        return None
+    return EnvStep(ext, world, run, n_act, n_inputs, active, proprioception, low, high, rule,
+                   window, insertion, stride, signal_inputs, network, outputs)
+
+
+@functools.cache
+def hypot_exact() -> bool:
+    """Whether the extension's ``math.hypot`` gives CPython's bits here (random data, once)."""
+    ext = _extension()
+    if ext is None:
+        return False
+    rng = np.random.default_rng(28)
+    scale = 10.0 ** rng.integers(-310, 300, size=20000)
+    a, b = rng.normal(size=20000) * scale, rng.normal(size=20000) * np.roll(scale, 7)
+    a[:5000], b[:5000] = rng.normal(size=5000) * 1e-3, rng.normal(size=5000) * 1e-3
+    want = np.array([math.hypot(x, y) for x, y in zip(a.tolist(), b.tolist(), strict=True)])
+    if np.array_equal(ext.py_hypots(a, b), want):
+        return True
+    _log.warning("revolve-env: the compiled env step's hypot does not give math.hypot's bits "
+                 "here; the single-robot env steps on its Python path")
+    return False

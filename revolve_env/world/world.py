@@ -489,14 +489,45 @@ class World:
         The same numbers as the NumPy path of :meth:`step`; False where it does not apply
         (nothing done then).
         """
+        run = self.compiled_step()
+        if run is None:
+            return False
+        self.compiled_stepped(run, *run.period(self._targets))
+        return True
+
+    def compiled_step(self) -> compiled.WorldStep | None:
+        """The compiled step of the robots now (made if need be), None where the NumPy path steps.
+
+        For the envs' compiled steps (:class:`compiled.EnvStep`), which step the world through it
+        and then call :meth:`compiled_stepped`.
+        """
+        if self._numpy_path or not self._robots:
+            return None
         run = self._compiled
         if run is None or not run.current():
             run = compiled.world_step(self.config, self._backend, self._layout, self._screen)
             if run is None:
                 self._numpy_path = True
-                return False
+                return None
             self._compiled = run
-        outcome, now, prev_vel, sensors = run.period(self._targets)
+        return run
+
+    def compiled_targets(self) -> NDArray[np.float64]:
+        """Every active hinge's target, the world's own array. Radians.
+
+        For a compiled step to write clipped targets into (:meth:`set_all_targets`' rules), not
+        to keep.
+        """
+        return self._targets
+
+    def compiled_stepped(self, run: compiled.WorldStep, outcome: str, now: BodyStates | None,
+                         prev_vel: NDArray[np.float64] | None,
+                         sensors: NDArray[np.float64] | None) -> None:
+        """The world after one period of :meth:`compiled_step`, as :meth:`step` leaves it.
+
+        The clock, the states, the sensors and the blow-up flags, from
+        :meth:`compiled.WorldStep.period`'s result.
+        """
         self._time += self.config.control_period
         self._imu = None
         if now is None or prev_vel is None:  # replayed by the backend: read as ever
@@ -504,13 +535,12 @@ class World:
             self._now = self._backend.read()
             self._sensors = None
             self._check_blow_ups()
-            return True
+            return
         self._prev_vel, self._now, self._sensors = prev_vel, now, sensors
         if outcome != "calm" or run.any_diverged:
             for state in self._robots.values():
                 if state.blow_up is None:
                     self._flag(state, self._check_blow_up(state))
-        return True
 
     # -- blow-ups -----------------------------------------------------------------------------
     def _check_blow_ups(self) -> None:

@@ -1,0 +1,239 @@
+"""Locomotion's compiled step (one C++ call a step) against its general Python step: the same bits.
+
+:class:`~revolve_env.world.compiled.EnvStep` does the action, the brain, the world's period, the
+task's window, the reward and the observation in one call; ``_fast_step = False`` puts the env
+on its general path (the NumPy rules' world step aside, the same world). Every observation,
+reward, flag and info value of whole episodes must be the same bytes on both, for every kind of
+step the compiled one takes (and for blow-ups, which it hands back to Python), and its window and
+``math.hypot`` must be :class:`~revolve_env.rollout.RobotWindow`'s and CPython's.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import math
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import revolve_env.envs  # noqa: F401  (registers the envs)
+from evolution.config import EvolutionConfig
+from evolution.random_robot import random_robot
+from revolve_env import LOCOMOTION_ID, LOCOMOTION_V1_ID
+from revolve_env.body.examples import example
+from revolve_env.body.robot import Robot
+from revolve_env.rollout import RobotWindow, task_rule
+from revolve_env.tasks import DirectedLocomotion, LightFollowing, Locomotion, Task
+from revolve_env.world import World, WorldConfig, compiled
+
+pytest.importorskip("mujoco", reason="the mujoco package is not installed")
+pytestmark = pytest.mark.skipif(not (compiled.available() and compiled.hypot_exact()),
+                                reason="the compiled rollout is not built or not exact here")
+
+SHORT = {"insertion_time": 0.25, "evaluation_time": 1.0}
+BLOWS = {"world_config": WorldConfig(max_linear_speed=0.4)}
+CASES: dict[str, tuple[str, dict[str, Any]]] = {
+    "agent": (LOCOMOTION_V1_ID, {}),
+    "brain": (LOCOMOTION_V1_ID, {"controller": "brain"}),
+    "limit": (LOCOMOTION_V1_ID, {"task": {"name": "locomotion", "limit": 0.05}}),
+    "directed": (LOCOMOTION_V1_ID, {"task": {"name": "directed-locomotion", "heading": 1.0}}),
+    "light-sensors-brain": (LOCOMOTION_V1_ID, {"robot": "sensors", "controller": "brain",
+                                               "task": "light-following",
+                                               "fitness_window": 0.5}),
+    "light-no-sensor": (LOCOMOTION_V1_ID, {"task": "light-following"}),
+    "every-period-short-window": (LOCOMOTION_V1_ID, {
+        "task": {"name": "locomotion", "pose_rate": "every-period"}, "fitness_window": 0.3}),
+    "no-insertion": (LOCOMOTION_V1_ID, {"insertion_time": 0.0, "controller": "brain"}),
+    "v0-brain": (LOCOMOTION_ID, {"controller": "brain"}),
+    "v0-sensors": (LOCOMOTION_ID, {"robot": "sensors"}),
+    "blow-up-brain": (LOCOMOTION_V1_ID, {"robot": "sensors", "controller": "brain", **BLOWS}),
+    "blow-up-agent": (LOCOMOTION_V1_ID, {"robot": "sensors", **BLOWS}),
+}
+
+
+def _sensor_robot() -> Robot:
+    """A random robot with a touch sensor and light sensors on its core and a moving link."""
+    rng = np.random.default_rng(7)
+    return [random_robot(rng, EvolutionConfig()) for _ in range(6)][4]
+
+
+def _value(x: object) -> str:
+    if isinstance(x, float):
+        return x.hex()
+    if isinstance(x, np.ndarray):
+        return x.dtype.str + str(x.shape) + x.tobytes().hex()
+    return repr(x)
+
+
+def _episodes(case: str, fast: bool) -> tuple[str, int]:
+    """A hash of two episodes (random actions, seeds 0 and 1) and how many blew up."""
+    env_id, kwargs = CASES[case]
+    kwargs = {**SHORT, **kwargs}
+    if kwargs.get("robot") == "sensors":
+        kwargs["robot"] = _sensor_robot()
+    env = gym.make(env_id, **kwargs)
+    inner: Any = env.unwrapped
+    inner._fast_step = fast
+    digest, blown = hashlib.sha256(), 0
+    for seed in (0, 1):
+        obs, info = env.reset(seed=seed)
+        assert (inner._fast is not None) == fast
+        digest.update((_value(obs) + repr(sorted(info.items()))).encode())
+        rng = np.random.default_rng(seed)
+        done = False
+        while not done:
+            action = rng.uniform(-1.0, 1.0, env.action_space.shape).astype(np.float32)
+            obs, reward, terminated, truncated, info = env.step(action)
+            digest.update("".join(_value(x) for x in (obs, reward, terminated, truncated))
+                          .encode())
+            digest.update(repr(sorted((k, _value(v)) for k, v in info.items())).encode())
+            done = terminated or truncated
+        blown += bool(terminated)
+    env.close()
+    return digest.hexdigest(), blown
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_the_compiled_step_gives_the_general_steps_episodes(case: str) -> None:
+    fast, blown = _episodes(case, fast=True)
+    assert (fast, blown) == _episodes(case, fast=False)
+    assert (blown > 0) == case.startswith("blow-up")
+
+
+@pytest.mark.parametrize("kwargs", [
+    {"sensor_noise": 0.1}, {"actuator_noise": 0.1}, {"action": "modulate"},
+    {"task": {"name": "locomotion", "pose_rate": 5.0}, "engine": "pybullet"},
+], ids=["sensor-noise", "actuator-noise", "modulate", "pybullet"])
+def test_the_general_step_takes_what_the_compiled_one_does_not(kwargs: dict[str, Any]) -> None:
+    if kwargs.get("engine") == "pybullet":
+        pytest.importorskip("pybullet")
+    env = gym.make(LOCOMOTION_V1_ID, **SHORT, **kwargs)
+    env.reset(seed=0)
+    assert env.unwrapped._fast is None  # type: ignore[attr-defined]
+    env.step(env.action_space.sample())
+    env.close()
+
+
+def test_a_bad_action_is_refused_as_ever_and_other_shapes_are_read_as_ever() -> None:
+    env = gym.make(LOCOMOTION_V1_ID, **SHORT)
+    twin = gym.make(LOCOMOTION_V1_ID, **SHORT)
+    twin.unwrapped._fast_step = False  # type: ignore[attr-defined]
+    for e in (env, twin):
+        e.reset(seed=0)
+    n = env.action_space.shape[0]  # type: ignore[index]
+    for bad in (np.zeros(n + 1, dtype=np.float32), np.full(n, np.nan)):
+        for e in (env, twin):
+            with pytest.raises(ValueError, match="action"):
+                e.step(bad)
+    # a list, a column and float64 are read as the general step reads them
+    for action in ([0.5] * n, np.full((n, 1), -0.25), np.linspace(-2, 2, n)):
+        a, b = env.step(action), twin.step(action)
+        assert _value(a[0]) == _value(b[0]) and a[1:4] == b[1:4]
+        assert repr(sorted(a[4].items())) == repr(sorted(b[4].items()))
+    env.close()
+    twin.close()
+
+
+def test_the_world_is_the_general_steps_after_compiled_steps() -> None:
+    """The world's states, sensors, targets and clock as the general step leaves them."""
+    envs = [gym.make(LOCOMOTION_V1_ID, robot=_sensor_robot(), controller="brain", **SHORT)
+            for _ in range(2)]
+    envs[1].unwrapped._fast_step = False  # type: ignore[attr-defined]
+    for e in envs:
+        e.reset(seed=3)
+        for _ in range(20):
+            e.step(np.zeros(e.action_space.shape, dtype=np.float32))
+    a, b = (e.unwrapped._world for e in envs)  # type: ignore[attr-defined]
+    assert a.time == b.time
+    assert np.array_equal(a.targets, b.targets)
+    assert np.array_equal(a.sensor_values(), b.sensor_values())
+    for field in ("core_pos", "core_rot", "core_vel", "core_angvel", "joint_pos", "joint_vel",
+                  "diverged"):
+        assert np.array_equal(getattr(a.states, field), getattr(b.states, field))
+    assert envs[0].unwrapped._run.periods == envs[1].unwrapped._run.periods  # type: ignore
+    for e in envs:
+        e.close()
+
+
+def test_a_period_replayed_for_a_nan_force_is_the_general_steps(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A NaN force: the backend replays the period (the compiled step hands it back), the robot
+    blows up as on the general step; the next episode steps on the compiled step again."""
+    monkeypatch.chdir(tmp_path)  # MuJoCo logs its NaN warning to ./MUJOCO_LOG.TXT
+    runs = []
+    for fast in (True, False):
+        env = gym.make(LOCOMOTION_V1_ID, controller="brain", **SHORT)
+        inner: Any = env.unwrapped
+        inner._fast_step = fast
+        out = []
+        for seed in (0, 1):
+            env.reset(seed=seed)
+            for t in range(60):
+                data = inner._world.backend._data
+                data.xfrc_applied[-1, 0] = np.nan if (seed, t) == (0, 30) else 0.0
+                step = env.step(np.zeros(env.action_space.shape, dtype=np.float32))
+                out.append(_value(step[0]) + repr(step[1:4]) + repr(sorted(
+                    (k, _value(v)) for k, v in step[4].items())))
+                if step[2] or step[3]:
+                    break
+        runs.append(out)
+        env.close()
+    assert runs[0] == runs[1]
+    assert "non-finite" in runs[0][30] and len(runs[0]) == 31 + 60
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.floats(allow_nan=False, allow_infinity=False),
+                          st.floats(allow_nan=False, allow_infinity=False)), min_size=1,
+                max_size=20))
+def test_the_extensions_hypot_is_cpythons(pairs: list[tuple[float, float]]) -> None:
+    ext: Any = compiled._extension()
+    a, b = (np.array(v, dtype=np.float64) for v in zip(*pairs, strict=True))
+    got = ext.py_hypots(a, b)
+    assert [x.hex() for x in got.tolist()] == [math.hypot(x, y).hex() for x, y in pairs]
+
+
+TASKS: list[Task] = [Locomotion(), Locomotion(limit=0.3), Locomotion(s_weight=2.5, limit=0.05),
+                     DirectedLocomotion(heading=2.0), LightFollowing()]
+
+
+@settings(max_examples=60, deadline=None)
+@given(task=st.sampled_from(TASKS), rate=st.sampled_from([60.0, 30.0, 15.0, 5.0]),
+       window=st.sampled_from([0.05, 0.2, 1.0]), insertion=st.integers(0, 3),
+       seed=st.integers(0, 2**32 - 1), far=st.booleans())
+def test_the_compiled_window_is_robot_windows(task: Task, rate: float, window: float,
+                                              insertion: int, seed: int, far: bool) -> None:
+    """Pushes of random poses and signals (far: past 1 km, its rebase): the same terms."""
+    rng = np.random.default_rng(seed)
+    dt = 1 / 60
+    task = dataclasses.replace(task, pose_rate=rate)  # type: ignore[type-var]
+    rule = task_rule(task)
+    assert rule is not None
+    theirs = RobotWindow(task, window, dt, insertion)
+    with World(WorldConfig()) as world:
+        handle = world.add_robot(example("spider"))
+        state, _ = world.plan(handle)
+        run = compiled.env_step(world, 8, 6, state.joint_start + state.active_local, True,
+                                -np.ones(22), np.ones(22), rule, window, insertion,
+                                theirs.stride, np.zeros(0, dtype=np.intp), None, None,
+                                world.compiled_step())
+        assert run is not None
+        ours = run.window
+        x, y, t = 0.0, 0.0, 0.0
+        for age in range(insertion, insertion + 40):
+            t += dt
+            x += float(rng.normal()) * (300.0 if far else 0.01)
+            y += float(rng.normal()) * 0.01
+            signal = float(rng.uniform()) if task.signal is not None else None
+            ours.push(t, x, y, age, signal)
+            theirs.push(t, x, y, age, signal)
+            want = theirs.terms()
+            got = ours.terms()
+            assert [v.hex() for v in got] == [want.fitness.hex(), want.v.hex(), want.s.hex()]
+            assert ours.holds(age) == theirs.holds(age) and len(ours) == len(theirs)
