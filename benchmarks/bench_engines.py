@@ -670,7 +670,7 @@ def whole_runs(births: int, floor_samples: int, given: list[GivenRun]) -> None:
         return
     hours = bench_experiments.project(measured)
     if 2 in hours:
-        short = ("; the aim is judged on runs of >= 1000 births: evolved robots grow"
+        short = ("; the aim is judged on runs of >= 1000 births"
                  if shortest < 1000 else "")
         FIGURES["study"] = Figure(hours[2], f"projected from runs of {shortest:.0f} births or "
                                             f"more{short}")

@@ -31,9 +31,11 @@ it starts: robots alive and robot-seconds per CPU second) beside the measured on
 the paper's study from the measured runs onto 2 cores and a 64-core Ray cluster
 (:func:`evolution.experiments.app.estimate.estimate`: a run is the unit of parallelism, one run per
 core, online runs first; an experiment not measured takes the cost of a measured one of its
-mode). The measured run's own length matters: evolved robots grow,
-so a run of 300 births is cheaper per birth than one of 3000 (the aim, <= 7 h on 2 cores, is
-judged from runs of >= 1000 births).
+mode). The aim, <= 7 h on 2 cores, is judged from runs of >= 1000 births (scenario 1's
+evolved robots were measured to cost per simulated second what random ones do over 1000 births,
+but a short run's CPU per birth carries its start: generation 0, the engine's first load).
+
+``--keep DIR`` keeps each run's results in ``DIR/<experiment>`` (a new folder).
 """
 
 from __future__ import annotations
@@ -500,7 +502,7 @@ def project(measured: dict[str, tuple[ExperimentConfig, float, float]]) -> dict[
           f"{longest / 3600:.2f} h:")
     shortest = min(config.births for config, _, _ in measured.values())
     print(f"  (from runs of {shortest} births or more; the aim, <= 7 h on 2 cores, is judged on "
-          "runs of >= 1000 births: evolved robots grow)")
+          "runs of >= 1000 births)")
     hours = {}
     for cores in (2, 64):
         result = estimate(work, study_costs, cores)

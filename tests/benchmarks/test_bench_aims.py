@@ -112,8 +112,7 @@ def test_whole_runs_fill_the_aims_from_measured_and_given_runs(
                                          "100 ms")
     assert figures["memory"].value == pytest.approx(10.0)
     assert figures["study"] == Figure(10.5, "projected from runs of 600 births or more; the aim "
-                                            "is judged on runs of >= 1000 births: evolved "
-                                            "robots grow")
+                                            "is judged on runs of >= 1000 births")
     (runs,) = projected
     assert runs["scenario1"][1] == pytest.approx(116.0) and runs["scenario3"][2] == 10.0
 
