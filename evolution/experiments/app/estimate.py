@@ -15,7 +15,7 @@ experiment's own run 0 (its seed, its settings, its reproduction and selection; 
 * offline: its generation 0 is told a stand-in fitness (not simulated: a run pays it once), then
   its first generations of children (at least 30: two of scenario 1's) are conceived, evaluated
   in this process and selected as the run does, all of it timed: CPU per birth, of which
-  reproduction and selection (the child's body checks are a quarter of a birth);
+  reproduction and selection (the child's body checks: a fifth of a scenario 1 birth);
 * online: its population world (its initial robots and survivor selection) for a few conception
   intervals after the first selection; the robots alive over those intervals are the world's
   measured size.
@@ -81,10 +81,10 @@ ASSUMPTIONS = ("assumes a run's later robots cost per simulated second what its 
 _OFFLINE_ROBOTS = 30
 """Children an offline calibration evaluates, at least (whole generations: two of scenario 1's).
 
-Random robots' CPU per robot-second spreads widely (what they do, not only their size): the
-mean of 4 of them ranged over 0.6-1.1x that of 15 evaluated over five seeds, and the 4 robots
-of the former fixed seed were among the cheapest (0.5-0.76x of measured runs, 2026-11-27).
-Three CPU seconds on MuJoCo, about 15 on pybullet."""
+Random robots' CPU per robot-second spreads widely (what they do, not only their size): 4 of
+them cost 66-117 ms per birth over five seeds (scenario 1, MuJoCo), and the 4 robots of the
+former fixed seed were among the cheapest (0.5-0.76x of measured runs, 2026-11-27). About 4 CPU
+seconds on MuJoCo, several times that on pybullet."""
 _ONLINE_INTERVALS = 3
 """Conception intervals an online calibration measures, after the first survivor selection."""
 
@@ -267,7 +267,8 @@ def _calibrate_offline(config: ExperimentConfig, rng: np.random.Generator, count
     # robots) told a stand-in fitness, not simulated (a run pays it once), then its first
     # generations of children, each conceived by the run's own reproduction, evaluated and
     # selected as the run does, timed whole: a birth's cost is all of it.
-    short = config.replace(births=config.population_size + count + config.offspring_size)
+    short = config.replace(births=config.population_size + count + config.offspring_size,
+                           max_sim_time=None)
     evaluation = other = 0.0
     children = 0
     with Evolution(short, evaluator=evaluator) as evolution:

@@ -181,6 +181,15 @@ def test_the_offline_calibration_times_the_runs_own_births_reproduction_included
     assert (cost.mode, cost.robot_seconds, cost.alive) == ("offline", 1.5, 0.0)
 
 
+def test_the_offline_calibration_ignores_the_runs_own_limits() -> None:
+    # A run that would stop after its generation 0 (its births or its simulated time) still
+    # has its children measured: the calibration is of a birth, not of the run.
+    config = load_config("scenario1", {**TINY, "births": 4, "max_sim_time": 1.0})
+    fake = _Evaluations()
+    cost = calibrate(config, robots=4, evaluator=fake, clock=fake.clock)
+    assert cost.sample.startswith("4 children") and math.isfinite(cost.cpu_per_birth)
+
+
 def test_the_estimate_says_what_a_birth_spends_outside_its_evaluation() -> None:
     online, offline = _configs()
     cost = BirthCost("offline", "mujoco", 15.0, 15.0, "30 children", reproduction=0.25)
