@@ -42,10 +42,20 @@ same model, state and controls).
    replaced after 60 s or when lost, on each of ``--crowd-engines``: blow-ups per 1,000
    robot-lives (``--mujoco-integrator before``: MuJoCo with the integrator it used before,
    ``implicitfast`` with islands, as ``integrator_move.py`` sets it).
+8. ``--whole-runs BIRTHS`` (not a section: minutes of CPU): scenario 1 and scenario 3 run
+   ``BIRTHS`` births each in this process on MuJoCo by ``bench_experiments.py``'s own
+   ``measure_run`` (CPU per birth beside its floor, memory per birth after 300 births), then the
+   paper's study projected from them onto 2 cores; ``--given-run NAME=CPU_MS@BIRTHS,floor=MS,
+   memory=KB`` takes a run measured by ``bench_experiments.py`` in another process instead.
+
+Last, every aim of issue 28 with its figure beside the aim, "met" or "missed by 1.23x" (the
+figure over the aim, or the aim over the figure for an aim of at least), and "not measured in
+this run" (with what measures it) for the aims of sections not run (``benchmarks/aims.py``).
 
 Usage: ``python benchmarks/bench_engines.py [--only single evaluate crowd ...] [--seconds 3]
 [--robots 30] [--rank-robots 40] [--births 3000] [--repeats 2] [--robust-robots 2000]
-[--crowd-minutes 5] [--crowd-engines mujoco pybullet]``.
+[--crowd-minutes 5] [--crowd-engines mujoco pybullet] [--whole-runs 1000]
+[--given-run scenario3=1315@609,floor=627,memory=5.9]``.
 """
 
 from __future__ import annotations
@@ -70,6 +80,7 @@ from scipy.stats import spearmanr
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout
 
+from aims import ISSUE_28, Aim, Figure, GivenRun, parse_given_run, summary
 from integrator_move import integrator_before
 
 from evolution.config import EvolutionConfig
@@ -91,8 +102,11 @@ from revolve_env.world import World, WorldConfig, compiled
 ENGINES = ("mujoco", "pybullet")
 SECTIONS = ("single", "evaluate", "offline", "crowd", "rank", "memory", "robust", "crowd-hour")
 _STATE = int(mujoco.mjtState.mjSTATE_INTEGRATION)
-AIMS: dict[str, tuple[float, str]] = {}
-"""Issue 28's aims measured in this run: name -> (figure, the aim), printed last."""
+FIGURES: dict[str, Figure] = {}
+"""Issue 28's aims' figures measured in this run, by :attr:`aims.Aim.key`; printed last."""
+EXTRA: dict[str, tuple[Figure, Aim]] = {}
+"""Further rows of the aims' summary: a figure and the aim it is held to, by name."""
+_AIM = {aim.key: aim for aim in ISSUE_28}
 
 
 @contextlib.contextmanager
@@ -268,8 +282,7 @@ def single(seconds: float, repeats: int) -> None:
         env.close()
     print(f"spider, Locomotion-v1 (brain), {seconds:g} simulated s, best CPU of {repeats}: "
           + ", ".join(f"{k} {v:.3f} s" for k, v in best.items()) + f" (replay {check})")
-    AIMS["Locomotion-v1 stepping / raw mj_step"] = (best["env mujoco"] / best["raw mujoco"],
-                                                    "<= 1.2x")
+    FIGURES["single"] = Figure(best["env mujoco"] / best["raw mujoco"])
     print(f"  env/raw MuJoCo {best['env mujoco'] / best['raw mujoco']:.2f}x (the general step "
           f"{best['env mujoco general step'] / best['raw mujoco']:.2f}x, NumPy rules "
           f"{best['env mujoco NumPy rules'] / best['raw mujoco']:.2f}x, Locomotion-v0 "
@@ -329,9 +342,8 @@ def evaluate_one(repeats: int) -> None:
     print(f"  evaluate/raw MuJoCo {ratio:.2f}x (NumPy rules "
           f"{best['evaluate mujoco NumPy rules'] / best['raw mujoco']:.2f}x); MuJoCo "
           f"{best['evaluate pybullet'] / best['evaluate mujoco']:.2f}x faster than pybullet")
-    AIMS["evaluate() of one spider / raw mj_step"] = (ratio, "<= 1.15x")
-    AIMS["MuJoCo over pybullet, evaluate() of one spider"] = (
-        best["evaluate pybullet"] / best["evaluate mujoco"], ">= 4x")
+    FIGURES["evaluate"] = Figure(ratio)
+    FIGURES["pybullet"] = Figure(best["evaluate pybullet"] / best["evaluate mujoco"])
 
 
 # -- 3. offline: a generation evaluated side by side ------------------------------------------
@@ -420,11 +432,12 @@ def side_by_side(n: int, repeats: int) -> None:
           f"-> {speed_up:.2f}x; CPU per robot-second with 2 threads / with 1 "
           f"{best['evaluate_many 2 threads'] / best['evaluate_many']:.2f}x (a loaded machine "
           "gives the second thread less than a core)")
-    AIMS[f"evaluate_many of {n} random robots / raw mj_step, per robot-second"] = (
-        best["evaluate_many"] / best["raw mujoco"], "<= 1.05x")
-    AIMS[f"evaluate_many of {n} random robots / raw mj_step with its compile"] = (
-        best["evaluate_many"] / built, "<= 1.05x (like for like: both compile a model)")
-    AIMS["2 threads / 1 thread, wall time of a generation"] = (speed_up, ">= 1.8x")
+    FIGURES["evaluate_many"] = Figure(best["evaluate_many"] / best["raw mujoco"],
+                                      f"{n} random robots")
+    EXTRA["evaluate_many / raw mj_step with the exported models' compile (like for like)"] = (
+        Figure(best["evaluate_many"] / built, f"{n} random robots"), _AIM["evaluate_many"])
+    FIGURES["threads"] = Figure(speed_up, f"{n} random robots")
+    FIGURES["threads_cpu"] = Figure(best["evaluate_many 2 threads"] / best["evaluate_many"])
 
 
 # -- 3. a crowd --------------------------------------------------------------------------------
@@ -483,8 +496,7 @@ def crowd(n: int, seconds: float, repeats: int) -> tuple[float, float]:
           f"{best['env pybullet'] / best['env mujoco']:.2f}x faster than pybullet per CPU second; "
           f"MuJoCo {seconds / best['env mujoco']:.1f}x real time on one core; "
           f"{lost} robots lost to blow-ups in MuJoCo")
-    AIMS[f"population env of {n} robots / raw mj_step"] = (
-        best["env mujoco"] / best["raw mujoco"], "<= 1.1x")
+    FIGURES["crowd"] = Figure(best["env mujoco"] / best["raw mujoco"], f"{n} robots")
     return best["env mujoco"] / (n * seconds), best["env pybullet"] / (n * seconds)
 
 
@@ -620,6 +632,68 @@ def memory(births: int) -> None:
               f"0.1 s each, every newborn the child of two living robots; {wall:.0f} s wall)")
 
 
+# -- 8. whole runs: bench_experiments.py's measurements, for the aims' summary ---------------
+WHOLE_RUNS = ("scenario1", "scenario3")
+"""The experiments whose whole runs issue 28 holds to their floor."""
+
+
+def whole_runs(births: int, floor_samples: int, given: list[GivenRun]) -> None:
+    """Issue 28's whole-run aims: each of :data:`WHOLE_RUNS` run ``births`` births (0: none)
+    by ``bench_experiments.py``'s own functions (one process, MuJoCo: CPU per birth, its floor,
+    memory per birth after 300 births) unless given, then the paper's study projected from
+    them (and any other given run) onto 2 cores."""
+    import bench_experiments  # here, not above: it imports this module (Replay, ...)
+
+    measured: dict[str, tuple[Any, float, float]] = {}
+    shortest = math.inf
+    for run in given:
+        config = bench_experiments.preset(run.name, births=run.births, runs=1)
+        measured[run.name] = (config, run.cpu_ms / 1e3 * run.births, run.alive)
+        shortest = min(shortest, run.births)
+        note = f"given: another process's run of {run.births} births"
+        if run.name in WHOLE_RUNS and run.floor_ms is not None:
+            FIGURES[run.name] = Figure(run.cpu_ms / run.floor_ms,
+                                       f"{note}, {run.cpu_ms:.0f} ms CPU per birth, floor "
+                                       f"{run.floor_ms:.0f} ms")
+        if run.name == "scenario3" and run.memory_kb is not None:
+            FIGURES["memory"] = Figure(run.memory_kb, note)
+    for name in WHOLE_RUNS if births > 0 else ():
+        if name in measured:
+            continue
+        print(f"whole run: {name}, {births} births, one process, MuJoCo "
+              f"(bench_experiments.measure_run)...", flush=True)
+        one = bench_experiments.measure_run(name, births, 1, physics="mujoco",
+                                            floor_samples=floor_samples, memory_after=300)
+        print(one.floor_line())
+        print(one.memory_line(300), flush=True)
+        measured[name] = (one.config, one.cpu, one.alive)
+        shortest = min(shortest, one.births)
+        if one.floor is not None:
+            FIGURES[name] = Figure(one.cpu / one.floor.cpu,
+                                   f"this run: {one.births} births, "
+                                   f"{1e3 * one.cpu_per_birth:.0f} ms CPU per birth, floor "
+                                   f"{1e3 * one.floor.cpu / one.births:.0f} ms")
+        growth = one.memory_growth(300)
+        if name == "scenario3" and growth is not None:
+            FIGURES["memory"] = Figure(growth[0], f"this run: births 300-{one.births}, "
+                                                  "least squares")
+    if not measured:
+        return
+    hours = bench_experiments.project(measured)
+    if 2 in hours:
+        short = ("; the aim is judged on runs of >= 1000 births"
+                 if shortest < 1000 else "")
+        FIGURES["study"] = Figure(hours[2], f"projected from runs of {shortest:.0f} births or "
+                                            f"more{short}")
+
+
+def _given_run(text: str) -> GivenRun:
+    try:
+        return parse_given_run(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--only", nargs="*", choices=SECTIONS, default=list(SECTIONS),
@@ -638,6 +712,16 @@ def main() -> None:
     parser.add_argument("--crowd-engines", nargs="+", choices=ENGINES, default=["mujoco"])
     parser.add_argument("--mujoco-integrator", choices=("now", "before"), default="now",
                         help="crowd-hour: MuJoCo's integrator as now (discrete) or as before")
+    parser.add_argument("--whole-runs", type=int, default=0, metavar="BIRTHS",
+                        help="also run scenario 1 and scenario 3 for BIRTHS births each (one "
+                             "process, MuJoCo, bench_experiments.py's measure_run: minutes) for "
+                             "the whole-run aims; default 0: not run")
+    parser.add_argument("--given-run", nargs="*", type=_given_run, default=[],
+                        metavar="NAME=CPU_MS@BIRTHS[,floor=MS][,memory=KB][,alive=N]",
+                        help="a whole run measured by bench_experiments.py --workers 1 in "
+                             "another process, for the whole-run aims (instead of measuring it)")
+    parser.add_argument("--floor-samples", type=int, default=12,
+                        help="--whole-runs: robots or worlds each run's floor is measured on")
     parser.add_argument("--memory-child", nargs=2, metavar=("ENGINE", "BIRTHS"),
                         help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -677,11 +761,9 @@ def main() -> None:
                     crowded_hour(engine, args.robots, args.crowd_minutes)
             else:
                 crowded_hour(engine, args.robots, args.crowd_minutes)
-    if AIMS:
-        print("issue 28's aims measured in this run (figure, then the aim; the whole-run aims, "
-              "CPU per birth, memory per birth and the study's hours: bench_experiments.py):")
-        for name, (figure, aim) in AIMS.items():
-            print(f"  {name}: {figure:.2f}x (aim {aim})")
+    if args.whole_runs > 0 or args.given_run:
+        whole_runs(args.whole_runs, args.floor_samples, args.given_run)
+    print(*summary(FIGURES, EXTRA), sep="\n")
 
 
 if __name__ == "__main__":

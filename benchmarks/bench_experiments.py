@@ -31,15 +31,18 @@ it starts: robots alive and robot-seconds per CPU second) beside the measured on
 the paper's study from the measured runs onto 2 cores and a 64-core Ray cluster
 (:func:`evolution.experiments.app.estimate.estimate`: a run is the unit of parallelism, one run per
 core, online runs first; an experiment not measured takes the cost of a measured one of its
-mode). The measured run's own length matters: evolved robots grow,
-so a run of 300 births is cheaper per birth than one of 3000 (the aim, <= 7 h on 2 cores, is
-judged from runs of >= 1000 births).
+mode). The aim, <= 7 h on 2 cores, is judged from runs of >= 1000 births (scenario 1's
+evolved robots were measured to cost per simulated second what random ones do over 1000 births,
+but a short run's CPU per birth carries its start: generation 0, the engine's first load).
+
+``--keep DIR`` keeps each run's results in ``DIR/<experiment>`` (a new folder).
 """
 
 from __future__ import annotations
 
 import argparse
 import calendar
+import contextlib
 import dataclasses
 import math
 import os
@@ -47,6 +50,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -100,10 +104,12 @@ def main() -> None:
                              "benchmark (ms over that many births), for the study's projection")
     parser.add_argument("--given-alive", type=float, default=0.0,
                         help="online --given: the mean robots alive of that run")
+    parser.add_argument("--keep", type=Path, default=None, metavar="DIR",
+                        help="keep each run's results in DIR/<experiment> (default: a "
+                             "temporary folder, deleted)")
     args = parser.parse_args()
     deadline = None if args.deadline is None else _utc_today(args.deadline)
     cores = args.workers or os.cpu_count() or 1
-    function = constant_evaluate if args.engine_only else evaluate_task
     print(f"load average at the start {_load()}")
     print(f"{'experiment':<12} {'births':>6} {'wall s':>8} {'births/min':>11} {'sim s/wall s':>12}"
           f" {'study h (2 cores)':>18} {'CPU ms/birth':>13}")
@@ -113,60 +119,30 @@ def main() -> None:
     floors: list[str] = []
     memory: list[str] = []
     for name in args.only:
-        # One run: births per minute and CPU per birth count that run's births (the shipped
-        # configs' 30 runs would run side by side, 30 times the births of the rate printed).
-        config = preset(name, births=args.births, workers=cores, runs=1)
-        if args.physics is not None:
-            config = config.replace(world=dataclasses.replace(config.world,
-                                                              engine=args.physics))
-        with tempfile.TemporaryDirectory() as tmp, LocalEvaluator(cores, function) as evaluator:
-            events: list[ProgressEvent] = []
-            rss: list[float] = []
-            spent: list[float] = []  # the process's CPU at each commit point. Seconds
-
-            def seen(event: ProgressEvent, events: list[ProgressEvent] = events,
-                     rss: list[float] = rss, spent: list[float] = spent) -> None:
-                if not event.replaying and not event.finished:
-                    events.append(event)
-                    rss.append(rss_mb())
-                    spent.append(time.process_time())
-                    if deadline is not None and time.time() >= deadline:
-                        raise _Deadline
-
-            start = time.perf_counter()
-            cpu = time.process_time()
-            stopped = ""
-            try:
-                experiments.run(config, Path(tmp) / "out", seen, evaluator=evaluator)
-            except ImportError as error:
-                print(f"{name:<12} unavailable: {error}")
-                continue
-            except _Deadline:
-                stopped = f" (stopped at --deadline {args.deadline} UTC)"
-            # Up to the last commit point (a run stopped at the deadline: the work after it is
-            # lost, as a killed run's).
-            wall = time.perf_counter() - start
-            cpu = spent[-1] - cpu
-            births = events[-1].births
-            config = config.replace(births=births)
-            if cores == 1 and not args.engine_only and config.world.engine == "mujoco":
-                db = Path(tmp) / "out" / "results.sqlite"
-                floors.append(_floor_line(name, config, db, events, cpu, args.floor_samples))
-                print(floors[-1], flush=True)
-        memory.append(_memory_line(name, events, rss, args.memory_after))
+        try:
+            run = measure_run(name, args.births, cores, physics=args.physics,
+                              engine_only=args.engine_only, floor_samples=args.floor_samples,
+                              memory_after=args.memory_after, deadline=deadline, keep=args.keep)
+        except ImportError as error:
+            print(f"{name:<12} unavailable: {error}")
+            continue
+        if run.floor is not None:
+            floors.append(run.floor_line())
+            print(floors[-1], flush=True)
+        memory.append(run.memory_line(args.memory_after))
         print(memory[-1], flush=True)
-        rate = births / wall * 60
-        speed = events[-1].sim_time / wall
+        rate = run.births / run.wall * 60
+        speed = run.events[-1].sim_time / run.wall
         # On 2 cores: offline runs use every core for evaluations (scaled from `cores` here);
         # online worlds are one process each, two runs side by side.
-        rate_2_cores = rate * 2 / cores if config.mode == "offline" else rate * 2
+        rate_2_cores = rate * 2 / cores if run.config.mode == "offline" else rate * 2
         hours = STUDY_RUNS * STUDY_BIRTHS / rate_2_cores / 60
         total_hours += hours
-        per_birth = f"{cpu / births * 1e3:.0f}" if cores == 1 else "n/a"
+        per_birth = f"{run.cpu / run.births * 1e3:.0f}" if cores == 1 else "n/a"
         if cores == 1:
-            alive = [e.population_size for e in events]
-            measured[name] = (config, cpu, sum(alive) / max(1, len(alive)))
-        print(f"{name:<12} {births:>6} {wall:>8.1f} {rate:>11.1f} {speed:>12.1f} "
+            measured[name] = (run.config, run.cpu, run.alive)
+        stopped = f" (stopped at --deadline {args.deadline} UTC)" if run.stopped else ""
+        print(f"{name:<12} {run.births:>6} {run.wall:>8.1f} {rate:>11.1f} {speed:>12.1f} "
               f"{hours:>18.1f} {per_birth:>13}{stopped}", flush=True)
     for given in args.given:
         name, _, figures = given.partition("=")
@@ -186,8 +162,162 @@ def main() -> None:
           "birth):")
     print(*memory, sep="\n")
     if measured:
-        _project(measured)
+        project(measured)
     print(f"\nload average at the end {_load()}")
+
+
+@dataclass(frozen=True, slots=True)
+class Floor:
+    """A run's floor: the robot-seconds it simulated at raw MuJoCo's rate on its own robots.
+
+    Attributes:
+        simulated: Robot-seconds the run simulated.
+        rate: Raw MuJoCo's robot-seconds per CPU second on the run's robots.
+        what: What the rate was measured on, in words.
+    """
+
+    simulated: float
+    rate: float
+    what: str
+
+    @property
+    def cpu(self) -> float:
+        """CPU time of the run at the floor. Seconds."""
+        return self.simulated / self.rate
+
+
+@dataclass(frozen=True, slots=True)
+class RunMeasurement:
+    """One measured run of an experiment (up to its last commit point).
+
+    Attributes:
+        name: The experiment.
+        config: Its config, ``births`` the births it committed.
+        wall: Wall time. Seconds.
+        cpu: This process's CPU time (with ``--workers 1``: the whole run). Seconds.
+        events: Its progress events, one per commit point.
+        rss: Resident memory at each commit point. MB.
+        stopped: Whether ``deadline`` stopped it before its births.
+        floor: Its floor (``--workers 1`` on MuJoCo, physics on), else ``None``.
+    """
+
+    name: str
+    config: ExperimentConfig
+    wall: float
+    cpu: float
+    events: tuple[ProgressEvent, ...]
+    rss: tuple[float, ...]
+    stopped: bool
+    floor: Floor | None
+
+    @property
+    def births(self) -> int:
+        """Births committed."""
+        return self.events[-1].births
+
+    @property
+    def alive(self) -> float:
+        """The mean robots alive at its commit points. Robots."""
+        return sum(e.population_size for e in self.events) / len(self.events)
+
+    @property
+    def cpu_per_birth(self) -> float:
+        """CPU per birth. Seconds."""
+        return self.cpu / self.births
+
+    def memory_growth(self, after: int) -> tuple[float, float] | None:
+        """RSS growth per birth from ``after`` births on: (least squares, end minus start). KB.
+
+        ``None`` with fewer than two commit points from ``after`` births on.
+        """
+        points = [(e.births, r) for e, r in zip(self.events, self.rss, strict=True)
+                  if e.births >= after]
+        if len(points) < 2 or points[-1][0] == points[0][0]:
+            return None
+        (b0, r0), (b1, r1) = points[0], points[-1]
+        fit = slope([b for b, _ in points], [r for _, r in points])
+        return 1e3 * fit, 1e3 * (r1 - r0) / (b1 - b0)
+
+    def memory_line(self, after: int) -> str:
+        """:meth:`memory_growth` in one line."""
+        growth = self.memory_growth(after)
+        if growth is None:
+            return f"  {self.name:<12} fewer than two commit points after {after} births"
+        points = [(e.births, r) for e, r in zip(self.events, self.rss, strict=True)
+                  if e.births >= after]
+        (b0, r0), (b1, r1) = points[0], points[-1]
+        return (f"  {self.name:<12} {growth[0]:7.1f} KB per birth (least squares), "
+                f"{growth[1]:7.1f} end minus start (births {b0} -> {b1}: "
+                f"{r0:.1f} -> {r1:.1f} MB)")
+
+    def floor_line(self) -> str:
+        """The run's CPU per birth, its floor and their ratio, in one line."""
+        floor = self.floor
+        if floor is None:
+            return f"  {self.name:<12} no floor measured"
+        births = self.births
+        return (f"  {self.name:<12} {1e3 * self.cpu / births:7.0f} ms CPU per birth, floor "
+                f"{1e3 * floor.cpu / births:7.0f} ms ({floor.simulated:.3g} robot-s at "
+                f"{floor.rate:.0f} robot-s per CPU-s of raw MuJoCo, {floor.what}): "
+                f"{self.cpu / floor.cpu:.2f}x")
+
+
+def measure_run(name: str, births: int, cores: int, *, physics: str | None = None,
+                engine_only: bool = False, floor_samples: int = 12, memory_after: int = 300,
+                deadline: float | None = None, keep: Path | None = None) -> RunMeasurement:
+    """Run experiment ``name`` once for ``births`` births on ``cores`` and measure it.
+
+    One run: births per minute and CPU per birth count that run's births (the shipped configs'
+    30 runs would run side by side, 30 times the births of the rate printed). With one core on
+    MuJoCo (physics on), the floor is measured after the run on its own robots.
+
+    Args:
+        deadline: Stop at the first commit point after this Unix time (the work after it is
+            lost, as a killed run's).
+        keep: Keep the results in ``keep/<name>`` (default: a temporary folder, deleted).
+
+    Raises:
+        ImportError: the experiment's engine is not installed.
+    """
+    config = preset(name, births=births, workers=cores, runs=1)
+    if physics is not None:
+        config = config.replace(world=dataclasses.replace(config.world, engine=physics))
+    function = constant_evaluate if engine_only else evaluate_task
+    with contextlib.ExitStack() as stack:
+        if keep is None:
+            folder = Path(stack.enter_context(tempfile.TemporaryDirectory())) / "out"
+        elif (keep / name).exists():
+            raise FileExistsError(f"--keep: {keep / name} exists; give a new folder")
+        else:
+            folder = keep / name
+        evaluator = stack.enter_context(LocalEvaluator(cores, function))
+        events: list[ProgressEvent] = []
+        rss: list[float] = []
+        spent: list[float] = []  # the process's CPU at each commit point. Seconds
+
+        def seen(event: ProgressEvent) -> None:
+            if not event.replaying and not event.finished:
+                events.append(event)
+                rss.append(rss_mb())
+                spent.append(time.process_time())
+                if deadline is not None and time.time() >= deadline:
+                    raise _Deadline
+
+        start = time.perf_counter()
+        cpu = time.process_time()
+        stopped = False
+        try:
+            experiments.run(config, folder, seen, evaluator=evaluator)
+        except _Deadline:
+            stopped = True
+        # Up to the last commit point.
+        wall = time.perf_counter() - start
+        cpu = spent[-1] - cpu
+        config = config.replace(births=events[-1].births)
+        floor = None
+        if cores == 1 and not engine_only and config.world.engine == "mujoco":
+            floor = measure_floor(config, folder / "results.sqlite", events, floor_samples)
+    return RunMeasurement(name, config, wall, cpu, tuple(events), tuple(rss), stopped, floor)
 
 
 class _Deadline(Exception):
@@ -206,19 +336,6 @@ def _load() -> str:
     return " ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
-def _memory_line(name: str, events: Sequence[ProgressEvent], rss: Sequence[float],
-                 after: int) -> str:
-    """RSS growth per birth over the commit points from ``after`` births on. KB per birth."""
-    points = [(e.births, r) for e, r in zip(events, rss, strict=True) if e.births >= after]
-    if len(points) < 2 or points[-1][0] == points[0][0]:
-        return f"  {name:<12} fewer than two commit points after {after} births"
-    (b0, r0), (b1, r1) = points[0], points[-1]
-    fit = slope([b for b, _ in points], [r for _, r in points])
-    return (f"  {name:<12} {1e3 * fit:7.1f} KB per birth (least squares), "
-            f"{1e3 * (r1 - r0) / (b1 - b0):7.1f} end minus start (births {b0} -> {b1}: "
-            f"{r0:.1f} -> {r1:.1f} MB)")
-
-
 def run_robot_seconds_simulated(config: ExperimentConfig,
                                 events: Sequence[ProgressEvent]) -> float:
     """Robot-seconds a measured run simulated. Robot-seconds.
@@ -233,13 +350,12 @@ def run_robot_seconds_simulated(config: ExperimentConfig,
                for a, b in zip(events, events[1:], strict=False))
 
 
-def _floor_line(name: str, config: ExperimentConfig, db: Path,
-                events: Sequence[ProgressEvent], cpu: float, samples: int) -> str:
-    """The run's CPU per birth, its floor and their ratio, in one line."""
+def measure_floor(config: ExperimentConfig, db: Path, events: Sequence[ProgressEvent],
+                  samples: int) -> Floor | None:
+    """The floor of a measured run stored in ``db`` (``None``: no simulated time committed)."""
     simulated = run_robot_seconds_simulated(config, events)
-    births = events[-1].births
     if simulated <= 0:
-        return f"  {name:<12} no simulated time committed: no floor"
+        return None
     with Store.open(db) as store:
         robots = {r.robot_id: r.genome for r in store.robots(0)}
         snapshots = store.population_snapshots(0)
@@ -247,10 +363,7 @@ def _floor_line(name: str, config: ExperimentConfig, db: Path,
         rate, what = _raw_offline_rate(config, robots, samples)
     else:
         rate, what = _raw_online_rate(config, robots, snapshots, samples)
-    floor = simulated / rate
-    return (f"  {name:<12} {1e3 * cpu / births:7.0f} ms CPU per birth, floor "
-            f"{1e3 * floor / births:7.0f} ms ({simulated:.3g} robot-s at {rate:.0f} robot-s per "
-            f"CPU-s of raw MuJoCo, {what}): {cpu / floor:.2f}x")
+    return Floor(simulated, rate, what)
 
 
 def _spread(count: int, items: int) -> list[int]:
@@ -346,12 +459,20 @@ def _measured_cost(config: ExperimentConfig, cpu: float, alive: float) -> BirthC
                      alive if config.mode == "online" else 0.0)
 
 
-def _project(measured: dict[str, tuple[ExperimentConfig, float, float]]) -> None:
+def project(measured: dict[str, tuple[ExperimentConfig, float, float]]) -> dict[int, float]:
     """Calibration against measurement, and the paper's study projected from the measurement.
 
     The calibration's robots alive (online: measured at the run's start) and robot-seconds per
     CPU second beside the measured run's; their ratio of CPU per birth says how far off the
     study's estimate is.
+
+    Args:
+        measured: Experiment -> (its config, births its run committed; CPU seconds of the run;
+            online: the mean robots alive at its commit points).
+
+    Returns:
+        The study's wall time on 2 and on 64 cores (hours), by cores; empty when an experiment
+        had no measured run of its mode (the lines printed project the others).
     """
     print(f"\n{'experiment':<12} {'measured ms/birth':>18} {'alive':>6} {'robot-s/CPU-s':>14} "
           f"{'calibrated ms/birth':>20} {'alive':>6} {'robot-s/CPU-s':>14} "
@@ -381,14 +502,17 @@ def _project(measured: dict[str, tuple[ExperimentConfig, float, float]]) -> None
           f"{longest / 3600:.2f} h:")
     shortest = min(config.births for config, _, _ in measured.values())
     print(f"  (from runs of {shortest} births or more; the aim, <= 7 h on 2 cores, is judged on "
-          "runs of >= 1000 births: evolved robots grow)")
+          "runs of >= 1000 births)")
+    hours = {}
     for cores in (2, 64):
         result = estimate(work, study_costs, cores)
+        hours[cores] = result.wall_seconds / 3600
         waves = math.ceil(len(work) / cores)
         print(f"  {cores:>2} cores: {result.cpu_seconds / 3600:.1f} CPU-h, wall "
               f"{result.wall_seconds / 3600:.2f} h scheduled as the study runs (online first, "
               f"one run per core); at most {waves} wave(s) x the longest run = "
               f"{waves * longest / 3600:.2f} h")
+    return hours if len(study_costs) == len(PAPER_SCENARIOS) else {}
 
 
 if __name__ == "__main__":

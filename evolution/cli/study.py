@@ -142,7 +142,8 @@ def _estimate(work: list[RunWork], workers: int) -> StudyEstimate:
     """Calibrate every experiment of ``work`` and print the study's estimated time."""
     configs = list({w.experiment: w.config for w in work}.values())
     _say(f"calibrating {len(configs)} experiment(s) on this machine (robot-seconds per CPU "
-         "second: a few seconds of CPU; --no-estimate skips it)...")
+         "second, on the start of each one's own run: a few seconds of CPU each; --no-estimate "
+         "skips it)...")
     costs, cpu = calibrate_all(configs)
     result = estimate(work, costs, workers, cpu)
     _say("estimated time:")

@@ -8,21 +8,27 @@ one second. Each experiment's are set by its config (:func:`run_robot_seconds`):
   the robots alive in it: their mean number is measured (below), not assumed.
 
 :func:`calibrate` measures, in a few CPU seconds, how many robot-seconds this machine simulates
-per CPU second for an experiment, everything a birth costs included (building, the Training
-Center, the online world's per-period work):
+per CPU second for an experiment, everything a birth costs included (building, reproduction,
+selection, the Training Center, the online world's per-period work), on the start of the
+experiment's own run 0 (its seed, its settings, its reproduction and selection; nothing written):
 
-* offline: :func:`~evolution.evaluation.evaluate_tasks` of a few random robots of the
-  experiment's settings (engine, timing, conditions, Training Center), as a run evaluates its
-  children;
-* online: the experiment itself: the start of its run 0 (its own seed, initial robots and
-  survivor selection in the population env) for a few conception intervals after the first
-  selection; the robots alive over those intervals are the world's measured size.
+* offline: its generation 0 is told a stand-in fitness (not simulated: a run pays it once), then
+  its first generations of children (at least 30: two of scenario 1's) are conceived, evaluated
+  in this process and selected as the run does, all of it timed: CPU per birth, of which
+  reproduction and selection (the child's body checks: a fifth of a scenario 1 birth);
+* online: its population world (its initial robots and survivor selection) for a few conception
+  intervals after the first selection; the robots alive over those intervals are the world's
+  measured size.
 
 :func:`estimate` divides the robot-seconds by the rate: each experiment's CPU time, and the
 study's wall time on ``workers`` run slots (a run is the unit of parallelism: one run on one
 worker, online runs first, as :func:`~evolution.experiments.app.study.run_study` orders them). What
-the calibration cannot know is stated by :data:`ASSUMPTIONS`: the robots it measures are those
-of a run's first generations, and evolved robots grow. Nothing here writes a file.
+the calibration cannot know is stated by :data:`ASSUMPTIONS` and printed with the estimate: the
+robots it measures are those of a run's first generations. Measured, scenario 1's evolved robots
+did not cost more per simulated second than random ones over 1000 births on MuJoCo (their sizes
+stayed 11-18 parts; their cost 0.8-1.3x random robots', no trend: docs/performance.md,
+2026-11-27); the calibration's former 4 random robots of a fixed seed, without reproduction, were
+what read 0.5-0.76x of measured runs. Nothing here writes a file.
 
 Example::
 
@@ -31,7 +37,10 @@ Example::
 
     config = load_config("scenario1", {"world": {"engine": "mujoco"}})
     cost = calibrate(config)
-    print(estimate([RunWork("scenario1", config, 3000)] * 30, {"scenario1": cost}, workers=2))
+    study = estimate([RunWork("scenario1", config.replace(births=3000))] * 30,
+                     {"scenario1": cost}, workers=2)
+    for line in study.lines():
+        print(line)
 """
 
 from __future__ import annotations
@@ -39,16 +48,14 @@ from __future__ import annotations
 import heapq
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from evolution.evaluation import evaluate_tasks
+from evolution.evaluation import EvalOutcome, Evaluator, LocalEvaluator
 from evolution.experiments.loop.config import ExperimentConfig
-from evolution.experiments.loop.offline import evaluation_tasks
 from evolution.experiments.loop.run import ProgressEvent
-from evolution.random_robot import random_robot
 
 __all__ = [
     "ASSUMPTIONS",
@@ -65,13 +72,19 @@ __all__ = [
     "run_robot_seconds",
 ]
 
-ASSUMPTIONS = ("assumes the robots of a run's first generations (evolved robots grow: expect "
-               "more), an online world of the size measured at its start, one run per worker, "
-               "nothing else on the cores")
+ASSUMPTIONS = ("assumes a run's later robots cost per simulated second what its first "
+               "generations cost (measured: scenario 1's over 1000 births on MuJoCo, 0.8-1.3x "
+               "random robots, no growth), an online world of the size measured at its start, "
+               "one run per worker, nothing else on the cores, the results' storage free")
 """What the estimate takes for granted, in one line."""
 
-_OFFLINE_ROBOTS = 4
-"""Random robots evaluated by an offline calibration (a few CPU seconds on pybullet)."""
+_OFFLINE_ROBOTS = 30
+"""Children an offline calibration evaluates, at least (whole generations: two of scenario 1's).
+
+Random robots' CPU per robot-second spreads widely (what they do, not only their size): 4 of
+them cost 66-117 ms per birth over five seeds (scenario 1, MuJoCo), and the 4 robots of the
+former fixed seed were among the cheapest (0.5-0.76x of measured runs, 2026-11-27). About 4 CPU
+seconds on MuJoCo, several times that on pybullet."""
 _ONLINE_INTERVALS = 3
 """Conception intervals an online calibration measures, after the first survivor selection."""
 
@@ -87,8 +100,11 @@ class BirthCost:
             Robot-seconds per second.
         robot_seconds: Robot-seconds one birth simulates: offline, one evaluation; online, the
             robots alive for one conception interval. Robot-seconds.
-        sample: What was measured, in words (e.g. ``4 random robots x 15 s``).
+        sample: What was measured, in words (e.g. ``30 children of the run's first
+            generations x 15 s``).
         alive: Online: the mean number of robots alive measured (0 offline). Robots.
+        reproduction: Offline: the CPU time of a birth outside its evaluation (conceiving the
+            child, the checks of its body, selection), included in ``rate``. Seconds.
     """
 
     mode: str
@@ -97,6 +113,7 @@ class BirthCost:
     robot_seconds: float
     sample: str
     alive: float = 0.0
+    reproduction: float = 0.0
 
     @property
     def cpu_per_birth(self) -> float:
@@ -175,9 +192,11 @@ class StudyEstimate:
             c = e.cost
             per_birth = (f"{c.alive:.1f} robots alive x {c.robot_seconds / c.alive:g} s"
                          if c.mode == "online" and c.alive > 0 else f"{c.robot_seconds:g} s")
+            parts = (f", {1e3 * c.reproduction:.0f} ms of each birth its reproduction and "
+                     "selection" if c.reproduction > 0 else "")
             out.append(f"  {e.name}: {e.runs} run(s), {e.births} births, "
                        f"{_robot_seconds(e.robot_seconds)} ({c.mode}, {c.engine}: {per_birth} "
-                       f"per birth) at {c.rate:.0f} robot-s per CPU-s (from {c.sample}), "
+                       f"per birth) at {c.rate:.0f} robot-s per CPU-s (from {c.sample}{parts}), "
                        f"{1e3 * c.cpu_per_birth:.0f} ms CPU per birth: "
                        f"{e.cpu_seconds / 3600:.2f} CPU-h, its last run done after "
                        f"{_hours(e.wall_seconds)} ({e.wall_seconds / 3600:.2f} h)")
@@ -189,50 +208,91 @@ class StudyEstimate:
 
 
 def calibration_key(config: ExperimentConfig) -> tuple[object, ...]:
-    """What a birth's cost depends on: experiments equal here share one calibration."""
-    online = ((config.conception_interval, config.population_size, config.min_alive,
-               config.max_alive, config.death_threshold, config.cull_fraction,
-               config.survivor_selection, config.new_robots, config.tournament_size,
-               config.birth_radius, config.birth_clearance, config.fertile_age, config.seed)
-              if config.mode == "online" else ())
+    """What a birth's cost depends on: experiments equal here share one calibration.
+
+    Both modes calibrate on the start of the experiment's own run, so its reproduction and
+    selection settings and its seed count (offline: scenario 2's one child per generation and
+    the baselines' random robots or random survivors are not scenario 1's births).
+    """
+    loop = (config.population_size, config.survivor_selection, config.new_robots,
+            config.tournament_size, config.max_conception_attempts, config.diversity_interval,
+            config.seed)
+    online = ((config.conception_interval, config.min_alive, config.max_alive,
+               config.death_threshold, config.cull_fraction, config.birth_radius,
+               config.birth_clearance, config.fertile_age)
+              if config.mode == "online" else (config.offspring_size,))
     return (config.mode, config.world, config.insertion, config.evaluation_time,
             config.evaluation, config.evolution, repr(config.learning), repr(config.task),
-            *online)
+            *loop, *online)
 
 
 def calibrate(config: ExperimentConfig, *, seed: int = 0, robots: int | None = None,
-              intervals: int = _ONLINE_INTERVALS) -> BirthCost:
+              intervals: int = _ONLINE_INTERVALS,
+              evaluator: Evaluator | None = None,
+              clock: Callable[[], float] = time.process_time) -> BirthCost:
     """Measure the robot-seconds ``config`` simulates per CPU second on this machine.
 
     Args:
         config: The experiment.
-        seed: Offline: seeds the random robots. (Online the run's own seed is used.)
-        robots: Offline: robots evaluated (default 4).
+        seed: Offline: seeds the stand-in fitness of the run's generation 0 (not simulated).
+            (Online the run's own seed is used.)
+        robots: Offline: children evaluated, at least (default :data:`_OFFLINE_ROBOTS`; whole
+            generations).
         intervals: Online: conception intervals measured after the first survivor selection.
+        evaluator: Offline: evaluates the children (default: in this process, as a run with one
+            worker does; the CPU it spends must show on ``clock``).
+        clock: The CPU clock. Seconds.
 
     Returns:
         The measured rate and what one birth simulates (online: at the robots alive measured).
     """
     if config.mode == "online":
-        return _calibrate_online(config, intervals)
+        return _calibrate_online(config, intervals, clock)
     rng = np.random.default_rng(seed)
-    return _calibrate_offline(config, rng, robots or _OFFLINE_ROBOTS)
+    own = evaluator is None
+    used = LocalEvaluator(1) if evaluator is None else evaluator
+    try:
+        return _calibrate_offline(config, rng, robots or _OFFLINE_ROBOTS, used, clock)
+    finally:
+        if own:
+            used.close()
 
 
-def _calibrate_offline(config: ExperimentConfig, rng: np.random.Generator,
-                       count: int) -> BirthCost:
-    tasks = evaluation_tasks(config, [(i, random_robot(rng, config.evolution),
-                                       int(rng.integers(2**31))) for i in range(count + 1)],
-                             config.training_center())
-    # The first evaluation loads the engine and its caches: a cost a run pays once, not per birth.
-    evaluate_tasks([replace(tasks[0], insertion=0.0, seconds=config.evaluation_time / 10,
-                            infancy=None)])
-    start = time.process_time()
-    evaluate_tasks(tasks[1:])
-    cpu = time.process_time() - start
+def _calibrate_offline(config: ExperimentConfig, rng: np.random.Generator, count: int,
+                       evaluator: Evaluator, clock: Callable[[], float]) -> BirthCost:
+    # Imported here: the loop's module loads the online world's (the physics engine's) too.
+    from evolution.experiments.loop.evolve import Evolution
+
+    # The start of the experiment's run 0, not written anywhere: its generation 0 (random
+    # robots) told a stand-in fitness, not simulated (a run pays it once), then its first
+    # generations of children, each conceived by the run's own reproduction, evaluated and
+    # selected as the run does, timed whole: a birth's cost is all of it.
+    short = config.replace(births=config.population_size + count + config.offspring_size,
+                           max_sim_time=None)
+    evaluation = other = 0.0
+    children = 0
+    with Evolution(short, evaluator=evaluator) as evolution:
+        tasks = evolution.ask()
+        # The first evaluation loads the engine and its caches: a cost a run pays once.
+        evaluator.evaluate([replace(tasks[0], insertion=0.0, seconds=config.evaluation_time / 10,
+                                    infancy=None)])
+        while evolution.tell([EvalOutcome(float(rng.random()), 0.0, 0.0) for _ in tasks]) is None:
+            tasks = evolution.ask()  # generation 0: until the population is full
+        while children < count and not evolution.done:
+            start = clock()
+            tasks = evolution.ask()
+            asked = clock()
+            outcomes = evaluator.evaluate(tasks)
+            evaluated = clock()
+            evolution.tell(outcomes)
+            other += asked - start + clock() - evaluated
+            evaluation += evaluated - asked
+            children += len(tasks)
     seconds = config.seconds_per_evaluation
-    return BirthCost("offline", config.world.engine, count * seconds / max(cpu, 1e-9), seconds,
-                     f"{count} random robots x {seconds:g} s")
+    cpu = max(evaluation + other, 1e-9)
+    return BirthCost("offline", config.world.engine, children * seconds / cpu, seconds,
+                     f"{children} children of the run's first generations x {seconds:g} s",
+                     reproduction=other / max(children, 1))
 
 
 def online_rate(events: Sequence[ProgressEvent], cpu: Sequence[float], skip: int = 1
@@ -267,7 +327,8 @@ def online_rate(events: Sequence[ProgressEvent], cpu: Sequence[float], skip: int
     return robot_seconds / seconds, robot_seconds / spent, robot_seconds
 
 
-def _calibrate_online(config: ExperimentConfig, intervals: int) -> BirthCost:
+def _calibrate_online(config: ExperimentConfig, intervals: int,
+                      clock: Callable[[], float]) -> BirthCost:
     # Imported here: the online world loads the physics engine.
     from evolution.experiments.loop.evolve import Evolution, ProgressObserver
     from evolution.experiments.loop.online_world import PopulationWorld
@@ -282,7 +343,7 @@ def _calibrate_online(config: ExperimentConfig, intervals: int) -> BirthCost:
     def seen(event: ProgressEvent) -> None:
         if not event.finished:
             events.append(event)
-            cpu.append(time.process_time())
+            cpu.append(clock())
 
     world = PopulationWorld(short, world_seed(run_seed(short.seed, 0)))
     try:

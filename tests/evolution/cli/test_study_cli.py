@@ -136,7 +136,10 @@ def test_estimate_only_prints_the_estimate_and_writes_nothing(
     total = lines[start + 6]
     assert total.startswith("  total ") and "on 2 worker(s)" in total
     assert float(total.split("), ")[1].split()[0]) == pytest.approx(sum(hours), abs=0.03)
-    assert lines[start + 7].startswith("  (an estimate: it assumes the robots of a run's first")
+    assert lines[start + 7].startswith("  (an estimate: it assumes a run's later robots cost")
+    # offline: measured on the run's own children, reproduction and selection included
+    assert "children of the run's first generations x 1.5 s, " in per_experiment[0]
+    assert "ms of each birth its reproduction and selection" in per_experiment[0]
 
 
 @pytest.mark.parametrize("argv, message", [

@@ -6,9 +6,12 @@ CPU left of resumed runs; and a calibration that measures the real physics."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import Any
 
 import pytest
 
+from evolution.evaluation import EvalOutcome, EvalTask
 from evolution.experiments.app import estimate as estimate_module
 from evolution.experiments.app.estimate import (
     BirthCost,
@@ -106,7 +109,8 @@ def test_runs_are_scheduled_one_per_worker_online_first() -> None:
                         "done after 13 min (0.22 h)")
     assert lines[2].startswith("  total 4.2e+04 robot-s (11.7 robot-h), 0.67 CPU-h: about "
                                "13 min on 3 worker(s)")
-    assert lines[3].startswith("  (an estimate: it assumes the robots of a run's first")
+    assert lines[3].startswith("  (an estimate: it assumes a run's later robots cost per "
+                               "simulated second what its first generations cost")
 
 
 def test_experiments_of_equal_settings_share_one_calibration(
@@ -118,21 +122,92 @@ def test_experiments_of_equal_settings_share_one_calibration(
         return OFFLINE
 
     monkeypatch.setattr(estimate_module, "calibrate", fake)
-    configs = [load_config(n) for n in ("scenario1", "baseline_a", "baseline_b", "scenario3")]
+    copy = load_config("scenario1", {"name": "copy"})
+    configs = [load_config(n) for n in ("scenario1", "scenario2", "baseline_a", "baseline_b",
+                                        "scenario3")] + [copy]
     costs, cpu = calibrate_all(configs)
-    assert calls == ["scenario1", "scenario3"]  # the baselines evaluate as scenario 1 does
-    assert set(costs) == {"scenario1", "baseline_a", "baseline_b", "scenario3"} and cpu >= 0
+    # The calibration runs each experiment's own start: its reproduction (scenario 2's one
+    # child per generation, the baselines' random robots or survivors) is its own; a copy
+    # under another name is not.
+    assert calls == ["scenario1", "scenario2", "baseline_a", "baseline_b", "scenario3"]
+    assert costs["copy"] is costs["scenario1"] and cpu >= 0
+
+
+class _Evaluations:
+    """An evaluator with no physics on a clock of its own: 0.1 s per task, 0.002 s per read."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+        self.robots: list[int] = []
+
+    @property
+    def workers(self) -> int:
+        return 1
+
+    def clock(self) -> float:
+        self.now += 0.002
+        return self.now
+
+    def evaluate(self, tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
+        self.now += 0.1 * len(tasks)
+        self.robots += [t.robot_id for t in tasks]
+        return [EvalOutcome(float(t.robot_id % 7) / 7, 0.0, 0.0) for t in tasks]
+
+    def run_jobs(self, *args: Any, **kwargs: Any) -> list[Any]:
+        raise AssertionError("the calibration runs no jobs")
+
+    def close(self) -> None:
+        pass
+
+
+@pytest.mark.parametrize("offspring", [4, 3, 1])
+def test_the_offline_calibration_times_the_runs_own_births_reproduction_included(
+        offspring: int) -> None:
+    config = load_config("scenario1", {**TINY, "offspring_size": offspring})
+    fake = _Evaluations()
+    cost = calibrate(config, robots=8, evaluator=fake, clock=fake.clock)
+    generations = -(-8 // offspring)  # whole generations, at least 8 children
+    children = generations * offspring
+    # Generation 0 (robots 0-3) is not simulated: only the warm-up evaluates its first robot;
+    # then the children the run's reproduction conceived, in order.
+    assert fake.robots == [0, *range(4, 4 + children)]
+    assert cost.sample == f"{children} children of the run's first generations x 1.5 s"
+    # Per generation: 0.1 s per child evaluated, and 4 clock reads around ask, evaluate, tell.
+    evaluation = children * 0.1 + generations * 0.002
+    other = generations * 0.004
+    assert cost.reproduction == pytest.approx(other / children)
+    assert cost.rate == pytest.approx(children * 1.5 / (evaluation + other))
+    assert cost.cpu_per_birth == pytest.approx((evaluation + other) / children)
+    assert (cost.mode, cost.robot_seconds, cost.alive) == ("offline", 1.5, 0.0)
+
+
+def test_the_offline_calibration_ignores_the_runs_own_limits() -> None:
+    # A run that would stop after its generation 0 (its births or its simulated time) still
+    # has its children measured: the calibration is of a birth, not of the run.
+    config = load_config("scenario1", {**TINY, "births": 4, "max_sim_time": 1.0})
+    fake = _Evaluations()
+    cost = calibrate(config, robots=4, evaluator=fake, clock=fake.clock)
+    assert cost.sample.startswith("4 children") and math.isfinite(cost.cpu_per_birth)
+
+
+def test_the_estimate_says_what_a_birth_spends_outside_its_evaluation() -> None:
+    online, offline = _configs()
+    cost = BirthCost("offline", "mujoco", 15.0, 15.0, "30 children", reproduction=0.25)
+    (line, *_) = estimate([offline], {"scenario1": cost}, workers=1).lines()
+    assert "(from 30 children, 250 ms of each birth its reproduction and selection)" in line
 
 
 TINY = {"world": {"engine": "mujoco"}, "insertion": 0.5, "evaluation_time": 1.0,
         "fertile_age": 1.0, "conception_interval": 1.0, "population_size": 4, "min_alive": 2,
+        "offspring_size": 2,
         "evolution": {"max_parts": 8, "initial_parts_mean": 5.0, "initial_parts_sd": 1.0}}
 
 
 def test_calibration_measures_the_physics() -> None:
     offline = calibrate(load_config("scenario1", TINY), robots=2)
     assert (offline.mode, offline.engine, offline.alive) == ("offline", "mujoco", 0.0)
-    assert offline.sample == "2 random robots x 1.5 s" and offline.robot_seconds == 1.5
+    assert offline.sample == "2 children of the run's first generations x 1.5 s"
+    assert offline.robot_seconds == 1.5 and offline.reproduction > 0
     assert math.isfinite(offline.rate) and offline.rate > 0
     online = calibrate(load_config("scenario3", TINY), intervals=2)
     # the run's own start: its robots alive after its first selection, not an assumed number
