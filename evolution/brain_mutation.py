@@ -15,7 +15,7 @@ import numpy as np
 
 from evolution.config import EvolutionConfig
 from evolution.operator_base import OperatorOutcome, pick
-from evolution.random_robot import IdAllocator, add_neurons, constructible, random_neuron
+from evolution.random_robot import IdAllocator, add_neurons, constructible_assembly, random_neuron
 from revolve_env.body.parts import PART_SPECS
 from revolve_env.body.robot import (
     ACTIVATION_PARAMS,
@@ -153,7 +153,11 @@ def mutate_parameters(
         replace(c, weight=_perturb(rng, c.weight, *WEIGHT_BOUNDS, sigma)) for c in robot.connections
     ), robot.name)
     with_body = replace(with_neural, body=_map_nodes(with_neural.body, body))
-    if with_body.body == with_neural.body or constructible(with_body, config.limits):
+    if with_body.body == with_neural.body:
         return OperatorOutcome(with_body, True, "perturbed part, neuron and weight parameters")
+    assembly = constructible_assembly(with_body, config.limits)
+    if assembly is not None:
+        return OperatorOutcome(with_body, True, "perturbed part, neuron and weight parameters",
+                               assembly=assembly)
     return OperatorOutcome(with_neural, True, "perturbed neuron and weight parameters; the part "
                                               "parameter change would overlap and was undone")

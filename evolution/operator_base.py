@@ -12,6 +12,7 @@ from typing import TypeVar
 
 import numpy as np
 
+from revolve_env.body.geometry import Assembly
 from revolve_env.body.robot import Path, Robot
 
 __all__ = ["OperatorOutcome", "OperatorRecord", "ReproductionResult", "pick"]
@@ -31,12 +32,16 @@ class OperatorOutcome:
         paths: The paths it acted on when applied (crossover: ``(a_c, b_c)``; removals: the
             removed path; duplication: ``(source, new copy)``; swap: ``(s1, s2)``; add_part: the
             new part's path); empty otherwise.
+        assembly: The assembly of ``robot`` when the operator checked that its parts do not
+            intersect (None otherwise): the child's final check takes it rather than assembling
+            the same body again.
     """
 
     robot: Robot | None
     applied: bool
     detail: str
     paths: tuple[Path, ...] = ()
+    assembly: Assembly | None = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -42,7 +42,7 @@ from evolution.random_robot import (
     IdAllocator,
     add_neurons,
     allowed_types,
-    constructible,
+    constructible_assembly,
     free_slots,
     random_connections,
     random_neuron,
@@ -50,6 +50,7 @@ from evolution.random_robot import (
     robot_counts,
     subtree_counts,
 )
+from revolve_env.body.geometry import Assembly
 from revolve_env.body.robot import (
     Connection,
     Layer,
@@ -57,7 +58,7 @@ from revolve_env.body.robot import (
     Path,
     Robot,
 )
-from revolve_env.body.validate import validate
+from revolve_env.body.validate import check, validate
 
 __all__ = [
     "OperatorOutcome",
@@ -171,11 +172,12 @@ def crossover(
         child = a.replace_node(a_c, inserted)
         child = replace(child, connections=(*kept, *_carried_connections(b.connections, mapping)),
                         name="")
-        if constructible(child, limits):
+        assembly = constructible_assembly(child, limits)
+        if assembly is not None:
             return OperatorOutcome(
                 child, True,
                 f"a's subtree at {_fmt(a_c)} ({removed.size()} parts) replaced by b's subtree at "
-                f"{_fmt(b_c)} ({sub.size()} parts)", (a_c, b_c),
+                f"{_fmt(b_c)} ({sub.size()} parts)", (a_c, b_c), assembly,
             )
         n_overlap += 1
     return OperatorOutcome(
@@ -267,10 +269,11 @@ def duplicate_subtree(
         child = robot.replace_node((*parent, slot), copy)
         child = replace(child, connections=(*robot.connections,
                                             *_carried_connections(robot.connections, mapping)))
-        if constructible(child, config.limits):
+        assembly = constructible_assembly(child, config.limits)
+        if assembly is not None:
             return OperatorOutcome(child, True, f"copied the subtree at {_fmt(src)} ({size} parts) "
                                                 f"to slot {slot} of {_fmt(parent)}",
-                                   (src, (*parent, slot)))
+                                   (src, (*parent, slot)), assembly)
     return OperatorOutcome(robot, False, f"every one of {config.operator_attempts} tried copies "
                                          "would overlap")
 
@@ -294,9 +297,10 @@ def swap_subtrees(
         s2 = pick(rng, unrelated)
         n1, n2 = robot.node(s1), robot.node(s2)
         child = robot.replace_node(s1, n2).replace_node(s2, n1)
-        if constructible(child, config.limits):
+        assembly = constructible_assembly(child, config.limits)
+        if assembly is not None:
             detail = f"swapped the subtrees at {_fmt(s1)} and {_fmt(s2)}"
-            return OperatorOutcome(child, True, detail, (s1, s2))
+            return OperatorOutcome(child, True, detail, (s1, s2), assembly)
     if not any(
         not _is_prefix(p, q) and not _is_prefix(q, p) for p in paths for q in paths
     ):
@@ -337,9 +341,10 @@ def add_part(robot: Robot, rng: np.random.Generator, config: EvolutionConfig) ->
             only_touching=frozenset(nr.id for nr in part.neurons), existing=robot.connections,
         )
         child = replace(child, connections=(*robot.connections, *new))
-        if constructible(child, config.limits):
+        assembly = constructible_assembly(child, config.limits)
+        if assembly is not None:
             return OperatorOutcome(child, True, f"added a {part_type.value} at slot {slot} of "
-                                                f"{_fmt(parent)}", ((*parent, slot),))
+                                                f"{_fmt(parent)}", ((*parent, slot),), assembly)
     return OperatorOutcome(robot, False, f"every one of {config.operator_attempts} tried parts "
                                          "would overlap")
 
@@ -356,14 +361,19 @@ def remove_leaf(robot: Robot, rng: np.random.Generator, config: EvolutionConfig)
 
 # -- whole reproduction -------------------------------------------------------------------------
 
-def _record(records: list[OperatorRecord], name: str, outcome: OperatorOutcome) -> Robot:
+def _record(records: list[OperatorRecord], name: str, outcome: OperatorOutcome,
+            assembled: list[Assembly]) -> Robot:
+    """The outcome's robot; its step recorded, and its assembly, if any, kept in ``assembled``."""
     records.append(OperatorRecord(name, outcome.applied, outcome.detail))
+    if outcome.assembly is not None:
+        assembled.append(outcome.assembly)
     assert outcome.robot is not None
     return outcome.robot
 
 
 def _mutation_steps(
-    robot: Robot, rng: np.random.Generator, config: EvolutionConfig, records: list[OperatorRecord]
+    robot: Robot, rng: np.random.Generator, config: EvolutionConfig, records: list[OperatorRecord],
+    assembled: list[Assembly],
 ) -> Robot:
     steps = (
         ("remove_subtree", config.p_remove_subtree, remove_subtree),
@@ -377,11 +387,12 @@ def _mutation_steps(
         elif name == "duplicate_subtree":
             expected_duplicated = expected_duplicated_parts(robot, config)
         if rng.random() < p:
-            robot = _record(records, name, op(robot, rng, config))
+            robot = _record(records, name, op(robot, rng, config), assembled)
         else:
             records.append(OperatorRecord(name, False, f"not drawn (p={p})"))
-    robot = _record(records, "brain_structure", mutate_brain_structure(robot, rng, config))
-    robot = _record(records, "parameters", mutate_parameters(robot, rng, config))
+    robot = _record(records, "brain_structure", mutate_brain_structure(robot, rng, config),
+                    assembled)
+    robot = _record(records, "parameters", mutate_parameters(robot, rng, config), assembled)
 
     # Keep the expected body size constant: the paper adds a part with an expected count equal to
     # the expected parts removed minus those added by duplication. The count is spread over
@@ -399,7 +410,7 @@ def _mutation_steps(
     p = abs(delta) / trials
     for _ in range(trials):
         if rng.random() < p:
-            robot = _record(records, name, op(robot, rng, config))
+            robot = _record(records, name, op(robot, rng, config), assembled)
         else:
             records.append(OperatorRecord(name, False, f"not drawn (p={p:.3f}, to balance an "
                                                        f"expected {-delta:+.3f} parts)"))
@@ -407,11 +418,14 @@ def _mutation_steps(
 
 
 def _finish(
-    child: Robot, records: list[OperatorRecord], config: EvolutionConfig
+    child: Robot, records: list[OperatorRecord], config: EvolutionConfig,
+    assembled: list[Assembly],
 ) -> ReproductionResult:
     # Every step keeps the child valid; this is the last guard, and a failure here is a bug.
+    # The last body an operator assembled is the child's when no later step changed the body
+    # (check() tells by identity); the child's record is what its evaluation then finds.
     try:
-        validate(child, config.limits)
+        check(child, config.limits, assembly=assembled[-1] if assembled else None)
     except ValueError as err:
         raise RuntimeError(f"reproduction produced an invalid child ({err}); steps: "
                            f"{[r.name for r in records if r.applied]}") from err
@@ -426,8 +440,9 @@ def mutate(robot: Robot, rng: np.random.Generator, config: EvolutionConfig) -> R
     """
     _check_parent(robot, config)
     records: list[OperatorRecord] = []
-    child = _mutation_steps(replace(robot, name=""), rng, config, records)
-    return _finish(child, records, config)
+    assembled: list[Assembly] = []
+    child = _mutation_steps(replace(robot, name=""), rng, config, records, assembled)
+    return _finish(child, records, config, assembled)
 
 
 def reproduce(
@@ -447,5 +462,6 @@ def reproduce(
     records.append(OperatorRecord("crossover", cx.applied, cx.detail))
     if cx.robot is None:
         return ReproductionResult(None, tuple(records), f"crossover failed: {cx.detail}")
-    child = _mutation_steps(cx.robot, rng, config, records)
-    return _finish(child, records, config)
+    assembled = [] if cx.assembly is None else [cx.assembly]
+    child = _mutation_steps(cx.robot, rng, config, records, assembled)
+    return _finish(child, records, config, assembled)

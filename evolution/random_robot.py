@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from evolution.config import EvolutionConfig
-from revolve_env.body.geometry import assemble, overlapping_boxes
+from revolve_env.body.geometry import Assembly, assemble, overlapping_boxes
 from revolve_env.body.parts import PART_SPECS
 from revolve_env.body.robot import (
     ACTIVATION_PARAMS,
@@ -39,6 +39,7 @@ __all__ = [
     "RandomRobotError",
     "RandomRobotResult",
     "constructible",
+    "constructible_assembly",
     "free_slots",
     "random_connections",
     "random_neuron",
@@ -116,7 +117,17 @@ def free_slots(robot: Robot) -> list[tuple[Path, int]]:
 
 def constructible(robot: Robot, limits: Limits) -> bool:
     """Whether no two parts of ``robot`` intersect (the physical part of validation)."""
-    return not overlapping_boxes(assemble(robot), limits.overlap_tolerance)
+    return constructible_assembly(robot, limits) is not None
+
+
+def constructible_assembly(robot: Robot, limits: Limits) -> Assembly | None:
+    """``robot``'s assembly if no two of its parts intersect, else None.
+
+    (What :func:`constructible` decides; the assembly lets the final check of a child that an
+    operator has just assembled skip assembling it again: ``validate.check(..., assembly=)``.)
+    """
+    assembly = assemble(robot)
+    return None if overlapping_boxes(assembly, limits.overlap_tolerance) else assembly
 
 
 _SUFFIX = re.compile(r"(\d+)$")

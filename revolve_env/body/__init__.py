@@ -30,7 +30,7 @@ from revolve_env.body.serialize import (
     to_dict,
     to_json,
 )
-from revolve_env.body.validate import Limits, RobotError, validate
+from revolve_env.body.validate import Checked, Limits, RobotError, check, validate
 
 __all__ = [
     "ACTIVATION_PARAMS",
@@ -44,6 +44,7 @@ __all__ = [
     "Activation",
     "Assembly",
     "BillOfMaterials",
+    "Checked",
     "Connection",
     "Layer",
     "Limits",
@@ -57,6 +58,7 @@ __all__ = [
     "ServoSpec",
     "assemble",
     "bill_of_materials",
+    "check",
     "example",
     "from_dict",
     "from_json",

@@ -2,16 +2,25 @@
 
 An invalid robot never reaches the simulator: everything that builds robots calls
 :func:`validate`, which raises one error type, :class:`RobotError`, naming the node and the rule.
+
+A robot is validated and assembled once: :func:`check` returns the record of a robot that passed
+(:class:`Checked`: the robot, its limits and its assembly) and remembers the last
+:data:`REMEMBERED` of them by the robot object's identity, so that the checks a genome meets on
+its way (the operators' on a parent, the evaluation's, the world's assembly when it builds the
+robot's model: :func:`assembly_of`) find it instead of deriving it again. Robots are immutable,
+so a record stays true; the memory is bounded and holds no robot that did not pass.
 """
 
 from __future__ import annotations
 
 import math
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 
 from revolve_env.body.errors import RobotError
 from revolve_env.body.errors import format_path as _fmt
-from revolve_env.body.geometry import assemble, overlapping_boxes
+from revolve_env.body.geometry import Assembly, assemble, overlapping_boxes
 from revolve_env.body.parts import PART_SPECS
 from revolve_env.body.robot import (
     ACTIVATION_PARAMS,
@@ -25,7 +34,7 @@ from revolve_env.body.robot import (
     Robot,
 )
 
-__all__ = ["Limits", "RobotError", "validate"]
+__all__ = ["REMEMBERED", "Checked", "Limits", "RobotError", "assembly_of", "check", "validate"]
 
 ORIENTATIONS = (0, 90, 180, 270)
 
@@ -157,13 +166,116 @@ def _check_neurons(path: Path, node: Node) -> None:
                 )
 
 
+REMEMBERED = 64
+"""How many checked robots :func:`check` remembers (the most recently used ones)."""
+
+
+@dataclass(frozen=True, eq=False)
+class Checked:
+    """A robot that passed :func:`validate` under ``limits``, and its assembly.
+
+    Attributes:
+        robot: The robot.
+        limits: The limits it was checked against.
+        assembly: ``assemble(robot)``.
+    """
+
+    robot: Robot
+    limits: Limits
+    assembly: Assembly
+
+
+class _Recent:
+    """The last robots that passed, by identity: a bounded, thread-safe memory of records."""
+
+    def __init__(self, size: int) -> None:
+        self._size = size
+        self._records: OrderedDict[int, Checked] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def find(self, robot: Robot) -> Checked | None:
+        """The record of this very robot object, or None."""
+        with self._lock:
+            record = self._records.get(id(robot))
+            # A record holds its robot, so no other object can have that id while it is here.
+            if record is None or record.robot is not robot:
+                return None
+            self._records.move_to_end(id(robot))
+            return record
+
+    def keep(self, record: Checked) -> None:
+        with self._lock:
+            self._records[id(record.robot)] = record
+            self._records.move_to_end(id(record.robot))
+            while len(self._records) > self._size:
+                self._records.popitem(last=False)
+
+
+_RECENT = _Recent(REMEMBERED)
+
+
+def assembly_of(robot: Robot) -> Assembly:
+    """``assemble(robot)``, taken from :func:`check`'s record of this robot object if it has one.
+
+    The robot is assumed structurally valid, as for :func:`~revolve_env.body.geometry.assemble`.
+    """
+    record = _RECENT.find(robot)
+    return record.assembly if record is not None else assemble(robot)
+
+
 def validate(robot: Robot, limits: Limits | None = None) -> None:
     """Check that ``robot`` is a well-formed, constructible robot within ``limits``.
+
+    (:func:`check`, which also returns the record.)
+
+    Raises:
+        RobotError: naming the first offending node and the rule it breaks.
+    """
+    check(robot, limits)
+
+
+def check(robot: Robot, limits: Limits | None = None, *,
+          assembly: Assembly | None = None) -> Checked:
+    """:func:`validate` ``robot`` and return the record of it; checked once per robot object.
+
+    A robot object that passed under equal limits among the last :data:`REMEMBERED` is not
+    checked again: its record is returned.
+
+    Args:
+        robot: The robot.
+        limits: The limits (default :class:`Limits`).
+        assembly: The robot's assembly if the caller has made it (an operator's check of the
+            body); used only if it is the assembly of this very body (its core's node is
+            ``robot.body``), else the robot is assembled.
 
     Raises:
         RobotError: naming the first offending node and the rule it breaks.
     """
     limits = limits or Limits()
+    known = _RECENT.find(robot)
+    if known is not None:
+        if known.limits == limits:
+            return known
+        assembly = known.assembly  # checked under other limits: assembled all the same
+    _check_structure(robot, limits)
+    if assembly is None or not assembly.parts or assembly.parts[0].node is not robot.body:
+        assembly = assemble(robot)
+    hits = overlapping_boxes(assembly, limits.overlap_tolerance)
+    if hits:
+        i, j = hits[0]
+        a, b = assembly.boxes[i], assembly.boxes[j]
+        pa, pb = assembly.parts[a.part].path, assembly.parts[b.part].path
+        raise RobotError(
+            f"not constructible: its {a.name} intersects the {b.name} of the part at {_fmt(pb)}",
+            path=pa, rule="overlap",
+        )
+    record = Checked(robot, limits, assembly)
+    _RECENT.keep(record)
+    return record
+
+
+def _check_structure(robot: Robot, limits: Limits) -> None:
+    """Everything :func:`validate` checks but the parts' overlap."""
     if not isinstance(robot, Robot):
         raise RobotError(f"expected a Robot, got {type(robot).__name__}", rule="robot-type")
     if not isinstance(robot.body, Node) or robot.body.type != PartType.CORE:
@@ -214,14 +326,3 @@ def validate(robot: Robot, limits: Limits | None = None) -> None:
             raise RobotError(f"connection {c.src!r} -> {c.dst!r} appears twice",
                              rule="connection-duplicate")
         seen.add((c.src, c.dst))
-
-    assembly = assemble(robot)
-    hits = overlapping_boxes(assembly, limits.overlap_tolerance)
-    if hits:
-        i, j = hits[0]
-        a, b = assembly.boxes[i], assembly.boxes[j]
-        pa, pb = assembly.parts[a.part].path, assembly.parts[b.part].path
-        raise RobotError(
-            f"not constructible: its {a.name} intersects the {b.name} of the part at {_fmt(pb)}",
-            path=pa, rule="overlap",
-        )

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from revolve_env.body.geometry import assemble
 from revolve_env.body.robot import Robot
+from revolve_env.body.validate import assembly_of
 
 __all__ = ["Disc", "Placement", "clash", "footprint_radius", "place"]
 
@@ -32,9 +32,10 @@ def footprint_radius(robot: Robot) -> float:
     """Radius of the smallest vertical cylinder about the core holding the assembled robot.
 
     Whatever the robot's heading, its horizontal footprint at assembly lies within this distance
-    of its core centre. Metres.
+    of its core centre. Metres. (The assembly validation made of this robot object, if it is
+    remembered: :func:`~revolve_env.body.validate.assembly_of`.)
     """
-    return assemble(robot).footprint_radius()
+    return assembly_of(robot).footprint_radius()
 
 
 @dataclass(frozen=True, slots=True)

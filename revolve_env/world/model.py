@@ -17,9 +17,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from revolve_env.body.geometry import Assembly, PlacedBox, assemble, mass_properties
+from revolve_env.body.geometry import Assembly, PlacedBox, footprint_radius, mass_properties
 from revolve_env.body.parts import PART_SPECS, SLOT_THICKNESS
 from revolve_env.body.robot import PartType, Robot
+from revolve_env.body.validate import assembly_of
 
 __all__ = [
     "PART_SHADES",
@@ -226,8 +227,13 @@ def build_model(robot: Robot, assembly: Assembly | None = None) -> RobotModel:
     Each rigid body of the assembly becomes a link (same index), except that every touch
     sensor's two halves become two extra links welded to their carrier (appended after the
     bodies), so that the engine reports their contacts separately.
+
+    Args:
+        robot: The robot.
+        assembly: Its assembly; default the one :func:`~revolve_env.body.validate.check` made
+            when it validated this robot object, if it still remembers it, else assembled now.
     """
-    asm = assembly if assembly is not None else assemble(robot)
+    asm = assembly if assembly is not None else assembly_of(robot)
     touch_halves = {
         k for k, b in enumerate(asm.boxes)
         if asm.parts[b.part].node.type == PartType.TOUCH_SENSOR and b.name in ("left", "right")
@@ -273,7 +279,7 @@ def build_model(robot: Robot, assembly: Assembly | None = None) -> RobotModel:
         elif PART_SPECS[kind].n_inputs:
             raise ValueError(f"no sensor model for part type {kind.value!r}")
 
-    lower, _ = asm.bounds()
+    lower, upper = asm.bounds()
     active = tuple(i for i in asm.active_joints())
     passive = tuple(i for i, b in enumerate(asm.bodies) if b.parent >= 0 and not b.active)
     return RobotModel(
@@ -284,5 +290,5 @@ def build_model(robot: Robot, assembly: Assembly | None = None) -> RobotModel:
         n_inputs=n_inputs,
         lowest_z=float(lower[2]),
         mass=asm.mass,
-        footprint_radius=asm.footprint_radius(),
+        footprint_radius=footprint_radius(lower, upper),
     )

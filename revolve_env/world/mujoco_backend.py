@@ -115,12 +115,16 @@ class _Robot:
 class MujocoBackend:
     """A MuJoCo scene holding a ground plane and any number of robots (see the module doc)."""
 
-    def __init__(self, config: WorldConfig, *, gui: bool = False) -> None:
+    def __init__(self, config: WorldConfig, *, gui: bool = False,
+                 compile_empty: bool = True) -> None:
         """Build an empty scene.
 
         Args:
             config: Physics settings (timestep, gravity, friction, torque limit).
             gui: Show the scene in MuJoCo's own window (opened at the first ``look_at``).
+            compile_empty: Compile the empty scene now. False for a scene whose first robot is
+                added next (an isolated world's: :mod:`.mujoco_scenes`), compiled with it; until
+                then nothing but :meth:`add` and :meth:`close` may be called.
 
         Raises:
             RuntimeError: ``gui`` was asked for without a display.
@@ -135,15 +139,16 @@ class MujocoBackend:
         self._view: View | None = None
         self._viewer: Viewer | None = Viewer() if gui else None
         self._render_error: str | None = None
-        self._new_scene()
+        self._new_scene(compile_empty)
 
     # -- scene ----------------------------------------------------------------------------------
-    def _new_scene(self) -> None:
+    def _new_scene(self, compile_it: bool = True) -> None:
         self._version += 1
         self._spec = scene.scene_spec(self.config)
         self._deaths_pending = False  # see remove()
-        self._model = self._spec.compile()
-        self._data = mujoco.MjData(self._model)
+        # Not compiled: the first add() compiles the scene with its robot (the same model).
+        self._model: mujoco.MjModel = self._spec.compile() if compile_it else None
+        self._data: mujoco.MjData = mujoco.MjData(self._model) if compile_it else None
         self._kinematics_fresh = False
         self._touching: NDArray[np.bool_] | None = None
         self._root_qpos = np.zeros(0, dtype=np.intp)
@@ -193,7 +198,7 @@ class MujocoBackend:
         d = mujoco.MjData(m)
         self._model, self._data = m, d
         self._index()
-        d.time = old_d.time
+        d.time = old_d.time if old_d is not None else 0.0  # None: the scene's first compile
         for key, (qpos, dofs) in old.items():
             r = self._robots[key]
             d.qpos[r.qpos] = old_d.qpos[qpos]

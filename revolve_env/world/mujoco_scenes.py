@@ -23,6 +23,8 @@ separate models (15 random robots, measured).
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -39,7 +41,8 @@ class MujocoScenes(IsolatedBackend):
     """Robots in MuJoCo scenes of their own, one batched interface (see the module doc)."""
 
     def __init__(self, config: WorldConfig) -> None:
-        super().__init__(config, scene=MujocoBackend)
+        # Each scene is compiled once, with its robot (not empty first, then again with it).
+        super().__init__(config, scene=partial(MujocoBackend, compile_empty=False))
         self._velocities = np.zeros(0)
         self._torque = config.max_torque
         self._parity = 0  # which of the two state buffers holds the state now
