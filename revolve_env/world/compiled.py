@@ -19,12 +19,16 @@ rest: the targets, the brains (one call of the batch controller), a period that 
 (:meth:`~revolve_env.world.mujoco_backend.MujocoBackend.stepped`) and the judgement of a failed
 screen.
 
+:class:`Rules` (made by :func:`rules`) is the same rules for a pybullet world, whose engine calls
+stay in Python: the target clipping, the servo law, the blow-up screen, the IMU and the light
+sensors over the arrays its NumPy path would hand to NumPy, by the same C++ functions.
+
 The only module that imports the extension. It is used only where it gives the NumPy path's
 numbers: the extension must be built against the very ``mujoco`` that is imported, and its
 kernels must round as NumPy's do here (checked once per process on random data: NumPy's matrix
 products are OpenBLAS's, which fuse or not by CPU). Otherwise, or when it was not built (no
-compiler or no ``mujoco`` wheel at install time), :func:`rollout` and :func:`world_step` return
-None and the caller takes the NumPy path; the reason is logged once.
+compiler or no ``mujoco`` wheel at install time), :func:`rollout`, :func:`world_step` and
+:func:`rules` return None and the caller takes the NumPy path; the reason is logged once.
 """
 
 from __future__ import annotations
@@ -51,7 +55,7 @@ from revolve_env.world.sensing import IMU_HIGH, imu_readings, light_falloff, lig
 if TYPE_CHECKING:
     from revolve_env.world.mujoco_backend import RawScene
 
-__all__ = ["SIGNALS", "Path", "WorldStep", "available", "rollout", "world_step"]
+__all__ = ["SIGNALS", "Path", "Rules", "WorldStep", "available", "rollout", "rules", "world_step"]
 
 _log = logging.getLogger(__name__)
 
@@ -338,3 +342,90 @@ def world_step(c: WorldConfig, backend: object, layout: Layout, screen: Screen) 
         return None
     raw: RawScene = raw_scene()
     return WorldStep(ext, backend, raw, layout, screen, c)
+
+
+# -- The rules over a World's arrays (pybullet) ------------------------------------------------
+
+_NO_POSES = (np.zeros((0, 3)), np.zeros((0, 3, 3)))
+
+
+class Rules:
+    """The per-period rules of a :class:`~revolve_env.world.World`'s NumPy path, in C++.
+
+    pybullet's worlds keep their engine calls in Python (the motors, ``stepSimulation``, the body
+    reads, the contacts and the link poses) and take the rules from the extension, over the very
+    arrays the NumPy path hands to NumPy: the target clipping, RoboGen's servo law, the blow-up
+    screen, the IMU and the light sensors. The same C++ functions as :func:`rollout`'s and
+    :class:`WorldStep`'s, so the rules have one home, and the same bits as the NumPy rules
+    (which stay the fallback and the tests' reference). Made by :func:`rules`.
+    """
+
+    def __init__(self, ext: ModuleType, c: WorldConfig) -> None:
+        self._ext = ext
+        self._scale = math.radians(c.range_deg)
+        self._servo_k = c.servo_gain / c.control_period
+        self._max_velocity = float(c.max_velocity)
+        self._period = float(c.control_period)
+        self._gravity = float(c.gravity)
+        self._light = np.asarray(c.light_position, dtype=np.float64)
+        self._range = float(c.light_range)
+
+    def clip_targets(self, targets: NDArray[np.float64], out: NDArray[np.float64]) -> bool:
+        """``out[:] = clip(targets, -1, 1) * scale`` (radians), unless a target is not finite.
+
+        Returns False then, ``out`` untouched (the NumPy path flags the robot).
+
+        Args:
+            targets: Normalized targets, float64.
+            out: Where they go (a contiguous slice of the world's targets).
+        """
+        return bool(self._ext.clip_targets(targets, self._scale, out))
+
+    def servo(self, targets: NDArray[np.float64], joint_pos: NDArray[np.float64],
+              active: NDArray[np.intp]) -> NDArray[np.float64]:
+        """RoboGen's servo law: every active hinge's commanded velocity. Radians per second.
+
+        Args:
+            targets: Every active hinge's target. Radians.
+            joint_pos: Every hinge's angle (``BodyStates.joint_pos``). Radians.
+            active: The active hinges in ``joint_pos``, in the targets' order.
+        """
+        out: NDArray[np.float64] = self._ext.servo_velocities(targets, joint_pos, active,
+                                                              self._servo_k, self._max_velocity)
+        return out
+
+    def calm(self, s: BodyStates, joint_offsets: NDArray[np.intp], screen: Screen) -> bool:
+        """:func:`~revolve_env.world.blowups.all_calm` of every robot (at least one)."""
+        return bool(self._ext.all_calm_rows(s.core_pos, s.core_rot, s.core_vel, s.core_angvel,
+                                            s.joint_pos, s.joint_vel, s.diverged, joint_offsets,
+                                            screen.inverse))
+
+    def sense(self, out: NDArray[np.float64], lay: Layout, s: BodyStates,
+              prev_vel: NDArray[np.float64],
+              link_poses: tuple[NDArray[np.float64], NDArray[np.float64]] | None) -> None:
+        """Write every robot's IMU and light sensor values into ``out`` (the world's layout).
+
+        Args:
+            out: Every robot's sensor values (the touch sensors are the caller's).
+            lay: The world's index arrays.
+            s: Every robot's state now.
+            prev_vel: (n, 3) the cores' velocities one control period ago. Metres per second.
+            link_poses: The poses of ``lay.light_link_ids`` (None: there are none).
+        """
+        link_pos, link_rot = _NO_POSES if link_poses is None else link_poses
+        self._ext.sense_rows(out, lay.input_offsets, s.core_pos, s.core_rot, s.core_vel,
+                             prev_vel, s.core_angvel, self._period, self._gravity, IMU_HIGH,
+                             lay.light_dest, lay.light_root_rows, link_pos, link_rot,
+                             lay.light_points, lay.light_facings, self._light, self._range)
+
+
+def rules(c: WorldConfig) -> Rules | None:
+    """The compiled rules of a world's control period (:class:`Rules`), None where not used.
+
+    Used by pybullet's worlds when the extension is usable (:func:`available`); MuJoCo's worlds
+    step in :class:`WorldStep` or, where it does not apply, keep the NumPy rules.
+    """
+    if c.engine != "pybullet":
+        return None
+    ext = _extension()
+    return None if ext is None else Rules(ext, c)
