@@ -4,6 +4,9 @@ Everything a physics engine should not decide lives here, once, for every engine
 clipping and the NaN guard on hinge targets, RoboGen's servo law, the IMU and light-sensor maths
 and the blow-up policy. The engine itself is a :class:`~revolve_env.world.backend.PhysicsBackend`
 chosen by ``WorldConfig.engine``, driven with one batched call per primitive and control period.
+Their arithmetic has one compiled home (:mod:`~revolve_env.world.compiled`): a MuJoCo world of one
+scene steps its whole period there, and a pybullet world, whose engine calls stay here, takes the
+rules from it over the arrays below; the NumPy rules are the fallback, to the same bits.
 """
 
 from __future__ import annotations
