@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import functools
 import importlib
+import importlib.util
 import logging
 import math
 from collections.abc import Sequence
@@ -422,10 +423,11 @@ class Rules:
 def rules(c: WorldConfig) -> Rules | None:
     """The compiled rules of a world's control period (:class:`Rules`), None where not used.
 
-    Used by pybullet's worlds when the extension is usable (:func:`available`); MuJoCo's worlds
-    step in :class:`WorldStep` or, where it does not apply, keep the NumPy rules.
+    Used by pybullet's worlds when the extension is usable (:func:`available`; it links MuJoCo's
+    library, so not without the ``mujoco`` package); MuJoCo's worlds step in :class:`WorldStep`
+    or, where it does not apply, keep the NumPy rules.
     """
-    if c.engine != "pybullet":
+    if c.engine != "pybullet" or importlib.util.find_spec("mujoco") is None:
         return None
     ext = _extension()
     return None if ext is None else Rules(ext, c)

@@ -10,6 +10,7 @@ diverged controller.
 
 from __future__ import annotations
 
+import importlib.util
 from collections.abc import Callable
 from dataclasses import fields
 from typing import Any
@@ -211,3 +212,11 @@ def test_the_compiled_sensors_saturate_and_let_nan_through_as_numpy_does() -> No
         imu = fast[world.input_offsets[:-1, None] + np.arange(6)]
     assert fast.tobytes() == slow.tobytes()
     assert (np.abs(imu) == IMU_HIGH).any() and np.isnan(imu[2, 3:]).all()  # robot 2 gyro
+
+
+def test_without_mujoco_pybullet_keeps_the_numpy_rules(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The extension links MuJoCo's library: a pybullet-only install steps on NumPy's rules."""
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "mujoco" else real(name, *a))
+    assert compiled.rules(WorldConfig(engine="pybullet")) is None
