@@ -33,11 +33,15 @@ compiler or no ``mujoco`` wheel at install time), :func:`rollout`, :func:`world_
 
 from __future__ import annotations
 
+import ctypes
 import functools
 import importlib
+import importlib.metadata
 import importlib.util
 import logging
 import math
+import pathlib
+import sys
 from collections.abc import Sequence
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, Protocol
@@ -423,11 +427,76 @@ class Rules:
 def rules(c: WorldConfig) -> Rules | None:
     """The compiled rules of a world's control period (:class:`Rules`), None where not used.
 
-    Used by pybullet's worlds when the extension is usable (:func:`available`; it links MuJoCo's
-    library, so not without the ``mujoco`` package); MuJoCo's worlds step in :class:`WorldStep`
-    or, where it does not apply, keep the NumPy rules.
+    Used by pybullet's worlds when the extension is usable (:func:`_rules_extension`); MuJoCo's
+    worlds step in :class:`WorldStep` or, where it does not apply, keep the NumPy rules.
     """
-    if c.engine != "pybullet" or importlib.util.find_spec("mujoco") is None:
+    if c.engine != "pybullet":
         return None
-    ext = _extension()
+    ext = _rules_extension()
     return None if ext is None else Rules(ext, c)
+
+
+@functools.cache
+def _rules_extension() -> ModuleType | None:
+    """The extension for pybullet's rules if it gives the NumPy rules' bits here, else None.
+
+    :func:`_extension`'s gate, without importing the ``mujoco`` package (a world loads only the
+    engine it uses): the extension links MuJoCo's library, which is loaded from the installed
+    package's folder (found, not imported); it must be the version the extension was built for,
+    and the kernels the rules use must round as NumPy's (checked once per process). Where
+    ``mujoco`` is imported already, :func:`_extension` decides. None without the ``mujoco``
+    package (the reason logged once).
+    """
+    if "mujoco" in sys.modules:
+        return _extension()
+    spec = importlib.util.find_spec("mujoco")
+    if spec is None or not spec.submodule_search_locations:
+        return None
+    libs = [lib for folder in spec.submodule_search_locations
+            for pattern in ("libmujoco.so.*", "libmujoco.*.dylib")
+            for lib in sorted(pathlib.Path(folder).glob(pattern))]
+    try:
+        version = importlib.metadata.version("mujoco")
+        for lib in libs[:1]:  # the extension finds it loaded, by its soname
+            ctypes.CDLL(str(lib))
+        ext = importlib.import_module("revolve_env._rollout")
+    except (ImportError, OSError) as e:
+        _log.warning("revolve-env: the compiled rules are not usable (%s); pybullet's worlds use "
+                     "the NumPy rules", " ".join(str(e).split()))
+        return None
+    if version != ext.MUJOCO_VERSION or ext.mujoco_version() != ext.MUJOCO_HEADER:
+        _log.warning("revolve-env: the compiled rules were built for mujoco %s, not the "
+                     "installed %s; pybullet's worlds use the NumPy rules", ext.MUJOCO_VERSION,
+                     version)
+        return None
+    odd = _rule_kernels_differ(ext)
+    if odd:
+        _log.warning("revolve-env: the compiled rules' %s does not round as NumPy's does on this "
+                     "machine; pybullet's worlds use the NumPy rules", odd)
+        return None
+    return ext
+
+
+def _rule_kernels_differ(ext: ModuleType) -> str | None:
+    """The first kernel of the rules whose bits differ from NumPy's on random data, else None.
+
+    The IMU's and the light sensors' products, as :func:`_kernels_differ` checks them.
+    """
+    rng = np.random.default_rng(2027)
+    n = 256
+    rot = rng.normal(size=(n, 3, 3))
+    vel, prev, spin = (rng.normal(size=(n, 3)) * 10 for _ in range(3))
+    raw = np.concatenate(((vel - prev) * (1.0 / (1 / 60)), spin), axis=1)
+    raw[:, 2] += 9.81
+    if not np.array_equal(ext.imu_products(raw.reshape(n, 2, 3), rot).reshape(n, 6),
+                          imu_readings(vel, prev, spin, rot, 1 / 60, 9.81)):
+        return "IMU product"
+    pos, point = rng.normal(size=(n, 3)), rng.normal(size=(n, 3)) * 0.1
+    facing = rng.normal(size=(n, 3))
+    facing /= np.linalg.norm(facing, axis=1, keepdims=True)
+    light = np.array([1.0, 0.0, 0.1])
+    want = light_intensity(pos, rot, np.ascontiguousarray(point[:, :, None]),
+                           np.ascontiguousarray(facing[:, :, None]), light, 1.0)
+    if not np.array_equal(ext.light_values(pos, rot, point, facing, light, 1.0), want):
+        return "light sensor"
+    return None

@@ -10,7 +10,8 @@ diverged controller.
 
 from __future__ import annotations
 
-import importlib.util
+import subprocess
+import sys
 from collections.abc import Callable
 from dataclasses import fields
 from typing import Any
@@ -214,9 +215,19 @@ def test_the_compiled_sensors_saturate_and_let_nan_through_as_numpy_does() -> No
     assert (np.abs(imu) == IMU_HIGH).any() and np.isnan(imu[2, 3:]).all()  # robot 2 gyro
 
 
-def test_without_mujoco_pybullet_keeps_the_numpy_rules(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The extension links MuJoCo's library: a pybullet-only install steps on NumPy's rules."""
-    real = importlib.util.find_spec
-    monkeypatch.setattr(importlib.util, "find_spec",
-                        lambda name, *a: None if name == "mujoco" else real(name, *a))
-    assert compiled.rules(WorldConfig(engine="pybullet")) is None
+def test_without_mujoco_pybullet_keeps_the_numpy_rules() -> None:
+    """The extension links MuJoCo's library: a pybullet-only install steps on NumPy's rules; with
+    ``mujoco`` installed, a pybullet world takes the compiled rules without importing it."""
+    code = (
+        "import importlib.util, sys\n"
+        "from revolve_env.world import World, WorldConfig, compiled\n"
+        "with World(WorldConfig(engine='pybullet')) as world:\n"
+        "    assert world._rules is not None\n"
+        "assert 'mujoco' not in sys.modules\n"
+        "compiled._rules_extension.cache_clear()\n"
+        "real = importlib.util.find_spec\n"
+        "importlib.util.find_spec = lambda name, *a: None if name == 'mujoco' else real(name, *a)\n"
+        "with World(WorldConfig(engine='pybullet')) as world:\n"
+        "    assert world._rules is None\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
