@@ -157,7 +157,7 @@ inline double servo_velocity(double k, double target, double q, double vmax) {
 
 // sensing.imu_readings of one core, saturated at IMU_HIGH: R its rotation, v its velocity and w its
 // angular velocity (world frame), prev its velocity one control period ago (imu_values on MuJoCo,
-// imu_rows on pybullet's arrays).
+// sense_rows on pybullet's arrays).
 inline void imu_reading(const double* R, const double* v, const double* w, const double prev[3], const Settings& s,
                         double out[6]) {
     double rows[6], imu[6];
