@@ -36,6 +36,8 @@ from revolve_env.brain import BatchController
 from revolve_env.envs import LOCOMOTION_ID
 from revolve_env.world import World, WorldConfig
 
+PYBULLET = WorldConfig(engine="pybullet")  # what this script measures (MuJoCo is the default)
+
 
 def twenty_part_robot() -> Robot:
     """The example spider with a brick added under three of its feet (20 parts, 8 servos)."""
@@ -68,7 +70,7 @@ def _rate(simulated: float, wall: float, cpu: float) -> Rate:
 
 def env_rate(robot: Robot, seconds: float) -> Rate:
     """Simulated seconds per second of the env driven by a fixed action sequence."""
-    env = gym.make(LOCOMOTION_ID, robot=robot)
+    env = gym.make(LOCOMOTION_ID, robot=robot, engine="pybullet")
     dt = env.unwrapped.config.control_period
     ticks = int(round(seconds / dt))
     actions = _actions(env.action_space.shape[0], ticks, dt)
@@ -85,7 +87,7 @@ def env_rate(robot: Robot, seconds: float) -> Rate:
 
 def raw_rate(robot: Robot, seconds: float, physics_only: bool = False) -> Rate:
     """Simulated seconds per second of the same multibody in a bare pybullet loop."""
-    config = WorldConfig()
+    config = PYBULLET
     dt = config.control_period
     ticks = int(round(seconds / dt))
     with World(config) as world:  # only to build the identical multibody and ground
@@ -138,7 +140,7 @@ def world_tick_breakdown(n_robots: int = 30, ticks: int = 120) -> TickBreakdown:
     through one :class:`~revolve_env.brain.BatchController`.
     """
     names = sorted(EXAMPLES)
-    config = WorldConfig()
+    config = PYBULLET
     side = math.ceil(math.sqrt(n_robots))
     with World(config) as world:
         brain = BatchController(config.control_period)

@@ -100,3 +100,21 @@ class EnvStep:
     def window_clear(self) -> None: ...
 
 def py_hypots(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]: ...
+
+# The rules over a World's arrays (pybullet's worlds, through compiled.Rules).
+def clip_targets(targets: NDArray[np.float64], scale: float, out: NDArray[np.float64]) -> bool: ...
+def servo_velocities(targets: NDArray[np.float64], joint_pos: NDArray[np.float64],
+                     active: NDArray[np.intp], servo_k: float,
+                     max_velocity: float) -> NDArray[np.float64]: ...
+def all_calm_rows(pos: NDArray[np.float64], rot: NDArray[np.float64], vel: NDArray[np.float64],
+                  spin: NDArray[np.float64], joint_pos: NDArray[np.float64],
+                  joint_vel: NDArray[np.float64], diverged: NDArray[np.bool_],
+                  joint_offsets: NDArray[np.intp], screen: NDArray[np.float64]) -> bool: ...
+def sense_rows(out: NDArray[np.float64], input_offsets: NDArray[np.intp],
+               pos: NDArray[np.float64], rot: NDArray[np.float64], vel: NDArray[np.float64],
+               prev: NDArray[np.float64], spin: NDArray[np.float64], control_period: float,
+               gravity: float, imu_high: NDArray[np.float64], light_dest: NDArray[np.intp],
+               root_rows: NDArray[np.intp], link_pos: NDArray[np.float64],
+               link_rot: NDArray[np.float64], points: NDArray[np.float64],
+               facings: NDArray[np.float64], light: NDArray[np.float64],
+               light_range: float) -> None: ...

@@ -160,18 +160,28 @@ inline double servo_velocity(double k, double target, double q, double vmax) {
     return np_min(np_max(k * (target - q), -vmax), vmax);
 }
 
+// sensing.imu_readings of one core, saturated at IMU_HIGH: R its rotation, v its velocity and w its
+// angular velocity (world frame), prev its velocity one control period ago (imu_values on MuJoCo,
+// sense_rows on pybullet's arrays).
+inline void imu_reading(const double* R, const double* v, const double* w, const double prev[3], const Settings& s,
+                        double out[6]) {
+    double rows[6], imu[6];
+    for (int k = 0; k < 3; ++k) rows[k] = (v[k] - prev[k]) * s.inv_period;
+    rows[2] += s.gravity;
+    for (int k = 0; k < 3; ++k) rows[3 + k] = w[k];
+    imu_product(rows, R, imu);
+    for (int k = 0; k < 6; ++k) out[k] = np_min(np_max(imu[k], -s.imu_high[k]), s.imu_high[k]);
+}
+
 // World._sense's IMU of one core (sensing.imu_readings, saturated at IMU_HIGH); prev: the core's
 // velocity one control period ago.
 inline void imu_values(const mjData* d, int root_body, int root_dof, const double prev[3], const Settings& s,
                        double out[6]) {
     const double* R = d->xmat + 9 * root_body;
     const double* v = d->qvel + root_dof;
-    double rows[6], imu[6];
-    for (int k = 0; k < 3; ++k) rows[k] = (v[k] - prev[k]) * s.inv_period;
-    rows[2] += s.gravity;
-    einsum_product(R, v + 3, rows + 3);  // the core's angular velocity in the world frame
-    imu_product(rows, R, imu);
-    for (int k = 0; k < 6; ++k) out[k] = np_min(np_max(imu[k], -s.imu_high[k]), s.imu_high[k]);
+    double w[3];
+    einsum_product(R, v + 3, w);  // the core's angular velocity in the world frame
+    imu_reading(R, v, w, prev, s, out);
 }
 
 // MujocoBackend._touching_now: which bodies of the scene touch anything (touched: one per body).
@@ -195,19 +205,28 @@ struct ScreenView {
     const double *vel, *spin, *hinge_vel, *pos, *hinge_pos;
 };
 
+// blowups.all_calm's test of one robot's entries: p, v, w its core's position, velocity and
+// angular velocity (world frame), q(i) and qd(i) its i-th hinge's angle and speed (calm on MuJoCo,
+// all_calm_rows on pybullet's arrays).
+template <class Angle, class Speed>
+inline bool calm_entries(const double* p, const double* v, const double* w, int J, Angle q, Speed qd,
+                         const ScreenView& sc) {
+    bool ok = true;
+    for (int i = 0; i < 3; ++i) ok &= std::fabs(v[i]) * sc.vel[i] <= 1.0;
+    for (int i = 0; i < 3; ++i) ok &= std::fabs(w[i]) * sc.spin[i] <= 1.0;
+    for (int i = 0; i < J; ++i) ok &= std::fabs(qd(i)) * sc.hinge_vel[i] <= 1.0;
+    for (int i = 0; i < 3; ++i) ok &= std::fabs(p[i]) * sc.pos[i] <= 1.0;
+    for (int i = 0; i < J; ++i) ok &= std::fabs(q(i)) * sc.hinge_pos[i] <= 1.0;
+    return ok && p[2] >= -0.999;
+}
+
 // blowups.all_calm for one robot: every entry within its screen, the core above -0.999 m; w: the
 // core's angular velocity in the world frame. A NaN fails (a conjunction: the order is free).
 inline bool calm(const mjData* d, int root_qpos, int root_dof, const double w[3], const int* hinge_qpos,
                  const int* hinge_dof, int J, const ScreenView& sc) {
-    const double* v = d->qvel + root_dof;
-    const double* p = d->qpos + root_qpos;
-    bool ok = true;
-    for (int i = 0; i < 3; ++i) ok &= std::fabs(v[i]) * sc.vel[i] <= 1.0;
-    for (int i = 0; i < 3; ++i) ok &= std::fabs(w[i]) * sc.spin[i] <= 1.0;
-    for (int i = 0; i < J; ++i) ok &= std::fabs(d->qvel[hinge_dof[i]]) * sc.hinge_vel[i] <= 1.0;
-    for (int i = 0; i < 3; ++i) ok &= std::fabs(p[i]) * sc.pos[i] <= 1.0;
-    for (int i = 0; i < J; ++i) ok &= std::fabs(d->qpos[hinge_qpos[i]]) * sc.hinge_pos[i] <= 1.0;
-    return ok && p[2] >= -0.999;
+    return calm_entries(
+        d->qpos + root_qpos, d->qvel + root_dof, w, J, [&](int i) { return d->qpos[hinge_qpos[i]]; },
+        [&](int i) { return d->qvel[hinge_dof[i]]; }, sc);
 }
 
 enum Physics { kStepped = 0, kNonFinite = 1, kFailed = 2 };
@@ -1062,6 +1081,138 @@ int env_step(BoundEnvStep& e, nb::ndarray<const A, nb::ndim<1>, nb::c_contig, nb
     nb::gil_scoped_release release;
     return e.step(action.data(), action.shape(0), obs.data(), e.targets.data(), e.outputs.data(), e.start.data(),
                   states.data(), sensors.data(), e.out.data(), periods, age, time);
+// ---- The rules over a World's arrays (pybullet) ---------------------------------------------------
+//
+// pybullet's World keeps its engine calls in Python (one set of motors, stepSimulation, the body
+// reads, the contact list and the link poses) but takes the rules of a control period from here,
+// over the arrays that its NumPy path would give to NumPy: the target clipping, RoboGen's servo
+// law, the blow-up screen, the IMU and the light sensors (revolve_env.world.compiled.Rules). The
+// same functions as Rollout's and WorldStep's, so the same bits. The GIL is kept: each call is a
+// few microseconds of work at most for the worlds the envs step, less than handing the GIL over
+// and waiting to get it back from another thread would cost.
+
+using Flags = nb::ndarray<const bool, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+using Rot3 = nb::ndarray<const double, nb::shape<-1, 3, 3>, nb::c_contig, nb::device::cpu>;
+using Column3 = nb::ndarray<const double, nb::shape<-1, 3, 1>, nb::c_contig, nb::device::cpu>;
+
+// World._write_targets for every target: clipped to [-1, 1] and scaled into out (radians); false,
+// and nothing written, when a target is not finite (the NumPy path flags its robot).
+bool clip_targets(Vec<double> targets, double scale, Out out) {
+    const std::size_t n = targets.shape(0);
+    if (out.shape(0) != n) throw nb::value_error("targets and out differ in length");
+    if (!finite(targets.data(), static_cast<int>(n))) return false;
+    const double* t = targets.data();
+    double* o = out.data();
+    for (std::size_t i = 0; i < n; ++i) o[i] = np_min(np_max(t[i], -1.0), 1.0) * scale;
+    return true;
+}
+
+// World.step's servo law: the commanded velocity of every active hinge (rad/s), the hinge angles
+// read from joint_pos at active.
+nb::ndarray<nb::numpy, double> servo_velocities(Vec<double> targets, Vec<double> joint_pos,
+                                                Vec<std::int64_t> active, double servo_k, double max_velocity) {
+    const std::size_t n = targets.shape(0);
+    const auto J = static_cast<std::int64_t>(joint_pos.shape(0));
+    if (active.shape(0) != n) throw nb::value_error("targets and active hinges differ in length");
+    std::vector<double> out(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::int64_t j = active(i);
+        if (j < 0 || j >= J) throw nb::value_error("active hinge out of range");
+        out[i] = servo_velocity(servo_k, targets(i), joint_pos(j), max_velocity);
+    }
+    return copy_array(out.data(), n, {n});
+}
+
+// blowups.all_calm over every robot's BodyStates row (the screen of Screen(n, J).inverse).
+bool all_calm_rows(Mat3 pos, Rot3 rot, Mat3 vel, Mat3 spin, Vec<double> joint_pos, Vec<double> joint_vel,
+                   Flags diverged, Vec<std::int64_t> joint_offsets, Vec<double> screen) {
+    const std::size_t n = pos.shape(0);
+    const std::size_t J = joint_pos.shape(0);
+    if (rot.shape(0) != n || vel.shape(0) != n || spin.shape(0) != n || diverged.shape(0) != n ||
+        joint_vel.shape(0) != J || joint_offsets.shape(0) != n + 1 || screen.shape(0) != 9 * n + 2 * J) {
+        throw nb::value_error("states, offsets and screen do not fit");
+    }
+    const std::int64_t* off = joint_offsets.data();
+    if (off[0] != 0 || off[n] != static_cast<std::int64_t>(J)) throw nb::value_error("bad joint offsets");
+    for (std::size_t r = 0; r < n; ++r) {
+        if (off[r + 1] < off[r]) throw nb::value_error("bad joint offsets");
+    }
+    const double* sc = screen.data();
+    const double* jp = joint_pos.data();
+    const double* jv = joint_vel.data();
+    bool ok = finite(rot.data(), static_cast<int>(9 * n));
+    for (std::size_t r = 0; r < n && ok; ++r) {
+        const std::size_t j0 = static_cast<std::size_t>(off[r]);
+        const int Jr = static_cast<int>(off[r + 1] - off[r]);
+        const ScreenView view{sc + 3 * r, sc + 3 * n + 3 * r, sc + 6 * n + j0, sc + 6 * n + J + 3 * r,
+                              sc + 9 * n + J + j0};
+        ok = !diverged(r) && calm_entries(
+                                 pos.data() + 3 * r, vel.data() + 3 * r, spin.data() + 3 * r, Jr,
+                                 [&](int i) { return jp[j0 + i]; }, [&](int i) { return jv[j0 + i]; }, view);
+    }
+    return ok;
+}
+
+// World._sense without the touch sensors: every robot's saturated IMU at the start of its part of
+// out (input_offsets), then every light sensor's value at light_dest: the first root_rows.size()
+// on cores (they read their core's pose), the others on links (link_pos, link_rot, the poses the
+// backend read).
+void sense_rows(Out out, Vec<std::int64_t> input_offsets, Mat3 pos, Rot3 rot, Mat3 vel, Mat3 prev, Mat3 spin,
+                double control_period, double gravity, Vec<double> imu_high, Vec<std::int64_t> light_dest,
+                Vec<std::int64_t> root_rows, Mat3 link_pos, Rot3 link_rot, Column3 points, Column3 facings,
+                Vec<double> light, double light_range) {
+    const std::size_t n = pos.shape(0);
+    const std::size_t m = out.shape(0);
+    const std::size_t roots = root_rows.shape(0);
+    const std::size_t k = light_dest.shape(0);
+    if (rot.shape(0) != n || vel.shape(0) != n || prev.shape(0) != n || spin.shape(0) != n ||
+        input_offsets.shape(0) != n + 1 || imu_high.shape(0) != 6 || light.shape(0) != 3 ||
+        link_pos.shape(0) != k - roots || link_rot.shape(0) != k - roots || points.shape(0) != k ||
+        facings.shape(0) != k || roots > k) {
+        throw nb::value_error("sensor arrays do not fit");
+    }
+    Settings s;
+    s.inv_period = 1.0 / control_period;  // as imu_readings computes it
+    s.gravity = gravity;
+    for (int i = 0; i < 6; ++i) s.imu_high[i] = imu_high(i);
+    for (int i = 0; i < 3; ++i) s.light[i] = light(i);
+    s.light_range = light_range;
+    double* o = out.data();
+    for (std::size_t r = 0; r < n; ++r) {
+        const std::int64_t at = input_offsets(r);
+        if (at < 0 || static_cast<std::size_t>(at) + 6 > m) throw nb::value_error("input offset out of range");
+        imu_reading(rot.data() + 9 * r, vel.data() + 3 * r, spin.data() + 3 * r, prev.data() + 3 * r, s, o + at);
+    }
+    for (std::size_t i = 0; i < k; ++i) {
+        const std::int64_t at = light_dest(i);
+        if (at < 0 || static_cast<std::size_t>(at) >= m) throw nb::value_error("light input out of range");
+        const double *where, *R;
+        if (i < roots) {
+            const std::int64_t r = root_rows(i);
+            if (r < 0 || static_cast<std::size_t>(r) >= n) throw nb::value_error("light row out of range");
+            where = pos.data() + 3 * r;
+            R = rot.data() + 9 * r;
+        } else {
+            where = link_pos.data() + 3 * (i - roots);
+            R = link_rot.data() + 9 * (i - roots);
+        }
+        o[at] = light_value(where, R, points.data() + 3 * i, facings.data() + 3 * i, s.light, s.light_range);
+    }
+}
+
+void bind_array_rules(nb::module_& mod) {
+    mod.def("clip_targets", &clip_targets, nb::arg("targets"), nb::arg("scale"), nb::arg("out"),
+            "World._write_targets into out; False (nothing written) if a target is not finite.");
+    mod.def("servo_velocities", &servo_velocities, nb::arg("targets"), nb::arg("joint_pos"), nb::arg("active"),
+            nb::arg("servo_k"), nb::arg("max_velocity"), "RoboGen's servo law of every active hinge. Rad/s.");
+    mod.def("all_calm_rows", &all_calm_rows, nb::arg("pos"), nb::arg("rot"), nb::arg("vel"), nb::arg("spin"),
+            nb::arg("joint_pos"), nb::arg("joint_vel"), nb::arg("diverged"), nb::arg("joint_offsets"),
+            nb::arg("screen"), "blowups.all_calm over BodyStates' arrays.");
+    mod.def("sense_rows", &sense_rows, nb::arg("out"), nb::arg("input_offsets"), nb::arg("pos"), nb::arg("rot"),
+            nb::arg("vel"), nb::arg("prev"), nb::arg("spin"), nb::arg("control_period"), nb::arg("gravity"),
+            nb::arg("imu_high"), nb::arg("light_dest"), nb::arg("root_rows"), nb::arg("link_pos"),
+            nb::arg("link_rot"), nb::arg("points"), nb::arg("facings"), nb::arg("light"), nb::arg("light_range"),
+            "World._sense's IMU and light sensor values into out.");
 }
 
 }  // namespace
@@ -1288,4 +1439,5 @@ NB_MODULE(_rollout, mod) {
             return copy_array(out.data(), n, {n});
         },
         nb::arg("a"), nb::arg("b"), "math.hypot of each pair, as CPython computes it.");
+    bind_array_rules(mod);  // pybullet's World: the rules over arrays
 }

@@ -25,20 +25,29 @@ robot's brain), the period above, the task's window of the robot and the shipped
 the reward and the observation. Python finishes a step only at events (a bad action, a brain
 that diverges, a period that is not calm, an observation that is not finite).
 
+:class:`Rules` (made by :func:`rules`) is the same rules for a pybullet world, whose engine calls
+stay in Python: the target clipping, the servo law, the blow-up screen, the IMU and the light
+sensors over the arrays its NumPy path would hand to NumPy, by the same C++ functions.
+
 The only module that imports the extension. It is used only where it gives the NumPy path's
 numbers: the extension must be built against the very ``mujoco`` that is imported, and its
 kernels must round as NumPy's do here (checked once per process on random data: NumPy's matrix
 products are OpenBLAS's, which fuse or not by CPU). Otherwise, or when it was not built (no
-compiler or no ``mujoco`` wheel at install time), :func:`rollout` and :func:`world_step` return
-None and the caller takes the NumPy path; the reason is logged once.
+compiler or no ``mujoco`` wheel at install time), :func:`rollout`, :func:`world_step` and
+:func:`rules` return None and the caller takes the NumPy path; the reason is logged once.
 """
 
 from __future__ import annotations
 
+import ctypes
 import functools
 import importlib
+import importlib.metadata
+import importlib.util
 import logging
 import math
+import pathlib
+import sys
 from collections.abc import Sequence
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, Protocol
@@ -57,8 +66,8 @@ from revolve_env.world.sensing import IMU_HIGH, imu_readings, light_falloff, lig
 if TYPE_CHECKING:
     from revolve_env.world.mujoco_backend import RawScene
 
-__all__ = ["SIGNALS", "EnvStep", "Path", "TaskRule", "WorldStep", "available", "env_step",
-           "hypot_exact", "rollout", "world_step"]
+__all__ = ["SIGNALS", "EnvStep", "Path", "Rules", "TaskRule", "WorldStep", "available",
+           "env_step", "hypot_exact", "rollout", "rules", "world_step"]
 
 _log = logging.getLogger(__name__)
 
@@ -625,3 +634,154 @@ def hypot_exact() -> bool:
     _log.warning("revolve-env: the compiled env step's hypot does not give math.hypot's bits "
                  "here; the single-robot env steps on its Python path")
     return False
+# -- The rules over a World's arrays (pybullet) ------------------------------------------------
+
+_NO_POSES = (np.zeros((0, 3)), np.zeros((0, 3, 3)))
+
+
+class Rules:
+    """The per-period rules of a :class:`~revolve_env.world.World`'s NumPy path, in C++.
+
+    pybullet's worlds keep their engine calls in Python (the motors, ``stepSimulation``, the body
+    reads, the contacts and the link poses) and take the rules from the extension, over the very
+    arrays the NumPy path hands to NumPy: the target clipping, RoboGen's servo law, the blow-up
+    screen, the IMU and the light sensors. The same C++ functions as :func:`rollout`'s and
+    :class:`WorldStep`'s, so the rules have one home, and the same bits as the NumPy rules
+    (which stay the fallback and the tests' reference). Made by :func:`rules`.
+    """
+
+    def __init__(self, ext: ModuleType, c: WorldConfig) -> None:
+        self._ext = ext
+        self._scale = math.radians(c.range_deg)
+        self._servo_k = c.servo_gain / c.control_period
+        self._max_velocity = float(c.max_velocity)
+        self._period = float(c.control_period)
+        self._gravity = float(c.gravity)
+        self._light = np.asarray(c.light_position, dtype=np.float64)
+        self._range = float(c.light_range)
+
+    def clip_targets(self, targets: NDArray[np.float64], out: NDArray[np.float64]) -> bool:
+        """``out[:] = clip(targets, -1, 1) * scale`` (radians), unless a target is not finite.
+
+        Returns False then, ``out`` untouched (the NumPy path flags the robot).
+
+        Args:
+            targets: Normalized targets, float64.
+            out: Where they go (a contiguous slice of the world's targets).
+        """
+        return bool(self._ext.clip_targets(targets, self._scale, out))
+
+    def servo(self, targets: NDArray[np.float64], joint_pos: NDArray[np.float64],
+              active: NDArray[np.intp]) -> NDArray[np.float64]:
+        """RoboGen's servo law: every active hinge's commanded velocity. Radians per second.
+
+        Args:
+            targets: Every active hinge's target. Radians.
+            joint_pos: Every hinge's angle (``BodyStates.joint_pos``). Radians.
+            active: The active hinges in ``joint_pos``, in the targets' order.
+        """
+        out: NDArray[np.float64] = self._ext.servo_velocities(targets, joint_pos, active,
+                                                              self._servo_k, self._max_velocity)
+        return out
+
+    def calm(self, s: BodyStates, joint_offsets: NDArray[np.intp], screen: Screen) -> bool:
+        """:func:`~revolve_env.world.blowups.all_calm` of every robot (at least one)."""
+        return bool(self._ext.all_calm_rows(s.core_pos, s.core_rot, s.core_vel, s.core_angvel,
+                                            s.joint_pos, s.joint_vel, s.diverged, joint_offsets,
+                                            screen.inverse))
+
+    def sense(self, out: NDArray[np.float64], lay: Layout, s: BodyStates,
+              prev_vel: NDArray[np.float64],
+              link_poses: tuple[NDArray[np.float64], NDArray[np.float64]] | None) -> None:
+        """Write every robot's IMU and light sensor values into ``out`` (the world's layout).
+
+        Args:
+            out: Every robot's sensor values (the touch sensors are the caller's).
+            lay: The world's index arrays.
+            s: Every robot's state now.
+            prev_vel: (n, 3) the cores' velocities one control period ago. Metres per second.
+            link_poses: The poses of ``lay.light_link_ids`` (None: there are none).
+        """
+        link_pos, link_rot = _NO_POSES if link_poses is None else link_poses
+        self._ext.sense_rows(out, lay.input_offsets, s.core_pos, s.core_rot, s.core_vel,
+                             prev_vel, s.core_angvel, self._period, self._gravity, IMU_HIGH,
+                             lay.light_dest, lay.light_root_rows, link_pos, link_rot,
+                             lay.light_points, lay.light_facings, self._light, self._range)
+
+
+def rules(c: WorldConfig) -> Rules | None:
+    """The compiled rules of a world's control period (:class:`Rules`), None where not used.
+
+    Used by pybullet's worlds when the extension is usable (:func:`_rules_extension`); MuJoCo's
+    worlds step in :class:`WorldStep` or, where it does not apply, keep the NumPy rules.
+    """
+    if c.engine != "pybullet":
+        return None
+    ext = _rules_extension()
+    return None if ext is None else Rules(ext, c)
+
+
+@functools.cache
+def _rules_extension() -> ModuleType | None:
+    """The extension for pybullet's rules if it gives the NumPy rules' bits here, else None.
+
+    :func:`_extension`'s gate, without importing the ``mujoco`` package (a world loads only the
+    engine it uses): the extension links MuJoCo's library, which is loaded from the installed
+    package's folder (found, not imported); it must be the version the extension was built for,
+    and the kernels the rules use must round as NumPy's (checked once per process). Where
+    ``mujoco`` is imported already, :func:`_extension` decides. None without the ``mujoco``
+    package (the reason logged once).
+    """
+    if "mujoco" in sys.modules:
+        return _extension()
+    spec = importlib.util.find_spec("mujoco")
+    if spec is None or not spec.submodule_search_locations:
+        return None
+    libs = [lib for folder in spec.submodule_search_locations
+            for pattern in ("libmujoco.so.*", "libmujoco.*.dylib")
+            for lib in sorted(pathlib.Path(folder).glob(pattern))]
+    try:
+        version = importlib.metadata.version("mujoco")
+        for lib in libs[:1]:  # the extension finds it loaded, by its soname
+            ctypes.CDLL(str(lib))
+        ext = importlib.import_module("revolve_env._rollout")
+    except (ImportError, OSError) as e:
+        _log.warning("revolve-env: the compiled rules are not usable (%s); pybullet's worlds use "
+                     "the NumPy rules", " ".join(str(e).split()))
+        return None
+    if version != ext.MUJOCO_VERSION or ext.mujoco_version() != ext.MUJOCO_HEADER:
+        _log.warning("revolve-env: the compiled rules were built for mujoco %s, not the "
+                     "installed %s; pybullet's worlds use the NumPy rules", ext.MUJOCO_VERSION,
+                     version)
+        return None
+    odd = _rule_kernels_differ(ext)
+    if odd:
+        _log.warning("revolve-env: the compiled rules' %s does not round as NumPy's does on this "
+                     "machine; pybullet's worlds use the NumPy rules", odd)
+        return None
+    return ext
+
+
+def _rule_kernels_differ(ext: ModuleType) -> str | None:
+    """The first kernel of the rules whose bits differ from NumPy's on random data, else None.
+
+    The IMU's and the light sensors' products, as :func:`_kernels_differ` checks them.
+    """
+    rng = np.random.default_rng(2027)
+    n = 256
+    rot = rng.normal(size=(n, 3, 3))
+    vel, prev, spin = (rng.normal(size=(n, 3)) * 10 for _ in range(3))
+    raw = np.concatenate(((vel - prev) * (1.0 / (1 / 60)), spin), axis=1)
+    raw[:, 2] += 9.81
+    if not np.array_equal(ext.imu_products(raw.reshape(n, 2, 3), rot).reshape(n, 6),
+                          imu_readings(vel, prev, spin, rot, 1 / 60, 9.81)):
+        return "IMU product"
+    pos, point = rng.normal(size=(n, 3)), rng.normal(size=(n, 3)) * 0.1
+    facing = rng.normal(size=(n, 3))
+    facing /= np.linalg.norm(facing, axis=1, keepdims=True)
+    light = np.array([1.0, 0.0, 0.1])
+    want = light_intensity(pos, rot, np.ascontiguousarray(point[:, :, None]),
+                           np.ascontiguousarray(facing[:, :, None]), light, 1.0)
+    if not np.array_equal(ext.light_values(pos, rot, point, facing, light, 1.0), want):
+        return "light sensor"
+    return None

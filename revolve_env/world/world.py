@@ -4,6 +4,9 @@ Everything a physics engine should not decide lives here, once, for every engine
 clipping and the NaN guard on hinge targets, RoboGen's servo law, the IMU and light-sensor maths
 and the blow-up policy. The engine itself is a :class:`~revolve_env.world.backend.PhysicsBackend`
 chosen by ``WorldConfig.engine``, driven with one batched call per primitive and control period.
+Their arithmetic has one compiled home (:mod:`~revolve_env.world.compiled`): a MuJoCo world of one
+scene steps its whole period there, and a pybullet world, whose engine calls stay here, takes the
+rules from it over the arrays below; the NumPy rules are the fallback, to the same bits.
 """
 
 from __future__ import annotations
@@ -104,6 +107,8 @@ class World:
         # The compiled step of the robots now (None: not made yet), unless the NumPy path steps
         self._compiled: compiled.WorldStep | None = None
         self._numpy_path = False
+        # pybullet: the NumPy path's rules in C++ (None: NumPy's; MuJoCo steps in WorldStep)
+        self._rules = compiled.rules(self.config)
 
     def reset(self) -> None:
         """Remove every robot and restart the simulation from time 0 with the same engine.
@@ -439,6 +444,10 @@ class World:
 
     def _write_targets(self, where: slice | NDArray[np.intp],
                        targets: NDArray[np.float64]) -> None:
+        rules = self._rules
+        if (rules is not None and isinstance(where, slice) and targets.dtype == np.float64
+                and rules.clip_targets(targets, self._targets[where])):
+            return  # else a non-finite target: the NumPy path below flags its robot
         if not all_finite(targets):
             rows = self._layout.output_rows[where]
             bad = np.unique(rows[~np.isfinite(targets)])
@@ -470,9 +479,12 @@ class World:
                 continue
             if active.size:
                 # RoboGen's servo law, for every active hinge of every robot at once.
-                q = self._now.joint_pos[active]
-                vel = np.minimum(np.maximum(k * (self._targets - q), -c.max_velocity),
-                                 c.max_velocity)
+                if self._rules is not None:
+                    vel = self._rules.servo(self._targets, self._now.joint_pos, active)
+                else:
+                    q = self._now.joint_pos[active]
+                    vel = np.minimum(np.maximum(k * (self._targets - q), -c.max_velocity),
+                                     c.max_velocity)
                 backend.set_joint_velocities(vel, c.max_torque)
             backend.step(c.substeps)
             self._time += c.control_period
@@ -548,7 +560,9 @@ class World:
 
         One screen of all robots at once, then robot by robot only when the screen fails.
         """
-        if all_calm(self._now, self._screen):
+        rules = self._rules
+        if (rules.calm(self._now, self._layout.joint_offsets, self._screen) if rules is not None
+                else all_calm(self._now, self._screen)):
             return
         for state in self._robots.values():
             if state.blow_up is None:
@@ -668,6 +682,14 @@ class World:
     def _sense(self) -> NDArray[np.float64]:
         lay, s, c = self._layout, self._now, self.config
         out = np.empty(lay.n_inputs)
+        if self._rules is not None and lay.n:  # the engine read in the NumPy path's order
+            if lay.touch_ids.size:
+                out[lay.touch_dest] = self._backend.touching(lay.touch_ids)
+            poses = (self._backend.link_poses(lay.light_link_ids) if lay.light_link_ids.size
+                     else None)
+            self._rules.sense(out, lay, s, self._prev_vel, poses)
+            out.flags.writeable = False
+            return out
         if lay.n:
             # The real sensor saturates at full scale (NaN passes: a blow-up stays visible).
             out[lay.imu_dest] = np.minimum(np.maximum(self._imus(), IMU_LOW), IMU_HIGH)
