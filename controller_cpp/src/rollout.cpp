@@ -1081,6 +1081,8 @@ int env_step(BoundEnvStep& e, nb::ndarray<const A, nb::ndim<1>, nb::c_contig, nb
     nb::gil_scoped_release release;
     return e.step(action.data(), action.shape(0), obs.data(), e.targets.data(), e.outputs.data(), e.start.data(),
                   states.data(), sensors.data(), e.out.data(), periods, age, time);
+}
+
 // ---- The rules over a World's arrays (pybullet) ---------------------------------------------------
 //
 // pybullet's World keeps its engine calls in Python (one set of motors, stepSimulation, the body
