@@ -536,6 +536,30 @@ void check_index(const std::vector<int>& v, int limit, const char* what) {
     }
 }
 
+// A brain's network arrays (NetworkSpec's, as_spec's order) as the batch controller's view of
+// them; the arrays' shapes checked, the view borrowing their data (one home for the rollout and
+// the env step).
+revolve::NetworkView network_view(const Vec<std::int8_t>& kinds,
+                                  const nb::ndarray<const double, nb::ndim<2>, nb::c_contig>& params,
+                                  const Vec<std::int32_t>& src, const Vec<std::int32_t>& dst,
+                                  const Vec<double>& weight, std::int64_t n_inputs, std::int64_t n_outputs) {
+    if (params.shape(0) != kinds.shape(0) || params.shape(1) != revolve::kParamColumns ||
+        src.shape(0) != dst.shape(0) || src.shape(0) != weight.shape(0)) {
+        throw nb::value_error("malformed network arrays");
+    }
+    revolve::NetworkView v;
+    v.n_neurons = static_cast<std::int64_t>(kinds.shape(0));
+    v.n_inputs = n_inputs;
+    v.n_outputs = n_outputs;
+    v.kinds = kinds.data();
+    v.neuron_params = params.data();
+    v.n_connections = static_cast<std::int64_t>(src.shape(0));
+    v.src = src.data();
+    v.dst = dst.data();
+    v.weight = weight.data();
+    return v;
+}
+
 int add(Rollout& ro, std::uintptr_t model, std::uintptr_t data, int root_body, int root_qpos, int root_dof,
         Vec<std::int64_t> hinge_qpos, Vec<std::int64_t> hinge_dof, Vec<std::int64_t> active, int n_inputs,
         Vec<std::int64_t> touch_body, Vec<std::int64_t> touch_dest, Vec<std::int64_t> light_body,
@@ -590,22 +614,8 @@ int add(Rollout& ro, std::uintptr_t model, std::uintptr_t data, int root_body, i
     if (n_inputs < 6 || net_inputs != n_inputs || net_outputs != static_cast<std::int64_t>(r.active.size())) {
         throw nb::value_error("the network does not fit the body");
     }
-    if (params.shape(0) != kinds.shape(0) || params.shape(1) != revolve::kParamColumns ||
-        src.shape(0) != dst.shape(0) || src.shape(0) != weight.shape(0)) {
-        throw nb::value_error("malformed network arrays");
-    }
-    revolve::NetworkView v;
-    v.n_neurons = static_cast<std::int64_t>(kinds.shape(0));
-    v.n_inputs = net_inputs;
-    v.n_outputs = net_outputs;
-    v.kinds = kinds.data();
-    v.neuron_params = params.data();
-    v.n_connections = static_cast<std::int64_t>(src.shape(0));
-    v.src = src.data();
-    v.dst = dst.data();
-    v.weight = weight.data();
     r.brain = std::make_unique<revolve::BatchController>(brain_dt);
-    r.brain->add(v);
+    r.brain->add(network_view(kinds, params, src, dst, weight, net_inputs, net_outputs));
     r.inputs.assign(n_inputs, 0.0);
     r.outputs.assign(r.active.size(), 0.0);
     r.targets.assign(r.active.size(), 0.0);
@@ -1046,23 +1056,9 @@ void make_env_step(BoundEnvStep* self, WorldStep& world, Out targets, Out output
         auto weight = nb::cast<Vec<double>>(network[4]);
         const auto net_in = nb::cast<std::int64_t>(network[5]);
         const auto net_out = nb::cast<std::int64_t>(network[6]);
-        if (net_in != n_inputs || net_out != e.n_out || params.shape(0) != kinds.shape(0) ||
-            params.shape(1) != revolve::kParamColumns || src.shape(0) != dst.shape(0) ||
-            src.shape(0) != weight.shape(0)) {
-            throw nb::value_error("the network does not fit the body");
-        }
-        revolve::NetworkView v;
-        v.n_neurons = static_cast<std::int64_t>(kinds.shape(0));
-        v.n_inputs = net_in;
-        v.n_outputs = net_out;
-        v.kinds = kinds.data();
-        v.neuron_params = params.data();
-        v.n_connections = static_cast<std::int64_t>(src.shape(0));
-        v.src = src.data();
-        v.dst = dst.data();
-        v.weight = weight.data();
+        if (net_in != n_inputs || net_out != e.n_out) throw nb::value_error("the network does not fit the body");
         e.brain = std::make_unique<revolve::BatchController>(brain_dt);
-        e.brain->add(v);
+        e.brain->add(network_view(kinds, params, src, dst, weight, net_in, net_out));
         e.brain_driven = true;
         e.inputs.assign(n_inputs, 0.0);
     }
