@@ -69,3 +69,13 @@ class WorldStep:
     def states_size(self) -> int: ...
     def step(self, targets: NDArray[np.float64], start: NDArray[np.float64],
              states: NDArray[np.float64], sensors: NDArray[np.float64]) -> int: ...
+
+def windows_push(t: float, window: float, eps: float, stride: int, insertion: int,
+                 position: NDArray[np.float64], ages: NDArray[np.int64],
+                 sampling: NDArray[np.bool_], ring_t: NDArray[np.float64],
+                 ring_xy: NDArray[np.float64], ring_path: NDArray[np.float64],
+                 first: NDArray[np.int64], last: NDArray[np.int64], seq: int, start: int,
+                 w_first: NDArray[np.float64], w_last: NDArray[np.float64],
+                 w_v: NDArray[np.float64], w_s: NDArray[np.float64], w_count: NDArray[np.int64],
+                 w_duration: NDArray[np.float64]) -> tuple[bool, int, int, bool]: ...
+def hypots(x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]: ...

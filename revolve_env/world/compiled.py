@@ -33,7 +33,7 @@ import functools
 import importlib
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -51,7 +51,8 @@ from revolve_env.world.sensing import IMU_HIGH, imu_readings, light_falloff, lig
 if TYPE_CHECKING:
     from revolve_env.world.mujoco_backend import RawScene
 
-__all__ = ["SIGNALS", "Path", "WorldStep", "available", "rollout", "world_step"]
+__all__ = ["SIGNALS", "Path", "WorldStep", "available", "rollout", "windows_kernel",
+           "world_step"]
 
 _log = logging.getLogger(__name__)
 
@@ -145,6 +146,38 @@ def _kernels_differ(ext: ModuleType) -> str | None:
 def available() -> bool:
     """Whether the compiled rollout is built and gives the NumPy rules' numbers here."""
     return _extension() is not None
+
+
+def windows_kernel() -> Callable[..., tuple[bool, int, int, bool]] | None:
+    """The compiled push of fitness windows (``FitnessWindows.push_compiled``), None if not usable.
+
+    Not usable where the compiled rollout is not (:func:`available`; also without ``mujoco``).
+    """
+    try:
+        ext = _extension()
+    except ImportError:
+        return None
+    if ext is None or not _hypot_agrees(ext):
+        return None
+    return ext.windows_push  # type: ignore[no-any-return]
+
+
+@functools.cache
+def _hypot_agrees(ext: ModuleType) -> bool:
+    """Whether the extension's ``math.hypot`` gives CPython's bits on random data (else logs)."""
+    rng = np.random.default_rng(2026)
+    n = 256
+    # ordinary, tiny, huge and mixed magnitudes, zeros, subnormals, infinities and NaN
+    x = np.concatenate((rng.normal(size=n), rng.normal(size=n) * 1e-160, rng.normal(size=n) * 1e160,
+                        rng.normal(size=n), np.zeros(4), [5e-324, np.inf, -np.inf, np.nan]))
+    y = np.concatenate((rng.normal(size=n), rng.normal(size=n), rng.normal(size=n) * 1e-200,
+                        rng.normal(size=n) * 1e-9, [0.0, 1.0, -3.0, 5e-324], [2.0, 1.0, 0.0, 1.0]))
+    want = np.array([math.hypot(a, b) for a, b in zip(x.tolist(), y.tolist(), strict=True)])
+    if np.array_equal(ext.hypots(x, y), want, equal_nan=True):
+        return True
+    _log.warning("revolve-env: the compiled math.hypot does not give CPython's bits here; the "
+                 "population env's fitness windows use NumPy")
+    return False
 
 
 def rollout(world: Evaluating, robots: Sequence[Robot], starts: Sequence[Any],
