@@ -118,3 +118,11 @@ def sense_rows(out: NDArray[np.float64], input_offsets: NDArray[np.intp],
                link_rot: NDArray[np.float64], points: NDArray[np.float64],
                facings: NDArray[np.float64], light: NDArray[np.float64],
                light_range: float) -> None: ...
+def windows_push(t: float, window: float, eps: float, stride: int, insertion: int,
+                 position: NDArray[np.float64], ages: NDArray[np.int64],
+                 sampling: NDArray[np.bool_], ring_t: NDArray[np.float64],
+                 ring_xy: NDArray[np.float64], ring_path: NDArray[np.float64],
+                 first: NDArray[np.int64], last: NDArray[np.int64], seq: int, start: int,
+                 w_first: NDArray[np.float64], w_last: NDArray[np.float64],
+                 w_v: NDArray[np.float64], w_s: NDArray[np.float64], w_count: NDArray[np.int64],
+                 w_duration: NDArray[np.float64]) -> tuple[bool, int, int, bool]: ...

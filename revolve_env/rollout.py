@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -333,7 +333,8 @@ class TaskWindows:
         self.ring.remove(keep)
 
     def push(self, time: float, position: NDArray[np.float64], ages: NDArray[np.int64],
-             sampling: NDArray[np.bool_] | None, signal: NDArray[np.float64] | None) -> Window:
+             sampling: NDArray[np.bool_] | None, signal: NDArray[np.float64] | None,
+             kernel: Callable[..., tuple[bool, int, int, bool]] | None = None) -> Window:
         """Sample the robots in ``sampling`` (None: all) now; every robot's window after it.
 
         Args:
@@ -342,7 +343,14 @@ class TaskWindows:
             ages: (n,) control periods since every robot's birth.
             sampling: Which robots are sampled (past their insertion, alive).
             signal: (n,) the task's signal of every robot now (None: the task has none).
+            kernel: The compiled push (:func:`~revolve_env.world.compiled.windows_kernel`),
+                used where it applies (:meth:`FitnessWindows.push_compiled`); the same numbers.
         """
+        if kernel is not None and signal is None and sampling is not None:
+            window = self.ring.push_compiled(kernel, time, position, ages, sampling, self.stride,
+                                             self.insertion_steps)
+            if window is not None:
+                return window
         pose = position
         if self.stride > 1:  # between pose samples a robot holds its last one
             since = ages - self.insertion_steps

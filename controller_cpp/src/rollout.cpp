@@ -30,6 +30,7 @@
 #include <nanobind/stl/tuple.h>
 #include <nanobind/stl/vector.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cfloat>
 #include <cmath>
@@ -1215,6 +1216,131 @@ void bind_array_rules(nb::module_& mod) {
 
 }  // namespace
 
+// The population env's fitness windows, one push per control period (revolve_env.rollout.TaskWindows
+// .push on a revolve_env.fitness.FitnessWindows without a signal, then FitnessWindows.current), in
+// place on the ring's own arrays. The same operations in the same order as the NumPy code; math.hypot
+// is CPython's (py_hypot above, the env step's; checked against math.hypot at import). What the NumPy code does rarely it is left to do: windows_push declines (returns false,
+// nothing changed) a push at the latest sample time again (a birth between two steps), a ring that
+// must grow, a path past 1 km (rebased), and a time before the last one or a non-finite position of a
+// robot that samples (errors there).
+namespace windows {
+
+constexpr std::int64_t kNone = INT64_MAX;  // FitnessWindows._NONE: no sample yet
+
+using I64 = nb::ndarray<std::int64_t, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+using Flags = nb::ndarray<const bool, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+using Ring = nb::ndarray<double, nb::c_contig, nb::device::cpu>;
+
+// One push and every robot's window after it (see above). `sampling`: which robots sample (empty:
+// all); ring_t (cap,), ring_xy (cap, n, 2), ring_path (cap, n), first/last (n,) and seq/start are
+// FitnessWindows' own. Out: the window's first and last (x, y) (n, 2), v, s, samples and duration.
+// Returns (pushed, seq, start, all_started).
+nb::tuple push(double t, double window, double eps, std::int64_t stride, std::int64_t insertion,
+               Vec<double> position, nb::ndarray<const std::int64_t, nb::ndim<1>, nb::c_contig, nb::device::cpu> ages,
+               Flags sampling, Ring ring_t, Ring ring_xy, Ring ring_path, I64 first, I64 last, std::int64_t seq,
+               std::int64_t start, Out w_first, Out w_last, Out w_v, Out w_s, I64 w_count, Out w_duration) {
+    const std::size_t n = ages.shape(0);
+    const std::int64_t cap = static_cast<std::int64_t>(ring_t.shape(0));
+    if (position.shape(0) != 3 * n || (sampling.shape(0) != 0 && sampling.shape(0) != n) ||
+        ring_xy.size() != static_cast<std::size_t>(cap) * n * 2 || ring_path.size() != static_cast<std::size_t>(cap) * n ||
+        first.shape(0) != n || last.shape(0) != n || w_first.shape(0) != 2 * n || w_last.shape(0) != 2 * n ||
+        w_v.shape(0) != n || w_s.shape(0) != n || w_count.shape(0) != n || w_duration.shape(0) != n || cap < 2) {
+        throw nb::value_error("window arrays of the wrong size");
+    }
+    const nb::tuple declined = nb::make_tuple(false, seq, start, false);
+    const double* pos = position.data();
+    const std::int64_t* age = ages.data();
+    const bool* samp = sampling.shape(0) ? sampling.data() : nullptr;
+    double* rt = ring_t.data();
+    double* rxy = ring_xy.data();
+    double* rpath = ring_path.data();
+    std::int64_t* fst = first.data();
+    std::int64_t* lst = last.data();
+    const auto wrap = [cap](std::int64_t s) { return ((s % cap) + cap) % cap; };
+    if (seq > start && t < rt[wrap(seq - 1)]) return declined;  // an error: Python says which
+    if (!std::isfinite(t)) return declined;
+    // The latest sample time again (a robot joining it): Python's.
+    if (seq > start && t == rt[wrap(seq - 1)]) {
+        bool sampled_then = false;
+        for (std::size_t i = 0; i < n; ++i) {
+            if ((samp == nullptr || samp[i]) && lst[i] == seq - 1) sampled_then = true;
+        }
+        if (!sampled_then) return declined;
+    }
+    // Each sampling robot's (x, y) now (a held pose between pose samples) and its path.
+    std::vector<double> xs(n), ys(n), paths(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (samp != nullptr && !samp[i]) continue;
+        double x = pos[3 * i], y = pos[3 * i + 1];
+        const std::int64_t lo = std::max(fst[i], start);
+        const bool some = lst[i] - lo + 1 > 0;
+        if (stride > 1) {
+            const std::int64_t since = age[i] - insertion;
+            const bool posing = since >= 0 && since % stride == 0;
+            if (!posing && since > 0) {  // it holds its last pose (zeros with none)
+                const std::int64_t row = some ? wrap(lst[i]) : 0;
+                x = some ? rxy[(row * n + i) * 2] : 0.0;
+                y = some ? rxy[(row * n + i) * 2 + 1] : 0.0;
+            }
+        }
+        if (!std::isfinite(x) || !std::isfinite(y)) return declined;
+        double path = 0.0;
+        if (fst[i] != kNone) {
+            const std::int64_t prev = wrap(lst[i]);
+            path = rpath[prev * n + i] + py_hypot(x - rxy[(prev * n + i) * 2], y - rxy[(prev * n + i) * 2 + 1]);
+        }
+        if (path > 1e3) return declined;  // rebased by Python
+        xs[i] = x;
+        ys[i] = y;
+        paths[i] = path;
+    }
+    // Sample times that left the window go (the newest one stays).
+    const double horizon = t - window - eps;
+    while (start < seq && rt[wrap(start)] < horizon) ++start;
+    if (seq - start == cap) return declined;  // the ring grows (Python)
+    const std::int64_t row = wrap(seq);
+    rt[row] = t;
+    bool all_started = true;
+    for (std::size_t i = 0; i < n; ++i) {
+        if (samp == nullptr || samp[i]) {
+            rxy[(row * n + i) * 2] = xs[i];
+            rxy[(row * n + i) * 2 + 1] = ys[i];
+            rpath[row * n + i] = paths[i];
+            if (fst[i] == kNone) fst[i] = seq;
+            lst[i] = seq;
+        }
+        all_started = all_started && fst[i] != kNone;
+    }
+    ++seq;
+    // Every robot's window now (FitnessWindows.current).
+    double* wf = w_first.data();
+    double* wl = w_last.data();
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::int64_t lo = std::max(fst[i], start);
+        const std::int64_t count = std::max<std::int64_t>(lst[i] - lo + 1, 0);
+        const bool some = count > 0;
+        const std::int64_t fc = some ? wrap(lo) : 0, lc = some ? wrap(lst[i]) : 0;
+        w_count.data()[i] = count;
+        if (count < 2) {
+            wf[2 * i] = wf[2 * i + 1] = wl[2 * i] = wl[2 * i + 1] = 0.0;
+            w_v.data()[i] = w_s.data()[i] = w_duration.data()[i] = 0.0;
+            continue;
+        }
+        const double* a = rxy + (fc * n + i) * 2;
+        const double* b = rxy + (lc * n + i) * 2;
+        wf[2 * i] = a[0];
+        wf[2 * i + 1] = a[1];
+        wl[2 * i] = b[0];
+        wl[2 * i + 1] = b[1];
+        w_v.data()[i] = rpath[lc * n + i] - rpath[fc * n + i];
+        w_s.data()[i] = py_hypot(b[0] - a[0], b[1] - a[1]);
+        w_duration.data()[i] = rt[lc] - rt[fc];
+    }
+    return nb::make_tuple(true, seq, start, all_started);
+}
+
+}  // namespace windows
+
 NB_MODULE(_rollout, mod) {
     mod.doc() = "revolve-env's compiled rollout on MuJoCo (use revolve_env.world.compiled)";
     mod.attr("MUJOCO_HEADER") = mjVERSION_HEADER;
@@ -1438,4 +1564,12 @@ NB_MODULE(_rollout, mod) {
         },
         nb::arg("a"), nb::arg("b"), "math.hypot of each pair, as CPython computes it.");
     bind_array_rules(mod);  // pybullet's World: the rules over arrays
+    // The population env's fitness windows (revolve_env.world.compiled.WindowPush).
+    mod.def("windows_push", &windows::push, nb::arg("t"), nb::arg("window"), nb::arg("eps"), nb::arg("stride"),
+            nb::arg("insertion"), nb::arg("position"), nb::arg("ages"), nb::arg("sampling"), nb::arg("ring_t"),
+            nb::arg("ring_xy"), nb::arg("ring_path"), nb::arg("first"), nb::arg("last"), nb::arg("seq"),
+            nb::arg("start"), nb::arg("w_first"), nb::arg("w_last"), nb::arg("w_v"), nb::arg("w_s"),
+            nb::arg("w_count"), nb::arg("w_duration"),
+            "FitnessWindows.push (with TaskWindows' held poses) then .current(), in place; (pushed, seq, start, "
+            "all_started).");
 }

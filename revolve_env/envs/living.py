@@ -14,6 +14,7 @@ snapshots and the five dicts of PettingZoo's API.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -74,6 +75,8 @@ class Living:
         self.position = np.zeros((0, 3))  # last finite core positions. Metres
         self.obs = np.zeros(0)  # sensor values as the robots read them, flat (world layout)
         self.view = np.zeros(0)  # what the agents observe, flat
+        # The compiled push of the windows (None: NumPy's), the same numbers.
+        self.kernel: Callable[..., tuple[bool, int, int, bool]] | None = None
         self._layout()
 
     def __len__(self) -> int:
@@ -200,7 +203,7 @@ class Living:
         return view
 
     def sense(self, world: World, time: float, noise: np.random.Generator, sensor_noise: float,
-              blown: NDArray[np.bool_] | None) -> None:
+              blown: NDArray[np.bool_] | None, rewards: bool = True) -> None:
         """After a step: every robot's sensor values, view, position, trajectory and fitness.
 
         Args:
@@ -210,6 +213,8 @@ class Living:
             sensor_noise: Standard deviation of the sensor noise (0: none drawn).
             blown: Rows whose simulation blew up in this step (None: none): zero values and
                 fitness, last position kept, nothing recorded.
+            rewards: Whether to give the step's :attr:`rewards` (False: a caller that reads
+                none, :func:`~revolve_env.envs.reports.end_step`; they are stale then).
         """
         self.ages += 1
         values = world.sensor_values()
@@ -235,13 +240,15 @@ class Living:
         window: Window | None = None
         if sampling.any():
             signal = None if self.signal is None else self.signal.read(world)
-            window = self.windows.push(time, self.position, self.ages, sampling, signal)
+            window = self.windows.push(time, self.position, self.ages, sampling, signal,
+                                       self.kernel)
             self.f, self.v, self.s = self.windows.score(window), window.v, window.s
         if blown is not None:
             if self.f is previous:
                 self.f = previous.copy()
             self.f[blown] = self.v[blown] = self.s[blown] = 0.0
-        self.rewards = self._rewards(window, previous)
+        if rewards:
+            self.rewards = self._rewards(window, previous)
         self.view = self._views(obs, world, blown)
 
     def _rewards(self, window: Window | None, previous: NDArray[np.float64]

@@ -104,12 +104,13 @@ def end_step(roster: Roster, truncate: bool) -> dict[int, RobotStatus]:
                 for member, death in roster.dead}
     reported = [member.agent for member, _ in roster.dead]
     roster.dead = []
-    deaths = roster.sense()
+    deaths = roster.sense(rewards=False)  # rewards: nobody reads them here
     gone = []
-    for row, (member, death) in enumerate(zip(living.members, deaths, strict=True)):
-        if death is not None or truncate:
-            statuses[member.robot_id] = living.status(row)._replace(death=death)
-            gone.append(member)
+    if truncate or deaths.count(None) < len(deaths):  # some life ended
+        for row, (member, death) in enumerate(zip(living.members, deaths, strict=True)):
+            if death is not None or truncate:
+                statuses[member.robot_id] = living.status(row)._replace(death=death)
+                gone.append(member)
     for member in reversed(gone):
         roster.drop(member)
     roster.announced = list(roster.agents)

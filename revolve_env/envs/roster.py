@@ -30,7 +30,7 @@ from revolve_env.envs.placement import Disc
 from revolve_env.envs.population_snapshot import member_snapshot, read_snapshot
 from revolve_env.rollout import Rollout
 from revolve_env.status import Death, agent_name, robot_id
-from revolve_env.world import World, WorldConfig
+from revolve_env.world import World, WorldConfig, compiled
 from revolve_env.world.backend import SnapshotMismatchError
 
 __all__ = ["Roster"]
@@ -74,6 +74,8 @@ class Roster:
         self.next_id = 0  # the id of the next robot born without one
         self.steps = 0  # control periods since reset
         self.noise: np.random.Generator | None = None  # sensor and actuator noise
+        # The windows' compiled push on MuJoCo (with the compiled step; None: NumPy's).
+        living.kernel = compiled.windows_kernel() if config.engine == "mujoco" else None
 
     @property
     def world(self) -> World | None:
@@ -144,6 +146,8 @@ class Roster:
             ValueError: a bad shape or value.
         """
         checked: list[tuple[Member, NDArray[np.float64]]] = []
+        if not actions:
+            return checked
         leaving = {m.agent: m for m, _ in self.dead}
         for agent, action in actions.items():
             if agent in leaving:
@@ -242,8 +246,10 @@ class Roster:
         run.period(self.living.obs, learner, self.actuator_noise, noise)
         self.steps += 1
 
-    def sense(self) -> list[Death | None]:
+    def sense(self, rewards: bool = True) -> list[Death | None]:
         """After :meth:`act`: every robot sensed and scored; the rows that blew up.
+
+        ``rewards``: whether the step's rewards are given (:meth:`Living.sense`).
 
         Returns:
             One entry per row: ``"blow_up"`` for a robot whose simulation blew up in this step
@@ -254,7 +260,7 @@ class Roster:
         assert run is not None and self.noise is not None
         world = run.world
         blown = run.blown()
-        living.sense(world, self.time, self.noise, self.sensor_noise, blown)
+        living.sense(world, self.time, self.noise, self.sensor_noise, blown, rewards)
         deaths: list[Death | None] = [None] * len(living)
         if blown is not None:
             for row in np.flatnonzero(blown).tolist():

@@ -8,7 +8,7 @@ the :class:`~revolve_env.fitness.Window` a task scores.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -196,6 +196,49 @@ class FitnessWindows:
         self._rows_now = None
         if path.shape[0] and float(np.maximum.reduce(path)) > 1e3:
             self._rebase(cols[path > 1e3])
+
+    def push_compiled(self, kernel: Callable[..., tuple[bool, int, int, bool]], t: float,
+                      position: NDArray[np.float64], ages: NDArray[np.int64],
+                      sampling: NDArray[np.bool_], stride: int, insertion_steps: int
+                      ) -> Window | None:
+        """:meth:`push` then :meth:`current` in one compiled call, or None (nothing done).
+
+        For windows without a signal, a robot holding its last pose between its pose samples
+        as :class:`~revolve_env.rollout.TaskWindows` has it (``stride``: control periods between
+        them, counted from ``insertion_steps`` of age on). ``kernel`` is the compiled rollout's
+        ``windows_push`` (:func:`revolve_env.world.compiled.windows_kernel`): the same numbers as
+        :meth:`push`; it declines (None) what :meth:`push` does rarely (a robot joining the latest
+        sample time, a ring that grows, a path rebased past 1 km) and bad input (errors there).
+
+        Args:
+            kernel: The compiled push.
+            t: Sample time. Seconds.
+            position: (n, 3) every robot's core position (C order). Metres.
+            ages: (n,) control periods since every robot's birth.
+            sampling: (n,) which robots sample now.
+            stride: Control periods between pose samples.
+            insertion_steps: Age of a robot's first sample. Control periods.
+        """
+        n = len(self)
+        if (self._sig is not None or position.shape != (n, 3) or not position.flags.c_contiguous
+                or ages.shape != (n,) or ages.dtype != np.int64 or not ages.flags.c_contiguous
+                or sampling.shape != (n,) or sampling.dtype != np.bool_):
+            return None
+        if not (self._xy.flags.c_contiguous and self._path.flags.c_contiguous):  # after remove
+            self._xy, self._path = np.ascontiguousarray(self._xy), np.ascontiguousarray(self._path)
+        first, last, v, s = np.empty((n, 2)), np.empty((n, 2)), np.empty(n), np.empty(n)
+        count, duration = np.empty(n, dtype=np.int64), np.empty(n)
+        pushed, seq, start, all_started = kernel(
+            float(t), self.window, TIME_EPS, int(stride), int(insertion_steps),
+            position.reshape(-1), ages, sampling, self._t, self._xy, self._path, self._first,
+            self._last, self._seq, self._start, first.reshape(-1), last.reshape(-1), v, s, count,
+            duration)
+        if not pushed:
+            return None
+        self._seq, self._start, self._all_started = seq, start, all_started
+        self._rows_now = None
+        count.flags.writeable = False
+        return Window(first, last, v, s, count, None, None, duration)
 
     def _rebase(self, cols: NDArray[np.intp]) -> None:
         """Keep the running sums small so that differences stay exact to ~1e-13 m."""

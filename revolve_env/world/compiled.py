@@ -48,7 +48,7 @@ import logging
 import math
 import pathlib
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -67,7 +67,7 @@ if TYPE_CHECKING:
     from revolve_env.world.mujoco_backend import RawScene
 
 __all__ = ["SIGNALS", "EnvStep", "Path", "Rules", "TaskRule", "WorldStep", "available",
-           "env_step", "hypot_exact", "rollout", "rules", "world_step"]
+           "env_step", "hypot_exact", "rollout", "rules", "windows_kernel", "world_step"]
 
 _log = logging.getLogger(__name__)
 
@@ -156,6 +156,20 @@ def _kernels_differ(ext: ModuleType) -> str | None:
 def available() -> bool:
     """Whether the compiled rollout is built and gives the NumPy rules' numbers here."""
     return _extension() is not None
+
+
+def windows_kernel() -> Callable[..., tuple[bool, int, int, bool]] | None:
+    """The compiled push of fitness windows (``FitnessWindows.push_compiled``), None if not usable.
+
+    Not usable where the compiled rollout is not (:func:`available`; also without ``mujoco``).
+    """
+    try:
+        ext = _extension()
+    except ImportError:
+        return None
+    if ext is None or not hypot_exact():
+        return None
+    return ext.windows_push  # type: ignore[no-any-return]
 
 
 def rollout(world: Evaluating, robots: Sequence[Robot], starts: Sequence[Any],
@@ -623,11 +637,14 @@ def hypot_exact() -> bool:
     scale = 10.0 ** rng.integers(-310, 300, size=20000)
     a, b = rng.normal(size=20000) * scale, rng.normal(size=20000) * np.roll(scale, 7)
     a[:5000], b[:5000] = rng.normal(size=5000) * 1e-3, rng.normal(size=5000) * 1e-3
+    # zeros, the smallest subnormal, infinities and NaN
+    a = np.concatenate((a, [0.0, 5e-324, np.inf, -np.inf, np.nan, 0.0, 2.0]))
+    b = np.concatenate((b, [0.0, 1.0, 0.0, 1.0, 1.0, 5e-324, np.nan]))
     want = np.array([math.hypot(x, y) for x, y in zip(a.tolist(), b.tolist(), strict=True)])
-    if np.array_equal(ext.py_hypots(a, b), want):
+    if np.array_equal(ext.py_hypots(a, b), want, equal_nan=True):
         return True
-    _log.warning("revolve-env: the compiled env step's hypot does not give math.hypot's bits "
-                 "here; the single-robot env steps on its Python path")
+    _log.warning("revolve-env: the compiled math.hypot does not give CPython's bits here; the "
+                 "envs' fitness windows use Python's and NumPy's")
     return False
 # -- The rules over a World's arrays (pybullet) ------------------------------------------------
 

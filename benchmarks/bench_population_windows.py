@@ -1,0 +1,96 @@
+"""The population env's step and advance with the compiled fitness windows and with NumPy's.
+
+Usage: ``python benchmarks/bench_population_windows.py [--robots 30] [--repeats 8]``.
+
+``--robots`` random robots in one MuJoCo world (``bench_engines.py``'s crowd: a grid 1.2 m apart,
+landed for 30 control periods), restored from one snapshot before every timing; the env's
+``step`` (every agent's five dicts) and ``advance`` (what the online world calls), each with the
+compiled window push (:func:`revolve_env.world.compiled.windows_kernel`) and with NumPy's, and the
+bare replay of the same periods (raw ``mj_step``), the sides alternating in this process. Prints
+the best CPU time per control period of each and its ratio to raw.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout
+
+from bench_engines import Replay, random_robots
+
+from revolve_env import population_env
+from revolve_env.envs.population import PopulationEnv
+from revolve_env.world import compiled
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--robots", type=int, default=30)
+    parser.add_argument("--repeats", type=int, default=8)
+    parser.add_argument("--seconds", type=float, default=2.0)
+    args = parser.parse_args()
+    if compiled.windows_kernel() is None:
+        sys.exit("the compiled rollout is not usable here: nothing to compare")
+    n = args.robots
+    side = math.ceil(math.sqrt(n))
+    initial = [{"robot": r, "position": (1.2 * (i % side), 1.2 * (i // side)), "yaw": 0.0}
+               for i, r in enumerate(random_robots(n, seed=1))]
+
+    def make() -> PopulationEnv:
+        env = population_env(engine="mujoco", initial_robots=initial, max_births=n,
+                             insertion_time=0.0)
+        env.reset(seed=0)
+        return env
+
+    fast = make()
+    real = compiled.windows_kernel
+    compiled.windows_kernel = lambda: None  # the env made now keeps NumPy's windows
+    try:
+        slow = make()
+    finally:
+        compiled.windows_kernel = real
+    for _ in range(30):
+        fast.step({})
+    start = fast.snapshot()
+    ticks = round(args.seconds / fast.config.control_period)
+    raw = Replay(fast.world)
+    raw.record(fast.world)
+    for _ in range(ticks):
+        fast.step({})
+    raw.stop(fast.world)
+    raw.run()
+    check = raw.same_as(fast.world)
+
+    def timed(env: PopulationEnv, how: str) -> float:
+        env.restore(start)
+        step = env.step if how == "step" else env.advance
+        cpu = time.process_time()
+        for _ in range(ticks):
+            step({})
+        return time.process_time() - cpu
+
+    sides = {"step, compiled windows": lambda: timed(fast, "step"),
+             "step, NumPy windows": lambda: timed(slow, "step"),
+             "advance, compiled windows": lambda: timed(fast, "advance"),
+             "advance, NumPy windows": lambda: timed(slow, "advance"),
+             "raw mj_step": raw.run}
+    best = dict.fromkeys(sides, math.inf)
+    for _ in range(args.repeats):
+        for name, side_run in sides.items():
+            best[name] = min(best[name], side_run())
+    load = " ".join(Path("/proc/loadavg").read_text().split()[:3])
+    print(f"{n} robots, {ticks} control periods, best CPU of {args.repeats} (replay {check}; "
+          f"load average {load}):")
+    for name, cpu in best.items():
+        print(f"  {name:<27} {cpu / ticks * 1e6:7.0f} us per period  "
+              f"{cpu / best['raw mj_step']:.3f}x raw")
+    fast.close()
+    slow.close()
+
+
+if __name__ == "__main__":
+    main()
