@@ -629,9 +629,17 @@ def env_step(world: Stepping, n_act: int, n_inputs: int, active: NDArray[np.intp
 
 @functools.cache
 def hypot_exact() -> bool:
-    """Whether the extension's ``math.hypot`` gives CPython's bits here (random data, once)."""
+    """Whether the extension's ``math.hypot`` gives CPython's bits here (random data, once).
+
+    The port is CPython 3.10-3.11's algorithm (later versions accumulate its rounding terms
+    otherwise): on another Python the envs keep Python's and NumPy's windows.
+    """
     ext = _extension()
     if ext is None:
+        return False
+    if sys.version_info[:2] not in ((3, 10), (3, 11)):
+        _log.warning("revolve-env: the compiled math.hypot is CPython 3.11's; on Python %d.%d the "
+                  "envs' fitness windows use Python's and NumPy's", *sys.version_info[:2])
         return False
     rng = np.random.default_rng(28)
     scale = 10.0 ** rng.integers(-310, 300, size=20000)
@@ -646,6 +654,8 @@ def hypot_exact() -> bool:
     _log.warning("revolve-env: the compiled math.hypot does not give CPython's bits here; the "
                  "envs' fitness windows use Python's and NumPy's")
     return False
+
+
 # -- The rules over a World's arrays (pybullet) ------------------------------------------------
 
 _NO_POSES = (np.zeros((0, 3)), np.zeros((0, 3, 3)))
