@@ -391,11 +391,12 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         if fast is not None and self._blow_up is None and self._step_count < self._total_steps:
             run = self._run
             assert run is not None
+            taken: NDArray[np.float32] | NDArray[np.float64] = action
             if type(action) is not np.ndarray or action.ndim != 1 or \
                     action.dtype not in _STEP_DTYPES or not action.flags.c_contiguous:
                 # as the general step reads it (its errors for what does not convert)
-                action = np.ascontiguousarray(action, dtype=np.float64).reshape(-1)
-            code = fast.step(action, self._obs, run.periods, self._step_count + 1)
+                taken = np.ascontiguousarray(action, dtype=np.float64).reshape(-1)
+            code = fast.step(taken, self._obs, run.periods, self._step_count + 1)
             if code == fast.done:  # all of it: the world, the window, the observation
                 run.periods += 1
                 n = self._step_count = self._step_count + 1
