@@ -66,8 +66,9 @@ from revolve_env.world.sensing import IMU_HIGH, imu_readings, light_falloff, lig
 if TYPE_CHECKING:
     from revolve_env.world.mujoco_backend import RawScene
 
-__all__ = ["SIGNALS", "EnvStep", "Path", "Rules", "TaskRule", "WorldStep", "available",
-           "env_step", "hypot_exact", "rollout", "rules", "windows_kernel", "world_step"]
+__all__ = ["SIGNALS", "EnvStep", "Path", "Rules", "TaskRule", "WindowsPush", "WorldStep",
+           "available", "env_step", "hypot_exact", "rollout", "rules", "windows_kernel",
+           "world_step"]
 
 _log = logging.getLogger(__name__)
 
@@ -158,7 +159,7 @@ def available() -> bool:
     return _extension() is not None
 
 
-def windows_kernel() -> Callable[..., tuple[bool, int, int, bool]] | None:
+def windows_kernel() -> WindowsPush | None:
     """The compiled push of fitness windows (``FitnessWindows.push_compiled``), None if not usable.
 
     Not usable where the compiled rollout is not (:func:`available`; also without ``mujoco``).
@@ -169,7 +170,25 @@ def windows_kernel() -> Callable[..., tuple[bool, int, int, bool]] | None:
         return None
     if ext is None or not hypot_exact():
         return None
-    return ext.windows_push  # type: ignore[no-any-return]
+    return WindowsPush(ext.windows_push)
+
+
+class WindowsPush:
+    """The extension's ``windows_push``, as an env can keep it.
+
+    Pickled (an env sent to another process, as SuperSuit's vector envs do), it is looked up
+    again there (:func:`windows_kernel`: None where it is not usable).
+    """
+
+    def __init__(self, push: Callable[..., tuple[bool, int, int, bool]]) -> None:
+        self._push = push
+
+    def __call__(self, *args: Any) -> tuple[bool, int, int, bool]:
+        """``windows_push(*args)``: (pushed, seq, start, all_started)."""
+        return self._push(*args)
+
+    def __reduce__(self) -> tuple[Callable[[], WindowsPush | None], tuple[()]]:
+        return windows_kernel, ()
 
 
 def rollout(world: Evaluating, robots: Sequence[Robot], starts: Sequence[Any],
