@@ -112,15 +112,18 @@ _AIM = {aim.key: aim for aim in ISSUE_28}
 @contextlib.contextmanager
 def numpy_rules() -> Iterator[None]:
     """Evaluations inside take the NumPy path (the compiled rollout declines), and so do the
-    worlds that first step inside (the compiled world step declines; a world keeps its path)."""
-    original, step = compiled.rollout, compiled.world_step
+    worlds that first step inside (the compiled world step declines; a world keeps its path) and
+    the population envs made inside (their fitness windows' push stays NumPy's)."""
+    original, step, windows = compiled.rollout, compiled.world_step, compiled.windows_kernel
     compiled.rollout = lambda *a, **k: None  # type: ignore[assignment]
     compiled.world_step = lambda *a, **k: None
+    compiled.windows_kernel = lambda: None
     try:
         yield
     finally:
         compiled.rollout = original  # type: ignore[assignment]
         compiled.world_step = step
+        compiled.windows_kernel = windows
 
 
 def alternate(sides: dict[str, Callable[[], float]], repeats: int) -> dict[str, float]:

@@ -7,6 +7,8 @@ window a task sees and what is held between pose samples.
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,7 +18,7 @@ from hypothesis import strategies as st
 from numpy.typing import NDArray
 
 from revolve_env.fitness import FitnessTerms, Window
-from revolve_env.rollout import RobotWindow, TaskWindows
+from revolve_env.rollout import RobotWindow, TaskWindows, task_rule
 from revolve_env.tasks import DirectedLocomotion, LightFollowing, Locomotion, Task
 
 DT = 1 / 60
@@ -117,3 +119,20 @@ def test_a_robot_window_of_a_signal_task_needs_the_signal() -> None:
     one = RobotWindow(LightFollowing(), 12.0, DT, 0)
     with pytest.raises(ValueError, match="push needs one"):
         one.push(0.0, 0.0, 0.0, 0, None)
+
+
+
+def test_task_rule_reads_every_field_of_the_shipped_tasks() -> None:
+    """The compiled env step scores the shipped tasks by ``task_rule``'s tuple: a field added
+    to one of them (one that could change its fitness) must be added to that rule too."""
+    read = {Locomotion: {"pose_rate", "s_weight", "limit"},
+            DirectedLocomotion: {"pose_rate", "heading"},
+            LightFollowing: {"pose_rate"}}
+    for kind, names in read.items():
+        assert {f.name for f in dataclasses.fields(kind)} == names, kind.__name__
+    assert task_rule(Locomotion(s_weight=2.0, limit=3.0)) == (0, 2.0, 3.0, 1.0, 0.0)
+    directed = task_rule(DirectedLocomotion(heading=0.5))
+    assert directed is not None and directed[:2] == (1, 0.0) and math.isnan(directed[2])
+    assert directed[3:] == (math.cos(0.5), math.sin(0.5))
+    light = task_rule(LightFollowing())
+    assert light is not None and light[0] == 2

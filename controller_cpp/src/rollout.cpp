@@ -1200,14 +1200,14 @@ void sense_rows(Out out, Vec<std::int64_t> input_offsets, Mat3 pos, Rot3 rot, Ma
 }
 
 void bind_array_rules(nb::module_& mod) {
-    mod.def("clip_targets", &clip_targets, nb::arg("targets"), nb::arg("scale"), nb::arg("out"),
+    mod.def("clip_targets", &clip_targets, nb::arg("targets"), nb::arg("scale"), nb::arg("out").noconvert(),
             "World._write_targets into out; False (nothing written) if a target is not finite.");
     mod.def("servo_velocities", &servo_velocities, nb::arg("targets"), nb::arg("joint_pos"), nb::arg("active"),
             nb::arg("servo_k"), nb::arg("max_velocity"), "RoboGen's servo law of every active hinge. Rad/s.");
     mod.def("all_calm_rows", &all_calm_rows, nb::arg("pos"), nb::arg("rot"), nb::arg("vel"), nb::arg("spin"),
             nb::arg("joint_pos"), nb::arg("joint_vel"), nb::arg("diverged"), nb::arg("joint_offsets"),
             nb::arg("screen"), "blowups.all_calm over BodyStates' arrays.");
-    mod.def("sense_rows", &sense_rows, nb::arg("out"), nb::arg("input_offsets"), nb::arg("pos"), nb::arg("rot"),
+    mod.def("sense_rows", &sense_rows, nb::arg("out").noconvert(), nb::arg("input_offsets"), nb::arg("pos"), nb::arg("rot"),
             nb::arg("vel"), nb::arg("prev"), nb::arg("spin"), nb::arg("control_period"), nb::arg("gravity"),
             nb::arg("imu_high"), nb::arg("light_dest"), nb::arg("root_rows"), nb::arg("link_pos"),
             nb::arg("link_rot"), nb::arg("points"), nb::arg("facings"), nb::arg("light"), nb::arg("light_range"),
@@ -1565,11 +1565,13 @@ NB_MODULE(_rollout, mod) {
         nb::arg("a"), nb::arg("b"), "math.hypot of each pair, as CPython computes it.");
     bind_array_rules(mod);  // pybullet's World: the rules over arrays
     // The population env's fitness windows (revolve_env.world.compiled.WindowPush).
+    // (the arrays it writes are taken as they are: a converted copy would take the writes)
     mod.def("windows_push", &windows::push, nb::arg("t"), nb::arg("window"), nb::arg("eps"), nb::arg("stride"),
-            nb::arg("insertion"), nb::arg("position"), nb::arg("ages"), nb::arg("sampling"), nb::arg("ring_t"),
-            nb::arg("ring_xy"), nb::arg("ring_path"), nb::arg("first"), nb::arg("last"), nb::arg("seq"),
-            nb::arg("start"), nb::arg("w_first"), nb::arg("w_last"), nb::arg("w_v"), nb::arg("w_s"),
-            nb::arg("w_count"), nb::arg("w_duration"),
+            nb::arg("insertion"), nb::arg("position"), nb::arg("ages"), nb::arg("sampling"),
+            nb::arg("ring_t").noconvert(), nb::arg("ring_xy").noconvert(), nb::arg("ring_path").noconvert(),
+            nb::arg("first").noconvert(), nb::arg("last").noconvert(), nb::arg("seq"), nb::arg("start"),
+            nb::arg("w_first").noconvert(), nb::arg("w_last").noconvert(), nb::arg("w_v").noconvert(),
+            nb::arg("w_s").noconvert(), nb::arg("w_count").noconvert(), nb::arg("w_duration").noconvert(),
             "FitnessWindows.push (with TaskWindows' held poses) then .current(), in place; (pushed, seq, start, "
             "all_started).");
 }

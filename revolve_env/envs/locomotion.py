@@ -51,6 +51,9 @@ from revolve_env.world.signals import SignalReader, signal_reader
 
 __all__ = ["LocomotionEnv"]
 
+#: The action arrays the compiled env step takes as they are (1-D and C-contiguous too).
+_STEP_DTYPES = (np.dtype(np.float32), np.dtype(np.float64))
+
 
 def _all_finite(a: NDArray[np.float64]) -> bool:
     """Whether every entry is finite (fast path: one reduction; exact on overflow)."""
@@ -388,11 +391,12 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         if fast is not None and self._blow_up is None and self._step_count < self._total_steps:
             run = self._run
             assert run is not None
-            try:
-                code = fast.step(action, self._obs, run.periods, self._step_count + 1)
-            except TypeError:  # not a 1-D float array: as the general step reads it
-                code = fast.step(np.asarray(action, dtype=np.float64).reshape(-1), self._obs,
-                                 run.periods, self._step_count + 1)
+            taken: NDArray[np.float32] | NDArray[np.float64] = action
+            if type(action) is not np.ndarray or action.ndim != 1 or \
+                    action.dtype not in _STEP_DTYPES or not action.flags.c_contiguous:
+                # as the general step reads it (its errors for what does not convert)
+                taken = np.ascontiguousarray(action, dtype=np.float64).reshape(-1)
+            code = fast.step(taken, self._obs, run.periods, self._step_count + 1)
             if code == fast.done:  # all of it: the world, the window, the observation
                 run.periods += 1
                 n = self._step_count = self._step_count + 1

@@ -66,8 +66,9 @@ from revolve_env.world.sensing import IMU_HIGH, imu_readings, light_falloff, lig
 if TYPE_CHECKING:
     from revolve_env.world.mujoco_backend import RawScene
 
-__all__ = ["SIGNALS", "EnvStep", "Path", "Rules", "TaskRule", "WorldStep", "available",
-           "env_step", "hypot_exact", "rollout", "rules", "windows_kernel", "world_step"]
+__all__ = ["SIGNALS", "EnvStep", "Path", "Rules", "TaskRule", "WindowsPush", "WorldStep",
+           "available", "env_step", "hypot_exact", "rollout", "rules", "windows_kernel",
+           "world_step"]
 
 _log = logging.getLogger(__name__)
 
@@ -158,7 +159,7 @@ def available() -> bool:
     return _extension() is not None
 
 
-def windows_kernel() -> Callable[..., tuple[bool, int, int, bool]] | None:
+def windows_kernel() -> WindowsPush | None:
     """The compiled push of fitness windows (``FitnessWindows.push_compiled``), None if not usable.
 
     Not usable where the compiled rollout is not (:func:`available`; also without ``mujoco``).
@@ -169,7 +170,25 @@ def windows_kernel() -> Callable[..., tuple[bool, int, int, bool]] | None:
         return None
     if ext is None or not hypot_exact():
         return None
-    return ext.windows_push  # type: ignore[no-any-return]
+    return WindowsPush(ext.windows_push)
+
+
+class WindowsPush:
+    """The extension's ``windows_push``, as an env can keep it.
+
+    Pickled (an env sent to another process, as SuperSuit's vector envs do), it is looked up
+    again there (:func:`windows_kernel`: None where it is not usable).
+    """
+
+    def __init__(self, push: Callable[..., tuple[bool, int, int, bool]]) -> None:
+        self._push = push
+
+    def __call__(self, *args: Any) -> tuple[bool, int, int, bool]:
+        """``windows_push(*args)``: (pushed, seq, start, all_started)."""
+        return self._push(*args)
+
+    def __reduce__(self) -> tuple[Callable[[], WindowsPush | None], tuple[()]]:
+        return windows_kernel, ()
 
 
 def rollout(world: Evaluating, robots: Sequence[Robot], starts: Sequence[Any],
@@ -629,9 +648,17 @@ def env_step(world: Stepping, n_act: int, n_inputs: int, active: NDArray[np.intp
 
 @functools.cache
 def hypot_exact() -> bool:
-    """Whether the extension's ``math.hypot`` gives CPython's bits here (random data, once)."""
+    """Whether the extension's ``math.hypot`` gives CPython's bits here (random data, once).
+
+    The port is CPython 3.10-3.11's algorithm (later versions accumulate its rounding terms
+    otherwise): on another Python the envs keep Python's and NumPy's windows.
+    """
     ext = _extension()
     if ext is None:
+        return False
+    if sys.version_info[:2] not in ((3, 10), (3, 11)):
+        _log.warning("revolve-env: the compiled math.hypot is CPython 3.11's; on Python %d.%d the "
+                  "envs' fitness windows use Python's and NumPy's", *sys.version_info[:2])
         return False
     rng = np.random.default_rng(28)
     scale = 10.0 ** rng.integers(-310, 300, size=20000)
@@ -646,6 +673,8 @@ def hypot_exact() -> bool:
     _log.warning("revolve-env: the compiled math.hypot does not give CPython's bits here; the "
                  "envs' fitness windows use Python's and NumPy's")
     return False
+
+
 # -- The rules over a World's arrays (pybullet) ------------------------------------------------
 
 _NO_POSES = (np.zeros((0, 3)), np.zeros((0, 3, 3)))

@@ -131,8 +131,9 @@ def test_a_bad_action_is_refused_as_ever_and_other_shapes_are_read_as_ever() -> 
         for e in (env, twin):
             with pytest.raises(ValueError, match="action"):
                 e.step(bad)
-    # a list, a column and float64 are read as the general step reads them
-    for action in ([0.5] * n, np.full((n, 1), -0.25), np.linspace(-2, 2, n)):
+    # a list, a column, float64, a strided view and ints are read as the general step reads them
+    for action in ([0.5] * n, np.full((n, 1), -0.25), np.linspace(-2, 2, n),
+                   np.linspace(-1, 1, 2 * n)[::2], np.zeros(n, dtype=np.int64)):
         a, b = env.step(action), twin.step(action)
         assert _value(a[0]) == _value(b[0]) and a[1:4] == b[1:4]
         assert repr(sorted(a[4].items())) == repr(sorted(b[4].items()))

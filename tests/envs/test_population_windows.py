@@ -8,6 +8,7 @@ ring that grows and a path rebased past 1 km; and whole population episodes with
 
 from __future__ import annotations
 
+import pickle
 from collections.abc import Callable
 from typing import Any
 
@@ -130,3 +131,12 @@ def test_population_episodes_are_the_same_with_the_compiled_push(
         m.setattr(compiled, "windows_kernel", lambda: None)
         slow = _episode(200)
     assert fast == slow
+
+
+def test_an_env_with_the_compiled_push_pickles_and_keeps_it() -> None:
+    """SuperSuit's vector envs send the env to other processes: the push is looked up again."""
+    kernel = compiled.windows_kernel()
+    if kernel is None:
+        pytest.skip("the compiled window push is not usable here")
+    again = pickle.loads(pickle.dumps(kernel))
+    assert isinstance(again, compiled.WindowsPush)
