@@ -358,29 +358,8 @@ class WorldStep:
             and "unsettled" every robot's state now, the cores' velocities before the period
             (n, 3) and every robot's sensor values (read-only), else None three times.
         """
-        states = np.empty(self._size)
-        sensors = np.empty(self._inputs)
-        return self.finish(self._run.step(targets, self._start, states, sensors), states, sensors)
-
-    def finish(self, code: int, states: NDArray[np.float64], sensors: NDArray[np.float64]
-               ) -> tuple[str, BodyStates | None, NDArray[np.float64] | None,
-                          NDArray[np.float64] | None]:
-        """:meth:`period`'s result from the extension's outcome ``code`` and the arrays it filled.
-
-        (The env's step, :class:`EnvStep`, runs the period inside its own call.)
-        """
-        outcome = self._outcomes[code]
-        # the backend replays what needs a replay; an unsettled state is a stepped one to it
-        self._backend.stepped("calm" if outcome == "unsettled" else outcome, self._substeps)
-        if outcome in ("replay", "restart"):
-            return outcome, None, None, None
-        n = self._n
-        a, b, c, d, e, f = self._cuts
-        now = BodyStates(states[:a].reshape(n, 3), states[a:b].reshape(n, 3, 3),
-                         states[b:c].reshape(n, 3), states[c:d].reshape(n, 3), states[d:e],
-                         states[e:f], self._diverged)
-        sensors.flags.writeable = False
-        return outcome, now, states[f:].reshape(n, 3), sensors
+        views = self.buffers()
+        return self.finished(self._run.step(targets, self._start, views[0], views[1]), views)
 
     def buffers(self) -> Buffers:
         """Fresh arrays for one period and the views of them that :meth:`finished` hands out.
@@ -406,7 +385,11 @@ class WorldStep:
     def finished(self, code: int, views: Buffers
                  ) -> tuple[str, BodyStates | None, NDArray[np.float64] | None,
                             NDArray[np.float64] | None]:
-        """:meth:`finish` of a period whose arrays came from :meth:`buffers` (the same result)."""
+        """:meth:`period`'s result from the extension's outcome ``code``.
+
+        ``views``: the :meth:`buffers` it filled. (The env's step, :class:`EnvStep`, runs the
+        period inside its own call and ends here too.)
+        """
         outcome = self._outcomes[code]
         # the backend replays what needs a replay; an unsettled state is a stepped one to it
         self._backend.stepped("calm" if outcome == "unsettled" else outcome, self._substeps)
