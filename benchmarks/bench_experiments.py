@@ -104,6 +104,9 @@ def main() -> None:
                              "benchmark (ms over that many births), for the study's projection")
     parser.add_argument("--given-alive", type=float, default=0.0,
                         help="online --given: the mean robots alive of that run")
+    parser.add_argument("--trace", type=Path, default=None, metavar="FILE",
+                        help="write births, robots alive, RSS (MB) and CPU (s) at every commit "
+                             "point to FILE as CSV, as the run goes")
     parser.add_argument("--keep", type=Path, default=None, metavar="DIR",
                         help="keep each run's results in DIR/<experiment> (default: a "
                              "temporary folder, deleted)")
@@ -122,7 +125,8 @@ def main() -> None:
         try:
             run = measure_run(name, args.births, cores, physics=args.physics,
                               engine_only=args.engine_only, floor_samples=args.floor_samples,
-                              memory_after=args.memory_after, deadline=deadline, keep=args.keep)
+                              memory_after=args.memory_after, deadline=deadline, keep=args.keep,
+                              trace=args.trace)
         except ImportError as error:
             print(f"{name:<12} unavailable: {error}")
             continue
@@ -264,7 +268,8 @@ class RunMeasurement:
 
 def measure_run(name: str, births: int, cores: int, *, physics: str | None = None,
                 engine_only: bool = False, floor_samples: int = 12, memory_after: int = 300,
-                deadline: float | None = None, keep: Path | None = None) -> RunMeasurement:
+                deadline: float | None = None, keep: Path | None = None,
+                trace: Path | None = None) -> RunMeasurement:
     """Run experiment ``name`` once for ``births`` births on ``cores`` and measure it.
 
     One run: births per minute and CPU per birth count that run's births (the shipped configs'
@@ -275,6 +280,8 @@ def measure_run(name: str, births: int, cores: int, *, physics: str | None = Non
         deadline: Stop at the first commit point after this Unix time (the work after it is
             lost, as a killed run's).
         keep: Keep the results in ``keep/<name>`` (default: a temporary folder, deleted).
+        trace: Append ``name,births,alive,rss_mb,cpu_s`` at every commit point to this CSV
+            file as the run goes (a long run's memory against births and robots alive).
 
     Raises:
         ImportError: the experiment's engine is not installed.
@@ -300,6 +307,10 @@ def measure_run(name: str, births: int, cores: int, *, physics: str | None = Non
                 events.append(event)
                 rss.append(rss_mb())
                 spent.append(time.process_time())
+                if trace is not None:
+                    with trace.open("a", encoding="utf-8") as out:
+                        out.write(f"{name},{event.births},{event.population_size},"
+                                  f"{rss[-1]:.2f},{spent[-1] - cpu:.2f}\n")
                 if deadline is not None and time.time() >= deadline:
                     raise _Deadline
 
