@@ -141,6 +141,33 @@ def test_a_bad_action_is_refused_as_ever_and_other_shapes_are_read_as_ever() -> 
     twin.close()
 
 
+@pytest.mark.parametrize("case", ["agent", "blow-up-brain"])
+def test_both_steps_give_the_same_info_dicts(case: str) -> None:
+    """The same keys in the same order, the same types and bits, step after step (reset, the
+    compiled step's own steps, the blow-up that Python finishes)."""
+    env_id, kwargs = CASES[case]
+    kwargs = {**SHORT, **kwargs}
+    if kwargs.get("robot") == "sensors":
+        kwargs["robot"] = _sensor_robot()
+    envs = [gym.make(env_id, **kwargs) for _ in range(2)]
+    envs[1].unwrapped._fast_step = False  # type: ignore[attr-defined]
+    infos: list[list[list[tuple[str, type, str]]]] = [[], []]
+    for e, got in zip(envs, infos, strict=True):
+        got.append([(k, type(v), _value(v)) for k, v in e.reset(seed=0)[1].items()])
+        assert (e.unwrapped._fast is not None) == (e is envs[0])  # type: ignore[attr-defined]
+        rng, done = np.random.default_rng(0), False
+        while not done:
+            out = e.step(rng.uniform(-1.0, 1.0, e.action_space.shape).astype(np.float32))
+            got.append([(k, type(v), _value(v)) for k, v in out[4].items()])
+            done = out[2] or out[3]
+        e.close()
+    assert infos[0] == infos[1]
+    assert [k for k, _, _ in infos[0][-1]] == ["fitness", "fitness_v", "fitness_s",
+                                              "reward_fitness", "time", "evaluating",
+                                              "x_position", "y_position", "blow_up"]
+    assert (infos[0][-1][-1][2] != "None") == case.startswith("blow-up")
+
+
 def test_the_world_is_the_general_steps_after_compiled_steps() -> None:
     """The world's states, sensors, targets and clock as the general step leaves them."""
     envs = [gym.make(LOCOMOTION_V1_ID, robot=_sensor_robot(), controller="brain", **SHORT)
