@@ -342,7 +342,9 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self.action_space = spaces.Box(-1.0, 1.0, (n_act,), dtype=np.float32)
 
         self._world: World | None = None
-        self._run: Rollout | None = None  # the episode's rollout (its brain, its periods)
+        # The episode's rollout (its periods, the brain's held outputs; its brain, unless the
+        # compiled step steps the brain: see compiled.EnvStep, one owner per episode).
+        self._run: Rollout | None = None
         self._handle = -1
         self._start = np.zeros(3)
         # The task's window of the robot (TaskError: a pose rate that does not fit).

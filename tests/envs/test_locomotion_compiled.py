@@ -189,6 +189,33 @@ def test_the_world_is_the_general_steps_after_compiled_steps() -> None:
         e.close()
 
 
+def test_the_brain_has_one_owner_and_what_the_env_reads_of_it_is_shared() -> None:
+    """The compiled step steps the brain (compiled.EnvStep's doc): the held outputs the env
+    reads are the Rollout's own array, written in place, and the general step's to the bit, as
+    are the periods; the Rollout's controller is not stepped beside it (it stays as reset)."""
+    envs = [gym.make(LOCOMOTION_V1_ID, robot=_sensor_robot(), controller="brain", **SHORT)
+            for _ in range(2)]
+    envs[1].unwrapped._fast_step = False  # type: ignore[attr-defined]
+    runs: list[Any] = []
+    for e in envs:
+        e.reset(seed=3)
+        run = e.unwrapped._run  # type: ignore[attr-defined]
+        held = run.outputs
+        for _ in range(25):
+            e.step(np.zeros(e.action_space.shape, dtype=np.float32))
+        assert run.outputs is held and e.unwrapped._brain_out is held  # type: ignore
+        runs.append(run)
+    fast, general = runs
+    assert envs[0].unwrapped._fast is not None  # type: ignore[attr-defined]
+    assert fast.outputs.tobytes() == general.outputs.tobytes() and fast.outputs.any()
+    assert fast.periods == general.periods == 25
+    net = fast.network(envs[0].unwrapped._handle)  # type: ignore[attr-defined]
+    assert fast.brain.time(net) == 0.0 and not np.any(fast.brain.get_state(net))
+    assert general.brain.time(net) > 0.0
+    for e in envs:
+        e.close()
+
+
 def test_a_period_replayed_for_a_nan_force_is_the_general_steps(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """A NaN force: the backend replays the period (the compiled step hands it back), the robot
