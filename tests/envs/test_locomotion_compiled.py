@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -241,6 +242,32 @@ def test_a_period_replayed_for_a_nan_force_is_the_general_steps(
         env.close()
     assert runs[0] == runs[1]
     assert "non-finite" in runs[0][30] and len(runs[0]) == 31 + 60
+
+
+def test_the_compiled_step_holds_only_the_world_step_it_steps() -> None:
+    """A remade scene hands the env step the world's new step (adopt, as after a replay): the
+    one it stepped before is let go, however often that happens; a reset makes a new env step
+    and lets the last one's go. (Each extension world step below is referenced by the test's
+    variable and getrefcount's argument only once nothing else holds it: a count of 2.)"""
+    env = gym.make(LOCOMOTION_V1_ID, controller="brain", **SHORT)
+    inner: Any = env.unwrapped
+    action = np.zeros(env.action_space.shape, dtype=np.float32)
+    env.reset(seed=0)
+    fast, world = inner._fast, inner._world
+    for _ in range(30):
+        old = fast._run.extension_step
+        world._compiled = None  # the world's compiled step made again, as a replay makes it
+        fast.adopt(world.compiled_step())
+        assert sys.getrefcount(old) == 2
+        assert env.step(action)[4]["blow_up"] is None  # it steps the new one
+    assert sys.getrefcount(fast._run.extension_step) > 2  # the live one is held
+    del fast, world
+    for seed in range(1, 30):
+        old = inner._fast._run.extension_step
+        env.reset(seed=seed)
+        env.step(action)
+        assert sys.getrefcount(old) == 2
+    env.close()
 
 
 @settings(max_examples=200, deadline=None)
