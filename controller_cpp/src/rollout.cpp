@@ -46,6 +46,7 @@
 #include <vector>
 
 #include "revolve/batch_controller.hpp"
+#include "revolve/network_view.hpp"
 
 // Exported by libmujoco (used the same way by MuJoCo's own Python bindings): a log handler for the
 // calling thread only, so an mju_error inside mj_step comes back here instead of ending the process.
@@ -537,29 +538,7 @@ void check_index(const std::vector<int>& v, int limit, const char* what) {
     }
 }
 
-// A brain's network arrays (NetworkSpec's, as_spec's order) as the batch controller's view of
-// them; the arrays' shapes checked, the view borrowing their data (one home for the rollout and
-// the env step).
-revolve::NetworkView network_view(const Vec<std::int8_t>& kinds,
-                                  const nb::ndarray<const double, nb::ndim<2>, nb::c_contig>& params,
-                                  const Vec<std::int32_t>& src, const Vec<std::int32_t>& dst,
-                                  const Vec<double>& weight, std::int64_t n_inputs, std::int64_t n_outputs) {
-    if (params.shape(0) != kinds.shape(0) || params.shape(1) != revolve::kParamColumns ||
-        src.shape(0) != dst.shape(0) || src.shape(0) != weight.shape(0)) {
-        throw nb::value_error("malformed network arrays");
-    }
-    revolve::NetworkView v;
-    v.n_neurons = static_cast<std::int64_t>(kinds.shape(0));
-    v.n_inputs = n_inputs;
-    v.n_outputs = n_outputs;
-    v.kinds = kinds.data();
-    v.neuron_params = params.data();
-    v.n_connections = static_cast<std::int64_t>(src.shape(0));
-    v.src = src.data();
-    v.dst = dst.data();
-    v.weight = weight.data();
-    return v;
-}
+using revolve::network_view;  // revolve/network_view.hpp: one home for both extensions
 
 int add(Rollout& ro, std::uintptr_t model, std::uintptr_t data, int root_body, int root_qpos, int root_dof,
         Vec<std::int64_t> hinge_qpos, Vec<std::int64_t> hinge_dof, Vec<std::int64_t> active, int n_inputs,
