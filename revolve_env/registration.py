@@ -33,14 +33,25 @@ would go on with:
 to check (the env reset, the env checker's first step seen) :class:`TimeLimitFits` steps the env
 directly and applies the ``TimeLimit``'s count and truncation itself, as it would: the same
 results and wrapper state, three Python calls fewer per step (a tenth of a step's overhead).
+Gymnasium offers no public way to do that: the ``TimeLimit``'s count is private
+(``_elapsed_steps``, ``_max_episode_steps``; the order enforcer's ``has_reset`` and the checker's
+``checked_step``/``checked_data_reuse`` are public). So the shortcut is taken only where it is
+shown to hold: once per process (and again if those wrappers' methods change) gym.make's three
+layers around a small stand-in env are stepped both ways through two episodes, and any
+difference in the results or in the layers' plain state (or an error) sends every step through
+the layers as Gymnasium has them (:func:`shortcut_holds`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
+import warnings
+from collections.abc import Callable
 from typing import Any, SupportsFloat
 
 import gymnasium
+import numpy as np
 from gymnasium.envs.registration import EnvSpec, WrapperSpec
 from gymnasium.wrappers import OrderEnforcing, PassiveEnvChecker, TimeLimit
 
@@ -66,6 +77,7 @@ __all__ = [
     "TimeLimitFits",
     "episode_steps",
     "register_envs",
+    "shortcut_holds",
     "vector_spec",
 ]
 
@@ -96,24 +108,44 @@ class TimeLimitFits(gymnasium.Wrapper[Any, Any, Any, Any],
         Once the layers below have nothing left to check (the env was reset, the env checker
         has seen a step), the step goes to the env directly and the ``TimeLimit``'s count and
         truncation are applied here, as that wrapper applies them: the same results, the same
-        wrapper state, without three Python calls per step.
+        wrapper state, without three Python calls per step (where :func:`shortcut_holds`).
         """
         layers = self._layers
-        if layers is None or self.env is not layers[0] or not layers[1]._has_reset or \
-                not (layers[2].checked_step and layers[2].checked_data_reuse):
+        if layers is None or self.env is not layers[0] or not _checked(layers):
             return self.env.step(action)
-        limit: Any = layers[0]
-        obs, reward, terminated, truncated, info = layers[3].step(action)
-        limit._elapsed_steps += 1
-        if limit._elapsed_steps >= limit._max_episode_steps:
-            truncated = True
-        return obs, reward, terminated, truncated, info
+        return _direct_step(layers, action)
 
 
-def _plain_layers(env: gymnasium.Env[Any, Any]) -> tuple[Any, Any, Any, Any] | None:
+Layers = tuple[TimeLimit[Any, Any], OrderEnforcing[Any, Any], PassiveEnvChecker[Any, Any],
+               gymnasium.Env[Any, Any]]
+"""``gym.make``'s TimeLimit, OrderEnforcing, PassiveEnvChecker and the env, outer first."""
+
+
+def _checked(layers: Layers) -> bool:
+    """Whether the layers below the limit have nothing left to check (reset; a step seen)."""
+    checker = layers[2]
+    return layers[1].has_reset and checker.checked_step and checker.checked_data_reuse
+
+
+def _direct_step(layers: Layers, action: Any
+                 ) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+    """The env's step with the ``TimeLimit``'s count and truncation, once :func:`_checked`.
+
+    (Gymnasium 1's private state of the limit, as its ``step`` keeps it.)
+    """
+    limit: Any = layers[0]
+    obs, reward, terminated, truncated, info = layers[3].step(action)
+    limit._elapsed_steps += 1
+    if limit._elapsed_steps >= limit._max_episode_steps:
+        truncated = True
+    return obs, reward, terminated, truncated, info
+
+
+def _plain_layers(env: gymnasium.Env[Any, Any]) -> Layers | None:
     """``gym.make``'s TimeLimit, OrderEnforcing and PassiveEnvChecker over the env, or None.
 
-    Exactly those types, with the state their steps keep in Gymnasium 1.
+    Exactly those types, with the state their steps keep in Gymnasium 1, where the shortcut
+    holds (:func:`shortcut_holds`).
     """
     limit = env
     order = getattr(limit, "env", None)
@@ -121,12 +153,83 @@ def _plain_layers(env: gymnasium.Env[Any, Any]) -> tuple[Any, Any, Any, Any] | N
     inner = getattr(checker, "env", None)
     if (type(limit) is TimeLimit and type(order) is OrderEnforcing
             and type(checker) is PassiveEnvChecker and inner is not None
-            and inner is env.unwrapped and all(hasattr(w, a) for w, a in (
-                (limit, "_elapsed_steps"), (limit, "_max_episode_steps"),
-                (order, "_has_reset"), (checker, "checked_step"),
-                (checker, "checked_data_reuse")))):
+            and inner is env.unwrapped and _has_state(limit, order, checker)
+            and shortcut_holds()):
         return limit, order, checker, inner
     return None
+
+
+def _has_state(limit: object, order: object, checker: object) -> bool:
+    """Whether the wrappers keep the state that the shortcut reads and writes."""
+    return all(hasattr(w, a) for w, a in (
+        (limit, "_elapsed_steps"), (limit, "_max_episode_steps"), (order, "has_reset"),
+        (checker, "checked_step"), (checker, "checked_data_reuse")))
+
+
+def shortcut_holds() -> bool:
+    """Whether :class:`TimeLimitFits`' shortcut gives what gym.make's layers give.
+
+    Checked (see the module doc) once per version of their ``step`` and ``reset`` methods.
+    """
+    return _shortcut_checked(tuple(getattr(cls, name)
+                                   for cls in (TimeLimit, OrderEnforcing, PassiveEnvChecker)
+                                   for name in ("step", "reset")))
+
+
+class _StandIn(gymnasium.Env[Any, Any]):
+    """A tiny env for the check: every step's results differ; it truncates itself at step 5."""
+
+    observation_space = gymnasium.spaces.Box(-10.0, 10.0, (2,), np.float32)
+    action_space = gymnasium.spaces.Box(-1.0, 1.0, (2,), np.float32)
+
+    def __init__(self) -> None:
+        self._t = 0
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[Any, dict[str, Any]]:
+        super().reset(seed=seed)
+        self._t = 0
+        return np.zeros(2, dtype=np.float32), {"t": 0}
+
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+        self._t += 1
+        obs = np.asarray(action, dtype=np.float32) * np.float32(self._t)
+        return obs, float(self._t), False, self._t >= 5, {"t": self._t}
+
+
+@functools.cache
+def _shortcut_checked(methods: tuple[Callable[..., Any], ...]) -> bool:
+    """:func:`shortcut_holds` for one version of the wrappers' methods (``methods``: the key)."""
+    def layers() -> Layers:
+        inner = _StandIn()
+        order = OrderEnforcing(PassiveEnvChecker(inner))
+        return TimeLimit(order, max_episode_steps=3), order, order.env, inner  # type: ignore[return-value]
+
+    def state(ls: Layers) -> list[dict[str, Any]]:  # the layers' plain-data state
+        return [{k: v for k, v in vars(w).items() if isinstance(v, bool | int | float | str)}
+                for w in ls[:3]]
+
+    def result(out: tuple[Any, ...]) -> tuple[Any, ...]:
+        return (np.asarray(out[0]).tobytes(), *out[1:])
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the checker's, on the stand-in: not the user's
+            plain, short = layers(), layers()
+            if not _has_state(*plain[:3]):
+                return False
+            for seed in (0, 1):  # two episodes: the second starts from a reset limit
+                if plain[0].reset(seed=seed)[1] != short[0].reset(seed=seed)[1]:
+                    return False
+                for k in range(5):  # past the limit (3) and the stand-in's own end (5)
+                    action = np.full(2, 0.25 * (k + 1), dtype=np.float32)
+                    a = plain[0].step(action)
+                    b = _direct_step(short, action) if _checked(short) else short[0].step(action)
+                    if result(a) != result(b) or state(plain) != state(short):
+                        return False
+            return _checked(short)
+    except Exception:  # noqa: BLE001 (internals that differ: the plain path, whatever the error)
+        return False
 
 
 def register_envs() -> None:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import warnings
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -167,3 +168,31 @@ def test_the_wrappers_shortcut_keeps_their_state_and_truncation() -> None:
         env.close()
     assert runs[0] == runs[1]
     assert runs[0][1] == 105 and runs[0][0][-1][1][2] is True
+
+
+def test_the_shortcut_falls_back_to_the_layers_where_gymnasiums_internals_differ(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A TimeLimit whose step keeps more state than the shortcut knows (a Gymnasium that
+    differs): the check sees it, and every step goes through the layers as Gymnasium has them."""
+    from gymnasium.wrappers import TimeLimit
+
+    from revolve_env.registration import shortcut_holds
+
+    assert shortcut_holds()  # this Gymnasium: the shortcut is taken (the test above)
+    plain_step = TimeLimit.step
+
+    def counting_step(self: Any, action: Any) -> Any:
+        self.seen = getattr(self, "seen", 0) + 1
+        return plain_step(self, action)
+
+    monkeypatch.setattr(TimeLimit, "step", counting_step)
+    assert not shortcut_holds()
+    env = gym.make(LOCOMOTION_V1_ID, **SHORT)
+    assert env._layers is None  # type: ignore[attr-defined]
+    env.reset(seed=0)
+    for _ in range(5):
+        env.step(np.zeros(env.action_space.shape, dtype=np.float32))
+    assert env.get_wrapper_attr("seen") == 5 and env.get_wrapper_attr("_elapsed_steps") == 5
+    env.close()
+    monkeypatch.undo()
+    assert shortcut_holds()  # checked again for the methods back as they were

@@ -14,6 +14,7 @@
 
 #include "revolve/batch_controller.hpp"
 #include "revolve/fast_math.hpp"
+#include "revolve/network_view.hpp"
 
 namespace nb = nanobind;
 using revolve::BatchController;
@@ -81,23 +82,7 @@ void step(Locked& l, nb::ndarray<nb::ro> inputs, nb::ndarray<> outputs) {
 
 std::int64_t add(Locked& l, Vec<std::int8_t> kinds, Mat neuron_params, Vec<std::int32_t> src,
                  Vec<std::int32_t> dst, Vec<double> weight, std::int64_t n_inputs, std::int64_t n_outputs) {
-    const std::int64_t n = static_cast<std::int64_t>(kinds.shape(0));
-    if (static_cast<std::int64_t>(neuron_params.shape(0)) != n || neuron_params.shape(1) != revolve::kParamColumns) {
-        throw nb::value_error(("neuron_params must have shape (" + std::to_string(n) + ", 5)").c_str());
-    }
-    if (src.shape(0) != dst.shape(0) || src.shape(0) != weight.shape(0)) {
-        throw nb::value_error("src, dst and weight must have the same length");
-    }
-    revolve::NetworkView v;
-    v.n_neurons = n;
-    v.n_inputs = n_inputs;
-    v.n_outputs = n_outputs;
-    v.kinds = kinds.data();
-    v.neuron_params = neuron_params.data();
-    v.n_connections = static_cast<std::int64_t>(src.shape(0));
-    v.src = src.data();
-    v.dst = dst.data();
-    v.weight = weight.data();
+    const revolve::NetworkView v = revolve::network_view(kinds, neuron_params, src, dst, weight, n_inputs, n_outputs);
     Guard g(l.mu);
     return l.c.add(v);
 }

@@ -46,6 +46,7 @@
 #include <vector>
 
 #include "revolve/batch_controller.hpp"
+#include "revolve/network_view.hpp"
 
 // Exported by libmujoco (used the same way by MuJoCo's own Python bindings): a log handler for the
 // calling thread only, so an mju_error inside mj_step comes back here instead of ending the process.
@@ -537,29 +538,7 @@ void check_index(const std::vector<int>& v, int limit, const char* what) {
     }
 }
 
-// A brain's network arrays (NetworkSpec's, as_spec's order) as the batch controller's view of
-// them; the arrays' shapes checked, the view borrowing their data (one home for the rollout and
-// the env step).
-revolve::NetworkView network_view(const Vec<std::int8_t>& kinds,
-                                  const nb::ndarray<const double, nb::ndim<2>, nb::c_contig>& params,
-                                  const Vec<std::int32_t>& src, const Vec<std::int32_t>& dst,
-                                  const Vec<double>& weight, std::int64_t n_inputs, std::int64_t n_outputs) {
-    if (params.shape(0) != kinds.shape(0) || params.shape(1) != revolve::kParamColumns ||
-        src.shape(0) != dst.shape(0) || src.shape(0) != weight.shape(0)) {
-        throw nb::value_error("malformed network arrays");
-    }
-    revolve::NetworkView v;
-    v.n_neurons = static_cast<std::int64_t>(kinds.shape(0));
-    v.n_inputs = n_inputs;
-    v.n_outputs = n_outputs;
-    v.kinds = kinds.data();
-    v.neuron_params = params.data();
-    v.n_connections = static_cast<std::int64_t>(src.shape(0));
-    v.src = src.data();
-    v.dst = dst.data();
-    v.weight = weight.data();
-    return v;
-}
+using revolve::network_view;  // revolve/network_view.hpp: one home for both extensions
 
 int add(Rollout& ro, std::uintptr_t model, std::uintptr_t data, int root_body, int root_qpos, int root_dof,
         Vec<std::int64_t> hinge_qpos, Vec<std::int64_t> hinge_dof, Vec<std::int64_t> active, int n_inputs,
@@ -997,9 +976,12 @@ class EnvStep {
 using Obs = nb::ndarray<double, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
 
 // EnvStep with the arrays it keeps between steps (held, so they stay valid): the world's targets, the
-// brain's outputs, the backend's start state and the step's outputs (reward, fitness, v, s, x, y).
+// brain's outputs, the backend's start state and the step's outputs (reward, fitness, v, s, x, y); and
+// the WorldStep it steps (w), held by a reference that set_world replaces: only the live one is kept
+// alive (a keep_alive would keep every world it ever stepped for as long as it lives).
 struct BoundEnvStep : EnvStep {
     Out targets, outputs, start, out;
+    nb::object world;
 
     void check() const {
         if (targets.shape(0) != static_cast<std::size_t>(w->m_->nu) ||
@@ -1010,13 +992,15 @@ struct BoundEnvStep : EnvStep {
     }
 };
 
-void make_env_step(BoundEnvStep* self, WorldStep& world, Out targets, Out outputs, Out start, Out out, int n_act,
+void make_env_step(BoundEnvStep* self, nb::handle world_step, Out targets, Out outputs, Out start, Out out, int n_act,
                    int n_inputs, Vec<std::int64_t> active,
                    bool proprioception, Vec<double> low, Vec<double> high, double target_scale, int task_kind,
                    double s_weight, double limit, double cos_h, double sin_h, double window, int insertion,
                    int stride, Vec<std::int64_t> signal_inputs, nb::object network, double brain_dt, int brain_stride) {
+    WorldStep& world = nb::cast<WorldStep&>(world_step);
     BoundEnvStep e;
     e.w = &world;
+    e.world = nb::borrow(world_step);
     e.targets = targets;
     e.outputs = outputs;
     e.start = start;
@@ -1494,7 +1478,7 @@ NB_MODULE(_rollout, mod) {
 
     // Locomotion's step (LocomotionEnv on MuJoCo) and its window, for revolve_env.world.compiled.EnvStep.
     nb::class_<BoundEnvStep>(mod, "EnvStep", "One step of the single-robot env on a WorldStep, in C++.")
-        .def("__init__", &make_env_step, nb::keep_alive<1, 2>(), nb::arg("world"), nb::arg("targets").noconvert(),
+        .def("__init__", &make_env_step, nb::arg("world"), nb::arg("targets").noconvert(),
              nb::arg("outputs").noconvert(), nb::arg("start").noconvert(), nb::arg("out").noconvert(), nb::arg("n_act"),
              nb::arg("n_inputs"), nb::arg("active"), nb::arg("proprioception"), nb::arg("low"), nb::arg("high"),
              nb::arg("target_scale"), nb::arg("task_kind"), nb::arg("s_weight"), nb::arg("limit"),
@@ -1508,15 +1492,17 @@ NB_MODULE(_rollout, mod) {
              nb::arg("states").noconvert(), nb::arg("sensors").noconvert(), nb::arg("periods"), nb::arg("age"),
              nb::arg("time"))
         .def(
-            "set_world", [](BoundEnvStep& e, WorldStep& w, Out start) {
+            "set_world", [](BoundEnvStep& e, nb::handle world, Out start) {
+                WorldStep& w = nb::cast<WorldStep&>(world);
                 if (w.n_ != 1 || w.n_inputs_ != e.n_in || w.m_->nu != e.n_out || w.J_ != e.w->J_ ||
                     start.shape(0) != static_cast<std::size_t>(w.state_size())) {
                     throw nb::value_error("another world's step");
                 }
                 e.w = &w;
                 e.start = start;
+                e.world = nb::borrow(world);  // the world it stepped before is let go
             },
-            nb::keep_alive<1, 2>(), nb::arg("world"), nb::arg("start").noconvert(),
+            nb::arg("world"), nb::arg("start").noconvert(),
             "Step this world's step (its backend's start buffer) from now on (a remade scene).")
         .def_prop_rw(
             "terms", [](BoundEnvStep& e) { return nb::make_tuple(e.terms[0], e.terms[1], e.terms[2]); },

@@ -28,7 +28,7 @@ from revolve_env.envs.trajectories import TrajectoryStore
 from revolve_env.fitness import Window
 from revolve_env.rollout import TaskWindows
 from revolve_env.status import Death, RobotStatus
-from revolve_env.tasks import Task
+from revolve_env.tasks import BaseTask, Task
 from revolve_env.world import World
 from revolve_env.world.signals import SignalReader, signal_reader
 
@@ -72,6 +72,9 @@ class Living:
         # The task's fitness and the terms of every window (metres), the last step's rewards.
         self.f, self.v, self.s = np.zeros(0), np.zeros(0), np.zeros(0)
         self.rewards = np.zeros(0)
+        # A user's own reward is checked at every step, its rewards read or not (the fitness
+        # gain, every shipped task's, has the fitness's shape by construction).
+        self._own_reward = getattr(type(task), "reward", None) is not BaseTask.reward
         self.position = np.zeros((0, 3))  # last finite core positions. Metres
         self.obs = np.zeros(0)  # sensor values as the robots read them, flat (world layout)
         self.view = np.zeros(0)  # what the agents observe, flat
@@ -214,7 +217,8 @@ class Living:
             blown: Rows whose simulation blew up in this step (None: none): zero values and
                 fitness, last position kept, nothing recorded.
             rewards: Whether to give the step's :attr:`rewards` (False: a caller that reads
-                none, :func:`~revolve_env.envs.reports.end_step`; they are stale then).
+                none, :func:`~revolve_env.envs.reports.end_step`; they are stale then, unless
+                the task has its own reward: that is given, and its shape checked, always).
         """
         self.ages += 1
         values = world.sensor_values()
@@ -247,7 +251,7 @@ class Living:
             if self.f is previous:
                 self.f = previous.copy()
             self.f[blown] = self.v[blown] = self.s[blown] = 0.0
-        if rewards:
+        if rewards or self._own_reward:
             self.rewards = self._rewards(window, previous)
         self.view = self._views(obs, world, blown)
 

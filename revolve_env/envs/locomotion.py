@@ -85,6 +85,26 @@ def _check_arguments(render_mode: str | None, render_modes: list[str], insertion
         )
 
 
+def _info(fitness: float, v: float, s: float, reward: float, time: float, evaluating: bool,
+          x: float, y: float, blow_up: str | None) -> dict[str, Any]:
+    """A step's info dict (the class doc's Info): its one home, for the compiled and general steps.
+
+    Args:
+        fitness: The task's fitness now.
+        v: The window's path length. Metres.
+        s: Its straight displacement. Metres.
+        reward: The step's reward.
+        time: Since reset. Seconds.
+        evaluating: Whether past insertion.
+        x: The core's x. Metres.
+        y: Its y. Metres.
+        blow_up: The blow-up's reason, or None.
+    """
+    return {"fitness": fitness, "fitness_v": v, "fitness_s": s, "reward_fitness": reward,
+            "time": time, "evaluating": evaluating, "x_position": x, "y_position": y,
+            "blow_up": blow_up}
+
+
 class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     """Make a RoboGen modular robot walk: reward is the step's increase of its fitness.
 
@@ -322,7 +342,9 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
         self.action_space = spaces.Box(-1.0, 1.0, (n_act,), dtype=np.float32)
 
         self._world: World | None = None
-        self._run: Rollout | None = None  # the episode's rollout (its brain, its periods)
+        # The episode's rollout (its periods, the brain's held outputs; its brain, unless the
+        # compiled step steps the brain: see compiled.EnvStep, one owner per episode).
+        self._run: Rollout | None = None
         self._handle = -1
         self._start = np.zeros(3)
         # The task's window of the robot (TaskError: a pose rate that does not fit).
@@ -403,11 +425,9 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
                 # (the task's terms are the compiled step's, fast.terms: self._terms is set
                 # from them when Python finishes a step)
                 reward, f, v, s, x, y = fast.out.tolist()
-                return self._obs.copy(), reward, False, n >= self._total_steps, {
-                    "fitness": f, "fitness_v": v, "fitness_s": s, "reward_fitness": reward,
-                    "time": n * self.config.control_period,
-                    "evaluating": n >= self._insertion_steps, "x_position": x, "y_position": y,
-                    "blow_up": None}
+                return self._obs.copy(), reward, False, n >= self._total_steps, _info(
+                    f, v, s, reward, n * self.config.control_period, n >= self._insertion_steps,
+                    x, y, None)
             if code != fast.bad_action:  # an event: the env's part in Python
                 return self._finish_fast(fast, code)
         return self._step(action)
@@ -612,14 +632,8 @@ class LocomotionEnv(gym.Env[NDArray[np.float64], NDArray[np.float32]]):
     def _get_info(self, reward: float) -> dict[str, Any]:
         assert self._world is not None
         pos = self._world.states.core_pos[0]
-        return {
-            "fitness": self._terms.fitness,
-            "fitness_v": self._terms.v,
-            "fitness_s": self._terms.s,
-            "reward_fitness": reward,
-            "time": self._step_count * self.config.control_period,
-            "evaluating": self._step_count >= self._insertion_steps,
-            "x_position": float(pos[0]),
-            "y_position": float(pos[1]),
-            "blow_up": self._blow_up,
-        }
+        terms = self._terms
+        return _info(terms.fitness, terms.v, terms.s, reward,
+                     self._step_count * self.config.control_period,
+                     self._step_count >= self._insertion_steps, float(pos[0]), float(pos[1]),
+                     self._blow_up)

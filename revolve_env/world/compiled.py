@@ -515,6 +515,15 @@ class EnvStep:
     :class:`~revolve_env.rollout.RobotWindow`), the shipped task's fitness and the reward (its
     gain), and the observation, written into the env's own array. :meth:`step` says when it
     stopped early for Python (see there). Made by :func:`env_step`.
+
+    The brain has one owner per episode. Where the env steps on this (chosen at reset, for the
+    whole episode), this steps the robot's network in its own controller, made from the network
+    at reset as the env's :class:`~revolve_env.rollout.Rollout` makes its own; the two start
+    alike, and only this one is stepped: the Rollout's controller stays as reset (its
+    ``state``/``time`` are not the episode's) and the general step, which would step it, is never
+    taken in such an episode. What the env reads of the brain is shared, not copied: the held
+    outputs are the Rollout's own array (``outputs``, written here in place; the env's targets
+    and a diverged brain's report come from it), and the Rollout's ``periods`` count every step.
     """
 
     def __init__(self, ext: ModuleType, world: Stepping, run: WorldStep, n_act: int,

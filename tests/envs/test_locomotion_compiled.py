@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -141,6 +142,33 @@ def test_a_bad_action_is_refused_as_ever_and_other_shapes_are_read_as_ever() -> 
     twin.close()
 
 
+@pytest.mark.parametrize("case", ["agent", "blow-up-brain"])
+def test_both_steps_give_the_same_info_dicts(case: str) -> None:
+    """The same keys in the same order, the same types and bits, step after step (reset, the
+    compiled step's own steps, the blow-up that Python finishes)."""
+    env_id, kwargs = CASES[case]
+    kwargs = {**SHORT, **kwargs}
+    if kwargs.get("robot") == "sensors":
+        kwargs["robot"] = _sensor_robot()
+    envs = [gym.make(env_id, **kwargs) for _ in range(2)]
+    envs[1].unwrapped._fast_step = False  # type: ignore[attr-defined]
+    infos: list[list[list[tuple[str, type, str]]]] = [[], []]
+    for e, got in zip(envs, infos, strict=True):
+        got.append([(k, type(v), _value(v)) for k, v in e.reset(seed=0)[1].items()])
+        assert (e.unwrapped._fast is not None) == (e is envs[0])  # type: ignore[attr-defined]
+        rng, done = np.random.default_rng(0), False
+        while not done:
+            out = e.step(rng.uniform(-1.0, 1.0, e.action_space.shape).astype(np.float32))
+            got.append([(k, type(v), _value(v)) for k, v in out[4].items()])
+            done = out[2] or out[3]
+        e.close()
+    assert infos[0] == infos[1]
+    assert [k for k, _, _ in infos[0][-1]] == ["fitness", "fitness_v", "fitness_s",
+                                              "reward_fitness", "time", "evaluating",
+                                              "x_position", "y_position", "blow_up"]
+    assert (infos[0][-1][-1][2] != "None") == case.startswith("blow-up")
+
+
 def test_the_world_is_the_general_steps_after_compiled_steps() -> None:
     """The world's states, sensors, targets and clock as the general step leaves them."""
     envs = [gym.make(LOCOMOTION_V1_ID, robot=_sensor_robot(), controller="brain", **SHORT)
@@ -158,6 +186,33 @@ def test_the_world_is_the_general_steps_after_compiled_steps() -> None:
                   "diverged"):
         assert np.array_equal(getattr(a.states, field), getattr(b.states, field))
     assert envs[0].unwrapped._run.periods == envs[1].unwrapped._run.periods  # type: ignore
+    for e in envs:
+        e.close()
+
+
+def test_the_brain_has_one_owner_and_what_the_env_reads_of_it_is_shared() -> None:
+    """The compiled step steps the brain (compiled.EnvStep's doc): the held outputs the env
+    reads are the Rollout's own array, written in place, and the general step's to the bit, as
+    are the periods; the Rollout's controller is not stepped beside it (it stays as reset)."""
+    envs = [gym.make(LOCOMOTION_V1_ID, robot=_sensor_robot(), controller="brain", **SHORT)
+            for _ in range(2)]
+    envs[1].unwrapped._fast_step = False  # type: ignore[attr-defined]
+    runs: list[Any] = []
+    for e in envs:
+        e.reset(seed=3)
+        run = e.unwrapped._run  # type: ignore[attr-defined]
+        held = run.outputs
+        for _ in range(25):
+            e.step(np.zeros(e.action_space.shape, dtype=np.float32))
+        assert run.outputs is held and e.unwrapped._brain_out is held  # type: ignore
+        runs.append(run)
+    fast, general = runs
+    assert envs[0].unwrapped._fast is not None  # type: ignore[attr-defined]
+    assert fast.outputs.tobytes() == general.outputs.tobytes() and fast.outputs.any()
+    assert fast.periods == general.periods == 25
+    net = fast.network(envs[0].unwrapped._handle)  # type: ignore[attr-defined]
+    assert fast.brain.time(net) == 0.0 and not np.any(fast.brain.get_state(net))
+    assert general.brain.time(net) > 0.0
     for e in envs:
         e.close()
 
@@ -187,6 +242,32 @@ def test_a_period_replayed_for_a_nan_force_is_the_general_steps(
         env.close()
     assert runs[0] == runs[1]
     assert "non-finite" in runs[0][30] and len(runs[0]) == 31 + 60
+
+
+def test_the_compiled_step_holds_only_the_world_step_it_steps() -> None:
+    """A remade scene hands the env step the world's new step (adopt, as after a replay): the
+    one it stepped before is let go, however often that happens; a reset makes a new env step
+    and lets the last one's go. (Each extension world step below is referenced by the test's
+    variable and getrefcount's argument only once nothing else holds it: a count of 2.)"""
+    env = gym.make(LOCOMOTION_V1_ID, controller="brain", **SHORT)
+    inner: Any = env.unwrapped
+    action = np.zeros(env.action_space.shape, dtype=np.float32)
+    env.reset(seed=0)
+    fast, world = inner._fast, inner._world
+    for _ in range(30):
+        old = fast._run.extension_step
+        world._compiled = None  # the world's compiled step made again, as a replay makes it
+        fast.adopt(world.compiled_step())
+        assert sys.getrefcount(old) == 2
+        assert env.step(action)[4]["blow_up"] is None  # it steps the new one
+    assert sys.getrefcount(fast._run.extension_step) > 2  # the live one is held
+    del fast, world
+    for seed in range(1, 30):
+        old = inner._fast._run.extension_step
+        env.reset(seed=seed)
+        env.step(action)
+        assert sys.getrefcount(old) == 2
+    env.close()
 
 
 @settings(max_examples=200, deadline=None)

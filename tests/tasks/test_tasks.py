@@ -182,6 +182,19 @@ def test_a_tasks_own_reward_is_the_reward_of_both_envs() -> None:
     single.close()
 
 
+@pytest.mark.parametrize("call", ["step", "advance"])
+def test_a_tasks_reward_of_the_wrong_shape_is_refused_by_step_and_advance(call: str) -> None:
+    class Scalar(AliveBonus):
+        def reward(self, window: Any, fitness: Any, previous: Any) -> Any:
+            return np.zeros(fitness.shape[0] + 1)
+
+    env = PopulationEnv(initial_robots=[example("snake")], insertion_time=0.25, task=Scalar())
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"reward\(\.\.\.\) must give shape \(1,\), got \(2,\)"):
+        getattr(env, call)({})  # advance() reads no reward, but a user's is checked all the same
+    env.close()
+
+
 def test_the_learners_score_candidates_on_their_task() -> None:
     robot = example("spider")
     task = DirectedLocomotion(heading=math.pi / 2)

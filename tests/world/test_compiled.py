@@ -7,16 +7,21 @@ import logging
 import signal
 import time
 from pathlib import Path
-from types import ModuleType
+from types import ModuleType, SimpleNamespace
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
+import revolve_env.envs  # noqa: F401  (registers the envs)
 from evolution.config import EvolutionConfig
 from evolution.random_robot import random_robot
+from revolve_env import LOCOMOTION_V1_ID
+from revolve_env._controller import BatchController
 from revolve_env.body.examples import example
 from revolve_env.body.robot import Robot
+from revolve_env.brain._registry import as_spec
 from revolve_env.conditions import EvaluationConditions
 from revolve_env.evaluation import EvaluationResult, evaluate_many
 from revolve_env.world import WorldConfig, build_model, compiled
@@ -234,3 +239,28 @@ def test_a_whole_evaluation_of_a_generation_is_exact(monkeypatch: pytest.MonkeyP
     fast = _compiled(monkeypatch, robots, threads=2)
     slow = _numpy(monkeypatch, robots)
     assert [_key(a) for a in fast] == [_key(b) for b in slow]
+
+
+def test_both_extensions_read_a_networks_arrays_by_one_rule(monkeypatch: pytest.MonkeyPatch
+                                                            ) -> None:
+    """The controller's BatchController.add and the compiled env step's brain take a network's
+    arrays through one function (revolve/network_view.hpp): the same checks, the same errors."""
+    spec = as_spec(example("spider"))
+    arrays = {f: getattr(spec, f) for f in ("kinds", "neuron_params", "src", "dst", "weight")}
+    bad = [{**arrays, "weight": np.append(arrays["weight"], 0.5)},
+           {**arrays, "neuron_params": arrays["neuron_params"][:-1]}]
+    messages = []
+    for broken in bad:
+        with pytest.raises(ValueError) as controller:
+            BatchController(0.1).add(*broken.values(), spec.n_inputs, spec.n_outputs)
+        network = SimpleNamespace(**broken, n_inputs=spec.n_inputs, n_outputs=spec.n_outputs)
+        monkeypatch.setattr(compiled, "as_spec", lambda _robot, net=network: net)
+        env = gym.make(LOCOMOTION_V1_ID, controller="brain", insertion_time=0.25,
+                       evaluation_time=0.5)
+        with pytest.raises(ValueError) as env_step:
+            env.reset(seed=0)  # the compiled env step is made at reset
+        env.close()
+        assert str(env_step.value) == str(controller.value)
+        messages.append(str(controller.value))
+    assert messages == ["src, dst and weight must have the same length",
+                        f"neuron_params must have shape ({len(spec.kinds)}, 5)"]
