@@ -13,8 +13,7 @@ not dicts).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -56,8 +55,7 @@ def _template(s: RobotStatus, masks: Masks) -> dict[str, Any]:
     return info
 
 
-@dataclass(frozen=True, slots=True)
-class StepStatuses:
+class StepStatuses(NamedTuple):
     """The statuses a step's report was made from, assembled when called (first read).
 
     Attributes:
