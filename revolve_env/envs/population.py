@@ -200,7 +200,7 @@ from revolve_env.envs.births import BirthRules, initial_births, next_robot_id, p
 from revolve_env.envs.living import Living
 from revolve_env.envs.members import Controller, LifeClock, Member, sensor_bounds
 from revolve_env.envs.placement import footprint_radius
-from revolve_env.envs.reports import Dicts, end_step, report_step, status_info
+from revolve_env.envs.reports import Dicts, StepStatuses, end_step, report_step, status_info
 from revolve_env.envs.roster import Roster
 from revolve_env.fitness import DEFAULT_WINDOW
 from revolve_env.setting import Setting, env_parts
@@ -387,7 +387,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
                               conditions.sensor_noise)
         self._statuses: dict[int, RobotStatus] = {}
         # The last step's statuses, made when first read (most callers read the dicts only).
-        self._pending: Callable[[], dict[int, RobotStatus]] | None = None
+        self._pending: StepStatuses | None = None
         self._np_random: np.random.Generator | None = None
         self._np_random_seed: int | None = None
 
