@@ -187,6 +187,10 @@ class Living:
         self._speed_dest = _ints(cat(speed_dest)) if speed_dest else _ints([])
         self._starts = self._view_offsets[:-1].tolist()
         self._stops = self._view_offsets[1:].tolist()
+        self._view_slices = list(map(slice, self._starts, self._stops))
+        # What a reader derives from the rows' birth data once per layout (the reports' info
+        # templates, :mod:`~revolve_env.envs.reports`); forgotten at every birth and death.
+        self.row_cache: list[Any] | None = None
 
     # -- the step ------------------------------------------------------------------------------
     def _views(self, obs: NDArray[np.float64], world: World,
@@ -276,8 +280,7 @@ class Living:
     # -- reading -------------------------------------------------------------------------------
     def views(self) -> list[NDArray[np.float64]]:
         """Every agent's observation: slices of one fresh copy (the env's stay its own)."""
-        copy = self.view.copy()
-        return [copy[a:b] for a, b in zip(self._starts, self._stops, strict=True)]
+        return list(map(self.view.copy().__getitem__, self._view_slices))
 
     def view_of(self, row: int) -> NDArray[np.float64]:
         """One agent's observation (a copy)."""

@@ -200,7 +200,7 @@ from revolve_env.envs.births import BirthRules, initial_births, next_robot_id, p
 from revolve_env.envs.living import Living
 from revolve_env.envs.members import Controller, LifeClock, Member, sensor_bounds
 from revolve_env.envs.placement import footprint_radius
-from revolve_env.envs.reports import Dicts, end_step, report_step, status_info
+from revolve_env.envs.reports import Dicts, StepStatuses, end_step, report_step, status_info
 from revolve_env.envs.roster import Roster
 from revolve_env.fitness import DEFAULT_WINDOW
 from revolve_env.setting import Setting, env_parts
@@ -386,6 +386,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self._roster = Roster(config, clock, living, self._spaces, conditions.actuator_noise,
                               conditions.sensor_noise)
         self._statuses: dict[int, RobotStatus] = {}
+        # The last step's statuses, made when first read (most callers read the dicts only).
+        self._pending: StepStatuses | None = None
         self._np_random: np.random.Generator | None = None
         self._np_random_seed: int | None = None
 
@@ -458,6 +460,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
 
         After :meth:`advance`: of the robots whose life ended in it.
         """
+        if self._pending is not None:
+            self._statuses, self._pending = self._pending(), None
         return self._statuses
 
     def status(self, robot: int | str) -> RobotStatus:
@@ -508,7 +512,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         roster, masks = self._roster, self._spaces.masks
         roster.announced = agents = list(roster.agents)
         statuses = roster.living.statuses()
-        self._statuses = {s.robot_id: s for s in statuses}
+        self._statuses, self._pending = {s.robot_id: s for s in statuses}, None
         return (dict(zip(agents, roster.living.views(), strict=True)),
                 {a: status_info(s, masks[a]) for a, s in zip(agents, statuses, strict=True)})
 
@@ -519,7 +523,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         born, removed, blown up), ValueError for a wrong shape, NaN or infinity.
         """
         last = self._act(actions, "step")
-        dicts, self._statuses = report_step(self._roster, self._spaces.masks, last)
+        dicts, self._pending = report_step(self._roster, self._spaces.masks, last)
         return dicts
 
     def advance(self, actions: Mapping[str, ArrayLike]) -> dict[int, RobotStatus]:
@@ -535,7 +539,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             episode is truncated (``max_cycles``). :attr:`statuses` holds them too.
         """
         last = self._act(actions, "advance")
-        self._statuses = end_step(self._roster, last)
+        self._statuses, self._pending = end_step(self._roster, last), None
         return self._statuses
 
     def _act(self, actions: Mapping[str, ArrayLike], what: str) -> bool:
@@ -582,7 +586,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
     def close(self) -> None:
         """Release the physics client (the env can be reset again)."""
         self._roster.close()
-        self._statuses = {}
+        self._statuses, self._pending = {}, None
 
     # -- snapshots -------------------------------------------------------------------------
     @property
@@ -615,7 +619,7 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
                 scene that cannot be rebuilt exactly); the env must be ``reset`` then.
             NotImplementedError: the engine cannot restore its state exactly (pybullet).
         """
-        self._statuses = {}
+        self._statuses, self._pending = {}, None
         self._np_random = self._roster.restore(snapshot, snapshot.get("rng_seed"))
         self._np_random_seed = snapshot["rng_seed"]
 

@@ -1,0 +1,186 @@
+"""PopulationEnv's five dicts and statuses, step by step, equal those of the code before the bulk
+build (issue 28): the same keys in the same order, the same values of the same types, arrays the
+caller's own.
+
+The reference below is ``report_step`` and ``Living.statuses`` as they were on main (6d215cc),
+one robot status after the other; the env under test builds the same dicts in bulk.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+import pytest
+
+import revolve_env.envs.population as population_module
+from revolve_env.body.examples import gecko, snake, spider
+from revolve_env.conditions import EvaluationConditions
+from revolve_env.envs.agent_spaces import Masks
+from revolve_env.envs.living import Living, final_status
+from revolve_env.envs.population import PopulationEnv, population_env
+from revolve_env.envs.reports import Dicts
+from revolve_env.envs.roster import Roster
+from revolve_env.status import Death, RobotStatus
+from revolve_env.world import WorldConfig
+
+
+def _old_statuses(living: Living, deaths: list[Death | None] | None = None) -> list[RobotStatus]:
+    """``Living.statuses`` as it was: every living robot's status, in row order."""
+    clock, ages = living.clock, living.ages
+    members = living.members
+    n = len(members)
+    return list(map(RobotStatus._make, zip(
+        [m.robot_id for m in members], living.f.tolist(), living.v.tolist(), living.s.tolist(),
+        list(living.position.copy()), ages.tolist(), (ages * clock.dt).tolist(),
+        (ages < clock.insertion_steps).tolist(), (ages >= clock.maturity_steps).tolist(),
+        deaths if deaths is not None else [None] * n, [m.blow_up for m in members],
+        [m.birth_time for m in members], [m.birth_position for m in members],
+        [m.born_inside for m in members], [m.controlled_by for m in members],
+        living.trajectories.views(), strict=True)))
+
+
+def _old_info(s: RobotStatus, masks: Masks) -> dict[str, Any]:
+    """``status_info`` as it was."""
+    return {
+        "robot_id": s.robot_id, "age": s.age, "birth_time": s.birth_time,
+        "birth_position": s.birth_position, "born_inside_disc": s.born_inside,
+        "inserting": s.inserting, "is_mature": s.mature, "fitness": s.fitness,
+        "fitness_v": s.v, "fitness_s": s.s, "position": s.position, "trajectory": s.trajectory,
+        "controlled_by": s.controlled_by, "blow_up": s.blow_up, "death": s.death,
+        "obs_mask": masks[0], "act_mask": masks[1],
+    }
+
+
+def _old_report_step(roster: Roster, masks: dict[str, Masks], truncate: bool
+                     ) -> tuple[Dicts, dict[int, RobotStatus]]:
+    """``report_step`` as it was (main, 6d215cc)."""
+    living = roster.living
+    obs: dict[str, Any] = {}
+    rewards: dict[str, float] = {}
+    terminations: dict[str, bool] = {}
+    truncations: dict[str, bool] = {}
+    infos: dict[str, dict[str, Any]] = {}
+    statuses: dict[int, RobotStatus] = {}
+    for member, death in roster.dead:
+        assert member.final is not None
+        status = final_status(member, roster.clock, death)
+        agent = member.agent
+        obs[agent] = member.final.view.copy()
+        rewards[agent] = 0.0
+        terminations[agent] = True
+        truncations[agent] = False
+        infos[agent] = _old_info(status, masks[agent])
+        statuses[member.robot_id] = status
+    reported = [member.agent for member, _ in roster.dead]
+    roster.dead = []
+    deaths = roster.sense()
+    agents = roster.agents
+    now = _old_statuses(living, deaths)
+    obs.update(zip(agents, living.views(), strict=True))
+    rewards.update(zip(agents, living.rewards.tolist(), strict=True))
+    ended = [d is not None for d in deaths]
+    terminations.update(zip(agents, ended, strict=True))
+    truncations.update(zip(agents, [truncate and not e for e in ended], strict=True))
+    infos.update(zip(agents, [_old_info(s, masks[a]) for s, a in zip(now, agents, strict=True)],
+                     strict=True))
+    statuses.update(zip([s.robot_id for s in now], now, strict=True))
+    gone = [m for m, e in zip(living.members, ended, strict=True) if e or truncate]
+    for member in reversed(gone):
+        roster.drop(member)
+    roster.announced = list(roster.agents)
+    roster.reported += reported + [m.agent for m in gone]
+    return (obs, rewards, terminations, truncations, infos), statuses
+
+
+def _old_report(roster: Roster, masks: dict[str, Masks], truncate: bool
+                ) -> tuple[Dicts, Callable[[], dict[int, RobotStatus]]]:
+    """``_old_report_step`` in the env's place: its statuses as the env asks for them now."""
+    dicts, statuses = _old_report_step(roster, masks, truncate)
+    return dicts, lambda: statuses
+
+
+def _same(a: Any, b: Any, where: str) -> None:
+    """Equal values of the same type; arrays of the same dtype, shape, values and flags."""
+    assert type(a) is type(b), f"{where}: {type(a).__name__} != {type(b).__name__}"
+    if isinstance(a, np.ndarray):
+        assert a.dtype == b.dtype and a.shape == b.shape, where
+        assert a.flags.writeable == b.flags.writeable, where
+        np.testing.assert_array_equal(a, b, err_msg=where)
+    elif isinstance(a, dict):
+        assert list(a) == list(b), f"{where}: keys {list(a)} != {list(b)}"
+        for key in a:
+            _same(a[key], b[key], f"{where}[{key!r}]")
+    elif isinstance(a, tuple):  # statuses (NamedTuples), positions, masks
+        assert len(a) == len(b), where
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            _same(x, y, f"{where}[{i}]")
+    else:
+        assert a == b, f"{where}: {a!r} != {b!r}"
+
+
+def _lifecycle(env: PopulationEnv, k: int) -> None:
+    """Births every 5 steps and a removal every 11, inside the step."""
+    if k % 5 == 0:
+        env.add_robot(snake(2) if k % 10 else gecko(), controlled_by="agent" if k % 3 else "brain")
+    if k % 11 == 0 and len(env.robot_ids) > 2:
+        env.remove_robot(env.robot_ids[0])
+
+
+def _made(proprioception: bool, space_mode: str) -> PopulationEnv:
+    # 15 rad/s: the flailing learners blow up now and then; max_cycles truncates the rest.
+    env = population_env(
+        initial_robots=[spider(), {"robot": snake(3), "controlled_by": "agent"}, gecko()],
+        world_config=replace(WorldConfig(), max_angular_speed=15.0, drop_height=0.0),
+        max_births=40,
+        conditions=EvaluationConditions(heading="random", sensor_noise=0.1, actuator_noise=0.1),
+        insertion_time=0.1, maturity_age=0.3, trajectory_length=5, max_cycles=60,
+        lifecycle=_lifecycle, proprioception=proprioception, space_mode=space_mode)
+    env.observation_space("robot_30")  # a future agent: uniform spaces, padded at its birth
+    return env
+
+
+@pytest.mark.parametrize(("proprioception", "space_mode"),
+                         [(False, "exact"), (True, "exact"), (False, "uniform")],
+                         ids=["exact", "exact-proprioception", "uniform"])
+def test_step_gives_the_dicts_and_statuses_of_the_code_before(
+        proprioception: bool, space_mode: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    new, old = _made(proprioception, space_mode), _made(proprioception, space_mode)
+    reports = [new.reset(seed=5), old.reset(seed=5)]
+    _same(reports[0], (dict(zip(old.agents, old._roster.living.views(), strict=True)),
+                       {a: _old_info(s, old._spaces.masks[a]) for a, s in
+                        zip(old.agents, _old_statuses(old._roster.living), strict=True)}),
+          "reset")
+    _same(new.statuses, old.statuses, "reset statuses")
+    rng = np.random.default_rng(0)
+    deaths: set[str] = set()
+    kept: list[tuple[dict[str, Any], dict[str, Any]]] = []  # earlier observations, as given
+    for k in range(1, 61):
+        if k % 13 == 0 and len(new.robot_ids) > 1:  # a removal between two steps
+            for env in (new, old):
+                env.remove_robot(env.robot_ids[-1])
+        actions = {a: rng.uniform(-1.0, 1.0, new.action_space(a).shape) for a in new.agents}
+        got = new.step(actions)
+        with monkeypatch.context() as patch:
+            patch.setattr(population_module, "report_step", _old_report)
+            want = old.step(actions)
+        _same(got, want, f"step {k}")
+        _same(new.statuses, old.statuses, f"step {k} statuses")
+        assert new.agents == old.agents
+        for agent in new.agents:  # one robot's info (status_info) is the bulk one's
+            _same(new.agent_info(agent), got[4][agent], f"step {k}: agent_info({agent!r})")
+        deaths |= {info["death"] for info in got[4].values() if info["death"] is not None}
+        # The observations are the caller's own: no later step writes into them.
+        kept.append((got[0], {a: o.copy() for a, o in got[0].items()}))
+        for given, copied in kept:
+            _same(given, copied, f"step {k}: an earlier observation changed")
+        mine = list(got[0].values())
+        inside = [new._roster.living.view, new._roster.living.obs]
+        for i, x in enumerate(mine):
+            assert not any(np.shares_memory(x, y) for y in mine[i + 1:] + inside), f"step {k}"
+    assert deaths == {"removed", "blow_up"}, deaths  # the scenario reached both deaths
+    assert any(got[3].values()) and not new.agents  # max_cycles: the living truncated at 60
+    for env in (new, old):
+        env.close()
