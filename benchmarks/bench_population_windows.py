@@ -4,10 +4,12 @@ Usage: ``python benchmarks/bench_population_windows.py [--robots 30] [--repeats 
 
 ``--robots`` random robots in one MuJoCo world (``bench_engines.py``'s crowd: a grid 1.2 m apart,
 landed for 30 control periods), restored from one snapshot before every timing; the env's
-``step`` (every agent's five dicts) and ``advance`` (what the online world calls), each with the
-compiled window push (:func:`revolve_env.world.compiled.windows_kernel`) and with NumPy's, and the
-bare replay of the same periods (raw ``mj_step``), the sides alternating in this process. Prints
-the best CPU time per control period of each and its ratio to raw.
+``step`` (every agent's five dicts) and ``advance`` (what the online world called per period),
+each with the compiled window push (:func:`revolve_env.world.compiled.windows_kernel`) and with
+NumPy's; ``advance_periods`` (what the online world calls now: all the periods in compiled calls,
+on an env without trajectories, as the online world makes it); and the bare replay of the same
+periods (raw ``mj_step``), the sides alternating in this process. Prints the best CPU time per
+control period of each and its ratio to raw.
 """
 
 from __future__ import annotations
@@ -40,9 +42,9 @@ def main() -> None:
     initial = [{"robot": r, "position": (1.2 * (i % side), 1.2 * (i // side)), "yaw": 0.0}
                for i, r in enumerate(random_robots(n, seed=1))]
 
-    def make() -> PopulationEnv:
+    def make(trajectory_length: int | None = None) -> PopulationEnv:
         env = population_env(engine="mujoco", initial_robots=initial, max_births=n,
-                             insertion_time=0.0)
+                             insertion_time=0.0, trajectory_length=trajectory_length)
         env.reset(seed=0)
         return env
 
@@ -53,9 +55,11 @@ def main() -> None:
         slow = make()
     finally:
         compiled.windows_kernel = real
+    loop = make(trajectory_length=0)  # the online world's env: no trajectories
     for _ in range(30):
         fast.step({})
-    start = fast.snapshot()
+        loop.step({})
+    start, loop_start = fast.snapshot(), loop.snapshot()
     ticks = round(args.seconds / fast.config.control_period)
     raw = Replay(fast.world)
     raw.record(fast.world)
@@ -73,10 +77,19 @@ def main() -> None:
             step({})
         return time.process_time() - cpu
 
+    def periods() -> float:
+        loop.restore(loop_start)
+        cpu = time.process_time()
+        ended = loop.advance_periods(ticks)
+        cpu = time.process_time() - cpu
+        assert not ended and loop.steps == 30 + ticks
+        return cpu
+
     sides = {"step, compiled windows": lambda: timed(fast, "step"),
              "step, NumPy windows": lambda: timed(slow, "step"),
              "advance, compiled windows": lambda: timed(fast, "advance"),
              "advance, NumPy windows": lambda: timed(slow, "advance"),
+             "advance_periods": periods,
              "raw mj_step": raw.run}
     best = dict.fromkeys(sides, math.inf)
     for _ in range(args.repeats):
@@ -90,6 +103,7 @@ def main() -> None:
               f"{cpu / best['raw mj_step']:.3f}x raw")
     fast.close()
     slow.close()
+    loop.close()
 
 
 if __name__ == "__main__":

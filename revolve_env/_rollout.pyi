@@ -126,3 +126,30 @@ def windows_push(t: float, window: float, eps: float, stride: int, insertion: in
                  w_first: NDArray[np.float64], w_last: NDArray[np.float64],
                  w_v: NDArray[np.float64], w_s: NDArray[np.float64], w_count: NDArray[np.int64],
                  w_duration: NDArray[np.float64]) -> tuple[bool, int, int, bool]: ...
+
+PERIODS_ALL: int
+PERIODS_BRAIN: int
+PERIODS_WORLD: int
+
+class PopulationPeriods:
+    def __init__(self, world: WorldStep, brain_dt: float, target_scale: float,
+                 control_period: float, task_kind: int, s_weight: float, limit: float,
+                 cos_h: float, sin_h: float, window: float, eps: float, stride: int,
+                 insertion: int, sample_from: int) -> None: ...
+    def add_network(self, kinds: NDArray[np.int8], params: NDArray[np.float64],
+                    src: NDArray[np.int32], dst: NDArray[np.int32], weight: NDArray[np.float64],
+                    n_inputs: int, n_outputs: int, state: NDArray[np.float64],
+                    time: float) -> int: ...
+    def state(self, handle: int) -> NDArray[np.float64]: ...
+    def time(self, handle: int) -> float: ...
+    def run(self, n: int, steps: int, time: float, targets: NDArray[np.float64],
+            outputs: NDArray[np.float64], obs: NDArray[np.float64], start: NDArray[np.float64],
+            states_a: NDArray[np.float64], sensors_a: NDArray[np.float64],
+            states_b: NDArray[np.float64], sensors_b: NDArray[np.float64],
+            ages: NDArray[np.int64], ring_t: NDArray[np.float64], ring_xy: NDArray[np.float64],
+            ring_path: NDArray[np.float64], first: NDArray[np.int64], last: NDArray[np.int64],
+            seq: int, seq_start: int, f: NDArray[np.float64], v: NDArray[np.float64],
+            s: NDArray[np.float64], w_first: NDArray[np.float64], w_last: NDArray[np.float64],
+            w_v: NDArray[np.float64], w_s: NDArray[np.float64], w_count: NDArray[np.int64],
+            w_duration: NDArray[np.float64]
+            ) -> tuple[int, int, int, int, int, bool, bool, float]: ...

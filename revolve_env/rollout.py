@@ -217,6 +217,11 @@ class Rollout:
 
     # -- the period ---------------------------------------------------------------------------
     @property
+    def all_brains(self) -> bool:
+        """Whether every robot is brain-driven, stepped every period, in the world's order."""
+        return self._every and bool(self._drives) and self.brain_stride == 1
+
+    @property
     def thinking(self) -> bool:
         """Whether the brains step in the next period (else their targets hold)."""
         return self.periods % self.brain_stride == 0
@@ -234,7 +239,8 @@ class Rollout:
     def period(self, values: NDArray[np.float64] | None,
                learner: tuple[NDArray[np.intp] | None, NDArray[np.float64]] | None = None,
                actuator_noise: float = 0.0, rng: np.random.Generator | None = None,
-               rngs: Sequence[np.random.Generator] | None = None) -> NDArray[np.bool_] | None:
+               rngs: Sequence[np.random.Generator] | None = None,
+               thought: bool = False) -> NDArray[np.bool_] | None:
         """One control period: targets, the physics, the blow-up screen.
 
         The learner's targets are set (with actuator noise), then the driving brains think on
@@ -248,6 +254,8 @@ class Rollout:
             actuator_noise: Standard deviation of the noise on every target.
             rng: The noise's generator: the learner's targets, then the brains', each one draw.
             rngs: Instead, one generator per brain robot (brain order), drawn robot by robot.
+            thought: The brains have stepped in this period already (their :attr:`outputs`
+                are this period's: compiled periods that left the rest to Python).
 
         Returns:
             Which rows blew up (the world's :attr:`~revolve_env.world.World.blown_up`), None if
@@ -264,7 +272,7 @@ class Rollout:
             else:
                 world.set_target_entries(entries, targets)
         if self._drives:
-            if self.thinking:
+            if self.thinking and not thought:
                 assert values is not None
                 self.think(values)
             targets = self.outputs

@@ -1219,27 +1219,36 @@ using Ring = nb::ndarray<double, nb::c_contig, nb::device::cpu>;
 // all); ring_t (cap,), ring_xy (cap, n, 2), ring_path (cap, n), first/last (n,) and seq/start are
 // FitnessWindows' own. Out: the window's first and last (x, y) (n, 2), v, s, samples and duration.
 // Returns (pushed, seq, start, all_started).
-nb::tuple push(double t, double window, double eps, std::int64_t stride, std::int64_t insertion,
-               Vec<double> position, nb::ndarray<const std::int64_t, nb::ndim<1>, nb::c_contig, nb::device::cpu> ages,
-               Flags sampling, Ring ring_t, Ring ring_xy, Ring ring_path, I64 first, I64 last, std::int64_t seq,
-               std::int64_t start, Out w_first, Out w_last, Out w_v, Out w_s, I64 w_count, Out w_duration) {
-    const std::size_t n = ages.shape(0);
-    const std::int64_t cap = static_cast<std::int64_t>(ring_t.shape(0));
-    if (position.shape(0) != 3 * n || (sampling.shape(0) != 0 && sampling.shape(0) != n) ||
-        ring_xy.size() != static_cast<std::size_t>(cap) * n * 2 || ring_path.size() != static_cast<std::size_t>(cap) * n ||
-        first.shape(0) != n || last.shape(0) != n || w_first.shape(0) != 2 * n || w_last.shape(0) != 2 * n ||
-        w_v.shape(0) != n || w_s.shape(0) != n || w_count.shape(0) != n || w_duration.shape(0) != n || cap < 2) {
-        throw nb::value_error("window arrays of the wrong size");
-    }
-    const nb::tuple declined = nb::make_tuple(false, seq, start, false);
-    const double* pos = position.data();
-    const std::int64_t* age = ages.data();
-    const bool* samp = sampling.shape(0) ? sampling.data() : nullptr;
-    double* rt = ring_t.data();
-    double* rxy = ring_xy.data();
-    double* rpath = ring_path.data();
-    std::int64_t* fst = first.data();
-    std::int64_t* lst = last.data();
+// The ring of FitnessWindows (its own arrays) and the window written after a push, as raw pointers
+// (push's, and the population's periods' below): ring_t (cap,), ring_xy (cap, n, 2), ring_path (cap, n),
+// first/last (n,); the window's first and last (x, y) (n, 2), v, s, samples and duration (n,).
+struct RingView {
+    std::size_t n = 0;
+    std::int64_t cap = 0;
+    double *rt = nullptr, *rxy = nullptr, *rpath = nullptr;
+    std::int64_t *fst = nullptr, *lst = nullptr;
+    double *wf = nullptr, *wl = nullptr, *wv = nullptr, *ws = nullptr, *wdur = nullptr;
+    std::int64_t* wcount = nullptr;
+};
+
+struct Pushed {
+    bool pushed;
+    std::int64_t seq, start;
+    bool all_started;
+};
+
+// The push itself (no Python): `samp` null means every robot samples; xs, ys, paths are scratch (n).
+Pushed push_raw(double t, double window, double eps, std::int64_t stride, std::int64_t insertion, const double* pos,
+                const std::int64_t* age, const bool* samp, const RingView& ring, std::int64_t seq, std::int64_t start,
+                std::vector<double>& xs, std::vector<double>& ys, std::vector<double>& paths) {
+    const std::size_t n = ring.n;
+    const std::int64_t cap = ring.cap;
+    const Pushed declined{false, seq, start, false};
+    double* rt = ring.rt;
+    double* rxy = ring.rxy;
+    double* rpath = ring.rpath;
+    std::int64_t* fst = ring.fst;
+    std::int64_t* lst = ring.lst;
     const auto wrap = [cap](std::int64_t s) { return ((s % cap) + cap) % cap; };
     if (seq > start && t < rt[wrap(seq - 1)]) return declined;  // an error: Python says which
     if (!std::isfinite(t)) return declined;
@@ -1252,7 +1261,9 @@ nb::tuple push(double t, double window, double eps, std::int64_t stride, std::in
         if (!sampled_then) return declined;
     }
     // Each sampling robot's (x, y) now (a held pose between pose samples) and its path.
-    std::vector<double> xs(n), ys(n), paths(n);
+    xs.resize(n);
+    ys.resize(n);
+    paths.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
         if (samp != nullptr && !samp[i]) continue;
         double x = pos[3 * i], y = pos[3 * i + 1];
@@ -1297,17 +1308,17 @@ nb::tuple push(double t, double window, double eps, std::int64_t stride, std::in
     }
     ++seq;
     // Every robot's window now (FitnessWindows.current).
-    double* wf = w_first.data();
-    double* wl = w_last.data();
+    double* wf = ring.wf;
+    double* wl = ring.wl;
     for (std::size_t i = 0; i < n; ++i) {
         const std::int64_t lo = std::max(fst[i], start);
         const std::int64_t count = std::max<std::int64_t>(lst[i] - lo + 1, 0);
         const bool some = count > 0;
         const std::int64_t fc = some ? wrap(lo) : 0, lc = some ? wrap(lst[i]) : 0;
-        w_count.data()[i] = count;
+        ring.wcount[i] = count;
         if (count < 2) {
             wf[2 * i] = wf[2 * i + 1] = wl[2 * i] = wl[2 * i + 1] = 0.0;
-            w_v.data()[i] = w_s.data()[i] = w_duration.data()[i] = 0.0;
+            ring.wv[i] = ring.ws[i] = ring.wdur[i] = 0.0;
             continue;
         }
         const double* a = rxy + (fc * n + i) * 2;
@@ -1316,14 +1327,245 @@ nb::tuple push(double t, double window, double eps, std::int64_t stride, std::in
         wf[2 * i + 1] = a[1];
         wl[2 * i] = b[0];
         wl[2 * i + 1] = b[1];
-        w_v.data()[i] = rpath[lc * n + i] - rpath[fc * n + i];
-        w_s.data()[i] = py_hypot(b[0] - a[0], b[1] - a[1]);
-        w_duration.data()[i] = rt[lc] - rt[fc];
+        ring.wv[i] = rpath[lc * n + i] - rpath[fc * n + i];
+        ring.ws[i] = py_hypot(b[0] - a[0], b[1] - a[1]);
+        ring.wdur[i] = rt[lc] - rt[fc];
     }
-    return nb::make_tuple(true, seq, start, all_started);
+    return Pushed{true, seq, start, all_started};
+}
+
+nb::tuple push(double t, double window, double eps, std::int64_t stride, std::int64_t insertion,
+               Vec<double> position, nb::ndarray<const std::int64_t, nb::ndim<1>, nb::c_contig, nb::device::cpu> ages,
+               Flags sampling, Ring ring_t, Ring ring_xy, Ring ring_path, I64 first, I64 last, std::int64_t seq,
+               std::int64_t start, Out w_first, Out w_last, Out w_v, Out w_s, I64 w_count, Out w_duration) {
+    const std::size_t n = ages.shape(0);
+    const std::int64_t cap = static_cast<std::int64_t>(ring_t.shape(0));
+    if (position.shape(0) != 3 * n || (sampling.shape(0) != 0 && sampling.shape(0) != n) ||
+        ring_xy.size() != static_cast<std::size_t>(cap) * n * 2 || ring_path.size() != static_cast<std::size_t>(cap) * n ||
+        first.shape(0) != n || last.shape(0) != n || w_first.shape(0) != 2 * n || w_last.shape(0) != 2 * n ||
+        w_v.shape(0) != n || w_s.shape(0) != n || w_count.shape(0) != n || w_duration.shape(0) != n || cap < 2) {
+        throw nb::value_error("window arrays of the wrong size");
+    }
+    const RingView ring{n,           cap,          ring_t.data(), ring_xy.data(), ring_path.data(),
+                        first.data(), last.data(), w_first.data(), w_last.data(),  w_v.data(),
+                        w_s.data(),  w_duration.data(), w_count.data()};
+    std::vector<double> xs, ys, paths;
+    const Pushed p = push_raw(t, window, eps, stride, insertion, position.data(), ages.data(),
+                              sampling.shape(0) ? sampling.data() : nullptr, ring, seq, start, xs, ys, paths);
+    return nb::make_tuple(p.pushed, p.seq, p.start, p.all_started);
 }
 
 }  // namespace windows
+
+// ---- The population env's periods: many control periods of brain-driven robots in one call -------------
+//
+// PopulationPeriods is what PopulationEnv.advance({}) does, period after period, on a MuJoCo world whose
+// robots are all brain-driven when nothing in between needs Python (no learner, no noise, no lifecycle, no
+// trajectories, a shipped task without a signal): the brains step on the sensor values of the period before
+// (a copy of the env's BatchController: the same networks in the same order, their states and times handed
+// over before and back after, revolve::BatchController::set_state), their outputs clipped and scaled into
+// the world's targets (World._write_targets), the world's period (WorldStep::step), the robots' ages, the
+// fitness windows' push (windows::push_raw) and the task's fitness of every window (TaskRule, as
+// tasks.score). The same operations in the same order as the Python path, so the same bits (the tests
+// compare the two). It stops where Python has a part in a period: a brain whose outputs are not finite (the
+// brain stepped, nothing else), a period that is not calm (the world stepped: WorldStep's outcome), a push
+// that windows::push_raw declines (the world stepped, calm). The periods' states and sensors go to two
+// buffers in turn, so that the last whole period's stay whole beside the one Python finishes.
+using windows::Pushed;
+using windows::push_raw;
+using windows::RingView;
+
+class PopulationPeriods {
+   public:
+    enum Stop : int { kAll = 0, kBrain = 1, kWorld = 2 };
+
+    struct Result {
+        int done = 0, stop = kAll, outcome = 0;
+        std::int64_t seq = 0, start = 0;
+        bool all_started = false, pushed = false;
+        double time = 0;
+    };
+
+    WorldStep* w = nullptr;
+    std::unique_ptr<revolve::BatchController> brain;
+    double dt = 0, target_scale = 0, window = 0, eps = 0;
+    std::int64_t stride = 1, insertion = 0, sample_from = 0;
+    TaskRule rule;
+    std::vector<double> xs, ys, paths;  // push_raw's scratch
+    std::unique_ptr<bool[]> sampling;
+
+    // n periods at most. steps: the env's control periods before; time: the world's clock (seconds);
+    // obs: the sensor values the brains read first; states/sensors: the two buffers; ages, ring, f, v, s:
+    // the env's (written in place).
+    Result run(int n, std::int64_t steps, double time, double* targets, double* outputs, const double* obs,
+               double* start_state, double* const states[2], double* const sensors[2], std::int64_t* ages,
+               const RingView& ring, std::int64_t seq, std::int64_t start, double* f, double* v, double* s) {
+        Result res;
+        res.seq = seq;
+        res.start = start;
+        const int nu = w->m_->nu;
+        const std::size_t rows = ring.n;
+        for (int i = 0; i < n; ++i) {
+            res.done = i;
+            res.time = time;
+            brain->step(i == 0 ? obs : sensors[(i - 1) % 2], outputs);  // Rollout.think
+            if (!finite(outputs, nu)) {
+                res.stop = kBrain;
+                return res;
+            }
+            for (int k = 0; k < nu; ++k) targets[k] = np_min(np_max(outputs[k], -1.0), 1.0) * target_scale;
+            double* st = states[i % 2];
+            const int outcome = w->step(targets, start_state, st, sensors[i % 2]);
+            if (outcome != WorldStep::kCalm) {
+                res.stop = kWorld;
+                res.outcome = outcome;
+                return res;
+            }
+            // Living.sense: ages, then the windows of the robots past their insertion (core_pos: st's first 3n)
+            bool any = false;
+            for (std::size_t r = 0; r < rows; ++r) {
+                ages[r] += 1;
+                sampling[r] = ages[r] >= sample_from;
+                any = any || sampling[r];
+            }
+            if (any) {
+                const double t = static_cast<double>(steps + i + 1) * dt;  // Roster.time
+                const Pushed p = push_raw(t, window, eps, stride, insertion, st, ages, sampling.get(), ring, res.seq,
+                                          res.start, xs, ys, paths);
+                if (!p.pushed) {  // Python's push: this period's sensing is left to it
+                    for (std::size_t r = 0; r < rows; ++r) ages[r] -= 1;
+                    res.stop = kWorld;
+                    res.outcome = WorldStep::kCalm;
+                    return res;
+                }
+                res.seq = p.seq;
+                res.start = p.start;
+                res.all_started = p.all_started;
+                res.pushed = true;
+                for (std::size_t r = 0; r < rows; ++r) {  // tasks.score: 0 below two samples
+                    v[r] = ring.wv[r];
+                    s[r] = ring.ws[r];
+                    f[r] = ring.wcount[r] < 2 ? 0.0
+                                              : rule.fitness(ring.wl[2 * r] - ring.wf[2 * r],
+                                                             ring.wl[2 * r + 1] - ring.wf[2 * r + 1], ring.wv[r],
+                                                             ring.ws[r], ring.wdur[r], 0.0, 0.0);
+                }
+            }
+            time += dt;  // World.compiled_stepped
+        }
+        res.done = n;
+        res.time = time;
+        return res;
+    }
+};
+
+void make_population_periods(PopulationPeriods* self, WorldStep& world, double brain_dt, double target_scale,
+                             double control_period, int task_kind, double s_weight, double limit, double cos_h,
+                             double sin_h, double window, double eps, std::int64_t stride, std::int64_t insertion,
+                             std::int64_t sample_from) {
+    if (task_kind < 0 || task_kind > 1 || !(window > 0) || stride < 1 || insertion < 0 || !(control_period > 0)) {
+        throw nb::value_error("bad population periods settings");
+    }
+    PopulationPeriods p;
+    p.w = &world;
+    p.brain = std::make_unique<revolve::BatchController>(brain_dt);
+    p.dt = control_period;
+    p.target_scale = target_scale;
+    p.window = window;
+    p.eps = eps;
+    p.stride = stride;
+    p.insertion = insertion;
+    p.sample_from = sample_from;
+    p.rule.kind = task_kind;
+    p.rule.s_weight = s_weight;
+    p.rule.has_limit = !std::isnan(limit);
+    p.rule.limit = limit;
+    p.rule.cos_h = cos_h;
+    p.rule.sin_h = sin_h;
+    p.sampling.reset(new bool[static_cast<std::size_t>(world.n_)]());
+    new (self) PopulationPeriods(std::move(p));
+}
+
+using Ages = nb::ndarray<std::int64_t, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+
+nb::tuple population_run(PopulationPeriods& p, int n, std::int64_t steps, double time, Out targets, Out outputs,
+                         Vec<double> obs, Out start, Out states_a, Out sensors_a, Out states_b, Out sensors_b,
+                         Ages ages, windows::Ring ring_t, windows::Ring ring_xy, windows::Ring ring_path,
+                         windows::I64 first, windows::I64 last, std::int64_t seq, std::int64_t seq_start, Out f, Out v,
+                         Out s, Out w_first, Out w_last, Out w_v, Out w_s, windows::I64 w_count, Out w_duration) {
+    const WorldStep& w = *p.w;
+    const std::size_t rows = static_cast<std::size_t>(w.n_);
+    const std::int64_t cap = static_cast<std::int64_t>(ring_t.shape(0));
+    const std::size_t nu = static_cast<std::size_t>(w.m_->nu);
+    if (n < 0 || targets.shape(0) != nu || outputs.shape(0) != nu ||
+        p.brain->n_outputs() != static_cast<std::int64_t>(nu) || p.brain->n_inputs() != w.n_inputs_ ||
+        obs.shape(0) != static_cast<std::size_t>(w.n_inputs_) ||
+        start.shape(0) != static_cast<std::size_t>(w.state_size()) || states_a.shape(0) != w.states_size() ||
+        states_b.shape(0) != w.states_size() || sensors_a.shape(0) != static_cast<std::size_t>(w.n_inputs_) ||
+        sensors_b.shape(0) != static_cast<std::size_t>(w.n_inputs_) || ages.shape(0) != rows || cap < 2 ||
+        ring_xy.size() != static_cast<std::size_t>(cap) * rows * 2 ||
+        ring_path.size() != static_cast<std::size_t>(cap) * rows || first.shape(0) != rows ||
+        last.shape(0) != rows || f.shape(0) != rows || v.shape(0) != rows || s.shape(0) != rows ||
+        w_first.shape(0) != 2 * rows || w_last.shape(0) != 2 * rows || w_v.shape(0) != rows ||
+        w_s.shape(0) != rows || w_count.shape(0) != rows || w_duration.shape(0) != rows) {
+        throw nb::value_error("population periods arrays of the wrong size");
+    }
+    const RingView ring{rows,         cap,         ring_t.data(),  ring_xy.data(), ring_path.data(),
+                        first.data(), last.data(), w_first.data(), w_last.data(),  w_v.data(),
+                        w_s.data(),   w_duration.data(), w_count.data()};
+    double* const states[2] = {states_a.data(), states_b.data()};
+    double* const sensors[2] = {sensors_a.data(), sensors_b.data()};
+    PopulationPeriods::Result r;
+    {
+        nb::gil_scoped_release release;
+        r = p.run(n, steps, time, targets.data(), outputs.data(), obs.data(), start.data(), states, sensors,
+                  ages.data(), ring, seq, seq_start, f.data(), v.data(), s.data());
+    }
+    return nb::make_tuple(r.done, r.stop, r.outcome, r.seq, r.start, r.all_started, r.pushed, r.time);
+}
+
+void bind_population_periods(nb::module_& mod) {
+    nb::class_<PopulationPeriods>(mod, "PopulationPeriods",
+                                  "Control periods of a population of brain-driven robots on a WorldStep, in C++.")
+        .def("__init__", &make_population_periods, nb::keep_alive<1, 2>(), nb::arg("world"), nb::arg("brain_dt"),
+             nb::arg("target_scale"), nb::arg("control_period"), nb::arg("task_kind"), nb::arg("s_weight"),
+             nb::arg("limit"), nb::arg("cos_h"), nb::arg("sin_h"), nb::arg("window"), nb::arg("eps"),
+             nb::arg("stride"), nb::arg("insertion"), nb::arg("sample_from"))
+        .def(
+            "add_network",
+            [](PopulationPeriods& p, Vec<std::int8_t> kinds, nb::ndarray<const double, nb::ndim<2>, nb::c_contig> params,
+               Vec<std::int32_t> src, Vec<std::int32_t> dst, Vec<double> weight, std::int64_t n_inputs,
+               std::int64_t n_outputs, Vec<double> state, double time) {
+                const std::int64_t h = p.brain->add(network_view(kinds, params, src, dst, weight, n_inputs, n_outputs));
+                p.brain->set_state(h, state.data(), static_cast<std::int64_t>(state.shape(0)), time);
+                return h;
+            },
+            nb::arg("kinds"), nb::arg("params"), nb::arg("src"), nb::arg("dst"), nb::arg("weight"),
+            nb::arg("n_inputs"), nb::arg("n_outputs"), nb::arg("state"), nb::arg("time"),
+            "Add the next network (in the env controller's order) with its state and time; its handle.")
+        .def(
+            "state",
+            [](PopulationPeriods& p, std::int64_t h) {
+                const std::vector<double> x = p.brain->state(h);
+                return copy_array(x.data(), x.size(), {x.size()});
+            },
+            nb::arg("handle"), "A network's neuron values now (spec order).")
+        .def("time", [](PopulationPeriods& p, std::int64_t h) { return p.brain->time(h); }, nb::arg("handle"),
+             "A network's time now (seconds).")
+        .def("run", &population_run, nb::arg("n"), nb::arg("steps"), nb::arg("time"), nb::arg("targets").noconvert(),
+             nb::arg("outputs").noconvert(), nb::arg("obs"), nb::arg("start").noconvert(),
+             nb::arg("states_a").noconvert(), nb::arg("sensors_a").noconvert(), nb::arg("states_b").noconvert(),
+             nb::arg("sensors_b").noconvert(), nb::arg("ages").noconvert(), nb::arg("ring_t").noconvert(),
+             nb::arg("ring_xy").noconvert(), nb::arg("ring_path").noconvert(), nb::arg("first").noconvert(),
+             nb::arg("last").noconvert(), nb::arg("seq"), nb::arg("seq_start"), nb::arg("f").noconvert(),
+             nb::arg("v").noconvert(), nb::arg("s").noconvert(), nb::arg("w_first").noconvert(),
+             nb::arg("w_last").noconvert(), nb::arg("w_v").noconvert(), nb::arg("w_s").noconvert(),
+             nb::arg("w_count").noconvert(), nb::arg("w_duration").noconvert(),
+             "Up to n periods (GIL released): (done, stop, outcome, seq, start, all_started, pushed, time).");
+    mod.attr("PERIODS_ALL") = static_cast<int>(PopulationPeriods::kAll);
+    mod.attr("PERIODS_BRAIN") = static_cast<int>(PopulationPeriods::kBrain);
+    mod.attr("PERIODS_WORLD") = static_cast<int>(PopulationPeriods::kWorld);
+}
 
 NB_MODULE(_rollout, mod) {
     mod.doc() = "revolve-env's compiled rollout on MuJoCo (use revolve_env.world.compiled)";
@@ -1550,6 +1792,7 @@ NB_MODULE(_rollout, mod) {
         },
         nb::arg("a"), nb::arg("b"), "math.hypot of each pair, as CPython computes it.");
     bind_array_rules(mod);  // pybullet's World: the rules over arrays
+    bind_population_periods(mod);  // the population env's periods (revolve_env.world.compiled.PopulationPeriods)
     // The population env's fitness windows (revolve_env.world.compiled.WindowPush).
     // (the arrays it writes are taken as they are: a converted copy would take the writes)
     mod.def("windows_push", &windows::push, nb::arg("t"), nb::arg("window"), nb::arg("eps"), nb::arg("stride"),

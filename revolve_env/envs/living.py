@@ -259,6 +259,28 @@ class Living:
             self.rewards = self._rewards(window, previous)
         self.view = self._views(obs, world, blown)
 
+    @property
+    def compiled_ready(self) -> bool:
+        """Whether compiled periods can sense these robots (the compiled push, no signal).
+
+        And no trajectories (:meth:`Roster.compiled_periods
+        <revolve_env.envs.roster.Roster.compiled_periods>` keeps none).
+        """
+        return (self.kernel is not None and self.task.signal is None
+                and self.trajectories.length == 0)
+
+    def advanced(self, world: World, f: NDArray[np.float64], v: NDArray[np.float64],
+                 s: NDArray[np.float64]) -> None:
+        """After periods sensed in compiled code (ages and windows written in place there).
+
+        What :meth:`sense` leaves after the last of them, none blown up, without noise:
+        ``f``, ``v`` and ``s`` are every robot's task fitness and terms then.
+        """
+        self.obs = world.sensor_values()
+        self.position = world.states.core_pos
+        self.f, self.v, self.s = f, v, s
+        self.view = self._views(self.obs, world, None)
+
     def _rewards(self, window: Window | None, previous: NDArray[np.float64]
                  ) -> NDArray[np.float64]:
         """Every robot's reward for the step: the task's, from its fitness after and before."""

@@ -542,6 +542,46 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         self._statuses, self._pending = end_step(self._roster, last), None
         return self._statuses
 
+    def advance_periods(self, n: int) -> dict[int, RobotStatus]:
+        """``n`` calls of :meth:`advance` with no actions, until the first that ends a life.
+
+        The same steps (the same numbers, births, deaths and snapshots after them): where every
+        robot is brain-driven, without noise, ``lifecycle`` or ``max_cycles``, on MuJoCo with
+        the compiled rollout, many periods run in one compiled call
+        (:meth:`Roster.compiled_periods <revolve_env.envs.roster.Roster.compiled_periods>`),
+        with Python only at the periods that need it; elsewhere :meth:`advance` runs period by
+        period. :attr:`steps` says how far it went.
+
+        Returns:
+            What the last :meth:`advance` returned: the statuses of the lives that ended in it
+            (empty when ``n`` periods ended none). :attr:`statuses` holds them too.
+        """
+        roster = self._roster
+        if roster.world is None:
+            raise RuntimeError("call reset() before advance_periods()")
+        left = n
+        while left > 0:
+            got = (roster.compiled_periods(left)
+                   if self.max_cycles is None and self.lifecycle is None else None)
+            if got is None:
+                statuses = self.advance({})
+                left -= 1
+            else:
+                done, acted = got
+                left -= done
+                self._statuses = statuses = {}
+                if acted:  # a period left to sense, as advance() senses it
+                    self._statuses = statuses = end_step(roster, False)
+                    left -= 1
+            if statuses:
+                return statuses
+        return {}
+
+    @property
+    def steps(self) -> int:
+        """Control periods since reset (:attr:`time` is ``steps * config.control_period``)."""
+        return self._roster.steps
+
     def _act(self, actions: Mapping[str, ArrayLike], what: str) -> bool:
         """Check the actions, run the lifecycle, set the targets and step the physics.
 

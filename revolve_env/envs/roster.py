@@ -14,6 +14,7 @@ robot after it. World handles and controller handles stay here.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -28,7 +29,8 @@ from revolve_env.envs.living import Living
 from revolve_env.envs.members import Final, LifeClock, Member, noise_generator
 from revolve_env.envs.placement import Disc
 from revolve_env.envs.population_snapshot import member_snapshot, read_snapshot
-from revolve_env.rollout import Rollout
+from revolve_env.fitness.terms import TIME_EPS
+from revolve_env.rollout import Rollout, task_rule
 from revolve_env.status import Death, agent_name, robot_id
 from revolve_env.world import World, WorldConfig, compiled
 from revolve_env.world.backend import SnapshotMismatchError
@@ -268,6 +270,68 @@ class Roster:
                 member.blow_up = world.blow_up(member.handle)
                 deaths[row] = "blow_up"
         return deaths
+
+    def compiled_periods(self, n: int) -> tuple[int, bool] | None:
+        """Up to ``n`` periods of :meth:`act` and :meth:`sense` in one compiled call.
+
+        What ``n`` steps of the env with no actions and nothing between them do (:meth:`act`,
+        then :meth:`sense` without rewards, every robot alive), in
+        :class:`~revolve_env.world.compiled.PopulationPeriods`: every robot brain-driven, no noise,
+        no trajectories, a task the compiled rule scores, on a MuJoCo world that the compiled
+        step steps, with no death to report and none reported. The same numbers. It stops at a
+        period that needs Python: that one is acted here and left to sense (the caller senses
+        it, as a step does).
+
+        Returns:
+            The periods done whole, and whether one more has been acted and must be sensed;
+            None where the compiled periods do not apply (nothing done).
+        """
+        run, living = self.run, self.living
+        if (run is None or n < 1 or not self.members or self.dead or self.reported
+                or self.actuator_noise > 0 or self.sensor_noise > 0 or not run.all_brains
+                or not living.compiled_ready or run.world.any_blown_up):
+            return None
+        world = run.world
+        step = world.compiled_step()
+        ring = living.windows.ring.ring()
+        if step is None or ring is None:
+            return None
+        c, windows = self.config, living.windows
+        periods = compiled.population_periods(
+            step, run.brain, math.radians(c.range_deg), c.control_period, task_rule(windows.task),
+            windows.window, TIME_EPS, windows.stride, windows.insertion_steps,
+            self.clock.insertion_steps)
+        if periods is None:
+            return None
+        buffers = (step.buffers(), step.buffers())
+        f, v, s = living.f.copy(), living.v.copy(), living.s.copy()
+        k = len(living)
+        window = (np.empty(2 * k), np.empty(2 * k), np.empty(k), np.empty(k),
+                  np.empty(k, dtype=np.int64), np.empty(k))
+        t, xy, path, first, last, seq, start = ring
+        done, stop, outcome, seq, start, started, pushed, time = periods.run(
+            n, self.steps, world.time, world.compiled_targets(), run.outputs, living.obs,
+            step.start, buffers[0][0], buffers[0][1], buffers[1][0], buffers[1][1], living.ages,
+            t, xy, path, first, last, seq, start, f, v, s, *window)
+        periods.give_back()
+        if pushed:
+            windows.ring.pushed(seq, start, started)
+        run.periods += done
+        self.steps += done
+        if done:
+            world.compiled_advanced(step, time, buffers[(done - 1) % 2])
+            living.advanced(world, f, v, s)
+            self.announced = list(self.agents)
+        all_done, brain, _ = periods.stops
+        if stop == all_done:
+            return done, False
+        if stop == brain:  # its outputs are not finite: the world flags it as ever
+            run.period(None, None, thought=True)
+        else:
+            world.compiled_stepped(step, *step.finished(outcome, buffers[done % 2]))
+            run.periods += 1
+        self.steps += 1
+        return done, True
 
     # -- snapshots --------------------------------------------------------------------------
     def snapshot(self) -> dict[str, Any]:

@@ -240,6 +240,23 @@ class FitnessWindows:
         count.flags.writeable = False
         return Window(first, last, v, s, count, None, None, duration)
 
+    def ring(self) -> tuple[Any, ...] | None:
+        """The ring's own arrays, for a compiled caller that pushes as :meth:`push_compiled` does.
+
+        ``(t, xy, path, first, last, seq, start)``, written in place by the caller, which then
+        calls :meth:`pushed`; None for windows with a signal.
+        """
+        if self._sig is not None:
+            return None
+        if not (self._xy.flags.c_contiguous and self._path.flags.c_contiguous):  # after remove
+            self._xy, self._path = np.ascontiguousarray(self._xy), np.ascontiguousarray(self._path)
+        return self._t, self._xy, self._path, self._first, self._last, self._seq, self._start
+
+    def pushed(self, seq: int, start: int, all_started: bool) -> None:
+        """After pushes into :meth:`ring`'s arrays: the ring's counters they left."""
+        self._seq, self._start, self._all_started = int(seq), int(start), bool(all_started)
+        self._rows_now = None
+
     def _rebase(self, cols: NDArray[np.intp]) -> None:
         """Keep the running sums small so that differences stay exact to ~1e-13 m."""
         cap = self.capacity

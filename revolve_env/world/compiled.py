@@ -25,6 +25,13 @@ robot's brain), the period above, the task's window of the robot and the shipped
 the reward and the observation. Python finishes a step only at events (a bad action, a brain
 that diverges, a period that is not calm, an observation that is not finite).
 
+:class:`PopulationPeriods` (made by :func:`population_periods`) is many control periods of the
+population env (:class:`~revolve_env.envs.population.PopulationEnv`) whose robots are all
+brain-driven, in one call: per period the brains, the targets, the period above, the ages, the
+fitness windows' push and the task's fitness of every robot. Python takes a period over only where
+it has a part in it (a brain that diverges, a period that is not calm, a push the compiled one
+declines).
+
 :class:`Rules` (made by :func:`rules`) is the same rules for a pybullet world, whose engine calls
 stay in Python: the target clipping, the servo law, the blow-up screen, the IMU and the light
 sensors over the arrays its NumPy path would hand to NumPy, by the same C++ functions.
@@ -66,9 +73,9 @@ from revolve_env.world.sensing import IMU_HIGH, imu_readings, light_falloff, lig
 if TYPE_CHECKING:
     from revolve_env.world.mujoco_backend import RawScene
 
-__all__ = ["SIGNALS", "EnvStep", "Path", "Rules", "TaskRule", "WindowsPush", "WorldStep",
-           "available", "env_step", "hypot_exact", "rollout", "rules", "windows_kernel",
-           "world_step"]
+__all__ = ["SIGNALS", "EnvStep", "Path", "PopulationPeriods", "Rules", "TaskRule",
+           "WindowsPush", "WorldStep", "available", "env_step", "hypot_exact", "population_periods",
+           "rollout", "rules", "windows_kernel", "world_step"]
 
 _log = logging.getLogger(__name__)
 
@@ -665,6 +672,78 @@ def hypot_exact() -> bool:
     _log.warning("revolve-env: the compiled math.hypot does not give CPython's bits here; the "
                  "envs' fitness windows use Python's and NumPy's")
     return False
+
+
+# -- The population env's periods ----------------------------------------------------------------
+
+class PopulationPeriods:
+    """Many control periods of a population env whose robots are all brain-driven, in C++.
+
+    What :meth:`PopulationEnv.advance({}) <revolve_env.envs.population.PopulationEnv.advance>`
+    does period after period when nothing in between needs Python: the brains (a copy of the
+    env's controller, its networks' states and times handed over at :meth:`__init__` and back by
+    :meth:`give_back`), the targets (:meth:`World.set_all_targets`' clip), the world's period
+    (:class:`WorldStep`), the robots' ages, the fitness windows' push and the task's fitness
+    (:data:`TaskRule`, kinds 0 and 1). The same bits as that path (tests). Made by
+    :func:`population_periods` for one world step and one population: good for one call of
+    :meth:`run`.
+    """
+
+    def __init__(self, ext: ModuleType, run: WorldStep, brain: Any, target_scale: float,
+                 control_period: float, rule: TaskRule, window: float, eps: float, stride: int,
+                 insertion: int, sample_from: int) -> None:
+        kind, s_weight, limit, cos_h, sin_h = rule
+        self._ext = ext.PopulationPeriods(run.extension_step, brain.dt, target_scale,
+                                          control_period, kind, s_weight, limit, cos_h, sin_h,
+                                          window, eps, stride, insertion, sample_from)
+        self._handles: list[int] = list(brain.handles)
+        for h in self._handles:
+            spec = brain.spec(h)
+            self._ext.add_network(spec.kinds, spec.neuron_params, spec.src, spec.dst, spec.weight,
+                                  spec.n_inputs, spec.n_outputs, brain.get_state(h), brain.time(h))
+        self._brain = brain
+        self.stops = (ext.PERIODS_ALL, ext.PERIODS_BRAIN, ext.PERIODS_WORLD)
+        """The numbers of :attr:`run`'s stops: all done, a brain's outputs not finite (it stepped,
+        nothing else), the world's period not calm or a push declined (the world stepped)."""
+        self.run = self._ext.run
+        """The extension's ``run``: up to ``n`` periods, GIL released; (periods done whole, the
+        stop, the world's outcome of the period it stopped in, the ring's ``seq`` and ``start``,
+        whether every column has started, whether it pushed, the world's clock after the whole
+        periods)."""
+
+    def give_back(self) -> None:
+        """Every network's state and time to the env's controller (after :meth:`run`)."""
+        for i, h in enumerate(self._handles):
+            self._brain.set_state(h, self._ext.state(i), self._ext.time(i))
+
+
+def population_periods(run: WorldStep, brain: Any, target_scale: float, control_period: float,
+                       rule: TaskRule | None, window: float, eps: float, stride: int,
+                       insertion: int, sample_from: int) -> PopulationPeriods | None:
+    """A population's compiled periods (:class:`PopulationPeriods`), None where they do not apply.
+
+    They apply to a world stepped by a compiled ``run`` (not diverged) with a shipped task of
+    kind 0 or 1 (no signal), when :func:`hypot_exact` holds here.
+
+    Args:
+        run: The world's compiled step.
+        brain: The env's :class:`~revolve_env.brain.BatchController`, every robot's network in the
+            world's order.
+        target_scale: Radians per normalized target.
+        control_period: Seconds.
+        rule: The task's rule (:func:`revolve_env.rollout.task_rule`).
+        window: The fitness windows' length. Seconds.
+        eps: The windows' tolerance on sample times (``fitness.terms.TIME_EPS``). Seconds.
+        stride: Control periods between two pose samples.
+        insertion: The windows' insertion (control periods) for held poses.
+        sample_from: The age (control periods) from which a robot samples.
+    """
+    ext = _extension()
+    if (ext is None or run.any_diverged or rule is None or rule[0] not in (0, 1)
+            or not hypot_exact()):
+        return None
+    return PopulationPeriods(ext, run, brain, target_scale, control_period, rule, window, eps,
+                             stride, insertion, sample_from)
 
 
 # -- The rules over a World's arrays (pybullet) ------------------------------------------------

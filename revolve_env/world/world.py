@@ -554,6 +554,20 @@ class World:
                 if state.blow_up is None:
                     self._flag(state, self._check_blow_up(state))
 
+    def compiled_advanced(self, run: compiled.WorldStep, time: float,
+                          views: compiled.Buffers) -> None:
+        """The world after calm periods of :meth:`compiled_step` run elsewhere (last: ``views``).
+
+        As :meth:`compiled_stepped` after each of them (calm, not diverged) leaves it: ``time``
+        is the clock they reached (seconds; added to period by period, as there).
+        """
+        outcome, now, prev_vel, sensors = run.finished(0, views)
+        assert outcome == "calm" and now is not None and prev_vel is not None
+        assert not run.any_diverged
+        self._time = time
+        self._imu = None
+        self._prev_vel, self._now, self._sensors = prev_vel, now, sensors
+
     # -- blow-ups -----------------------------------------------------------------------------
     def _check_blow_ups(self) -> None:
         """Flag every robot that blew up (:mod:`~revolve_env.world.blowups`).

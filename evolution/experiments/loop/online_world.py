@@ -99,12 +99,22 @@ class PopulationWorld:
         before = env.robot_ids
         lost: dict[int, RobotStatus] = {}
         # Half a control period of tolerance: ticks land on whole control steps.
-        while self.time < t - 0.5 * float(env.config.control_period):
-            # Deterministic policies on the current observations: a replay repeats the actions.
-            actions = {agent_name(rid): policy.act(env.observe(rid))
-                       for rid, policy in self._policies.items()}
-            # advance: the step without PettingZoo's dicts (the loop reads statuses only)
-            for rid, status in env.advance(actions).items():
+        period = env.config.control_period
+        end = t - 0.5 * float(period)
+        while self.time < end:
+            if self._policies:
+                # Deterministic policies on the current observations: a replay repeats them.
+                actions = {agent_name(rid): policy.act(env.observe(rid))
+                           for rid, policy in self._policies.items()}
+                # advance: the step without PettingZoo's dicts (the loop reads statuses only)
+                ended = env.advance(actions)
+            else:  # brains only: the periods up to t at once (the same steps)
+                steps = env.steps
+                n = 1
+                while float((steps + n) * period) < end:
+                    n += 1
+                ended = env.advance_periods(n)
+            for rid, status in ended.items():
                 if status.death is not None and rid not in lost:
                     lost[rid] = status
                     self._policies.pop(rid, None)

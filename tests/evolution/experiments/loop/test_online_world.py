@@ -2,13 +2,19 @@
 
 from __future__ import annotations
 
+import pickle
 from pathlib import Path
+from typing import Any
+
+import pytest
 
 import evolution
 from evolution.experiments import preset
+from evolution.experiments.loop.config import WorldSettings
 from evolution.experiments.loop.online_world import PopulationWorld
 from evolution.experiments.store.database import Store
 from revolve_env.body.examples import gecko, snake
+from revolve_env.status import RobotStatus
 
 
 def _tiny_online(**changes: object) -> evolution.ExperimentConfig:
@@ -59,3 +65,59 @@ def test_a_tiny_online_run_with_real_physics_finishes_with_exact_births(tmp_path
     assert [r.births for r in summary.runs] == [7]
     with Store.open(tmp_path / "online" / "results.sqlite") as store:
         assert len(store.robots(0)) == 7
+
+
+def test_advance_to_on_mujoco_gives_the_numbers_of_one_step_at_a_time(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The world's periods up to an event in compiled calls (``advance_periods``) leave it where
+    steps one at a time (``advance``) do: statuses, deaths and the snapshot, to the bit."""
+    from revolve_env.envs.population import PopulationEnv
+    from revolve_env.world import compiled
+
+    if compiled.windows_kernel() is None or not compiled.hypot_exact():
+        pytest.skip("the compiled rollout is not built or not exact here")
+    config = _tiny_online(world=WorldSettings(engine="mujoco"))
+
+    def events(world: PopulationWorld) -> list[object]:
+        out: list[object] = []
+        world.add(gecko(), 0)
+        world.add(snake(), 1)
+        for k, t in enumerate((0.4, 1.3, 2.0, 3.7)):
+            if k == 2:
+                world.remove(0)
+                world.add(gecko(), 2)
+            out.append(sorted((r, tuple(s)) for r, s in world.advance_to(t).items()))
+        out.append(pickle.dumps(world.snapshot()))
+        return out
+
+    made: list[bool] = []
+    real = compiled.population_periods
+
+    def spy(*args: Any) -> Any:
+        periods = real(*args)
+        made.append(periods is not None)
+        return periods
+
+    fast = PopulationWorld(config, seed=5)
+    try:
+        with monkeypatch.context() as m:
+            m.setattr(compiled, "population_periods", spy)
+            got = events(fast)
+    finally:
+        fast.close()
+    assert sum(made) >= 4  # the compiled periods ran
+    def stepwise(env: PopulationEnv, n: int) -> dict[int, RobotStatus]:
+        for _ in range(n):
+            ended = env.advance({})
+            if ended:
+                return ended
+        return {}
+
+    monkeypatch.setattr(PopulationEnv, "advance_periods", stepwise)
+    slow = PopulationWorld(config, seed=5)
+    try:
+        want = events(slow)
+    finally:
+        slow.close()
+    assert repr(got[:-1]) == repr(want[:-1])
+    assert got[-1] == want[-1]
