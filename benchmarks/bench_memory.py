@@ -12,8 +12,10 @@ slows the run about 2x; NumPy's arrays count, the engine's C allocations do not)
 
 Printed: RSS at every ``--every`` births; the growth per birth after ``--after`` births (a
 least-squares line through every commit point from there on, and end minus start), in KB per
-birth; with ``--tracemalloc``, the traced growth per birth and the ``--top`` allocation sites
-that grew most between birth ``--after`` and the end. The aim (issue 28): flat after the first
+birth, and the same growth apart from the robots alive (a plane through births and robots alive:
+KB per birth at a constant number alive, MB per robot alive; a world that grows needs more);
+with ``--tracemalloc``, the traced growth per birth and the ``--top`` allocation sites that grew
+most between birth ``--after`` and the end. The aim (issue 28): flat after the first
 300 births of a 3000-birth run, <= 20 KB per birth.
 """
 
@@ -49,6 +51,26 @@ def slope(births: list[int], values: list[float]) -> float:
     if len(births) < 2:
         return 0.0
     return float(np.polyfit(np.asarray(births, float), np.asarray(values, float), 1)[0])
+
+
+def per_birth_and_alive(births: list[int], alive: list[int],
+                        values: list[float]) -> tuple[float, float] | None:
+    """Growth of ``values`` per birth and per robot alive, apart (issue 28, item 4).
+
+    A least-squares plane ``values = a + b * births + c * alive``: ``b`` is the growth per birth
+    at a constant number of robots alive, ``c`` the growth per robot alive at a constant birth
+    count (a world that grows legitimately needs more memory; a run that keeps something per
+    birth shows in ``b``). ``None`` when the robots alive never changed or fewer than three
+    points are given (the plane is not determined).
+    """
+    if len(births) < 3 or len(set(alive)) < 2:
+        return None
+    x = np.column_stack((np.ones(len(births)), np.asarray(births, float),
+                         np.asarray(alive, float)))
+    if np.linalg.matrix_rank(x) < 3:
+        return None
+    coefficients = np.linalg.lstsq(x, np.asarray(values, float), rcond=None)[0]
+    return float(coefficients[1]), float(coefficients[2])
 
 
 def main() -> None:
