@@ -58,7 +58,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout
 
 from bench_engines import Replay, numpy_rules, record_evaluate
-from bench_memory import rss_mb, slope
+from bench_memory import per_birth_and_alive, rss_mb, slope
 
 from evolution import experiments
 from evolution.evaluation import EvalOutcome, EvalTask, LocalEvaluator, evaluate_task
@@ -250,9 +250,22 @@ class RunMeasurement:
         points = [(e.births, r) for e, r in zip(self.events, self.rss, strict=True)
                   if e.births >= after]
         (b0, r0), (b1, r1) = points[0], points[-1]
-        return (f"  {self.name:<12} {growth[0]:7.1f} KB per birth (least squares), "
+        line = (f"  {self.name:<12} {growth[0]:7.1f} KB per birth (least squares), "
                 f"{growth[1]:7.1f} end minus start (births {b0} -> {b1}: "
                 f"{r0:.1f} -> {r1:.1f} MB)")
+        apart = self.memory_apart(after)
+        if apart is None:
+            return line
+        return (f"{line}; robots alive apart: {apart[0]:.1f} KB per birth, "
+                f"{apart[1]:.2f} MB per robot alive")
+
+    def memory_apart(self, after: int) -> tuple[float, float] | None:
+        """RSS growth from ``after`` births on per birth at constant robots alive (KB) and per
+        robot alive at a constant birth count (MB): :func:`bench_memory.per_birth_and_alive`."""
+        later = [(e, r) for e, r in zip(self.events, self.rss, strict=True) if e.births >= after]
+        fit = per_birth_and_alive([e.births for e, _ in later],
+                                  [e.population_size for e, _ in later], [r for _, r in later])
+        return None if fit is None else (1e3 * fit[0], fit[1])
 
     def floor_line(self) -> str:
         """The run's CPU per birth, its floor and their ratio, in one line."""

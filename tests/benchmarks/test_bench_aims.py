@@ -137,3 +137,20 @@ def test_a_short_run_has_no_memory_figure_after_300_births() -> None:
     assert slope == pytest.approx(10.0) and end == pytest.approx(10.0)
     assert longer.alive == 10.0 and longer.cpu_per_birth == 0.125
     assert longer.floor_line().endswith(": 1.25x")
+
+
+def test_memory_growth_is_told_apart_per_birth_and_per_robot_alive() -> None:
+    # RSS that follows the robots alive only (0.5 MB each), in a world that grows from 9 to 15
+    events = tuple(_event(b, 15.0 * b, 9 + (b - 300) // 100) for b in range(300, 1000, 10))
+    rss = tuple(100.0 + 0.5 * e.population_size for e in events)
+    config = bench_experiments.preset("scenario3", births=1000, runs=1)
+    run = bench_experiments.RunMeasurement("scenario3", config, 60.0, 100.0, events, rss, False,
+                                           None)
+    slope, _ = run.memory_growth(300) or (math.nan, math.nan)
+    assert slope > 4.0  # a line through births alone sees the growing world as growth per birth
+    per_birth, per_alive = run.memory_apart(300) or (math.nan, math.nan)
+    assert per_birth == pytest.approx(0.0, abs=1e-6) and per_alive == pytest.approx(0.5)
+    assert run.memory_line(300).endswith("robots alive apart: 0.0 KB per birth, 0.50 MB per "
+                                         "robot alive")
+    # a world of constant size: nothing to tell apart
+    assert _measured("scenario3", 1000).memory_apart(300) is None
