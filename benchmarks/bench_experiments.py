@@ -321,7 +321,10 @@ def measure_run(name: str, births: int, cores: int, *, physics: str | None = Non
                 rss.append(rss_mb())
                 spent.append(time.process_time())
                 if trace is not None:
+                    new = not trace.exists()
                     with trace.open("a", encoding="utf-8") as out:
+                        if new:
+                            out.write("name,births,alive,rss_mb,cpu_s\n")
                         out.write(f"{name},{event.births},{event.population_size},"
                                   f"{rss[-1]:.2f},{spent[-1] - cpu:.2f}\n")
                 if deadline is not None and time.time() >= deadline:

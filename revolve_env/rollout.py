@@ -42,12 +42,12 @@ from revolve_env.fitness import FitnessTerms, FitnessWindows, Window, trajectory
 from revolve_env.fitness.sampling import pose_due, pose_stride
 from revolve_env.fitness.terms import TIME_EPS
 from revolve_env.tasks import (
-    BaseTask,
     DirectedLocomotion,
     LightFollowing,
     Locomotion,
     Task,
     TaskError,
+    own_reward,
     pose_rate,
     score,
 )
@@ -78,9 +78,9 @@ def task_rule(task: Task) -> compiled.TaskRule | None:
     not a subclass: a user's class may score otherwise); their Python rules are the reference,
     and the compiled ones give their bits (tests).
     """
-    kind = type(task)
-    if kind.reward is not BaseTask.reward:
+    if own_reward(task):
         return None
+    kind = type(task)
     if kind is Locomotion:
         assert isinstance(task, Locomotion)
         limit = math.nan if task.limit is None else task.limit

@@ -1370,7 +1370,9 @@ nb::tuple push(double t, double window, double eps, std::int64_t stride, std::in
 // compare the two). It stops where Python has a part in a period: a brain whose outputs are not finite (the
 // brain stepped, nothing else), a period that is not calm (the world stepped: WorldStep's outcome), a push
 // that windows::push_raw declines (the world stepped, calm). The periods' states and sensors go to two
-// buffers in turn, so that the last whole period's stay whole beside the one Python finishes.
+// buffers in turn, so that the last whole period's stay whole beside the one Python finishes. Python's signal
+// handlers (Ctrl-C) run every kSignalEvery periods and after the last one: a handler that raises stops the run
+// at a period's start, its error kept until Python has taken the whole periods back (raise_pending).
 using windows::Pushed;
 using windows::push_raw;
 using windows::RingView;
@@ -1378,6 +1380,7 @@ using windows::RingView;
 class PopulationPeriods {
    public:
     enum Stop : int { kAll = 0, kBrain = 1, kWorld = 2 };
+    static constexpr int kSignalEvery = 30;  // periods between two looks at Python's signals
 
     struct Result {
         int done = 0, stop = kAll, outcome = 0;
@@ -1393,6 +1396,15 @@ class PopulationPeriods {
     TaskRule rule;
     std::vector<double> xs, ys, paths;  // push_raw's scratch
     std::unique_ptr<bool[]> sampling;
+    std::optional<nb::python_error> pending;  // a signal handler's error, raised by raise_pending
+
+    // Runs Python's signal handlers (the GIL taken); false, the error kept in `pending`, if one raised.
+    bool signals_clear() {
+        nb::gil_scoped_acquire gil;
+        if (PyErr_CheckSignals() == 0) return true;
+        pending.emplace();  // fetches the error and clears it
+        return false;
+    }
 
     // n periods at most. steps: the env's control periods before; time: the world's clock (seconds);
     // obs: the sensor values the brains read first; states/sensors: the two buffers; ages, ring, f, v, s:
@@ -1408,6 +1420,7 @@ class PopulationPeriods {
         for (int i = 0; i < n; ++i) {
             res.done = i;
             res.time = time;
+            if (i > 0 && i % kSignalEvery == 0 && !signals_clear()) return res;  // stop: kAll, i periods
             brain->step(i == 0 ? obs : sensors[(i - 1) % 2], outputs);  // Rollout.think
             if (!finite(outputs, nu)) {
                 res.stop = kBrain;
@@ -1455,6 +1468,7 @@ class PopulationPeriods {
         }
         res.done = n;
         res.time = time;
+        signals_clear();  // the last periods' signals too: raised after Python took them back
         return res;
     }
 };
@@ -1552,6 +1566,15 @@ void bind_population_periods(nb::module_& mod) {
             nb::arg("handle"), "A network's neuron values now (spec order).")
         .def("time", [](PopulationPeriods& p, std::int64_t h) { return p.brain->time(h); }, nb::arg("handle"),
              "A network's time now (seconds).")
+        .def(
+            "raise_pending",
+            [](PopulationPeriods& p) {
+                if (!p.pending) return;
+                nb::python_error error = std::move(*p.pending);
+                p.pending.reset();
+                throw error;
+            },
+            "Raise the error a signal handler raised during run (after the periods are taken back); else nothing.")
         .def("run", &population_run, nb::arg("n"), nb::arg("steps"), nb::arg("time"), nb::arg("targets").noconvert(),
              nb::arg("outputs").noconvert(), nb::arg("obs"), nb::arg("start").noconvert(),
              nb::arg("states_a").noconvert(), nb::arg("sensors_a").noconvert(), nb::arg("states_b").noconvert(),

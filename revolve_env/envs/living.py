@@ -28,7 +28,7 @@ from revolve_env.envs.trajectories import TrajectoryStore
 from revolve_env.fitness import Window
 from revolve_env.rollout import TaskWindows
 from revolve_env.status import Death, RobotStatus
-from revolve_env.tasks import BaseTask, Task
+from revolve_env.tasks import Task, own_reward
 from revolve_env.world import World
 from revolve_env.world.signals import SignalReader, signal_reader
 
@@ -74,7 +74,7 @@ class Living:
         self.rewards = np.zeros(0)
         # A user's own reward is checked at every step, its rewards read or not (the fitness
         # gain, every shipped task's, has the fitness's shape by construction).
-        self._own_reward = getattr(type(task), "reward", None) is not BaseTask.reward
+        self._own_reward = own_reward(task)
         self.position = np.zeros((0, 3))  # last finite core positions. Metres
         self.obs = np.zeros(0)  # sensor values as the robots read them, flat (world layout)
         self.view = np.zeros(0)  # what the agents observe, flat

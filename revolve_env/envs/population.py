@@ -555,7 +555,12 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
         Returns:
             What the last :meth:`advance` returned: the statuses of the lives that ended in it
             (empty when ``n`` periods ended none). :attr:`statuses` holds them too.
+
+        Raises:
+            ValueError: ``n`` < 1.
         """
+        if n < 1:
+            raise ValueError(f"advance_periods: n must be >= 1 control period, got {n}")
         roster = self._roster
         if roster.world is None:
             raise RuntimeError("call reset() before advance_periods()")
@@ -569,7 +574,8 @@ class PopulationEnv(ParallelEnv[str, NDArray[np.float64], NDArray[np.float32]]):
             else:
                 done, acted = got
                 left -= done
-                self._statuses = statuses = {}
+                statuses = {}
+                self._statuses, self._pending = statuses, None
                 if acted:  # a period left to sense, as advance() senses it
                     self._statuses = statuses = end_step(roster, False)
                     left -= 1

@@ -14,7 +14,6 @@ robot after it. World handles and controller handles stay here.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -298,7 +297,7 @@ class Roster:
             return None
         c, windows = self.config, living.windows
         periods = compiled.population_periods(
-            step, run.brain, math.radians(c.range_deg), c.control_period, task_rule(windows.task),
+            step, run.brain, world.target_scale, c.control_period, task_rule(windows.task),
             windows.window, TIME_EPS, windows.stride, windows.insertion_steps,
             self.clock.insertion_steps)
         if periods is None:
@@ -324,6 +323,7 @@ class Roster:
             self.announced = list(self.agents)
         all_done, brain, _ = periods.stops
         if stop == all_done:
+            periods.raise_pending()  # Ctrl-C in the compiled call: raised with the env whole
             return done, False
         if stop == brain:  # its outputs are not finite: the world flags it as ever
             run.period(None, None, thought=True)

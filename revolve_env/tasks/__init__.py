@@ -12,7 +12,16 @@ Every ``task=`` keyword (``revolve_env.evaluate``, ``gymnasium.make("revolve_env
 task=...)``, ``population_env(task=...)``, the learners) takes a task, a name or a table.
 """
 
-from revolve_env.tasks.base import SIGNALS, BaseTask, Task, TaskError, pose_rate, score, task_name
+from revolve_env.tasks.base import (
+    SIGNALS,
+    BaseTask,
+    Task,
+    TaskError,
+    own_reward,
+    pose_rate,
+    score,
+    task_name,
+)
 from revolve_env.tasks.light import LightFollowing
 from revolve_env.tasks.locomotion import DirectedLocomotion, Locomotion
 from revolve_env.tasks.registry import (
@@ -36,6 +45,7 @@ __all__ = [
     "TaskError",
     "check_task_name",
     "make_task",
+    "own_reward",
     "pose_rate",
     "score",
     "task_class",

@@ -41,8 +41,8 @@ from numpy.typing import NDArray
 from revolve_env.fitness import Window
 from revolve_env.fitness.sampling import DEFAULT_POSE_RATE, check_pose_rate
 
-__all__ = ["SIGNALS", "BaseTask", "Task", "TaskError", "check", "check_class", "pose_rate",
-           "score", "task_name"]
+__all__ = ["SIGNALS", "BaseTask", "Task", "TaskError", "check", "check_class", "own_reward",
+           "pose_rate", "score", "task_name"]
 
 SIGNALS: tuple[str, ...] = ("light",)
 """Signals a task may ask the world to sample with every fitness sample (see the module doc)."""
@@ -156,6 +156,16 @@ def check(task: object) -> Task:
     except TypeError:
         raise TaskError(f"task {label!r} must be hashable (a frozen dataclass)") from None
     return task
+
+
+def own_reward(task: Task) -> bool:
+    """Whether ``task`` rewards by its own rule, not :class:`BaseTask`'s fitness gain.
+
+    Its rewards must then be computed and checked every step (a user's rule may give a wrong
+    shape); the fitness gain has the fitness's shape by construction, and compiled steps may
+    score it themselves.
+    """
+    return getattr(type(task), "reward", None) is not BaseTask.reward
 
 
 def pose_rate(task: Task) -> float | str:

@@ -696,11 +696,14 @@ class PopulationPeriods:
         self._ext = ext.PopulationPeriods(run.extension_step, brain.dt, target_scale,
                                           control_period, kind, s_weight, limit, cos_h, sin_h,
                                           window, eps, stride, insertion, sample_from)
-        self._handles: list[int] = list(brain.handles)
-        for h in self._handles:
+        # the env controller's handle -> the copy's
+        self._handles: list[tuple[int, int]] = []
+        for h in brain.handles:
             spec = brain.spec(h)
-            self._ext.add_network(spec.kinds, spec.neuron_params, spec.src, spec.dst, spec.weight,
-                                  spec.n_inputs, spec.n_outputs, brain.get_state(h), brain.time(h))
+            mine = self._ext.add_network(spec.kinds, spec.neuron_params, spec.src, spec.dst,
+                                         spec.weight, spec.n_inputs, spec.n_outputs,
+                                         brain.get_state(h), brain.time(h))
+            self._handles.append((h, mine))
         self._brain = brain
         self.stops = (ext.PERIODS_ALL, ext.PERIODS_BRAIN, ext.PERIODS_WORLD)
         """The numbers of :attr:`run`'s stops: all done, a brain's outputs not finite (it stepped,
@@ -713,8 +716,17 @@ class PopulationPeriods:
 
     def give_back(self) -> None:
         """Every network's state and time to the env's controller (after :meth:`run`)."""
-        for i, h in enumerate(self._handles):
-            self._brain.set_state(h, self._ext.state(i), self._ext.time(i))
+        for h, mine in self._handles:
+            self._brain.set_state(h, self._ext.state(mine), self._ext.time(mine))
+
+    def raise_pending(self) -> None:
+        """Raise what a signal handler raised during :meth:`run` (Ctrl-C: ``KeyboardInterrupt``).
+
+        :meth:`run` looks at Python's signals every 30 periods and after its last; one that
+        raised stops it at a period's start (stop "all done", the periods before it whole). The
+        caller takes those periods back first, then calls this: the env stays whole.
+        """
+        self._ext.raise_pending()
 
 
 def population_periods(run: WorldStep, brain: Any, target_scale: float, control_period: float,

@@ -145,6 +145,11 @@ class World:
 
     # -- properties ---------------------------------------------------------------------------
     @property
+    def target_scale(self) -> float:
+        """A normalized target's hinge angle: targets in [-1, 1] times this. Radians."""
+        return self._target_scale
+
+    @property
     def engine(self) -> str:
         """Name of the physics engine (``config.engine``)."""
         return self.config.engine

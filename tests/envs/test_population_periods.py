@@ -172,3 +172,55 @@ def test_the_compiled_periods_step_aside_for_a_learner_or_noise(
     env.advance_periods(5)
     assert env.steps == 5 and not counted
     env.close()
+
+
+class _Interrupted(Exception):
+    """What the test's signal handler raises (Ctrl-C's KeyboardInterrupt, say)."""
+
+
+def test_a_signal_stops_the_compiled_periods_with_the_env_whole() -> None:
+    """Ctrl-C during a long compiled call is raised within a few periods, after the periods done
+    are taken back: the env then continues to the very numbers of an uninterrupted one."""
+    import signal
+    import time
+
+    def interrupt(signum: int, frame: object) -> None:
+        raise _Interrupted
+
+    stopped, straight = (_env(200.0, None) for _ in range(2))
+    total = 9000
+    try:
+        for env in (stopped, straight):
+            env.add_robot(spider())
+            env.add_robot(gecko())
+        previous = signal.signal(signal.SIGALRM, interrupt)
+        start = time.process_time()
+        try:
+            signal.setitimer(signal.ITIMER_REAL, 0.1)
+            with pytest.raises(_Interrupted):
+                stopped.advance_periods(total)
+        finally:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, previous)
+        assert time.process_time() - start < 1.0  # all 9000 periods: about 2 s of CPU
+        assert 0 < stopped.steps < total
+        stopped.advance_periods(total - stopped.steps)
+        straight.advance_periods(total)
+        _same(_fingerprint(stopped), _fingerprint(straight))
+    finally:
+        stopped.close()
+        straight.close()
+
+
+def test_statuses_after_compiled_periods_are_theirs() -> None:
+    """A step's statuses, not read, do not outlive the compiled periods after it."""
+    env = _env(200.0, None)
+    try:
+        env.add_robot(spider())
+        env.step({})  # its statuses (every agent's) left unread
+        assert env.advance_periods(3) == {}
+        assert env.statuses == {}
+        with pytest.raises(ValueError, match="n must be >= 1"):
+            env.advance_periods(0)
+    finally:
+        env.close()
