@@ -462,9 +462,9 @@ def _measured_cost(config: ExperimentConfig, cpu: float, alive: float) -> BirthC
 def project(measured: dict[str, tuple[ExperimentConfig, float, float]]) -> dict[int, float]:
     """Calibration against measurement, and the paper's study projected from the measurement.
 
-    The calibration's robots alive (online: measured at the run's start) and robot-seconds per
-    CPU second beside the measured run's; their ratio of CPU per birth says how far off the
-    study's estimate is.
+    The calibration's robots alive (online: measured at the run's start, grown over the run's
+    births as the study's estimate grows them) and robot-seconds per CPU second beside the
+    measured run's; their ratio of CPU per birth says how far off the study's estimate is.
 
     Args:
         measured: Experiment -> (its config, births its run committed; CPU seconds of the run;
@@ -481,11 +481,12 @@ def project(measured: dict[str, tuple[ExperimentConfig, float, float]]) -> dict[
     for name, (config, cpu, alive) in measured.items():
         costs[name] = cost = _measured_cost(config, cpu, alive)
         guess = calibrate(config)
+        grown = guess.growth_factor(config.population_size, config.births)  # online: the run's
         alive_then = f"{cost.alive:.1f}" if cost.alive else "-"
         print(f"{name:<12} {1e3 * cost.cpu_per_birth:>18.0f} {alive_then:>6} "
-              f"{cost.rate:>14.0f} {1e3 * guess.cpu_per_birth:>20.0f} "
-              f"{f'{guess.alive:.1f}' if guess.alive else '-':>6} {guess.rate:>14.0f} "
-              f"{guess.cpu_per_birth / cost.cpu_per_birth:>20.2f}")
+              f"{cost.rate:>14.0f} {1e3 * guess.cpu_per_birth * grown:>20.0f} "
+              f"{f'{guess.alive * grown:.1f}' if guess.alive else '-':>6} {guess.rate:>14.0f} "
+              f"{guess.cpu_per_birth * grown / cost.cpu_per_birth:>20.2f}")
     by_mode = {cost.mode: cost for cost in costs.values()}
     work, study_costs = [], {}
     for name in PAPER_SCENARIOS:
