@@ -237,12 +237,17 @@ def _alive(e: ExperimentEstimate) -> str:
     c, g = e.cost, e.cost.growth
     if g is None:  # e.g. a measured run's mean
         return f"{c.alive:.1f} robots alive"
-    if e.alive <= 0 or abs(e.alive - c.alive) < 0.05:
-        return (f"{c.alive:.1f} robots alive (measured at its start; its world grows after "
-                f"{g.onset:.0f} births, past this study's)")
-    return (f"{e.alive:.1f} robots alive on average ({c.alive:.1f} measured at its start, "
-            f"growing after {g.onset:.0f} births toward the survivor rule's {g.ceiling:.1f} "
-            "as measured runs grew)")
+    if e.alive >= c.alive + 0.05:
+        return (f"{e.alive:.1f} robots alive on average ({c.alive:.1f} measured at its start, "
+                f"growing after {g.onset:.0f} births toward the survivor rule's {g.ceiling:.1f} "
+                "as measured runs grew)")
+    if e.alive <= 0:  # no interval left
+        why = ""
+    elif g.ceiling <= c.alive:
+        why = f", at or above the survivor rule's ceiling of {g.ceiling:.1f}"
+    else:
+        why = f"; its world grows after {g.onset:.0f} births, past this study's"
+    return f"{c.alive:.1f} robots alive (measured at its start{why})"
 
 
 def calibration_key(config: ExperimentConfig) -> tuple[object, ...]:

@@ -87,6 +87,14 @@ def test_an_online_world_that_grows_simulates_its_mean_robots_alive() -> None:
     assert ("(online, mujoco: 10.0 robots alive (measured at its start; its world grows after "
             "115 births, past this study's) x 15 s per birth)") in short
     assert "8000 ms CPU per birth" in short
+    # a world measured at the rule's ceiling cannot grow; a finished run has no interval left
+    full = replace(ONLINE, growth=WorldGrowth(10.0, 9.5, onset=0.0, scale=50.0))
+    assert ("(online, mujoco: 10.0 robots alive (measured at its start, at or above the survivor "
+            "rule's ceiling of 9.5) x 15 s per birth)") in estimate(
+                [online], {"scenario3": full}, workers=1).lines()[0]
+    done = RunWork("scenario3", online.config, done=315)
+    assert ("(online, mujoco: 10.0 robots alive (measured at its start) x 15 s per birth)"
+            in estimate([done], {"scenario3": cost}, workers=1).lines()[0])
 
 
 def _event(births: int, sim_time: float, alive: int) -> ProgressEvent:
