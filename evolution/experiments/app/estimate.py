@@ -79,8 +79,8 @@ __all__ = [
 ASSUMPTIONS = ("assumes a run's later robots cost per simulated second what its first "
                "generations cost (measured: scenario 1's over 1000 births on MuJoCo, 0.8-1.3x "
                "random robots, no growth), an online world growing from the size measured at its "
-               "start as measured scenario 3 runs grew, one run per worker, nothing else on the "
-               "cores, the results' storage free")
+               "start as a measured scenario 3 run's grew, one run per worker, nothing else on "
+               "the cores, the results' storage free")
 """What the estimate takes for granted, in one line."""
 
 _OFFLINE_ROBOTS = 30
@@ -240,7 +240,7 @@ def _alive(e: ExperimentEstimate) -> str:
     if e.alive >= c.alive + 0.05:
         return (f"{e.alive:.1f} robots alive on average ({c.alive:.1f} measured at its start, "
                 f"growing after {g.onset:.0f} births toward the survivor rule's {g.ceiling:.1f} "
-                "as measured runs grew)")
+                "as a measured run's grew)")
     if e.alive <= 0:  # no interval left
         why = ""
     elif g.ceiling <= c.alive:

@@ -135,8 +135,8 @@ def test_estimate_only_prints_the_estimate_and_writes_nothing(
     measured = float(words.split(" robots alive on average (")[1].split(" measured at")[0])
     ceiling = rule_bounds(load_config("scenario3", parse_set(TINY[1::2])))[1]
     assert 2 <= measured < mean < ceiling <= 30
-    assert (f"growing after 600 births toward the survivor rule's {ceiling:.1f} as measured runs "
-            "grew) x 1 s per birth)") in words
+    assert (f"growing after 600 births toward the survivor rule's {ceiling:.1f} as a measured "
+            "run's grew) x 1 s per birth)") in words
     hours = [float(line.split(": ")[-1].split(" CPU-h")[0]) for line in per_experiment]
     # each experiment's projected hours on the 2 workers: when its last run is done
     ends = [float(line.split("its last run done after ")[1].split("(")[1].removesuffix(" h)"))

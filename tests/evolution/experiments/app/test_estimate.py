@@ -79,7 +79,7 @@ def test_an_online_world_that_grows_simulates_its_mean_robots_alive() -> None:
     assert study.weights() == {"scenario3": experiment.cpu_per_birth}
     line = study.lines()[0]
     assert (f"(online, mujoco: {mean:.1f} robots alive on average (10.0 measured at its start, "
-            "growing after 115 births toward the survivor rule's 20.0 as measured runs grew) x "
+            "growing after 115 births toward the survivor rule's 20.0 as a measured run's grew) x "
             f"15 s per birth) at 19 robot-s per CPU-s (from given), "
             f"{1e3 * experiment.cpu_per_birth:.0f} ms CPU per birth: ") in line
     # a study of short runs: its worlds never grow, and the line says so
