@@ -14,12 +14,13 @@ applied by the loop at every conception tick) bounds them, whatever the robots d
 
 Where a run lies between them is set by how far its population's fitness has converged, which
 nothing before the run measures: a world starts at its floor (the calibration measures it over
-its first conception intervals) and, once its robots are descended from a few good lineages, more
-newborns clear the bar and the world grows. :class:`WorldGrowth` is that trajectory in births:
+its first conception intervals) and grows only at ticks where no mature robot is below the bar,
+which become common as its fitness converges. :class:`WorldGrowth` is that trajectory in births:
 the measured start until :data:`ONSET` births, then ``1 - exp(-(b - ONSET) / SCALE)`` of the way
-to the rule's ceiling. ``ONSET`` and ``SCALE`` are fitted on measured scenario 3 runs on MuJoCo
-(docs/performance.md, "The online world's growth", 2026-11-27): the one figure of the estimate
-not derived from the config, with its error stated there.
+to the rule's ceiling. ``ONSET`` and ``SCALE`` are fitted on the one long scenario 3 run measured
+(MuJoCo, seed 0, 1,889 births; docs/performance.md, "The online world's growth in the study's
+estimate", 2026-11-27): the figures of the estimate not derived from the config, with their error
+stated there.
 """
 
 from __future__ import annotations
