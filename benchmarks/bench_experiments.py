@@ -464,7 +464,10 @@ def project(measured: dict[str, tuple[ExperimentConfig, float, float]]) -> dict[
 
     The calibration's robots alive (online: measured at the run's start, grown over the run's
     births as the study's estimate grows them) and robot-seconds per CPU second beside the
-    measured run's; their ratio of CPU per birth says how far off the study's estimate is.
+    measured run's; their ratio of CPU per birth says how far off the study's estimate is. The
+    study's online runs (3000 births) take the measured run's CPU per robot-second and its robots
+    alive grown on by the estimate's curve (:mod:`evolution.experiments.app.world_size`) scaled
+    through the measured run's mean.
 
     Args:
         measured: Experiment -> (its config, births its run committed; CPU seconds of the run;
@@ -479,9 +482,16 @@ def project(measured: dict[str, tuple[ExperimentConfig, float, float]]) -> dict[
           f"{'calibrated/measured':>20}")
     costs: dict[str, BirthCost] = {}
     for name, (config, cpu, alive) in measured.items():
-        costs[name] = cost = _measured_cost(config, cpu, alive)
+        cost = _measured_cost(config, cpu, alive)
         guess = calibrate(config)
         grown = guess.growth_factor(config.population_size, config.births)  # online: the run's
+        if guess.growth is not None and alive > 0:
+            # The study's runs are longer: the measured world grows on as the estimate grows it
+            # (its curve scaled to pass through the measured run's mean).
+            g, k = guess.growth, alive / (guess.alive * grown)
+            cost = dataclasses.replace(cost, growth=dataclasses.replace(
+                g, start=g.start * k, ceiling=g.ceiling * k))
+        costs[name] = cost
         alive_then = f"{cost.alive:.1f}" if cost.alive else "-"
         print(f"{name:<12} {1e3 * cost.cpu_per_birth:>18.0f} {alive_then:>6} "
               f"{cost.rate:>14.0f} {1e3 * guess.cpu_per_birth * grown:>20.0f} "
@@ -497,6 +507,12 @@ def project(measured: dict[str, tuple[ExperimentConfig, float, float]]) -> dict[
             continue
         study_costs[name] = cost
         work += [RunWork(name, config)] * STUDY_RUNS
+    for name, cost in study_costs.items():
+        if cost.growth is not None:
+            study = preset(name, births=STUDY_BIRTHS)
+            print(f"{name}: the measured run's {cost.alive:.1f} robots alive grown to "
+                  f"{cost.growth.mean_alive(study.population_size, STUDY_BIRTHS):.1f} over "
+                  f"{STUDY_BIRTHS} births, as the study's estimate grows its world")
     longest = max(run_cpu_seconds(w, study_costs[w.experiment]) for w in work)
     print(f"\nthe paper's study ({len(study_costs)} experiments x {STUDY_RUNS} runs x "
           f"{STUDY_BIRTHS} births) from the measured CPU per birth; longest run "
