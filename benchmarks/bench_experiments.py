@@ -31,7 +31,8 @@ it starts: robots alive and robot-seconds per CPU second) beside the measured on
 the paper's study from the measured runs onto 2 cores and a 64-core Ray cluster
 (:func:`evolution.experiments.app.estimate.estimate`: a run is the unit of parallelism, one run per
 core, online runs first; an experiment not measured takes the cost of a measured one of its
-mode). The aim, <= 7 h on 2 cores, is judged from runs of >= 1000 births (scenario 1's
+mode; an online run's robots alive grow on to 3000 births as the study's estimate grows them).
+The aim, <= 7 h on 2 cores, is judged from runs of >= 1000 births (scenario 1's
 evolved robots were measured to cost per simulated second what random ones do over 1000 births,
 but a short run's CPU per birth carries its start: generation 0, the engine's first load).
 
