@@ -31,7 +31,8 @@ it starts: robots alive and robot-seconds per CPU second) beside the measured on
 the paper's study from the measured runs onto 2 cores and a 64-core Ray cluster
 (:func:`evolution.experiments.app.estimate.estimate`: a run is the unit of parallelism, one run per
 core, online runs first; an experiment not measured takes the cost of a measured one of its
-mode). The aim, <= 7 h on 2 cores, is judged from runs of >= 1000 births (scenario 1's
+mode; an online run's robots alive grow on to 3000 births as the study's estimate grows them).
+The aim, <= 7 h on 2 cores, is judged from runs of >= 1000 births (scenario 1's
 evolved robots were measured to cost per simulated second what random ones do over 1000 births,
 but a short run's CPU per birth carries its start: generation 0, the engine's first load).
 
@@ -489,9 +490,12 @@ def _measured_cost(config: ExperimentConfig, cpu: float, alive: float) -> BirthC
 def project(measured: dict[str, tuple[ExperimentConfig, float, float]]) -> dict[int, float]:
     """Calibration against measurement, and the paper's study projected from the measurement.
 
-    The calibration's robots alive (online: measured at the run's start) and robot-seconds per
-    CPU second beside the measured run's; their ratio of CPU per birth says how far off the
-    study's estimate is.
+    The calibration's robots alive (online: measured at the run's start, grown over the run's
+    births as the study's estimate grows them) and robot-seconds per CPU second beside the
+    measured run's; their ratio of CPU per birth says how far off the study's estimate is. The
+    study's online runs (3000 births) take the measured run's CPU per robot-second and its robots
+    alive grown on by the estimate's curve (:mod:`evolution.experiments.app.world_size`) scaled
+    through the measured run's mean.
 
     Args:
         measured: Experiment -> (its config, births its run committed; CPU seconds of the run;
@@ -506,13 +510,21 @@ def project(measured: dict[str, tuple[ExperimentConfig, float, float]]) -> dict[
           f"{'calibrated/measured':>20}")
     costs: dict[str, BirthCost] = {}
     for name, (config, cpu, alive) in measured.items():
-        costs[name] = cost = _measured_cost(config, cpu, alive)
+        cost = _measured_cost(config, cpu, alive)
         guess = calibrate(config)
+        grown = guess.growth_factor(config.population_size, config.births)  # online: the run's
+        if guess.growth is not None and alive > 0:
+            # The study's runs are longer: the measured world grows on as the estimate grows it
+            # (its curve scaled to pass through the measured run's mean).
+            g, k = guess.growth, alive / (guess.alive * grown)
+            cost = dataclasses.replace(cost, growth=dataclasses.replace(
+                g, start=g.start * k, ceiling=g.ceiling * k))
+        costs[name] = cost
         alive_then = f"{cost.alive:.1f}" if cost.alive else "-"
         print(f"{name:<12} {1e3 * cost.cpu_per_birth:>18.0f} {alive_then:>6} "
-              f"{cost.rate:>14.0f} {1e3 * guess.cpu_per_birth:>20.0f} "
-              f"{f'{guess.alive:.1f}' if guess.alive else '-':>6} {guess.rate:>14.0f} "
-              f"{guess.cpu_per_birth / cost.cpu_per_birth:>20.2f}")
+              f"{cost.rate:>14.0f} {1e3 * guess.cpu_per_birth * grown:>20.0f} "
+              f"{f'{guess.alive * grown:.1f}' if guess.alive else '-':>6} {guess.rate:>14.0f} "
+              f"{guess.cpu_per_birth * grown / cost.cpu_per_birth:>20.2f}")
     by_mode = {cost.mode: cost for cost in costs.values()}
     work, study_costs = [], {}
     for name in PAPER_SCENARIOS:
@@ -523,6 +535,12 @@ def project(measured: dict[str, tuple[ExperimentConfig, float, float]]) -> dict[
             continue
         study_costs[name] = cost
         work += [RunWork(name, config)] * STUDY_RUNS
+    for name, cost in study_costs.items():
+        if cost.growth is not None:
+            study = preset(name, births=STUDY_BIRTHS)
+            print(f"{name}: the measured run's {cost.alive:.1f} robots alive grown to "
+                  f"{cost.growth.mean_alive(study.population_size, STUDY_BIRTHS):.1f} over "
+                  f"{STUDY_BIRTHS} births, as the study's estimate grows its world")
     longest = max(run_cpu_seconds(w, study_costs[w.experiment]) for w in work)
     print(f"\nthe paper's study ({len(study_costs)} experiments x {STUDY_RUNS} runs x "
           f"{STUDY_BIRTHS} births) from the measured CPU per birth; longest run "

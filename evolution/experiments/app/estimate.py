@@ -5,7 +5,10 @@ one second. Each experiment's are set by its config (:func:`run_robot_seconds`):
 
 * offline: every birth is one evaluation of ``insertion + evaluation_time`` seconds;
 * online: the world lives one ``conception_interval`` per birth after the initial robots, with
-  the robots alive in it: their mean number is measured (below), not assumed.
+  the robots alive in it: measured at the run's start (below), then growing over the run as
+  :mod:`~evolution.experiments.app.world_size` derives from the survivor rule and measured runs
+  (a long run's world holds more robots than its start: scenario 3's 9 grew to 13.8 on average
+  over 1,889 births).
 
 :func:`calibrate` measures, in a few CPU seconds, how many robot-seconds this machine simulates
 per CPU second for an experiment, everything a birth costs included (building, reproduction,
@@ -18,7 +21,7 @@ experiment's own run 0 (its seed, its settings, its reproduction and selection; 
   reproduction and selection (the child's body checks: a fifth of a scenario 1 birth);
 * online: its population world (its initial robots and survivor selection) for a few conception
   intervals after the first selection; the robots alive over those intervals are the world's
-  measured size.
+  measured size at its start.
 
 :func:`estimate` divides the robot-seconds by the rate: each experiment's CPU time, and the
 study's wall time on ``workers`` run slots (a run is the unit of parallelism: one run on one
@@ -54,6 +57,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from evolution.evaluation import EvalOutcome, Evaluator, LocalEvaluator
+from evolution.experiments.app.world_size import WorldGrowth, world_growth
 from evolution.experiments.loop.config import ExperimentConfig
 from evolution.experiments.loop.run import ProgressEvent
 
@@ -74,8 +78,9 @@ __all__ = [
 
 ASSUMPTIONS = ("assumes a run's later robots cost per simulated second what its first "
                "generations cost (measured: scenario 1's over 1000 births on MuJoCo, 0.8-1.3x "
-               "random robots, no growth), an online world of the size measured at its start, "
-               "one run per worker, nothing else on the cores, the results' storage free")
+               "random robots, no growth), an online world growing from the size measured at its "
+               "start as a measured scenario 3 run's grew, one run per worker, nothing else on "
+               "the cores, the results' storage free")
 """What the estimate takes for granted, in one line."""
 
 _OFFLINE_ROBOTS = 30
@@ -105,6 +110,8 @@ class BirthCost:
         alive: Online: the mean number of robots alive measured (0 offline). Robots.
         reproduction: Offline: the CPU time of a birth outside its evaluation (conceiving the
             child, the checks of its body, selection), included in ``rate``. Seconds.
+        growth: Online: how the robots alive grow from ``alive`` over a run's births (``None``:
+            they stay at ``alive``, e.g. a measured run's mean).
     """
 
     mode: str
@@ -114,11 +121,18 @@ class BirthCost:
     sample: str
     alive: float = 0.0
     reproduction: float = 0.0
+    growth: WorldGrowth | None = None
 
     @property
     def cpu_per_birth(self) -> float:
-        """CPU time of one birth. Seconds."""
+        """CPU time of one birth (online: at ``alive`` robots, the run's start). Seconds."""
         return self.robot_seconds / self.rate if self.rate > 0 else math.inf
+
+    def growth_factor(self, first: int, last: int) -> float:
+        """Online: the mean robots alive over births ``[first, last)`` over ``alive`` (else 1)."""
+        if self.growth is None or self.alive <= 0:
+            return 1.0
+        return self.growth.mean_alive(first, last) / self.alive
 
 
 @dataclass(frozen=True, slots=True)
@@ -149,6 +163,8 @@ class ExperimentEstimate:
         cpu_seconds: CPU time left, all its runs together. Seconds.
         wall_seconds: When its last run ends, from the study's start, its runs scheduled with
             the others' as the study runs them (0 with no run left). Seconds.
+        alive: Online: the mean robots alive over the conception intervals left, its world's
+            growth included (0 offline, or with no interval left). Robots.
     """
 
     name: str
@@ -158,6 +174,14 @@ class ExperimentEstimate:
     robot_seconds: float
     cpu_seconds: float
     wall_seconds: float = 0.0
+    alive: float = 0.0
+
+    @property
+    def cpu_per_birth(self) -> float:
+        """CPU time of a birth on average (online: at :attr:`alive` robots). Seconds."""
+        if self.cost.mode == "online" and self.alive > 0 and self.cost.alive > 0:
+            return self.cost.cpu_per_birth * self.alive / self.cost.alive
+        return self.cost.cpu_per_birth
 
 
 @dataclass(frozen=True, slots=True)
@@ -183,21 +207,22 @@ class StudyEstimate:
 
     def weights(self) -> dict[str, float]:
         """CPU time of one birth of each experiment (the progress display weighs births so)."""
-        return {e.name: e.cost.cpu_per_birth for e in self.experiments}
+        return {e.name: e.cpu_per_birth for e in self.experiments}
 
     def lines(self) -> list[str]:
         """The estimate in words: one line per experiment, the total, the assumptions."""
         out = []
         for e in self.experiments:
             c = e.cost
-            per_birth = (f"{c.alive:.1f} robots alive x {c.robot_seconds / c.alive:g} s"
-                         if c.mode == "online" and c.alive > 0 else f"{c.robot_seconds:g} s")
+            per_birth = f"{c.robot_seconds:g} s per birth"
+            if c.mode == "online" and c.alive > 0:
+                per_birth = f"{_alive(e)} x {c.robot_seconds / c.alive:g} s per birth"
             parts = (f", {1e3 * c.reproduction:.0f} ms of each birth its reproduction and "
                      "selection" if c.reproduction > 0 else "")
             out.append(f"  {e.name}: {e.runs} run(s), {e.births} births, "
-                       f"{_robot_seconds(e.robot_seconds)} ({c.mode}, {c.engine}: {per_birth} "
-                       f"per birth) at {c.rate:.0f} robot-s per CPU-s (from {c.sample}{parts}), "
-                       f"{1e3 * c.cpu_per_birth:.0f} ms CPU per birth: "
+                       f"{_robot_seconds(e.robot_seconds)} ({c.mode}, {c.engine}: {per_birth}) "
+                       f"at {c.rate:.0f} robot-s per CPU-s (from {c.sample}{parts}), "
+                       f"{1e3 * e.cpu_per_birth:.0f} ms CPU per birth: "
                        f"{e.cpu_seconds / 3600:.2f} CPU-h, its last run done after "
                        f"{_hours(e.wall_seconds)} ({e.wall_seconds / 3600:.2f} h)")
         out.append(f"  total {_robot_seconds(sum(e.robot_seconds for e in self.experiments))}, "
@@ -205,6 +230,24 @@ class StudyEstimate:
                    f"{self.workers} worker(s) (calibration took {self.calibration_cpu:.1f} s CPU)")
         out.append(f"  (an estimate: it {ASSUMPTIONS})")
         return out
+
+
+def _alive(e: ExperimentEstimate) -> str:
+    """The robots alive an online experiment's estimate assumes, and why, in words."""
+    c, g = e.cost, e.cost.growth
+    if g is None:  # e.g. a measured run's mean
+        return f"{c.alive:.1f} robots alive"
+    if e.alive >= c.alive + 0.05:
+        return (f"{e.alive:.1f} robots alive on average ({c.alive:.1f} measured at its start, "
+                f"growing after {g.onset:.0f} births toward the survivor rule's {g.ceiling:.1f} "
+                "as a measured run's grew)")
+    if e.alive <= 0:  # no interval left
+        why = ""
+    elif g.ceiling <= c.alive:
+        why = f", at or above the survivor rule's ceiling of {g.ceiling:.1f}"
+    else:
+        why = f"; its world grows after {g.onset:.0f} births, past this study's"
+    return f"{c.alive:.1f} robots alive (measured at its start{why})"
 
 
 def calibration_key(config: ExperimentConfig) -> tuple[object, ...]:
@@ -360,7 +403,8 @@ def _calibrate_online(config: ExperimentConfig, intervals: int,
     alive, rate, measured = online_rate(events, cpu, skip)
     return BirthCost("online", config.world.engine, rate, alive * config.conception_interval,
                      f"{measured:.0f} robot-s of the run's start, {len(events) - 1 - skip} "
-                     "conception interval(s) after its first", alive)
+                     "conception interval(s) after its first", alive,
+                     growth=world_growth(config, alive))
 
 
 def calibrate_all(configs: Sequence[ExperimentConfig], *, seed: int = 0
@@ -387,12 +431,13 @@ def run_robot_seconds(work: RunWork, cost: BirthCost) -> float:
 
     Offline: one evaluation per birth left. Online: the initial robots are born together at
     time 0; every later birth takes one conception interval of the world, with ``cost.alive``
-    robots in it.
+    robots in it, or as many as ``cost.growth`` gives at that birth.
     """
     left = max(0, work.config.births - work.done)
     if cost.mode == "online":
         first = max(work.done, work.config.population_size)
         left = max(0, work.config.births - first)
+        return left * cost.robot_seconds * cost.growth_factor(first, work.config.births)
     return left * cost.robot_seconds
 
 
@@ -423,14 +468,22 @@ def estimate(work: Sequence[RunWork], costs: Mapping[str, BirthCost], workers: i
             end = free[0] + seconds
             heapq.heapreplace(free, end)
             ends[w.experiment] = max(ends[w.experiment], end)
-    experiments = tuple(
-        ExperimentEstimate(
-            name, costs[name], sum(w.experiment == name for w, _ in per_run),
-            sum(max(0, w.config.births - w.done) for w, _ in per_run if w.experiment == name),
-            sum(run_robot_seconds(w, costs[name]) for w, _ in per_run if w.experiment == name),
-            sum(s for w, s in per_run if w.experiment == name), ends[name])
-        for name in names)
-    return StudyEstimate(experiments, max(1, workers), max(free), calibration_cpu)
+    experiments = []
+    for name in names:
+        mine = [w for w, _ in per_run if w.experiment == name]
+        cost = costs[name]
+        robot_seconds = sum(run_robot_seconds(w, cost) for w in mine)
+        alive = 0.0
+        if cost.mode == "online" and cost.alive > 0:  # robot-seconds over the intervals'
+            intervals = sum(max(0, w.config.births - max(w.done, w.config.population_size))
+                            for w in mine)
+            if intervals:
+                alive = robot_seconds / (intervals * cost.robot_seconds / cost.alive)
+        experiments.append(ExperimentEstimate(
+            name, cost, len(mine), sum(max(0, w.config.births - w.done) for w in mine),
+            robot_seconds, sum(s for w, s in per_run if w.experiment == name), ends[name],
+            alive))
+    return StudyEstimate(tuple(experiments), max(1, workers), max(free), calibration_cpu)
 
 
 def _hours(seconds: float) -> str:

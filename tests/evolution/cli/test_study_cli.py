@@ -14,9 +14,12 @@ import pytest
 from experiment_fakes import CtrlCEvaluator, dump_results, fake_evaluate, fake_world
 
 from evolution.cli import main
+from evolution.cli.options import parse_set
 from evolution.evaluation import LocalEvaluator
 from evolution.experiments.app import study as study_module
+from evolution.experiments.app.world_size import rule_bounds
 from evolution.experiments.loop import evolve as loop
+from evolution.experiments.loop.config import load_config
 from evolution.experiments.loop.registry import PAPER_SCENARIOS
 from evolution.experiments.store.database import DB_NAME, Store
 
@@ -125,9 +128,15 @@ def test_estimate_only_prints_the_estimate_and_writes_nothing(
     # offline: 30 x 3000 evaluations of 0.5 + 1 s, the robot-seconds each experiment simulates
     assert ("90000 births, 1.35e+05 robot-s (37.5 robot-h) (offline, mujoco: 1.5 s per birth)"
             in per_experiment[0])
-    # online: the robots alive measured at the run's start (min_alive 2 here), not assumed
-    alive = float(per_experiment[2].split("(online, mujoco: ")[1].split(" robots alive x 1 s")[0])
-    assert 2 <= alive <= 30
+    # online: the robots alive measured at the run's start (min_alive 2 here), not assumed,
+    # growing over the 3000 births toward the survivor rule's ceiling, and the line says so
+    words = per_experiment[2].split("(online, mujoco: ")[1]
+    mean = float(words.split(" robots alive on average (")[0])
+    measured = float(words.split(" robots alive on average (")[1].split(" measured at")[0])
+    ceiling = rule_bounds(load_config("scenario3", parse_set(TINY[1::2])))[1]
+    assert 2 <= measured < mean < ceiling <= 30
+    assert (f"growing after 600 births toward the survivor rule's {ceiling:.1f} as a measured "
+            "run's grew) x 1 s per birth)") in words
     hours = [float(line.split(": ")[-1].split(" CPU-h")[0]) for line in per_experiment]
     # each experiment's projected hours on the 2 workers: when its last run is done
     ends = [float(line.split("its last run done after ")[1].split("(")[1].removesuffix(" h)"))

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 import pytest
@@ -23,6 +24,7 @@ from evolution.experiments.app.estimate import (
     run_cpu_seconds,
     run_robot_seconds,
 )
+from evolution.experiments.app.world_size import WorldGrowth, rule_bounds
 from evolution.experiments.loop.config import ExperimentConfig, load_config
 from evolution.experiments.loop.run import ProgressEvent
 
@@ -54,6 +56,45 @@ def test_online_runs_simulate_the_robots_alive_for_a_conception_interval_per_bir
     assert run_cpu_seconds(RunWork("scenario3", online.config, done=50), ONLINE) == 65 * 8.0
     assert run_cpu_seconds(RunWork("scenario3", online.config, done=5), ONLINE) == 100 * 8.0
     assert ONLINE.cpu_per_birth == 8.0 and OFFLINE.cpu_per_birth == 1.0
+
+
+def test_an_online_world_that_grows_simulates_its_mean_robots_alive() -> None:
+    online, _ = _configs(births=315)  # 300 conception intervals after the 15 initial robots
+    growth = WorldGrowth(10.0, 20.0, onset=115.0, scale=50.0)
+    cost = replace(ONLINE, growth=growth)
+    mean = growth.mean_alive(15, 315)
+    assert 10.0 < mean < 20.0
+    assert run_robot_seconds(online, cost) == pytest.approx(300 * 15.0 * mean)
+    assert run_cpu_seconds(online, cost) == pytest.approx(300 * 15.0 * mean / 18.75)
+    # resumed at 215 births: its last 100 intervals, in the grown world
+    resumed = RunWork("scenario3", online.config, done=215)
+    assert run_robot_seconds(resumed, cost) == pytest.approx(
+        100 * 15.0 * growth.mean_alive(215, 315))
+    # a run that ends before the onset: the world measured at the start throughout
+    assert run_robot_seconds(_configs(births=115)[0], cost) == 100 * 10 * 15.0
+    study = estimate([online] * 2, {"scenario3": cost}, workers=1)
+    (experiment,) = study.experiments
+    assert experiment.alive == pytest.approx(mean)
+    assert experiment.cpu_per_birth == pytest.approx(8.0 * mean / 10.0)
+    assert study.weights() == {"scenario3": experiment.cpu_per_birth}
+    line = study.lines()[0]
+    assert (f"(online, mujoco: {mean:.1f} robots alive on average (10.0 measured at its start, "
+            "growing after 115 births toward the survivor rule's 20.0 as a measured run's grew) x "
+            f"15 s per birth) at 19 robot-s per CPU-s (from given), "
+            f"{1e3 * experiment.cpu_per_birth:.0f} ms CPU per birth: ") in line
+    # a study of short runs: its worlds never grow, and the line says so
+    short = estimate([_configs(births=100)[0]], {"scenario3": cost}, workers=1).lines()[0]
+    assert ("(online, mujoco: 10.0 robots alive (measured at its start; its world grows after "
+            "115 births, past this study's) x 15 s per birth)") in short
+    assert "8000 ms CPU per birth" in short
+    # a world measured at the rule's ceiling cannot grow; a finished run has no interval left
+    full = replace(ONLINE, growth=WorldGrowth(10.0, 9.5, onset=0.0, scale=50.0))
+    assert ("(online, mujoco: 10.0 robots alive (measured at its start, at or above the survivor "
+            "rule's ceiling of 9.5) x 15 s per birth)") in estimate(
+                [online], {"scenario3": full}, workers=1).lines()[0]
+    done = RunWork("scenario3", online.config, done=315)
+    assert ("(online, mujoco: 10.0 robots alive (measured at its start) x 15 s per birth)"
+            in estimate([done], {"scenario3": cost}, workers=1).lines()[0])
 
 
 def _event(births: int, sim_time: float, alive: int) -> ProgressEvent:
@@ -214,4 +255,7 @@ def test_calibration_measures_the_physics() -> None:
     assert online.mode == "online" and 2 <= online.alive <= 30
     assert online.robot_seconds == pytest.approx(online.alive * 1.0)
     assert online.sample.endswith("2 conception interval(s) after its first")
+    # the world grows from the robots measured toward the ceiling of the survivor rule
+    assert online.growth is not None and online.growth.start == online.alive
+    assert online.growth.ceiling == rule_bounds(load_config("scenario3", TINY))[1]
     assert math.isfinite(online.rate) and online.rate > 0
