@@ -811,6 +811,18 @@ struct TaskRule {
         }
         return f;
     }
+
+    // From revolve_env.rollout.task_rule's tuple (kind, s_weight, limit: NaN for none, cos_h, sin_h).
+    static TaskRule from(int kind, double s_weight, double limit, double cos_h, double sin_h) {
+        TaskRule r;
+        r.kind = kind;
+        r.s_weight = s_weight;
+        r.has_limit = !std::isnan(limit);
+        r.limit = limit;
+        r.cos_h = cos_h;
+        r.sin_h = sin_h;
+        return r;
+    }
 };
 
 // revolve_env.rollout.RobotWindow: one robot's window of pose samples, oldest first.
@@ -1020,12 +1032,7 @@ void make_env_step(BoundEnvStep* self, nb::handle world_step, Out targets, Out o
     e.low.assign(low.data(), low.data() + low.shape(0));
     e.high.assign(high.data(), high.data() + high.shape(0));
     e.target_scale = target_scale;
-    e.rule.kind = task_kind;
-    e.rule.s_weight = s_weight;
-    e.rule.has_limit = !std::isnan(limit);
-    e.rule.limit = limit;
-    e.rule.cos_h = cos_h;
-    e.rule.sin_h = sin_h;
+    e.rule = TaskRule::from(task_kind, s_weight, limit, cos_h, sin_h);
     e.window.window = window;
     e.window.insertion = insertion;
     e.window.stride = stride;
@@ -1490,12 +1497,7 @@ void make_population_periods(PopulationPeriods* self, WorldStep& world, double b
     p.stride = stride;
     p.insertion = insertion;
     p.sample_from = sample_from;
-    p.rule.kind = task_kind;
-    p.rule.s_weight = s_weight;
-    p.rule.has_limit = !std::isnan(limit);
-    p.rule.limit = limit;
-    p.rule.cos_h = cos_h;
-    p.rule.sin_h = sin_h;
+    p.rule = TaskRule::from(task_kind, s_weight, limit, cos_h, sin_h);
     p.sampling.reset(new bool[static_cast<std::size_t>(world.n_)]());
     new (self) PopulationPeriods(std::move(p));
 }
