@@ -13,10 +13,9 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import pytest
+from random_robots import random_robots
 
 import revolve_env.envs  # noqa: F401  (registers the envs)
-from evolution.config import EvolutionConfig
-from evolution.random_robot import random_robot
 from revolve_env import LOCOMOTION_V1_ID
 from revolve_env._controller import BatchController
 from revolve_env.body.examples import example
@@ -30,11 +29,6 @@ from revolve_env.world.model import LightSensorModel
 pytest.importorskip("mujoco", reason="the mujoco package is not installed")
 pytestmark = pytest.mark.skipif(not compiled.available(),
                                 reason="the compiled rollout is not built or not exact here")
-
-
-def _robots(n: int, seed: int) -> list[Robot]:
-    rng = np.random.default_rng(seed)
-    return [random_robot(rng, EvolutionConfig()) for _ in range(n)]
 
 
 def _key(r: EvaluationResult) -> tuple[Any, ...]:
@@ -70,7 +64,7 @@ def _compiled(monkeypatch: pytest.MonkeyPatch, robots: list[Robot],
 
 def test_examples_and_random_robots_with_sensors_are_the_numpy_rules_bit_for_bit(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    robots = [example("spider"), example("gecko"), example("sensor_crawler")] + _robots(20, 7)
+    robots = [example("spider"), example("gecko"), example("sensor_crawler")] + random_robots(20, 7)
     models = [build_model(r) for r in robots]
     lights = [s for m in models for _, s in m.sensors if isinstance(s, LightSensorModel)]
     assert any(s.link > 0 for s in lights) and any(s.link == 0 for s in lights)
@@ -86,7 +80,7 @@ def test_blow_ups_are_judged_by_the_numpy_rules_and_leave_the_others_exact(
         monkeypatch: pytest.MonkeyPatch) -> None:
     """A low speed limit: some robots' screens fail, some of those blow up (at various times),
     some robots do not; a brain stride of 2 and random starts on the way."""
-    robots = _robots(10, 11) + [example("spider")]
+    robots = random_robots(10, 11) + [example("spider")]
     kwargs: dict[str, Any] = {
         "seconds": 1.0, "insertion": 0.5,
         "config": WorldConfig(max_linear_speed=0.5, brain_period=2 / 60),
@@ -128,7 +122,7 @@ def test_a_robot_whose_physics_turns_nan_is_evaluated_on_the_numpy_path(
 def test_threads_change_no_number(monkeypatch: pytest.MonkeyPatch) -> None:
     """1, 3 and 16 threads (more than robots), on rugged ground with no insertion: the same
     numbers, the NumPy rules'."""
-    robots = _robots(7, 5) + [example("spider")]
+    robots = random_robots(7, 5) + [example("spider")]
     kwargs: dict[str, Any] = {"seconds": 1.0, "insertion": 0.0, "terrain": "rugged",
                               "config": WorldConfig(max_linear_speed=0.8)}
     one = _compiled(monkeypatch, robots, threads=1, **kwargs)
@@ -148,7 +142,7 @@ def test_threads_must_be_a_positive_whole_number() -> None:
 def test_the_light_signal_is_the_numpy_rules_bit_for_bit(monkeypatch: pytest.MonkeyPatch) -> None:
     """The light-following task's signal: robots with light sensors (on the core, on moving
     links) and without; one blows up."""
-    robots = [example("sensor_crawler"), example("spider")] + _robots(8, 7)
+    robots = [example("sensor_crawler"), example("spider")] + random_robots(8, 7)
     kwargs: dict[str, Any] = {"seconds": 1.0, "insertion": 0.5, "task": "light-following",
                               "config": WorldConfig(max_linear_speed=0.6)}
     fast = _compiled(monkeypatch, robots, **kwargs)
@@ -219,7 +213,7 @@ def test_a_signal_interrupts_a_long_compiled_evaluation() -> None:
     def interrupt(signum: int, frame: object) -> None:
         raise _Interrupted
 
-    robots = _robots(12, 9)
+    robots = random_robots(12, 9)
     previous = signal.signal(signal.SIGALRM, interrupt)
     start = time.process_time()
     try:
@@ -235,7 +229,7 @@ def test_a_signal_interrupts_a_long_compiled_evaluation() -> None:
 @pytest.mark.slow
 def test_a_whole_evaluation_of_a_generation_is_exact(monkeypatch: pytest.MonkeyPatch) -> None:
     """The paper's 3 s + 12 s, 10 random robots and the spider."""
-    robots = _robots(10, 3) + [example("spider")]
+    robots = random_robots(10, 3) + [example("spider")]
     fast = _compiled(monkeypatch, robots, threads=2)
     slow = _numpy(monkeypatch, robots)
     assert [_key(a) for a in fast] == [_key(b) for b in slow]

@@ -15,15 +15,13 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import pytest
+from random_robots import has_sensors, random_robots
 
-from evolution.config import EvolutionConfig
-from evolution.random_robot import random_robot
 from revolve_env import LOCOMOTION_V1_ID
 from revolve_env.body.examples import example
 from revolve_env.body.robot import Robot
 from revolve_env.envs.population import population_env
-from revolve_env.world import World, WorldConfig, build_model, compiled
-from revolve_env.world.model import LightSensorModel
+from revolve_env.world import World, WorldConfig, compiled
 
 pytest.importorskip("mujoco", reason="the mujoco package is not installed")
 pytestmark = pytest.mark.skipif(not compiled.available(),
@@ -63,19 +61,6 @@ def _both(monkeypatch: pytest.MonkeyPatch, run: Callable[[], list[Any]]) -> tupl
     return fast, slow
 
 
-def _robots(n: int, seed: int) -> list[Robot]:
-    rng = np.random.default_rng(seed)
-    return [random_robot(rng, EvolutionConfig()) for _ in range(n)]
-
-
-def _has_sensors(robots: list[Robot]) -> None:
-    """Touch sensors and light sensors on the core and on moving links, among ``robots``."""
-    models = [build_model(r) for r in robots]
-    lights = [s for m in models for _, s in m.sensors if isinstance(s, LightSensorModel)]
-    assert any(s.link > 0 for s in lights) and any(s.link == 0 for s in lights)
-    assert any(kind == "touch" for m in models for kind, _ in m.sensors)
-
-
 def _episodes(robot: Robot, steps: int, **kwargs: Any) -> Iterator[Any]:
     env = gym.make(LOCOMOTION_V1_ID, robot=robot, engine="mujoco", **kwargs)
     rng = np.random.default_rng(1)
@@ -100,8 +85,8 @@ def test_the_locomotion_env_is_the_numpy_path_bit_for_bit(
         monkeypatch: pytest.MonkeyPatch, kwargs: dict[str, Any]) -> None:
     """Locomotion-v1 over 300 steps of short episodes (resets on the way) of a robot with a
     touch sensor and light sensors on its core and on a moving link."""
-    robot = _robots(6, 7)[4]
-    _has_sensors([robot])
+    robot = random_robots(6, 7)[4]
+    has_sensors([robot])
     fast, slow = _both(monkeypatch, lambda: [_bits(o) for o in _episodes(
         robot, 300, insertion_time=0.5, evaluation_time=1.5, **kwargs)])
     assert fast == slow
@@ -112,7 +97,7 @@ def test_the_locomotion_env_is_the_numpy_path_bit_for_bit(
 
 def _crowd(steps: int, config: WorldConfig) -> list[Any]:
     """A population env with births and deaths, brains and an agent, sensors of every kind."""
-    robots = _robots(6, 7) + [example("sensor_crawler"), example("spider")]
+    robots = random_robots(6, 7) + [example("sensor_crawler"), example("spider")]
     env = population_env(initial_robots=[{"robot": r} for r in robots[:4]], max_births=20,
                          world_config=config, insertion_time=0.2)
     rng = np.random.default_rng(2)
@@ -135,7 +120,7 @@ def _crowd(steps: int, config: WorldConfig) -> list[Any]:
 def test_the_population_env_is_the_numpy_path_bit_for_bit(
         monkeypatch: pytest.MonkeyPatch) -> None:
     """300 steps of a crowd: births, removals, an agent among brains, touch and light."""
-    _has_sensors(_robots(6, 7) + [example("sensor_crawler"), example("spider")])
+    has_sensors(random_robots(6, 7) + [example("sensor_crawler"), example("spider")])
     fast, slow = _both(monkeypatch, lambda: _crowd(300, WorldConfig()))
     assert fast == slow
 

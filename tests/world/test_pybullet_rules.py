@@ -18,34 +18,19 @@ from typing import Any
 
 import numpy as np
 import pytest
+from random_robots import has_sensors, random_robots
 
-from evolution.config import EvolutionConfig
-from evolution.random_robot import random_robot
 from revolve_env.body.robot import Robot
 from revolve_env.evaluation import EvaluationResult, evaluate_many
 from revolve_env.rollout import Rollout
-from revolve_env.world import World, WorldConfig, build_model, compiled
+from revolve_env.world import World, WorldConfig, compiled
 from revolve_env.world.backend import BodyStates
 from revolve_env.world.blowups import Screen, all_calm
-from revolve_env.world.model import LightSensorModel
 from revolve_env.world.sensing import IMU_HIGH
 
 pytest.importorskip("pybullet", reason="the pybullet package is not installed")
 pytestmark = pytest.mark.skipif(not compiled.available(),
                                 reason="the compiled rollout is not built or not exact here")
-
-
-def _robots(n: int, seed: int) -> list[Robot]:
-    rng = np.random.default_rng(seed)
-    return [random_robot(rng, EvolutionConfig()) for _ in range(n)]
-
-
-def _has_sensors(robots: list[Robot]) -> None:
-    """Touch sensors and light sensors on the core and on moving links, among ``robots``."""
-    models = [build_model(r) for r in robots]
-    lights = [s for m in models for _, s in m.sensors if isinstance(s, LightSensorModel)]
-    assert any(s.link > 0 for s in lights) and any(s.link == 0 for s in lights)
-    assert any(kind == "touch" for m in models for kind, _ in m.sensors)
 
 
 def _both(monkeypatch: pytest.MonkeyPatch, run: Callable[[], Any]) -> tuple[Any, Any]:
@@ -97,8 +82,8 @@ def _periods(robots: list[Robot], config: WorldConfig, periods: int) -> list[Any
 @pytest.mark.parametrize("brain_period", [1 / 60, 2 / 60])
 def test_pybullet_periods_on_the_compiled_rules_equal_the_numpy_rules(
         monkeypatch: pytest.MonkeyPatch, brain_period: float) -> None:
-    robots = _robots(8, 11)
-    _has_sensors(robots)
+    robots = random_robots(8, 11)
+    has_sensors(robots)
     config = WorldConfig(engine="pybullet", max_linear_speed=0.6, brain_period=brain_period)
     fast, slow = _both(monkeypatch, lambda: _periods(robots, config, 90))
     assert fast == slow
@@ -116,7 +101,7 @@ def _key(r: EvaluationResult) -> tuple[Any, ...]:
 def test_evaluate_many_on_pybullet_is_the_same_on_either_rules(
         monkeypatch: pytest.MonkeyPatch) -> None:
     """Isolated worlds (evaluate_many), the light task's signal, blow-ups at various times."""
-    robots = _robots(6, 3)
+    robots = random_robots(6, 3)
     kwargs: dict[str, Any] = {"engine": "pybullet", "seconds": 1.5, "insertion": 0.5,
                               "task": "light-following",
                               "config": WorldConfig(engine="pybullet", max_linear_speed=0.5)}
@@ -191,7 +176,7 @@ def test_mujoco_worlds_do_not_take_the_array_rules() -> None:
 def test_the_compiled_sensors_saturate_and_let_nan_through_as_numpy_does() -> None:
     """IMU values past full scale (saturated) and NaN (kept), touch and light sensors on cores
     and links: the compiled sensor values of states made up for it are the NumPy rules'."""
-    robots = _robots(8, 11)
+    robots = random_robots(8, 11)
     with World(WorldConfig(engine="pybullet")) as world:
         for i, r in enumerate(robots):
             world.add_robot(r, (1.5 * i, 0.0))
