@@ -98,7 +98,8 @@ def main() -> None:
     parser.add_argument("--floor-samples", type=int, default=12,
                         help="robots (offline) or worlds (online) the floor is measured on")
     parser.add_argument("--deadline", default=None, metavar="HH:MM",
-                        help="stop a run at its first commit point after this UTC time and "
+                        help="stop a run at its first commit point after this UTC time (the next "
+                             "one: tomorrow's once today's has passed) and "
                              "report the births it committed")
     parser.add_argument("--given", nargs="*", default=[], metavar="NAME=MS@BIRTHS",
                         help="an experiment's CPU per birth measured by another run of this "
@@ -353,10 +354,11 @@ class _Deadline(Exception):
 
 
 def _utc_today(hhmm: str) -> float:
-    """Today's ``HH:MM`` UTC as a Unix time. Seconds."""
+    """The next ``HH:MM`` UTC as a Unix time (tomorrow's once today's has passed). Seconds."""
     now = time.gmtime()
     hours, minutes = (int(x) for x in hhmm.split(":"))
-    return calendar.timegm((now.tm_year, now.tm_mon, now.tm_mday, hours, minutes, 0, 0, 0, 0))
+    today = calendar.timegm((now.tm_year, now.tm_mon, now.tm_mday, hours, minutes, 0, 0, 0, 0))
+    return today if today > time.time() else today + 24 * 3600
 
 
 def _load() -> str:
