@@ -17,10 +17,14 @@ periods of 4 physics steps):
   single envs (``rl.VecEnvConfig(batched=False)``).
 * ``MuJoCo Warp``: the native vector env on ``engine="mujoco_warp"`` (its N copies the worlds of
   one Warp batch, float32, on the device Warp picks), printed only where ``mujoco_warp`` imports
-  (the ``warp`` extra). Without a GPU Warp runs on the CPU, which the row says ("no GPU: Warp on
-  CPU"), and only for N <= 64 (a physics step costs ~0.1 s of Python launching ~900 kernels,
-  plus ~1 ms per world there). Its set-up includes compiling Warp's kernels the first time
-  (minutes on a CPU; then Warp's cache, ``~/.cache/warp``).
+  (the ``warp`` extra). On a GPU one env steps alternately with each period one CUDA graph and
+  with its kernels launched one by one from Python (two rows), beside ``raw MuJoCo Warp``, the
+  floor there: the model's batch, each period's physics steps one CUDA graph between the servo
+  law in NumPy and the hinges' angles read back (no sensors, rewards or poses). Without a GPU
+  Warp runs on the CPU, which the row says ("no GPU: Warp on CPU"), and only for N <= 64 (a
+  physics step costs ~0.1 s of Python launching ~900 kernels, plus ~1 ms per world there). Its
+  set-up includes compiling Warp's kernels the first time (minutes on a CPU; then Warp's cache,
+  ``~/.cache/warp``).
 
 Each figure is robot-steps (control periods of one robot) per second, of wall time and of this
 process's CPU time; the set-up (model compiles, resets) is timed apart. Then CMA-ES infancy of
@@ -33,6 +37,7 @@ Usage::
     python benchmarks/bench_batch.py --quick          # small N, short runs (a shared 2-core box)
     python benchmarks/bench_batch.py --device-check   # N = 1, 16, 256, 4096; one markdown table
     python benchmarks/bench_batch.py --quick --warp-only   # MuJoCo Warp's rows alone
+    python benchmarks/bench_batch.py --warp-only --robots spider --sizes 1 64 1024 4096
     python benchmarks/bench_batch.py --setup 16 256 1024  # the vector env's set-up alone
 
 ``--setup``: wall and CPU seconds of ``LocomotionVectorEnv(N, robot=spider)`` and its first
@@ -169,13 +174,87 @@ def warp_device() -> str | None:
     return str(warp.get_preferred_device())
 
 
-def on_warp(robot: Robot, n: int, steps: int) -> Rate:
-    """The native vector env on MuJoCo Warp (its copies: the worlds of one Warp batch)."""
-    from revolve_env.envs.vector import LocomotionVectorEnv
+def on_warp(robot: Robot, n: int, steps: int, graphs: bool) -> dict[str, Rate]:
+    """The native vector env on MuJoCo Warp (its copies: the worlds of one Warp batch).
 
-    return env_rate(lambda: LocomotionVectorEnv(n, robot=robot, engine="mujoco_warp",
-                                                proprioception=True),
-                    n, steps, sb3=False)
+    With ``graphs`` (a CUDA device), one env steps alternately with each batch's period one
+    CUDA graph and with its kernels launched one by one from Python (``WarpScenes.cuda_graphs``),
+    in four rounds after five untimed periods of each (Warp's compile, the graph's capture).
+    """
+    from revolve_env.envs.vector import LocomotionVectorEnv
+    from revolve_env.world.warp_scenes import WarpScenes
+
+    w0 = time.perf_counter()
+    venv = LocomotionVectorEnv(n, robot=robot, engine="mujoco_warp", proprioception=True)
+    venv.reset(seed=0)
+    setup = time.perf_counter() - w0
+    scenes = venv._world._backend  # type: ignore[union-attr]  # the isolated world's scenes
+    assert isinstance(scenes, WarpScenes)
+    sides = {"CUDA graph": True, "kernels from Python": False} if graphs else {"": False}
+    rng = np.random.default_rng(0)
+    actions = [rng.uniform(-1, 1, venv.action_space.shape).astype(np.float32) for _ in range(8)]
+    spent = {name: [0.0, 0.0] for name in sides}
+    for flag in sides.values():
+        scenes.cuda_graphs = flag
+        for t in range(5):
+            venv.step(actions[t])
+    rounds = 4
+    for r in range(rounds):
+        for name, flag in sides.items():
+            scenes.cuda_graphs = flag
+            with _clock() as took:
+                for t in range(r * steps // rounds, (r + 1) * steps // rounds):
+                    venv.step(actions[t % 8])
+            spent[name][0] += took[0]
+            spent[name][1] += took[1]
+    venv.close()
+    return {name: Rate(n * steps / w, n * steps / c, setup) for name, (w, c) in spent.items()}
+
+
+def raw_warp(robot: Robot, n: int, steps: int) -> Rate:
+    """Warp's floor: the robot's model in one ``mujoco_warp`` batch, each period one CUDA graph
+    (its physics steps) between the servo law in NumPy and the hinges' angles read back."""
+    import mujoco
+    import mujoco_warp as mjw
+    import warp as wp
+
+    from revolve_env.world.warp_scenes import _FIRST_ROOM
+
+    config = WorldConfig(engine="mujoco")
+    w0 = time.perf_counter()
+    with World(config) as world:
+        world.add_robot(robot)
+        model = mujoco.MjModel.from_xml_string(world.to_mjcf())
+    model.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)  # as WarpScenes
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    m = mjw.put_model(model)
+    d = mjw.put_data(model, data, nworld=n, nconmax=_FIRST_ROOM[0], njmax=_FIRST_ROOM[1])
+    hinges = model.jnt_qposadr[model.actuator_trnid[:, 0]].astype(np.intp)
+    k = config.servo_gain / config.control_period
+    scale = math.radians(config.range_deg)
+    rng = np.random.default_rng(0)
+    actions = [rng.uniform(-1, 1, (n, model.nu)) * scale for _ in range(8)]
+    with wp.ScopedCapture() as capture:
+        for _ in range(config.substeps):
+            mjw.step(m, d)
+    setup = time.perf_counter() - w0
+
+    def period(t: int) -> None:
+        qpos = d.qpos.numpy()[:, hinges]
+        d.ctrl.assign(np.clip(k * (actions[t % 8] - qpos), -config.max_velocity,
+                              config.max_velocity).astype(np.float32))
+        wp.capture_launch(capture.graph)
+
+    for t in range(5):
+        period(t)
+    with _clock() as spent:
+        for t in range(5, 5 + steps):
+            period(t)
+        d.qpos.numpy()  # the last period done
+    if d.overflow.numpy().any():
+        print(f"(raw MuJoCo Warp, N = {n}: Warp's overflow flag is set; the row is not valid)")
+    return Rate(n * steps / spent[0], n * steps / spent[1], setup)
 
 
 def via_sb3(robot: Robot, n: int, steps: int, batched: bool) -> Rate:
@@ -250,6 +329,11 @@ def main() -> None:
     parser.add_argument("--device-check", action="store_true",
                         help="N = 1, 16, 256, 4096 and one table to paste into the docs")
     parser.add_argument("--steps", type=int, default=None, help="control periods per row")
+    parser.add_argument("--sizes", type=int, nargs="+", default=None, metavar="N",
+                        help="the numbers of copies (default: 1 16 64 with --quick, else 1 16 "
+                             "256 4096)")
+    parser.add_argument("--robots", nargs="+", choices=("spider", "20-part random"),
+                        default=["spider", "20-part random"], help="the robots of the rows")
     parser.add_argument("--warp-only", action="store_true",
                         help="only the MuJoCo Warp rows and the native vector env on 1 thread "
                              "beside them (no infancy)")
@@ -278,7 +362,9 @@ def main() -> None:
         _infancy_table(budgets)
         print(f"load average at the end {os.getloadavg()[0]:.1f}")
         return
-    robots = {"spider": spider(), "20-part random": twenty_part_robot()}
+    sizes = args.sizes or sizes
+    makers = {"spider": spider, "20-part random": twenty_part_robot}
+    robots = {name: makers[name]() for name in args.robots}
     device = warp_device()
     gpu = device is not None and device != "cpu"
     warp_route = ("MuJoCo Warp: not installed (the warp extra)" if device is None else
@@ -314,7 +400,11 @@ def main() -> None:
             if device is None:
                 rows.append((warp_route, _fmt(None, "pip install '.[warp]'")))
             elif gpu or n <= 64:
-                rows.append((warp_route, _fmt(on_warp(robot, n, steps))))
+                if gpu:
+                    rows.append((f"raw MuJoCo Warp on {device}, CUDA graph",
+                                 _fmt(raw_warp(robot, n, steps))))
+                for side, rate in on_warp(robot, n, steps, graphs=gpu).items():
+                    rows.append((f"{warp_route}, {side}" if side else warp_route, _fmt(rate)))
             else:
                 rows.append((warp_route, _fmt(None, "not run: N > 64 on Warp's CPU")))
             for route, cells in rows:

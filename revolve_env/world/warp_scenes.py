@@ -64,10 +64,25 @@ class _Group:
     ctrl: NDArray[np.intp]  # (n, nu): each world's controls in set_joint_velocities' array
     root: int  # the robot's root body
     poses: tuple[NDArray[np.float32], NDArray[np.float32]] | None = field(default=None)
+    graphs: dict[int, Any] = field(default_factory=dict)  # substeps -> the period's CUDA graph
+
+
+def _steps(model: Any, data: Any, substeps: int) -> None:
+    """One control period of a batch: ``substeps`` physics steps, then the bodies' poses."""
+    for _ in range(substeps):
+        mjw.step(model, data)
+    mjw.kinematics(model, data)
 
 
 class WarpScenes(MujocoScenes):
-    """Scenes of one robot each, stepped by MuJoCo Warp (see the module doc)."""
+    """Scenes of one robot each, stepped by MuJoCo Warp (see the module doc).
+
+    Attributes:
+        cuda_graphs: On a CUDA device, each batch's period is one CUDA graph (recorded at its
+            first period, launched at every period: the same kernels without Python launching
+            each of them); False launches them one by one from Python, as on the CPU, where
+            there are no graphs (``benchmarks/bench_batch.py`` compares the two).
+    """
 
     def __init__(self, config: WorldConfig, threads: int = 1) -> None:
         """No robots yet.
@@ -92,6 +107,7 @@ class WarpScenes(MujocoScenes):
         if self._device is None:
             raise RuntimeError("engine 'mujoco_warp': Warp found no device here; reinstall it "
                                "with: pip install 'revolve-env[warp]'")
+        self.cuda_graphs = True
         self._groups: list[_Group] | None = None  # None: to be built at the next step
         self._on_device = False  # the worlds hold a newer state than the scenes' MjData
         self._digests: dict[int, str] = {}  # id(scene) -> its model's digest
@@ -228,6 +244,7 @@ class WarpScenes(MujocoScenes):
         n, (ncon, njmax) = group.rows.shape[0], group.room
         with wp.ScopedDevice(self._device):
             group.data = mjw.put_data(m, scene._data, nworld=n, nconmax=ncon, njmax=njmax)
+        group.graphs = {}  # captured on the old data's arrays
         self._load(group, states)
 
     def _load(self, group: _Group, states: NDArray[np.float64]) -> None:
@@ -274,9 +291,15 @@ class WarpScenes(MujocoScenes):
             if group.host.nu:
                 d.ctrl.assign(np.ascontiguousarray(self._velocities[group.ctrl], dtype=np.float32))
             with wp.ScopedDevice(self._device):
-                for _ in range(substeps):
-                    mjw.step(group.model, d)
-                mjw.kinematics(group.model, d)
+                if self.cuda_graphs and self._device.is_cuda:
+                    graph = group.graphs.get(substeps)
+                    if graph is None:  # recorded, not run: launched below like every period
+                        with wp.ScopedCapture() as capture:
+                            _steps(group.model, d, substeps)
+                        graph = group.graphs[substeps] = capture.graph
+                    wp.capture_launch(graph)
+                else:
+                    _steps(group.model, d, substeps)
             overflow = d.overflow.numpy()
             if not (overflow & _ROOM).any():
                 break
