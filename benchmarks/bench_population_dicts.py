@@ -5,7 +5,7 @@ Usage: ``python benchmarks/bench_population_dicts.py [--robots 30] [--repeats 8]
 ``--robots`` random robots in one MuJoCo world (``bench_population_windows.py``'s crowd),
 restored from one snapshot before every timing; three sides on the same periods: ``step`` as it
 is, ``step`` with the dicts built as main built them before the bulk build (``report_step`` as it
-was, kept in ``tests/envs/test_population_dicts.py`` as the reference its test compares
+was, kept in ``tests/population_dicts_reference.py`` as the reference the env's test compares
 against), and ``advance`` (no dicts), with raw ``mj_step`` of the same periods.
 
 1. Whole loops, the sides alternating: the best CPU time per control period of each, its ratio
@@ -28,10 +28,10 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "envs"))  # the reference
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the reference
 
 from bench_engines import Replay, random_robots
-from test_population_dicts import _old_report
+from population_dicts_reference import old_report
 
 import revolve_env.envs.population as population_module
 from revolve_env import population_env
@@ -90,7 +90,7 @@ def main() -> None:
 
     sides: dict[str, Callable[[], float]] = {
         "step (bulk dicts)": timed("step (bulk dicts)", "step", bulk),
-        "step (main's dicts)": timed("step (main's dicts)", "step", _old_report),
+        "step (main's dicts)": timed("step (main's dicts)", "step", old_report),
         "advance": timed("advance", "advance", bulk),
         "raw mj_step": raw.run}
     after.update((name, []) for name in sides)  # (the whole loops' parts are not printed)
@@ -111,7 +111,7 @@ def main() -> None:
                                  insertion_time=0.0) for name in list(sides)[:3]}
     whole: dict[str, list[float]] = {name: [] for name in envs}
     after.update((name, []) for name in envs)
-    reports = {"step (bulk dicts)": bulk, "step (main's dicts)": _old_report, "advance": bulk}
+    reports = {"step (bulk dicts)": bulk, "step (main's dicts)": old_report, "advance": bulk}
     for _ in range(args.repeats):
         for e in envs.values():
             e.restore(start)
