@@ -224,6 +224,39 @@ class Replay:
             f"off by {float(np.abs(here - self.final).max()):.1e}"
 
 
+def on_a_grid(robots: list[Robot], spacing: float = 1.2) -> list[dict[str, Any]]:
+    """``robots`` as a population env's initial robots on a square grid ``spacing`` metres
+    apart, all facing +x."""
+    side = math.ceil(math.sqrt(len(robots)))
+    return [{"robot": r, "position": (spacing * (i % side), spacing * (i // side)), "yaw": 0.0}
+            for i, r in enumerate(robots)]
+
+
+def crowd_env(initial: list[dict[str, Any]], engine: str = "mujoco", landing: int = 30,
+              **kwargs: Any) -> PopulationEnv:
+    """The population env of the crowd ``initial``: no births (``max_births`` its size), fitness
+    from birth, reset (seed 0) and stepped ``landing`` control periods for its robots to land."""
+    env: PopulationEnv = population_env(engine=engine, initial_robots=initial,
+                                        max_births=len(initial), insertion_time=0.0, **kwargs)
+    env.reset(seed=0)
+    for _ in range(landing):
+        env.step({})
+    return env
+
+
+def recorded(env: PopulationEnv, ticks: int,
+             step: Callable[[dict[str, Any]], object] | None = None) -> tuple[Replay, str]:
+    """The bare replay of the next ``ticks`` control periods of ``env`` (stepped by ``step``,
+    ``env.step`` unless given), run once, and :meth:`Replay.same_as` of its end."""
+    raw = Replay(env.world)
+    raw.record(env.world)
+    for _ in range(ticks):
+        (step or env.step)({})
+    raw.stop(env.world)
+    raw.run()
+    return raw, raw.same_as(env.world)
+
+
 # -- 1. one robot in the env -------------------------------------------------------------------
 def make_single(robot: Robot, engine: str, seconds: float,
                 env_id: str = LOCOMOTION_V1_ID) -> gym.Env[Any, Any]:
@@ -446,22 +479,10 @@ def side_by_side(n: int, repeats: int) -> None:
 # -- 3. a crowd --------------------------------------------------------------------------------
 def crowd(n: int, seconds: float, repeats: int) -> tuple[float, float]:
     """Returns the population env's CPU seconds per robot-simulated-second (MuJoCo, pybullet)."""
-    robots = random_robots(n, seed=1)
-    side = math.ceil(math.sqrt(n))
-    initial = [{"robot": r, "position": (1.2 * (i % side), 1.2 * (i // side)), "yaw": 0.0}
-               for i, r in enumerate(robots)]
-
-    def make(engine: str) -> PopulationEnv:
-        env: PopulationEnv = population_env(engine=engine, initial_robots=initial, max_births=n,
-                             insertion_time=0.0)
-        env.reset(seed=0)
-        for _ in range(30):  # let them land
-            env.step({})
-        return env
-
-    envs = {e: make(e) for e in ENGINES}
+    initial = on_a_grid(random_robots(n, seed=1))
+    envs = {e: crowd_env(initial, e) for e in ENGINES}
     with numpy_rules():  # its world keeps the NumPy rules
-        slow = envs["mujoco NumPy rules"] = make("mujoco")
+        slow = envs["mujoco NumPy rules"] = crowd_env(initial)
     mj = envs["mujoco"]
     ticks = round(seconds / mj.config.control_period)
     start = mj.snapshot()
@@ -476,13 +497,7 @@ def crowd(n: int, seconds: float, repeats: int) -> tuple[float, float]:
         return time.process_time() - cpu
 
     mj.restore(start)
-    raw = Replay(mj.world)
-    raw.record(mj.world)
-    for _ in range(ticks):
-        mj.step({})
-    raw.stop(mj.world)
-    raw.run()
-    check = raw.same_as(mj.world)
+    raw, check = recorded(mj, ticks)
     best = alternate({
         "env mujoco": lambda: run_env("mujoco"),
         "raw mujoco": raw.run,

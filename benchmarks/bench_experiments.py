@@ -58,7 +58,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout
 
-from bench_engines import Replay, numpy_rules, record_evaluate
+from bench_engines import crowd_env, numpy_rules, on_a_grid, record_evaluate, recorded
 from bench_memory import per_birth_and_alive, rss_mb, slope
 
 from evolution import experiments
@@ -74,7 +74,6 @@ from evolution.experiments.app.estimate import (
 from evolution.experiments.loop.registry import PAPER_SCENARIOS
 from evolution.experiments.loop.run import ProgressEvent, decode
 from evolution.experiments.store.database import Store
-from revolve_env import population_env
 from revolve_env.body.serialize import to_json
 
 STUDY_RUNS, STUDY_BIRTHS = 30, 3000
@@ -441,28 +440,18 @@ def _raw_online_rate(config: ExperimentConfig, robots: dict[int, str],
     chosen = [snapshots[i] for i in _spread(samples, len(snapshots))]
     for _, _, members in chosen:
         alive = [decode(robots[robot_id]) for robot_id, _ in members]
-        side = math.ceil(math.sqrt(len(alive)))
-        initial = [{"robot": r, "position": (1.2 * (i % side), 1.2 * (i // side)), "yaw": 0.0}
-                   for i, r in enumerate(alive)]
-        env = population_env(engine="mujoco", initial_robots=initial, max_births=len(alive),
-                             insertion_time=0.0, limits=config.evolution.limits,
-                             conditions=config.evaluation, task=config.fitness_task(),
-                             terrain=config.world.terrain_spec, trajectory_length=0)
+        env = crowd_env(on_a_grid(alive), landing=0, limits=config.evolution.limits,
+                        conditions=config.evaluation, task=config.fitness_task(),
+                        terrain=config.world.terrain_spec, trajectory_length=0)
         try:
-            env.reset(seed=0)
             ticks = round(_WORLD_SECONDS / float(env.config.control_period))
             with numpy_rules():
                 for _ in range(30):
                     env.advance({})
-                replay = Replay(env.world)
-                replay.record(env.world)
-                for _ in range(ticks):
-                    env.advance({})
+                replay, check = recorded(env, ticks, env.advance)
             if len(replay.targets) != ticks:
                 raise RuntimeError(f"the world stepped {len(replay.targets)} recorded periods "
                                    f"of {ticks}: the env no longer steps through World.step")
-            replay.run()
-            check = replay.same_as(env.world)
             if check != "exact":
                 raise RuntimeError(f"the raw replay of a world of {len(alive)} robots is {check}")
             robot_seconds += len(alive) * _WORLD_SECONDS

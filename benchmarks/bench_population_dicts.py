@@ -5,7 +5,7 @@ Usage: ``python benchmarks/bench_population_dicts.py [--robots 30] [--repeats 8]
 ``--robots`` random robots in one MuJoCo world (``bench_population_windows.py``'s crowd),
 restored from one snapshot before every timing; three sides on the same periods: ``step`` as it
 is, ``step`` with the dicts built as main built them before the bulk build (``report_step`` as it
-was, kept in ``tests/envs/test_population_dicts.py`` as the reference its test compares
+was, kept in ``tests/population_dicts_reference.py`` as the reference the env's test compares
 against), and ``advance`` (no dicts), with raw ``mj_step`` of the same periods.
 
 1. Whole loops, the sides alternating: the best CPU time per control period of each, its ratio
@@ -19,7 +19,6 @@ against), and ``advance`` (no dicts), with raw ``mj_step`` of the same periods.
 from __future__ import annotations
 
 import argparse
-import math
 import statistics
 import sys
 import time
@@ -28,13 +27,12 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "envs"))  # the reference
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the reference
 
-from bench_engines import Replay, random_robots
-from test_population_dicts import _old_report
+from bench_engines import alternate, crowd_env, on_a_grid, random_robots, recorded
+from population_dicts_reference import old_report
 
 import revolve_env.envs.population as population_module
-from revolve_env import population_env
 
 
 def main() -> None:
@@ -44,23 +42,11 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=2.0)
     args = parser.parse_args()
     n = args.robots
-    side = math.ceil(math.sqrt(n))
-    initial = [{"robot": r, "position": (1.2 * (i % side), 1.2 * (i // side)), "yaw": 0.0}
-               for i, r in enumerate(random_robots(n, seed=1))]
-    env = population_env(engine="mujoco", initial_robots=initial, max_births=n,
-                         insertion_time=0.0)
-    env.reset(seed=0)
-    for _ in range(30):
-        env.step({})
+    initial = on_a_grid(random_robots(n, seed=1))
+    env = crowd_env(initial)
     start = env.snapshot()
     ticks = round(args.seconds / env.config.control_period)
-    raw = Replay(env.world)
-    raw.record(env.world)
-    for _ in range(ticks):
-        env.step({})
-    raw.stop(env.world)
-    raw.run()
-    check = raw.same_as(env.world)
+    raw, check = recorded(env, ticks)
 
     bulk, end = population_module.report_step, population_module.end_step
     after: dict[str, list[float]] = {}
@@ -90,14 +76,11 @@ def main() -> None:
 
     sides: dict[str, Callable[[], float]] = {
         "step (bulk dicts)": timed("step (bulk dicts)", "step", bulk),
-        "step (main's dicts)": timed("step (main's dicts)", "step", _old_report),
+        "step (main's dicts)": timed("step (main's dicts)", "step", old_report),
         "advance": timed("advance", "advance", bulk),
         "raw mj_step": raw.run}
     after.update((name, []) for name in sides)  # (the whole loops' parts are not printed)
-    best = dict.fromkeys(sides, math.inf)
-    for _ in range(args.repeats):
-        for name, side_run in sides.items():
-            best[name] = min(best[name], side_run())
+    best = alternate(sides, args.repeats)
     load = " ".join(Path("/proc/loadavg").read_text().split()[:3])
     print(f"{n} robots, {ticks} control periods (replay {check}); whole loops, best CPU of "
           f"{args.repeats} (load average {load}):")
@@ -107,11 +90,10 @@ def main() -> None:
         print(f"  {name:<20} {cpu / ticks * 1e6:7.0f} us per period  "
               f"{cpu / best['raw mj_step']:.3f}x raw{over}")
 
-    envs = {name: population_env(engine="mujoco", initial_robots=initial, max_births=n,
-                                 insertion_time=0.0) for name in list(sides)[:3]}
+    envs = {name: crowd_env(initial, landing=0) for name in list(sides)[:3]}
     whole: dict[str, list[float]] = {name: [] for name in envs}
     after.update((name, []) for name in envs)
-    reports = {"step (bulk dicts)": bulk, "step (main's dicts)": _old_report, "advance": bulk}
+    reports = {"step (bulk dicts)": bulk, "step (main's dicts)": old_report, "advance": bulk}
     for _ in range(args.repeats):
         for e in envs.values():
             e.restore(start)

@@ -15,16 +15,14 @@ control period of each and its ratio to raw.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout
 
-from bench_engines import Replay, random_robots
+from bench_engines import alternate, crowd_env, on_a_grid, random_robots, recorded
 
-from revolve_env import population_env
 from revolve_env.envs.population import PopulationEnv
 from revolve_env.world import compiled
 
@@ -38,36 +36,18 @@ def main() -> None:
     if compiled.windows_kernel() is None:
         sys.exit("the compiled rollout is not usable here: nothing to compare")
     n = args.robots
-    side = math.ceil(math.sqrt(n))
-    initial = [{"robot": r, "position": (1.2 * (i % side), 1.2 * (i // side)), "yaw": 0.0}
-               for i, r in enumerate(random_robots(n, seed=1))]
-
-    def make(trajectory_length: int | None = None) -> PopulationEnv:
-        env = population_env(engine="mujoco", initial_robots=initial, max_births=n,
-                             insertion_time=0.0, trajectory_length=trajectory_length)
-        env.reset(seed=0)
-        return env
-
-    fast = make()
+    initial = on_a_grid(random_robots(n, seed=1))
+    fast = crowd_env(initial)
     real = compiled.windows_kernel
     compiled.windows_kernel = lambda: None  # the env made now keeps NumPy's windows
     try:
-        slow = make()
+        slow = crowd_env(initial, landing=0)  # (restored from fast's snapshot before each run)
     finally:
         compiled.windows_kernel = real
-    loop = make(trajectory_length=0)  # the online world's env: no trajectories
-    for _ in range(30):
-        fast.step({})
-        loop.step({})
+    loop = crowd_env(initial, trajectory_length=0)  # the online world's env: no trajectories
     start, loop_start = fast.snapshot(), loop.snapshot()
     ticks = round(args.seconds / fast.config.control_period)
-    raw = Replay(fast.world)
-    raw.record(fast.world)
-    for _ in range(ticks):
-        fast.step({})
-    raw.stop(fast.world)
-    raw.run()
-    check = raw.same_as(fast.world)
+    raw, check = recorded(fast, ticks)
 
     def timed(env: PopulationEnv, how: str) -> float:
         env.restore(start)
@@ -91,10 +71,7 @@ def main() -> None:
              "advance, NumPy windows": lambda: timed(slow, "advance"),
              "advance_periods": periods,
              "raw mj_step": raw.run}
-    best = dict.fromkeys(sides, math.inf)
-    for _ in range(args.repeats):
-        for name, side_run in sides.items():
-            best[name] = min(best[name], side_run())
+    best = alternate(sides, args.repeats)
     load = " ".join(Path("/proc/loadavg").read_text().split()[:3])
     print(f"{n} robots, {ticks} control periods, best CPU of {args.repeats} (replay {check}; "
           f"load average {load}):")

@@ -307,11 +307,11 @@ class Roster:
         k = len(living)
         window = (np.empty(2 * k), np.empty(2 * k), np.empty(k), np.empty(k),
                   np.empty(k, dtype=np.int64), np.empty(k))
-        t, xy, path, first, last, seq, start = ring
         done, stop, outcome, seq, start, started, pushed, time = periods.run(
             n, self.steps, world.time, world.compiled_targets(), run.outputs, living.obs,
             step.start, buffers[0][0], buffers[0][1], buffers[1][0], buffers[1][1], living.ages,
-            t, xy, path, first, last, seq, start, f, v, s, *window)
+            ring.t, ring.xy, ring.path, ring.first, ring.last, ring.seq, ring.start, f, v, s,
+            *window)
         periods.give_back()
         if pushed:
             windows.ring.pushed(seq, start, started)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import Any, ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -24,7 +24,31 @@ from revolve_env.fitness.terms import (
     speed_fitness,
 )
 
-__all__ = ["FitnessWindows", "SlidingWindowFitness"]
+__all__ = ["FitnessWindows", "Ring", "SlidingWindowFitness"]
+
+
+class Ring(NamedTuple):
+    """A :class:`FitnessWindows`' own arrays and counters (:meth:`FitnessWindows.ring`).
+
+    A row per sample time (row ``seq % capacity``), a column per robot; the arrays are the
+    windows' own, written in place by a compiled caller, which hands the counters it leaves to
+    :meth:`FitnessWindows.pushed`.
+    """
+
+    t: NDArray[np.float64]
+    """(capacity,) every row's sample time. Seconds."""
+    xy: NDArray[np.float64]
+    """(capacity, n, 2) every robot's core position at each sample time. Metres."""
+    path: NDArray[np.float64]
+    """(capacity, n) every robot's path length from its first sample. Metres."""
+    first: NDArray[np.int64]
+    """(n,) every robot's first sample (sequence number; ``FitnessWindows._NONE``: none yet)."""
+    last: NDArray[np.int64]
+    """(n,) every robot's last sample (sequence number; -1: none yet)."""
+    seq: int
+    """The sequence number of the next sample time."""
+    start: int
+    """The sequence number of the oldest sample time in the windows."""
 
 
 class FitnessWindows:
@@ -240,17 +264,18 @@ class FitnessWindows:
         count.flags.writeable = False
         return Window(first, last, v, s, count, None, None, duration)
 
-    def ring(self) -> tuple[Any, ...] | None:
+    def ring(self) -> Ring | None:
         """The ring's own arrays, for a compiled caller that pushes as :meth:`push_compiled` does.
 
-        ``(t, xy, path, first, last, seq, start)``, written in place by the caller, which then
-        calls :meth:`pushed`; None for windows with a signal.
+        Written in place by the caller, which then calls :meth:`pushed`; None for windows with a
+        signal.
         """
         if self._sig is not None:
             return None
         if not (self._xy.flags.c_contiguous and self._path.flags.c_contiguous):  # after remove
             self._xy, self._path = np.ascontiguousarray(self._xy), np.ascontiguousarray(self._path)
-        return self._t, self._xy, self._path, self._first, self._last, self._seq, self._start
+        return Ring(self._t, self._xy, self._path, self._first, self._last, self._seq,
+                    self._start)
 
     def pushed(self, seq: int, start: int, all_started: bool) -> None:
         """After pushes into :meth:`ring`'s arrays: the ring's counters they left."""

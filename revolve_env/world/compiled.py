@@ -71,6 +71,7 @@ from revolve_env.world.robot_state import Layout, RobotState
 from revolve_env.world.sensing import IMU_HIGH, imu_readings, light_falloff, light_intensity
 
 if TYPE_CHECKING:
+    from revolve_env.brain.controller import BatchController
     from revolve_env.world.mujoco_backend import RawScene
 
 __all__ = ["SIGNALS", "EnvStep", "Path", "PopulationPeriods", "Rules", "TaskRule",
@@ -689,9 +690,9 @@ class PopulationPeriods:
     :meth:`run`.
     """
 
-    def __init__(self, ext: ModuleType, run: WorldStep, brain: Any, target_scale: float,
-                 control_period: float, rule: TaskRule, window: float, eps: float, stride: int,
-                 insertion: int, sample_from: int) -> None:
+    def __init__(self, ext: ModuleType, run: WorldStep, brain: BatchController,
+                 target_scale: float, control_period: float, rule: TaskRule, window: float,
+                 eps: float, stride: int, insertion: int, sample_from: int) -> None:
         kind, s_weight, limit, cos_h, sin_h = rule
         self._ext = ext.PopulationPeriods(run.extension_step, brain.dt, target_scale,
                                           control_period, kind, s_weight, limit, cos_h, sin_h,
@@ -729,9 +730,9 @@ class PopulationPeriods:
         self._ext.raise_pending()
 
 
-def population_periods(run: WorldStep, brain: Any, target_scale: float, control_period: float,
-                       rule: TaskRule | None, window: float, eps: float, stride: int,
-                       insertion: int, sample_from: int) -> PopulationPeriods | None:
+def population_periods(run: WorldStep, brain: BatchController, target_scale: float,
+                       control_period: float, rule: TaskRule | None, window: float, eps: float,
+                       stride: int, insertion: int, sample_from: int) -> PopulationPeriods | None:
     """A population's compiled periods (:class:`PopulationPeriods`), None where they do not apply.
 
     They apply to a world stepped by a compiled ``run`` (not diverged) with a shipped task of

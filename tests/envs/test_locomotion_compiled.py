@@ -11,7 +11,6 @@ step the compiled one takes (and for blow-ups, which it hands back to Python), a
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import math
 import sys
 from pathlib import Path
@@ -20,15 +19,12 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import pytest
+from episode_hashes import episodes, make, sensor_robot, value
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import revolve_env.envs  # noqa: F401  (registers the envs)
-from evolution.config import EvolutionConfig
-from evolution.random_robot import random_robot
 from revolve_env import LOCOMOTION_ID, LOCOMOTION_V1_ID
 from revolve_env.body.examples import example
-from revolve_env.body.robot import Robot
 from revolve_env.rollout import RobotWindow, task_rule
 from revolve_env.tasks import DirectedLocomotion, LightFollowing, Locomotion, Task
 from revolve_env.world import World, WorldConfig, compiled
@@ -58,46 +54,19 @@ CASES: dict[str, tuple[str, dict[str, Any]]] = {
 }
 
 
-def _sensor_robot() -> Robot:
-    """A random robot with a touch sensor and light sensors on its core and a moving link."""
-    rng = np.random.default_rng(7)
-    return [random_robot(rng, EvolutionConfig()) for _ in range(6)][4]
-
-
-def _value(x: object) -> str:
-    if isinstance(x, float):
-        return x.hex()
-    if isinstance(x, np.ndarray):
-        return x.dtype.str + str(x.shape) + x.tobytes().hex()
-    return repr(x)
-
-
 def _episodes(case: str, fast: bool) -> tuple[str, int]:
     """A hash of two episodes (random actions, seeds 0 and 1) and how many blew up."""
     env_id, kwargs = CASES[case]
-    kwargs = {**SHORT, **kwargs}
-    if kwargs.get("robot") == "sensors":
-        kwargs["robot"] = _sensor_robot()
-    env = gym.make(env_id, **kwargs)
+    env = make(env_id, {**SHORT, **kwargs}, fast)
     inner: Any = env.unwrapped
-    inner._fast_step = fast
-    digest, blown = hashlib.sha256(), 0
-    for seed in (0, 1):
-        obs, info = env.reset(seed=seed)
+
+    def on_its_step() -> None:
         assert (inner._fast is not None) == fast
-        digest.update((_value(obs) + repr(sorted(info.items()))).encode())
-        rng = np.random.default_rng(seed)
-        done = False
-        while not done:
-            action = rng.uniform(-1.0, 1.0, env.action_space.shape).astype(np.float32)
-            obs, reward, terminated, truncated, info = env.step(action)
-            digest.update("".join(_value(x) for x in (obs, reward, terminated, truncated))
-                          .encode())
-            digest.update(repr(sorted((k, _value(v)) for k, v in info.items())).encode())
-            done = terminated or truncated
-        blown += bool(terminated)
-    env.close()
-    return digest.hexdigest(), blown
+
+    try:
+        return episodes(env, after_reset=on_its_step)
+    finally:
+        env.close()
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
@@ -136,7 +105,7 @@ def test_a_bad_action_is_refused_as_ever_and_other_shapes_are_read_as_ever() -> 
     for action in ([0.5] * n, np.full((n, 1), -0.25), np.linspace(-2, 2, n),
                    np.linspace(-1, 1, 2 * n)[::2], np.zeros(n, dtype=np.int64)):
         a, b = env.step(action), twin.step(action)
-        assert _value(a[0]) == _value(b[0]) and a[1:4] == b[1:4]
+        assert value(a[0]) == value(b[0]) and a[1:4] == b[1:4]
         assert repr(sorted(a[4].items())) == repr(sorted(b[4].items()))
     env.close()
     twin.close()
@@ -147,19 +116,15 @@ def test_both_steps_give_the_same_info_dicts(case: str) -> None:
     """The same keys in the same order, the same types and bits, step after step (reset, the
     compiled step's own steps, the blow-up that Python finishes)."""
     env_id, kwargs = CASES[case]
-    kwargs = {**SHORT, **kwargs}
-    if kwargs.get("robot") == "sensors":
-        kwargs["robot"] = _sensor_robot()
-    envs = [gym.make(env_id, **kwargs) for _ in range(2)]
-    envs[1].unwrapped._fast_step = False  # type: ignore[attr-defined]
+    envs = [make(env_id, {**SHORT, **kwargs}, fast) for fast in (True, False)]
     infos: list[list[list[tuple[str, type, str]]]] = [[], []]
     for e, got in zip(envs, infos, strict=True):
-        got.append([(k, type(v), _value(v)) for k, v in e.reset(seed=0)[1].items()])
+        got.append([(k, type(v), value(v)) for k, v in e.reset(seed=0)[1].items()])
         assert (e.unwrapped._fast is not None) == (e is envs[0])  # type: ignore[attr-defined]
         rng, done = np.random.default_rng(0), False
         while not done:
             out = e.step(rng.uniform(-1.0, 1.0, e.action_space.shape).astype(np.float32))
-            got.append([(k, type(v), _value(v)) for k, v in out[4].items()])
+            got.append([(k, type(v), value(v)) for k, v in out[4].items()])
             done = out[2] or out[3]
         e.close()
     assert infos[0] == infos[1]
@@ -171,7 +136,7 @@ def test_both_steps_give_the_same_info_dicts(case: str) -> None:
 
 def test_the_world_is_the_general_steps_after_compiled_steps() -> None:
     """The world's states, sensors, targets and clock as the general step leaves them."""
-    envs = [gym.make(LOCOMOTION_V1_ID, robot=_sensor_robot(), controller="brain", **SHORT)
+    envs = [gym.make(LOCOMOTION_V1_ID, robot=sensor_robot(), controller="brain", **SHORT)
             for _ in range(2)]
     envs[1].unwrapped._fast_step = False  # type: ignore[attr-defined]
     for e in envs:
@@ -194,7 +159,7 @@ def test_the_brain_has_one_owner_and_what_the_env_reads_of_it_is_shared() -> Non
     """The compiled step steps the brain (compiled.EnvStep's doc): the held outputs the env
     reads are the Rollout's own array, written in place, and the general step's to the bit, as
     are the periods; the Rollout's controller is not stepped beside it (it stays as reset)."""
-    envs = [gym.make(LOCOMOTION_V1_ID, robot=_sensor_robot(), controller="brain", **SHORT)
+    envs = [gym.make(LOCOMOTION_V1_ID, robot=sensor_robot(), controller="brain", **SHORT)
             for _ in range(2)]
     envs[1].unwrapped._fast_step = False  # type: ignore[attr-defined]
     runs: list[Any] = []
@@ -234,8 +199,8 @@ def test_a_period_replayed_for_a_nan_force_is_the_general_steps(
                 data = inner._world.backend._data
                 data.xfrc_applied[-1, 0] = np.nan if (seed, t) == (0, 30) else 0.0
                 step = env.step(np.zeros(env.action_space.shape, dtype=np.float32))
-                out.append(_value(step[0]) + repr(step[1:4]) + repr(sorted(
-                    (k, _value(v)) for k, v in step[4].items())))
+                out.append(value(step[0]) + repr(step[1:4]) + repr(sorted(
+                    (k, value(v)) for k, v in step[4].items())))
                 if step[2] or step[3]:
                     break
         runs.append(out)

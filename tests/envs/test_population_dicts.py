@@ -2,104 +2,25 @@
 build (issue 28): the same keys in the same order, the same values of the same types, arrays the
 caller's own.
 
-The reference below is ``report_step`` and ``Living.statuses`` as they were on main (6d215cc),
-one robot status after the other; the env under test builds the same dicts in bulk.
+The reference (``tests/population_dicts_reference.py``) is ``report_step`` and ``Living.statuses``
+as they were on main (6d215cc), one robot status after the other; the env under test builds the
+same dicts in bulk.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
 import numpy as np
 import pytest
+from population_dicts_reference import old_info, old_report, old_statuses
 
 import revolve_env.envs.population as population_module
 from revolve_env.body.examples import gecko, snake, spider
 from revolve_env.conditions import EvaluationConditions
-from revolve_env.envs.agent_spaces import Masks
-from revolve_env.envs.living import Living, final_status
 from revolve_env.envs.population import PopulationEnv, population_env
-from revolve_env.envs.reports import Dicts
-from revolve_env.envs.roster import Roster
-from revolve_env.status import Death, RobotStatus
 from revolve_env.world import WorldConfig
-
-
-def _old_statuses(living: Living, deaths: list[Death | None] | None = None) -> list[RobotStatus]:
-    """``Living.statuses`` as it was: every living robot's status, in row order."""
-    clock, ages = living.clock, living.ages
-    members = living.members
-    n = len(members)
-    return list(map(RobotStatus._make, zip(
-        [m.robot_id for m in members], living.f.tolist(), living.v.tolist(), living.s.tolist(),
-        list(living.position.copy()), ages.tolist(), (ages * clock.dt).tolist(),
-        (ages < clock.insertion_steps).tolist(), (ages >= clock.maturity_steps).tolist(),
-        deaths if deaths is not None else [None] * n, [m.blow_up for m in members],
-        [m.birth_time for m in members], [m.birth_position for m in members],
-        [m.born_inside for m in members], [m.controlled_by for m in members],
-        living.trajectories.views(), strict=True)))
-
-
-def _old_info(s: RobotStatus, masks: Masks) -> dict[str, Any]:
-    """``status_info`` as it was."""
-    return {
-        "robot_id": s.robot_id, "age": s.age, "birth_time": s.birth_time,
-        "birth_position": s.birth_position, "born_inside_disc": s.born_inside,
-        "inserting": s.inserting, "is_mature": s.mature, "fitness": s.fitness,
-        "fitness_v": s.v, "fitness_s": s.s, "position": s.position, "trajectory": s.trajectory,
-        "controlled_by": s.controlled_by, "blow_up": s.blow_up, "death": s.death,
-        "obs_mask": masks[0], "act_mask": masks[1],
-    }
-
-
-def _old_report_step(roster: Roster, masks: dict[str, Masks], truncate: bool
-                     ) -> tuple[Dicts, dict[int, RobotStatus]]:
-    """``report_step`` as it was (main, 6d215cc)."""
-    living = roster.living
-    obs: dict[str, Any] = {}
-    rewards: dict[str, float] = {}
-    terminations: dict[str, bool] = {}
-    truncations: dict[str, bool] = {}
-    infos: dict[str, dict[str, Any]] = {}
-    statuses: dict[int, RobotStatus] = {}
-    for member, death in roster.dead:
-        assert member.final is not None
-        status = final_status(member, roster.clock, death)
-        agent = member.agent
-        obs[agent] = member.final.view.copy()
-        rewards[agent] = 0.0
-        terminations[agent] = True
-        truncations[agent] = False
-        infos[agent] = _old_info(status, masks[agent])
-        statuses[member.robot_id] = status
-    reported = [member.agent for member, _ in roster.dead]
-    roster.dead = []
-    deaths = roster.sense()
-    agents = roster.agents
-    now = _old_statuses(living, deaths)
-    obs.update(zip(agents, living.views(), strict=True))
-    rewards.update(zip(agents, living.rewards.tolist(), strict=True))
-    ended = [d is not None for d in deaths]
-    terminations.update(zip(agents, ended, strict=True))
-    truncations.update(zip(agents, [truncate and not e for e in ended], strict=True))
-    infos.update(zip(agents, [_old_info(s, masks[a]) for s, a in zip(now, agents, strict=True)],
-                     strict=True))
-    statuses.update(zip([s.robot_id for s in now], now, strict=True))
-    gone = [m for m, e in zip(living.members, ended, strict=True) if e or truncate]
-    for member in reversed(gone):
-        roster.drop(member)
-    roster.announced = list(roster.agents)
-    roster.reported += reported + [m.agent for m in gone]
-    return (obs, rewards, terminations, truncations, infos), statuses
-
-
-def _old_report(roster: Roster, masks: dict[str, Masks], truncate: bool
-                ) -> tuple[Dicts, Callable[[], dict[int, RobotStatus]]]:
-    """``_old_report_step`` in the env's place: its statuses as the env asks for them now."""
-    dicts, statuses = _old_report_step(roster, masks, truncate)
-    return dicts, lambda: statuses
 
 
 def _same(a: Any, b: Any, where: str) -> None:
@@ -150,8 +71,8 @@ def test_step_gives_the_dicts_and_statuses_of_the_code_before(
     new, old = _made(proprioception, space_mode), _made(proprioception, space_mode)
     reports = [new.reset(seed=5), old.reset(seed=5)]
     _same(reports[0], (dict(zip(old.agents, old._roster.living.views(), strict=True)),
-                       {a: _old_info(s, old._spaces.masks[a]) for a, s in
-                        zip(old.agents, _old_statuses(old._roster.living), strict=True)}),
+                       {a: old_info(s, old._spaces.masks[a]) for a, s in
+                        zip(old.agents, old_statuses(old._roster.living), strict=True)}),
           "reset")
     _same(new.statuses, old.statuses, "reset statuses")
     rng = np.random.default_rng(0)
@@ -164,7 +85,7 @@ def test_step_gives_the_dicts_and_statuses_of_the_code_before(
         actions = {a: rng.uniform(-1.0, 1.0, new.action_space(a).shape) for a in new.agents}
         got = new.step(actions)
         with monkeypatch.context() as patch:
-            patch.setattr(population_module, "report_step", _old_report)
+            patch.setattr(population_module, "report_step", old_report)
             want = old.step(actions)
         _same(got, want, f"step {k}")
         _same(new.statuses, old.statuses, f"step {k} statuses")
