@@ -64,7 +64,8 @@ class _Group:
     ctrl: NDArray[np.intp]  # (n, nu): each world's controls in set_joint_velocities' array
     root: int  # the robot's root body
     poses: tuple[NDArray[np.float32], NDArray[np.float32]] | None = field(default=None)
-    graphs: dict[int, Any] = field(default_factory=dict)  # substeps -> the period's CUDA graph
+    # substeps -> the period's CUDA graph (None: its kernels loaded, no graph recorded yet)
+    graphs: dict[int, Any] = field(default_factory=dict)
 
 
 def _steps(model: Any, data: Any, substeps: int) -> None:
@@ -78,10 +79,13 @@ class WarpScenes(MujocoScenes):
     """Scenes of one robot each, stepped by MuJoCo Warp (see the module doc).
 
     Attributes:
-        cuda_graphs: On a CUDA device, each batch's period is one CUDA graph (recorded at its
-            first period, launched at every period: the same kernels without Python launching
-            each of them); False launches them one by one from Python, as on the CPU, where
-            there are no graphs (``benchmarks/bench_batch.py`` compares the two).
+        cuda_graphs: On a CUDA device, each batch's period from its second on is one CUDA graph
+            (recorded once from the kernels its first period loaded, then launched: the same
+            kernels without Python launching each of them; MuJoCo Warp's solver then stops at
+            convergence instead of running all its iterations). False (the default) launches
+            them one by one from Python, as on the CPU, where there are no graphs. Not yet run
+            on a GPU (none was lent to this work): ``benchmarks/bench_batch.py`` compares the
+            two there and ``tests/world/test_warp_scenes.py -m warp`` checks them alike.
     """
 
     def __init__(self, config: WorldConfig, threads: int = 1) -> None:
@@ -107,7 +111,7 @@ class WarpScenes(MujocoScenes):
         if self._device is None:
             raise RuntimeError("engine 'mujoco_warp': Warp found no device here; reinstall it "
                                "with: pip install 'revolve-env[warp]'")
-        self.cuda_graphs = True
+        self.cuda_graphs = False
         self._groups: list[_Group] | None = None  # None: to be built at the next step
         self._on_device = False  # the worlds hold a newer state than the scenes' MjData
         self._digests: dict[int, str] = {}  # id(scene) -> its model's digest
@@ -291,15 +295,16 @@ class WarpScenes(MujocoScenes):
             if group.host.nu:
                 d.ctrl.assign(np.ascontiguousarray(self._velocities[group.ctrl], dtype=np.float32))
             with wp.ScopedDevice(self._device):
-                if self.cuda_graphs and self._device.is_cuda:
-                    graph = group.graphs.get(substeps)
-                    if graph is None:  # recorded, not run: launched below like every period
-                        with wp.ScopedCapture() as capture:
+                graph = group.graphs.get(substeps)
+                if not (self.cuda_graphs and self._device.is_cuda) or substeps not in group.graphs:
+                    _steps(group.model, d, substeps)  # a first period loads the kernels it needs
+                    group.graphs.setdefault(substeps, None)
+                else:
+                    if graph is None:  # recorded (not run) from the kernels loaded, then launched
+                        with wp.ScopedCapture(force_module_load=False) as capture:
                             _steps(group.model, d, substeps)
                         graph = group.graphs[substeps] = capture.graph
                     wp.capture_launch(graph)
-                else:
-                    _steps(group.model, d, substeps)
             overflow = d.overflow.numpy()
             if not (overflow & _ROOM).any():
                 break
