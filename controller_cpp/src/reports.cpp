@@ -19,7 +19,8 @@ namespace nb = nanobind;
 
 namespace {
 
-// A 1-D array of `type` and length `n` (any strides): its first element and its stride in bytes.
+// A 1-D array of `type` (native byte order, aligned) and length `n`, any strides: its first
+// element and its stride in bytes.
 struct Column {
     const char* data;
     npy_intp stride;
@@ -32,7 +33,8 @@ PyArrayObject* as_array(nb::handle h, const char* name) {
 
 Column column(nb::handle h, int type, npy_intp n, const char* name) {
     PyArrayObject* a = as_array(h, name);
-    if (PyArray_TYPE(a) != type || PyArray_NDIM(a) != 1)
+    if (!PyArray_EquivTypenums(PyArray_TYPE(a), type) || PyArray_NDIM(a) != 1 || !PyArray_ISNOTSWAPPED(a) ||
+        !PyArray_ISALIGNED(a))
         throw nb::type_error((std::string(name) + " has the wrong dtype or is not 1-D").c_str());
     if (PyArray_DIM(a, 0) != n)
         throw nb::value_error((std::string(name) + " must have one entry per agent").c_str());
