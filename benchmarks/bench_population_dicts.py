@@ -1,12 +1,13 @@
-"""The population env's five dicts: this step's bulk build against main's, and advance, per period.
+"""The population env's five dicts: the compiled build against main's, and advance, per period.
 
 Usage: ``python benchmarks/bench_population_dicts.py [--robots 30] [--repeats 8]``.
 
 ``--robots`` random robots in one MuJoCo world (``bench_population_windows.py``'s crowd),
 restored from one snapshot before every timing; three sides on the same periods: ``step`` as it
-is, ``step`` with the dicts built as main built them before the bulk build (``report_step`` as it
-was, kept in ``tests/population_dicts_reference.py`` as the reference the env's test compares
-against), and ``advance`` (no dicts), with raw ``mj_step`` of the same periods.
+is (the living agents' dicts made in one compiled call, ``_controller.step_reports``), ``step``
+with the dicts built as main built them before the bulk build (``report_step`` as it was, kept in
+``tests/population_dicts_reference.py`` as the reference the env's test compares against), and
+``advance`` (no dicts), with raw ``mj_step`` of the same periods.
 
 1. Whole loops, the sides alternating: the best CPU time per control period of each, its ratio
    to raw and its cost over ``advance``.
@@ -75,7 +76,7 @@ def main() -> None:
         return run
 
     sides: dict[str, Callable[[], float]] = {
-        "step (bulk dicts)": timed("step (bulk dicts)", "step", bulk),
+        "step (compiled)": timed("step (compiled)", "step", bulk),
         "step (main's dicts)": timed("step (main's dicts)", "step", old_report),
         "advance": timed("advance", "advance", bulk),
         "raw mj_step": raw.run}
@@ -93,7 +94,7 @@ def main() -> None:
     envs = {name: crowd_env(initial, landing=0) for name in list(sides)[:3]}
     whole: dict[str, list[float]] = {name: [] for name in envs}
     after.update((name, []) for name in envs)
-    reports = {"step (bulk dicts)": bulk, "step (main's dicts)": old_report, "advance": bulk}
+    reports = {"step (compiled)": bulk, "step (main's dicts)": old_report, "advance": bulk}
     for _ in range(args.repeats):
         for e in envs.values():
             e.restore(start)

@@ -3,6 +3,8 @@
 Use it through :class:`revolve_env.brain.BatchController`.
 """
 
+from typing import Any
+
 import numpy as np
 import numpy.typing as npt
 
@@ -14,6 +16,31 @@ KIND_OSCILLATOR: int
 
 def exp_into(x: npt.NDArray[np.float64], out: npt.NDArray[np.float64]) -> None: ...
 def sin_into(x: npt.NDArray[np.float64], out: npt.NDArray[np.float64]) -> None: ...
+def step_reports(
+    agents: list[str],
+    templates: list[dict[str, Any]],
+    keys: tuple[str, ...],
+    ages: npt.NDArray[np.int64],
+    dt: float,
+    insertion_steps: int,
+    maturity_steps: int,
+    f: npt.NDArray[np.float64],
+    v: npt.NDArray[np.float64],
+    s: npt.NDArray[np.float64],
+    rewards: npt.NDArray[np.float64],
+    position: npt.NDArray[np.float64],
+    trajectories: npt.NDArray[np.float64],
+    trajectory_starts: npt.NDArray[np.intp],
+    trajectory_stops: npt.NDArray[np.intp],
+    view: npt.NDArray[np.float64],
+    view_starts: npt.NDArray[np.intp],
+    view_stops: npt.NDArray[np.intp],
+) -> tuple[
+    dict[str, npt.NDArray[np.float64]],
+    dict[str, float],
+    dict[str, dict[str, Any]],
+    tuple[list[Any], ...],
+]: ...
 
 class BatchController:
     def __init__(self, dt: float) -> None: ...

@@ -100,6 +100,9 @@ void set_state(Locked& l, std::int64_t handle, Vec<double> values, double time) 
 
 }  // namespace
 
+// The population env's per-agent reports (reports.cpp, the one user of NumPy's C API).
+void register_reports(nb::module_& m);
+
 NB_MODULE(_controller, m) {
     m.doc() = "revolve-env compiled neural controller (use revolve_env.brain.BatchController)";
     m.attr("ABI_VERSION") = 2;
@@ -125,6 +128,8 @@ NB_MODULE(_controller, m) {
         },
         nb::arg("x"), nb::arg("out").noconvert(),
         "out[:] = sin(x) with the controller's vectorised sin (exposed for its accuracy test).");
+
+    register_reports(m);
 
     nb::register_exception_translator([](const std::exception_ptr& p, void*) {
         try {

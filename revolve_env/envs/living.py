@@ -304,6 +304,10 @@ class Living:
         """Every agent's observation: slices of one fresh copy (the env's stay its own)."""
         return list(map(self.view.copy().__getitem__, self._view_slices))
 
+    def view_spans(self) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.intp]]:
+        """What :meth:`views` slices: a fresh copy of the view, and every agent's start and stop."""
+        return self.view.copy(), self._view_offsets[:-1], self._view_offsets[1:]
+
     def view_of(self, row: int) -> NDArray[np.float64]:
         """One agent's observation (a copy)."""
         return self.view[self._starts[row]:self._stops[row]].copy()

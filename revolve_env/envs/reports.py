@@ -18,6 +18,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from revolve_env import _controller
 from revolve_env.envs.agent_spaces import Masks
 from revolve_env.envs.living import final_status
 from revolve_env.envs.members import Member
@@ -46,6 +47,9 @@ def status_info(s: RobotStatus, masks: Masks) -> dict[str, Any]:
 _LIFE = ("age", "inserting", "is_mature", "fitness", "fitness_v", "fitness_s", "position",
          "trajectory", "blow_up", "death")
 """The info keys whose values change during a life (the others are set at birth)."""
+
+_PERIOD = _LIFE[:8]
+"""The info keys every step writes in (death and blow_up only in a step where a life ends)."""
 
 
 def _template(s: RobotStatus, masks: Masks) -> dict[str, Any]:
@@ -91,10 +95,12 @@ def report_step(roster: Roster, masks: dict[str, Masks], truncate: bool
     living robot; a robot that blew up in this step is reported terminated and dropped, and
     with ``truncate`` every living robot is reported truncated and dropped.
 
-    The living robots' dicts are built in bulk, from the step's arrays: each info is a copy of
-    its robot's template (:func:`status_info` of its status, made once per birth or death)
-    with the values that change in a life written in; the statuses are made when first asked
-    for, from the same values (most callers of ``step`` read the dicts only).
+    The living robots' dicts are built in bulk, from the step's arrays, in one compiled call
+    (``_controller.step_reports``): each info is a copy of its robot's template
+    (:func:`status_info` of its status, made once per birth or death) with the values that
+    change in a life written in, each observation a slice of one fresh copy; the statuses are
+    made when first asked for, from the same values (most callers of ``step`` read the dicts
+    only).
 
     Returns:
         The five dicts, and the statuses they were made from (by robot id, in report order),
@@ -125,25 +131,17 @@ def report_step(roster: Roster, masks: dict[str, Masks], truncate: bool
     if templates is None:  # a birth or a death since the last step
         templates = living.row_cache = [_template(living.status(row), masks[agent])
                                         for row, agent in enumerate(agents)]
-    clock, ages = living.clock, living.ages
-    life = ((ages * clock.dt).tolist(), (ages < clock.insertion_steps).tolist(),
-            (ages >= clock.maturity_steps).tolist(), living.f.tolist(), living.v.tolist(),
-            living.s.tolist(), list(living.position.copy()), living.trajectories.views())
-    now = [template.copy() for template in templates]
-    for info, age, inserting, mature, f, v, s, position, trajectory in zip(now, *life,
-                                                                          strict=True):
-        info["age"] = age
-        info["inserting"] = inserting
-        info["is_mature"] = mature
-        info["fitness"] = f
-        info["fitness_v"] = v
-        info["fitness_s"] = s
-        info["position"] = position
-        info["trajectory"] = trajectory
+    clock = living.clock
+    # The living agents' observations, rewards and infos, and the status columns, in one
+    # compiled call (controller_cpp/src/reports.cpp): what a loop over the agents made here.
+    obs_now, rewards_now, infos_now, life = _controller.step_reports(
+        agents, templates, _PERIOD, living.ages, clock.dt, clock.insertion_steps,
+        clock.maturity_steps, living.f, living.v, living.s, living.rewards,
+        living.position.copy(), *living.trajectories.spans(), *living.view_spans())
     blow_ups = [m.blow_up for m in members]
     alive = deaths.count(None) == n
     if not alive or blow_ups.count(None) < n:
-        for info, why, blow_up in zip(now, deaths, blow_ups, strict=True):
+        for info, why, blow_up in zip(infos_now.values(), deaths, blow_ups, strict=True):
             info["death"], info["blow_up"] = why, blow_up
     if alive:
         ended = dict.fromkeys(agents, False)
@@ -154,13 +152,11 @@ def report_step(roster: Roster, masks: dict[str, Masks], truncate: bool
         ended = dict(zip(agents, dead, strict=True))
         cut = dict(zip(agents, [truncate and not e for e in dead], strict=True))
         gone = [m for m, e in zip(members, dead, strict=True) if e or truncate]
-    dicts: Dicts = (dict(zip(agents, living.views(), strict=True)),
-                    dict(zip(agents, living.rewards.tolist(), strict=True)), ended, cut,
-                    dict(zip(agents, now, strict=True)))
+    dicts: Dicts = (obs_now, rewards_now, ended, cut, infos_now)
     if final:  # the robots removed before the step come first
         dicts = ({**obs, **dicts[0]}, {**rewards, **dicts[1]}, {**terminations, **dicts[2]},
                  {**truncations, **dicts[3]}, {**infos, **dicts[4]})
-    statuses = StepStatuses(final, members, (*life, ages.tolist(), deaths, blow_ups))
+    statuses = StepStatuses(final, members, (*life, deaths, blow_ups))
     for member in reversed(gone):
         roster.drop(member)
     roster.announced = list(roster.agents)

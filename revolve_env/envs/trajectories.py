@@ -132,11 +132,15 @@ class TrajectoryStore:
 
     def views(self) -> list[NDArray[np.float64]]:
         """Every robot's :meth:`view`, in row order."""
-        read = self._read
+        read, start, stop = self.spans()
+        return [read[s:e] for s, e in zip(start.tolist(), stop.tolist(), strict=True)]
+
+    def spans(self) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.intp]]:
+        """What :meth:`views` slices: the read-only arena and every robot's start and stop in it."""
         stop = self._start + self._length
         start = (self._start if self.length is None
                  else np.maximum(self._start, stop - self.length))
-        return [read[s:e] for s, e in zip(start.tolist(), stop.tolist(), strict=True)]
+        return self._read, start, stop
 
     def room(self, row: int) -> int:
         """Samples a robot's segment holds before it moves."""
