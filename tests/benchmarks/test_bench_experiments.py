@@ -49,3 +49,13 @@ def test_a_measured_online_run_is_grown_to_the_studys_births(
     # measured CPU per interval grown by 16.0 / 13.8; then the 120 offline runs, 0.1 s x 3000
     online_run = 2985 * 1.778 * 1889 / 1874 * late
     assert hours[2] * 3600 == pytest.approx(15 * online_run + 60 * 300.0)
+
+
+def test_a_deadline_already_past_today_is_tomorrows() -> None:
+    ahead = bench_experiments.time.gmtime(bench_experiments.time.time() + 3600)
+    past = bench_experiments.time.gmtime(bench_experiments.time.time() - 3600)
+    later = bench_experiments._utc_today(f"{ahead.tm_hour:02d}:{ahead.tm_min:02d}")
+    earlier = bench_experiments._utc_today(f"{past.tm_hour:02d}:{past.tm_min:02d}")
+    start = bench_experiments.time.time()
+    assert 0 < later - start <= 3600  # within the hour ahead (today's, or tomorrow's after 23:00)
+    assert 22 * 3600 < earlier - start <= 23 * 3600  # an hour ago today: tomorrow's
