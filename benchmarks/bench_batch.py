@@ -15,16 +15,16 @@ periods of 4 physics steps):
   ``rl.make_vec_env`` gives PPO.
 * ``SB3 DummyVecEnv``: today's route before this benchmark, ``DummyVecEnv`` of ``Monitor``-ed
   single envs (``rl.VecEnvConfig(batched=False)``).
-* ``MuJoCo Warp``: the native vector env on ``engine="mujoco_warp"`` (its N copies the worlds of
-  one Warp batch, float32, on the device Warp picks), printed only where ``mujoco_warp`` imports
-  (the ``warp`` extra). On a GPU one env steps alternately with each period one CUDA graph and
-  with its kernels launched one by one from Python (two rows), beside ``raw MuJoCo Warp``, the
-  floor there: the model's batch, each period's physics steps one CUDA graph between the servo
-  law in NumPy and the hinges' angles read back (no sensors, rewards or poses). Without a GPU
-  Warp runs on the CPU, which the row says ("no GPU: Warp on CPU"), and only for N <= 64 (a
-  physics step costs ~0.1 s of Python launching ~900 kernels, plus ~1 ms per world there). Its
-  set-up includes compiling Warp's kernels the first time (minutes on a CPU; then Warp's cache,
-  ``~/.cache/warp``).
+* ``MuJoCo Warp``: the native vector env on ``engine="mujoco_warp"`` (its N copies the worlds of one
+  Warp batch, float32, on the device Warp picks), printed only where ``mujoco_warp`` imports (the
+  ``warp`` extra). One env steps alternately with each period one Warp graph (a CUDA graph on a GPU,
+  replayed in C++ on the CPU) and with its kernels launched one by one from Python (two rows),
+  beside ``raw MuJoCo Warp``, the floor there: the model's batch, each period's physics steps one
+  Warp graph between the servo law in NumPy and the hinges' angles read back (no sensors, rewards or
+  poses). Without a GPU Warp runs on the CPU, which the rows say ("no GPU: Warp on CPU"), and only
+  for N <= 64 (launched from Python, a physics step costs ~0.1 s of launching ~900 kernels, plus ~1
+  ms per world there). Its set-up includes compiling Warp's kernels the first time (minutes on a
+  CPU; then Warp's cache, ``~/.cache/warp``).
 
 Each figure is robot-steps (control periods of one robot) per second, of wall time and of this
 process's CPU time; the set-up (model compiles, resets) is timed apart. Then CMA-ES infancy of
@@ -174,12 +174,12 @@ def warp_device() -> str | None:
     return str(warp.get_preferred_device())
 
 
-def on_warp(robot: Robot, n: int, steps: int, graphs: bool) -> dict[str, Rate]:
+def on_warp(robot: Robot, n: int, steps: int) -> dict[str, Rate]:
     """The native vector env on MuJoCo Warp (its copies: the worlds of one Warp batch).
 
-    With ``graphs`` (a CUDA device), one env steps alternately with each batch's period one
-    CUDA graph and with its kernels launched one by one from Python (``WarpScenes.cuda_graphs``),
-    in four rounds after five untimed periods of each (Warp's compile, the graph's capture).
+    One env steps alternately with each batch's period one Warp graph and with its kernels
+    launched one by one from Python (``WarpScenes.graphs``), in four rounds after five untimed
+    periods of each (Warp's compile, the graph's recording).
     """
     from revolve_env.envs.vector import LocomotionVectorEnv
     from revolve_env.world.warp_scenes import WarpScenes
@@ -190,18 +190,18 @@ def on_warp(robot: Robot, n: int, steps: int, graphs: bool) -> dict[str, Rate]:
     setup = time.perf_counter() - w0
     scenes = venv._world._backend  # type: ignore[union-attr]  # the isolated world's scenes
     assert isinstance(scenes, WarpScenes)
-    sides = {"CUDA graph": True, "kernels from Python": False} if graphs else {"": False}
+    sides = {"Warp graph": True, "kernels from Python": False}
     rng = np.random.default_rng(0)
     actions = [rng.uniform(-1, 1, venv.action_space.shape).astype(np.float32) for _ in range(8)]
     spent = {name: [0.0, 0.0] for name in sides}
     for flag in sides.values():
-        scenes.cuda_graphs = flag
+        scenes.graphs = flag
         for t in range(5):
             venv.step(actions[t])
     rounds = 4
     for r in range(rounds):
         for name, flag in sides.items():
-            scenes.cuda_graphs = flag
+            scenes.graphs = flag
             with _clock() as took:
                 for t in range(r * steps // rounds, (r + 1) * steps // rounds):
                     venv.step(actions[t % 8])
@@ -212,7 +212,7 @@ def on_warp(robot: Robot, n: int, steps: int, graphs: bool) -> dict[str, Rate]:
 
 
 def raw_warp(robot: Robot, n: int, steps: int) -> Rate:
-    """Warp's floor: the robot's model in one ``mujoco_warp`` batch, each period one CUDA graph
+    """Warp's floor: the robot's model in one ``mujoco_warp`` batch, each period one Warp graph
     (its physics steps) between the servo law in NumPy and the hinges' angles read back."""
     import mujoco
     import mujoco_warp as mjw
@@ -235,7 +235,9 @@ def raw_warp(robot: Robot, n: int, steps: int) -> Rate:
     scale = math.radians(config.range_deg)
     rng = np.random.default_rng(0)
     actions = [rng.uniform(-1, 1, (n, model.nu)) * scale for _ in range(8)]
-    with wp.ScopedCapture() as capture:
+    for _ in range(config.substeps):  # a first period loads the kernels (as WarpScenes)
+        mjw.step(m, d)
+    with wp.ScopedCapture(force_module_load=False) as capture:
         for _ in range(config.substeps):
             mjw.step(m, d)
     setup = time.perf_counter() - w0
@@ -400,11 +402,10 @@ def main() -> None:
             if device is None:
                 rows.append((warp_route, _fmt(None, "pip install '.[warp]'")))
             elif gpu or n <= 64:
-                if gpu:
-                    rows.append((f"raw MuJoCo Warp on {device}, CUDA graph",
-                                 _fmt(raw_warp(robot, n, steps))))
-                for side, rate in on_warp(robot, n, steps, graphs=gpu).items():
-                    rows.append((f"{warp_route}, {side}" if side else warp_route, _fmt(rate)))
+                rows.append((f"raw MuJoCo Warp on {device}, Warp graph",
+                             _fmt(raw_warp(robot, n, steps))))
+                for side, rate in on_warp(robot, n, steps).items():
+                    rows.append((f"{warp_route}, {side}", _fmt(rate)))
             else:
                 rows.append((warp_route, _fmt(None, "not run: N > 64 on Warp's CPU")))
             for route, cells in rows:

@@ -8,7 +8,8 @@ are the ``nworld`` worlds of one ``mujoco_warp`` batch; scenes of other models a
 their own, stepped one after the other. Warp picks the device (``warp.get_preferred_device()``:
 the first GPU, else the CPU); compiled kernels are kept in Warp's own cache outside this package
 (``~/.cache/warp``, or ``WARP_CACHE_PATH``); the first step of a new shape compiles them (minutes
-on a CPU).
+on a CPU). A batch's period is one Warp graph from its second period on
+(:attr:`WarpScenes.graphs`), recorded again after a birth, a death or more room.
 
 What it is not: float32 arithmetic and parallel sums, so a robot's numbers are not CPU MuJoCo's
 and depend on its batch and device (the engine's ``deterministic`` and ``isolated_exact``
@@ -64,8 +65,8 @@ class _Group:
     ctrl: NDArray[np.intp]  # (n, nu): each world's controls in set_joint_velocities' array
     root: int  # the robot's root body
     poses: tuple[NDArray[np.float32], NDArray[np.float32]] | None = field(default=None)
-    # substeps -> the period's CUDA graph (None: its kernels loaded, no graph recorded yet)
-    graphs: dict[int, Any] = field(default_factory=dict)
+    # substeps -> the period's Warp graph (None: its kernels loaded, no graph recorded yet)
+    recorded: dict[int, Any] = field(default_factory=dict)
 
 
 def _steps(model: Any, data: Any, substeps: int) -> None:
@@ -79,13 +80,14 @@ class WarpScenes(MujocoScenes):
     """Scenes of one robot each, stepped by MuJoCo Warp (see the module doc).
 
     Attributes:
-        cuda_graphs: On a CUDA device, each batch's period from its second on is one CUDA graph
-            (recorded once from the kernels its first period loaded, then launched: the same
-            kernels without Python launching each of them; MuJoCo Warp's solver then stops at
-            convergence instead of running all its iterations). False (the default) launches
-            them one by one from Python, as on the CPU, where there are no graphs. Not yet run
-            on a GPU (none was lent to this work): ``benchmarks/bench_batch.py`` compares the
-            two there and ``tests/world/test_warp_scenes.py -m warp`` checks them alike.
+        graphs: Each batch's period from its second on is one Warp graph (recorded once from
+            the kernels its first period loaded, then launched: the same kernels without Python
+            launching each of its ~900 a physics step; on the CPU Warp replays it in C++, on a
+            GPU it is a CUDA graph). True by default; False launches the kernels one by one
+            from Python (``benchmarks/bench_batch.py --warp-only`` compares the two). On a
+            CUDA device whose driver or Warp build lacks conditional graph nodes (CUDA 12.4),
+            which MuJoCo Warp's solver loop needs inside a graph, the kernels are launched
+            one by one whatever this says.
     """
 
     def __init__(self, config: WorldConfig, threads: int = 1) -> None:
@@ -111,7 +113,9 @@ class WarpScenes(MujocoScenes):
         if self._device is None:
             raise RuntimeError("engine 'mujoco_warp': Warp found no device here; reinstall it "
                                "with: pip install 'revolve-env[warp]'")
-        self.cuda_graphs = False
+        self.graphs = True
+        # MuJoCo Warp's solver loop in a CUDA graph is a conditional node (CUDA 12.4+).
+        self._can_record = not self._device.is_cuda or wp.is_conditional_graph_supported()
         self._groups: list[_Group] | None = None  # None: to be built at the next step
         self._on_device = False  # the worlds hold a newer state than the scenes' MjData
         self._digests: dict[int, str] = {}  # id(scene) -> its model's digest
@@ -248,7 +252,7 @@ class WarpScenes(MujocoScenes):
         n, (ncon, njmax) = group.rows.shape[0], group.room
         with wp.ScopedDevice(self._device):
             group.data = mjw.put_data(m, scene._data, nworld=n, nconmax=ncon, njmax=njmax)
-        group.graphs = {}  # captured on the old data's arrays
+        group.recorded = {}  # recorded on the old data's arrays
         self._load(group, states)
 
     def _load(self, group: _Group, states: NDArray[np.float64]) -> None:
@@ -295,15 +299,15 @@ class WarpScenes(MujocoScenes):
             if group.host.nu:
                 d.ctrl.assign(np.ascontiguousarray(self._velocities[group.ctrl], dtype=np.float32))
             with wp.ScopedDevice(self._device):
-                graph = group.graphs.get(substeps)
-                if not (self.cuda_graphs and self._device.is_cuda) or substeps not in group.graphs:
+                graph = group.recorded.get(substeps)
+                if not (self.graphs and self._can_record) or substeps not in group.recorded:
                     _steps(group.model, d, substeps)  # a first period loads the kernels it needs
-                    group.graphs.setdefault(substeps, None)
+                    group.recorded.setdefault(substeps, None)
                 else:
                     if graph is None:  # recorded (not run) from the kernels loaded, then launched
                         with wp.ScopedCapture(force_module_load=False) as capture:
                             _steps(group.model, d, substeps)
-                        graph = group.graphs[substeps] = capture.graph
+                        graph = group.recorded[substeps] = capture.graph
                     wp.capture_launch(graph)
             overflow = d.overflow.numpy()
             if not (overflow & _ROOM).any():
