@@ -10,6 +10,9 @@
 #include <nanobind/nanobind.h>
 
 #define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
+// Built against NumPy 2's headers, it runs on the numpy>=1.26 the package asks for: the C API
+// of 1.25/1.26 named, not left to the headers' default (which follows NumPy's own support).
+#define NPY_TARGET_VERSION NPY_1_25_API_VERSION
 #include <numpy/arrayobject.h>
 
 #include <cstdint>
@@ -35,7 +38,7 @@ Column column(nb::handle h, int type, npy_intp n, const char* name) {
     PyArrayObject* a = as_array(h, name);
     if (!PyArray_EquivTypenums(PyArray_TYPE(a), type) || PyArray_NDIM(a) != 1 || !PyArray_ISNOTSWAPPED(a) ||
         !PyArray_ISALIGNED(a))
-        throw nb::type_error((std::string(name) + " has the wrong dtype or is not 1-D").c_str());
+        throw nb::type_error((std::string(name) + " must be a 1-D, native, aligned array of its dtype").c_str());
     if (PyArray_DIM(a, 0) != n)
         throw nb::value_error((std::string(name) + " must have one entry per agent").c_str());
     return {PyArray_BYTES(a), PyArray_STRIDE(a, 0)};
@@ -74,8 +77,10 @@ PyObject* view(PyArrayObject* base, npy_intp start, npy_intp stop) {
     }
     PyArray_Descr* descr = PyArray_DESCR(base);
     Py_INCREF(descr);  // stolen by PyArray_NewFromDescr
+    // An empty slice points at the array's start, as NumPy's basic indexing makes it.
+    const npy_intp offset = !row && stop == start ? 0 : start * PyArray_STRIDE(base, 0);
     PyObject* out = PyArray_NewFromDescr(&PyArray_Type, descr, row ? nd - 1 : nd, dims, strides,
-                                         PyArray_BYTES(base) + start * PyArray_STRIDE(base, 0),
+                                         PyArray_BYTES(base) + offset,
                                          PyArray_FLAGS(base), nullptr);
     if (out == nullptr) return nullptr;
     Py_INCREF(base);  // stolen by PyArray_SetBaseObject

@@ -55,7 +55,7 @@ class LifeClock:
     @classmethod
     def of(cls, dt: float, insertion: float, maturity: float) -> LifeClock:
         """The clock of ``insertion`` and ``maturity`` seconds (rounded to whole periods)."""
-        return cls(dt, round(insertion / dt), round(maturity / dt))
+        return cls(float(dt), round(insertion / dt), round(maturity / dt))  # ages x dt: floats
 
 
 @dataclass

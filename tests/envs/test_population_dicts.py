@@ -123,7 +123,8 @@ def test_step_gives_the_dicts_and_statuses_of_the_code_before(
 
 
 def test_step_reports_slices_as_numpy_does_and_refuses_bad_input() -> None:
-    """The compiled call's views equal NumPy's slices (base, strides, flags); bad input raises."""
+    """The compiled call's views equal NumPy's slices (base, memory, strides, flags); bad input
+    raises."""
     rng = np.random.default_rng(3)
     arena = rng.uniform(size=(40, 3))
     read = arena.view()
@@ -163,6 +164,8 @@ def test_step_reports_slices_as_numpy_does_and_refuses_bad_input() -> None:
                                     (columns[7], want_traj)):
         for x, y in zip(got_arrays, want_arrays, strict=True):
             assert x.base is y.base and x.strides == y.strides and x.flags == y.flags
+            # the same memory too (an empty slice at the array's start, as NumPy puts it)
+            assert x.__array_interface__["data"] == y.__array_interface__["data"]
     assert list(obs) == list(rew) == list(infos) == agents
     _same(rew, dict(zip(agents, rewards.tolist(), strict=True)), "rewards")
     for row, (agent, info) in enumerate(infos.items()):
