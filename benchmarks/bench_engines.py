@@ -238,9 +238,13 @@ def crowd_env(initial: list[dict[str, Any]], engine: str = "mujoco", landing: in
     from birth, reset (seed 0) and stepped ``landing`` control periods for its robots to land."""
     env: PopulationEnv = population_env(engine=engine, initial_robots=initial,
                                         max_births=len(initial), insertion_time=0.0, **kwargs)
-    env.reset(seed=0)
-    for _ in range(landing):
-        env.step({})
+    try:
+        env.reset(seed=0)
+        for _ in range(landing):
+            env.step({})
+    except BaseException:
+        env.close()
+        raise
     return env
 
 

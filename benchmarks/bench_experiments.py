@@ -112,9 +112,12 @@ def main() -> None:
                         help="keep each run's results in DIR/<experiment> (default: a "
                              "temporary folder, deleted)")
     args = parser.parse_args()
-    deadline = None if args.deadline is None else _utc_today(args.deadline)
+    deadline = None if args.deadline is None else _next_utc(args.deadline)
     cores = args.workers or os.cpu_count() or 1
     print(f"load average at the start {_load()}")
+    if deadline is not None:
+        print("stopping each run at its first commit point after "
+              + time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime(deadline)))
     print(f"{'experiment':<12} {'births':>6} {'wall s':>8} {'births/min':>11} {'sim s/wall s':>12}"
           f" {'study h (2 cores)':>18} {'CPU ms/birth':>13}")
     total_hours = 0.0
@@ -352,7 +355,7 @@ class _Deadline(Exception):
     """A run reached --deadline (raised at a commit point: nothing after it is lost)."""
 
 
-def _utc_today(hhmm: str) -> float:
+def _next_utc(hhmm: str) -> float:
     """The next ``HH:MM`` UTC as a Unix time (tomorrow's once today's has passed). Seconds."""
     now = time.gmtime()
     hours, minutes = (int(x) for x in hhmm.split(":"))

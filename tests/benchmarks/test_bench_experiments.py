@@ -54,8 +54,8 @@ def test_a_measured_online_run_is_grown_to_the_studys_births(
 def test_a_deadline_already_past_today_is_tomorrows() -> None:
     ahead = bench_experiments.time.gmtime(bench_experiments.time.time() + 3600)
     past = bench_experiments.time.gmtime(bench_experiments.time.time() - 3600)
-    later = bench_experiments._utc_today(f"{ahead.tm_hour:02d}:{ahead.tm_min:02d}")
-    earlier = bench_experiments._utc_today(f"{past.tm_hour:02d}:{past.tm_min:02d}")
+    later = bench_experiments._next_utc(f"{ahead.tm_hour:02d}:{ahead.tm_min:02d}")
+    earlier = bench_experiments._next_utc(f"{past.tm_hour:02d}:{past.tm_min:02d}")
     start = bench_experiments.time.time()
     assert 0 < later - start <= 3600  # within the hour ahead (today's, or tomorrow's after 23:00)
     assert 22 * 3600 < earlier - start <= 23 * 3600  # an hour ago today: tomorrow's
