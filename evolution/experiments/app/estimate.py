@@ -149,6 +149,24 @@ class RunWork:
     config: ExperimentConfig
     done: int = 0
 
+    @property
+    def births_left(self) -> int:
+        """Births still to commit. Births."""
+        return max(0, self.config.births - self.done)
+
+    @property
+    def first_interval(self) -> int:
+        """Online: the birth its conception intervals left start at. Births.
+
+        The initial robots are born together at time 0; every later birth takes one interval.
+        """
+        return max(self.done, self.config.population_size)
+
+    @property
+    def intervals_left(self) -> int:
+        """Online: the conception intervals still to simulate, one per later birth left."""
+        return max(0, self.config.births - self.first_interval)
+
 
 @dataclass(frozen=True, slots=True)
 class ExperimentEstimate:
@@ -433,12 +451,10 @@ def run_robot_seconds(work: RunWork, cost: BirthCost) -> float:
     time 0; every later birth takes one conception interval of the world, with ``cost.alive``
     robots in it, or as many as ``cost.growth`` gives at that birth.
     """
-    left = max(0, work.config.births - work.done)
     if cost.mode == "online":
-        first = max(work.done, work.config.population_size)
-        left = max(0, work.config.births - first)
-        return left * cost.robot_seconds * cost.growth_factor(first, work.config.births)
-    return left * cost.robot_seconds
+        return (work.intervals_left * cost.robot_seconds
+                * cost.growth_factor(work.first_interval, work.config.births))
+    return work.births_left * cost.robot_seconds
 
 
 def run_cpu_seconds(work: RunWork, cost: BirthCost) -> float:
@@ -475,12 +491,11 @@ def estimate(work: Sequence[RunWork], costs: Mapping[str, BirthCost], workers: i
         robot_seconds = sum(run_robot_seconds(w, cost) for w in mine)
         alive = 0.0
         if cost.mode == "online" and cost.alive > 0:  # robot-seconds over the intervals'
-            intervals = sum(max(0, w.config.births - max(w.done, w.config.population_size))
-                            for w in mine)
+            intervals = sum(w.intervals_left for w in mine)
             if intervals:
                 alive = robot_seconds / (intervals * cost.robot_seconds / cost.alive)
         experiments.append(ExperimentEstimate(
-            name, cost, len(mine), sum(max(0, w.config.births - w.done) for w in mine),
+            name, cost, len(mine), sum(w.births_left for w in mine),
             robot_seconds, sum(s for w, s in per_run if w.experiment == name), ends[name],
             alive))
     return StudyEstimate(tuple(experiments), max(1, workers), max(free), calibration_cpu)
