@@ -56,8 +56,10 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from evolution.config import EvolutionConfig
 from evolution.evaluation import EvalOutcome, EvalTask, evaluate_task
@@ -100,38 +102,63 @@ def twenty_part_robot(seed: int = 0) -> Robot:
             return robot
 
 
-def raw_batch(robot: Robot, n: int, steps: int, threads: int) -> Rate:
-    """The floor: the robot's model in ``mujoco.batch`` with the servo law in NumPy."""
+def _exported(robot: Robot, config: WorldConfig) -> Any:
+    """The robot's very model as the project exports it (``World.to_mjcf``), compiled."""
     import mujoco
-    from mujoco.batch import Batch
 
-    config = WorldConfig(engine="mujoco")
-    w0 = time.perf_counter()
     with World(config) as world:
         world.add_robot(robot)
-        model = mujoco.MjModel.from_xml_string(world.to_mjcf())
-    batch = Batch(model, nsim=n, nthread=threads)
-    batch.reset()
-    setup = time.perf_counter() - w0
-    # the servos' hinges, in actuator order
-    hinges = model.jnt_qposadr[model.actuator_trnid[:, 0]].astype(np.intp)
-    qpos, ctrl = batch.bind("qpos"), batch.bind("ctrl")
+        return mujoco.MjModel.from_xml_string(world.to_mjcf())
+
+
+def _servo_law(model: Any, n: int,
+               config: WorldConfig) -> Callable[[int, NDArray[np.float64]], NDArray[np.float64]]:
+    """RoboGen's servo law toward the envs' random targets (env_rate's actions), for ``n``
+    copies: period ``t``'s controls from the copies' ``qpos`` (n, nq)."""
+    hinges = model.jnt_qposadr[model.actuator_trnid[:, 0]].astype(np.intp)  # in actuator order
     k = config.servo_gain / config.control_period
     scale = math.radians(config.range_deg)
-    rng = np.random.default_rng(0)  # the envs' actions (env_rate's), as targets
+    rng = np.random.default_rng(0)
     actions = [rng.uniform(-1, 1, (n, model.nu)) * scale for _ in range(8)]
 
-    def period(t: int) -> None:
-        ctrl[:] = np.clip(k * (actions[t % 8] - qpos[:, hinges]), -config.max_velocity,
-                          config.max_velocity)
-        batch.step(nstep=config.substeps)
+    def law(t: int, qpos: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.clip(k * (actions[t % 8] - qpos[:, hinges]), -config.max_velocity,
+                       config.max_velocity)
 
-    for t in range(5):  # as the envs: first calls untimed
+    return law
+
+
+def _raw_rate(period: Callable[[int], None], n: int, steps: int, setup: float,
+              finish: Callable[[], object] = lambda: None) -> Rate:
+    """``period`` timed over ``steps`` periods after five untimed ones (as the envs' first
+    calls); ``finish`` waits for the last (a device's)."""
+    for t in range(5):
         period(t)
     with _clock() as spent:
         for t in range(5, 5 + steps):
             period(t)
+        finish()
     return Rate(n * steps / spent[0], n * steps / spent[1], setup)
+
+
+def raw_batch(robot: Robot, n: int, steps: int, threads: int) -> Rate:
+    """The floor: the robot's model in ``mujoco.batch`` with the servo law in NumPy."""
+    from mujoco.batch import Batch
+
+    config = WorldConfig(engine="mujoco")
+    w0 = time.perf_counter()
+    model = _exported(robot, config)
+    batch = Batch(model, nsim=n, nthread=threads)
+    batch.reset()
+    setup = time.perf_counter() - w0
+    qpos, ctrl = batch.bind("qpos"), batch.bind("ctrl")
+    law = _servo_law(model, n, config)
+
+    def period(t: int) -> None:
+        ctrl[:] = law(t, qpos)
+        batch.step(nstep=config.substeps)
+
+    return _raw_rate(period, n, steps, setup)
 
 
 def env_rate(make: Callable[[], object], n: int, steps: int, sb3: bool) -> Rate:
@@ -222,19 +249,13 @@ def raw_warp(robot: Robot, n: int, steps: int) -> Rate:
 
     config = WorldConfig(engine="mujoco")
     w0 = time.perf_counter()
-    with World(config) as world:
-        world.add_robot(robot)
-        model = mujoco.MjModel.from_xml_string(world.to_mjcf())
+    model = _exported(robot, config)
     model.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)  # as WarpScenes
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     m = mjw.put_model(model)
     d = mjw.put_data(model, data, nworld=n, nconmax=_FIRST_ROOM[0], njmax=_FIRST_ROOM[1])
-    hinges = model.jnt_qposadr[model.actuator_trnid[:, 0]].astype(np.intp)
-    k = config.servo_gain / config.control_period
-    scale = math.radians(config.range_deg)
-    rng = np.random.default_rng(0)
-    actions = [rng.uniform(-1, 1, (n, model.nu)) * scale for _ in range(8)]
+    law = _servo_law(model, n, config)
     for _ in range(config.substeps):  # a first period loads the kernels (as WarpScenes)
         mjw.step(m, d)
     with wp.ScopedCapture(force_module_load=False) as capture:
@@ -243,20 +264,13 @@ def raw_warp(robot: Robot, n: int, steps: int) -> Rate:
     setup = time.perf_counter() - w0
 
     def period(t: int) -> None:
-        qpos = d.qpos.numpy()[:, hinges]
-        d.ctrl.assign(np.clip(k * (actions[t % 8] - qpos), -config.max_velocity,
-                              config.max_velocity).astype(np.float32))
+        d.ctrl.assign(law(t, d.qpos.numpy()).astype(np.float32))
         wp.capture_launch(capture.graph)
 
-    for t in range(5):
-        period(t)
-    with _clock() as spent:
-        for t in range(5, 5 + steps):
-            period(t)
-        d.qpos.numpy()  # the last period done
+    rate = _raw_rate(period, n, steps, setup, finish=d.qpos.numpy)  # the last period done
     if d.overflow.numpy().any():
         print(f"(raw MuJoCo Warp, N = {n}: Warp's overflow flag is set; the row is not valid)")
-    return Rate(n * steps / spent[0], n * steps / spent[1], setup)
+    return rate
 
 
 def via_sb3(robot: Robot, n: int, steps: int, batched: bool) -> Rate:
